@@ -1,0 +1,12 @@
+# Writes a C++ source holding every presets/*.json as a raw string literal.
+file(GLOB files ${PRESET_DIR}/*.json)
+list(SORT files)
+set(body "// Generated from presets/*.json by cmake/embed_presets.cmake. Do not edit.\n#include <string_view>\n#include <utility>\n#include <vector>\nnamespace relief::detail {\nconst std::vector<std::pair<std::string_view, std::string_view>>& builtin_preset_texts() {\n  static const std::vector<std::pair<std::string_view, std::string_view>> v = {\n")
+foreach(f ${files})
+  get_filename_component(name ${f} NAME_WE)
+  file(READ ${f} text)
+  string(APPEND body "    {\"${name}\", R\"RELIEF_JSON(${text})RELIEF_JSON\"},\n")
+endforeach()
+string(APPEND body "  };\n  return v;\n}\n}  // namespace relief::detail\n")
+file(WRITE ${OUT}.tmp "${body}")
+file(COPY_FILE ${OUT}.tmp ${OUT} ONLY_IF_DIFFERENT)

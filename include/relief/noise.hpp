@@ -1,0 +1,123 @@
+#pragma once
+// Noise: our own implementations, evaluated a whole row per call (no per-sample virtual dispatch).
+//
+// Sources:
+//   * Ken Perlin, "Improving Noise", SIGGRAPH 2002 (improved gradient noise, quintic fade).
+//     With Perlin's published permutation, perlin_reference(x, y, z) reproduces his Java
+//     ImprovedNoise.noise exactly (double precision).
+//   * OpenSimplex2 (K. Spencer, 2022), 2D "S" variant: simplex-lattice gradient noise without
+//     Perlin's patent-era skew artefacts.
+//   * Steven Worley, "A Cellular Texture Basis Function", SIGGRAPH 1996 (F1, F2, cell id).
+//   * Fractals: fBm, ridged multifractal and billow (Musgrave, "Texturing and Modeling", ch. 16),
+//     normalised by the analytic sum of octave amplitudes, never by a map's own min/max.
+//
+// Coordinates are world metres. `frequency` is in cycles per metre of the first octave; the x and
+// z axes are additionally multiplied by `scale_x`, `scale_z` (anisotropy). Everything is a pure
+// function of (settings, seed, x, z): any window of the world gives the same values.
+#include <array>
+#include <cstdint>
+#include <vector>
+
+namespace relief {
+
+enum class NoiseBasis { Perlin, Simplex, Value, Cellular };
+enum class Fractal { None, Fbm, Ridged, Billow };
+enum class CellularReturn { F1, F2, F2MinusF1, CellValue };
+
+struct NoiseSettings {
+  NoiseBasis basis = NoiseBasis::Perlin;
+  Fractal fractal = Fractal::Fbm;
+  int octaves = 6;             // 1..16
+  double frequency = 1.0 / 1000.0;  // cycles per metre (first octave)
+  double lacunarity = 2.0;     // frequency ratio between octaves
+  double persistence = 0.5;    // amplitude ratio between octaves (gain)
+  double scale_x = 1.0, scale_z = 1.0;  // anisotropy: multiply x and z frequency
+  CellularReturn cellular = CellularReturn::F1;
+  double jitter = 1.0;         // cellular feature point jitter, 0..1
+  // Periodicity: when > 0 the noise repeats every period_x metres along x (likewise z).
+  // Each octave's frequency is rounded so that a whole number of lattice cells fits the period.
+  // Supported for Perlin, Value and Cellular; Simplex with a period makes the constructor throw
+  // relief::Error("period_x_m" / "period_z_m"). Rounding: octave k has nominal frequency
+  // fₖ = frequency·lacunarityᵏ·scale_x; it uses Nₖ/period_x_m with Nₖ = max(1, round(fₖ·period_x_m))
+  // whole lattice cells per period, and lattice indices wrap modulo Nₖ (likewise z).
+  double period_x_m = 0.0, period_z_m = 0.0;
+  // Domain warp (Quilez): x += warp_m · n1(x, z), z += warp_m · n2(x, z), n1, n2 single-octave
+  // noise of the same basis (and cellular return) at warp_frequency, isotropic (scale_x/z do not
+  // apply), periodic like the main noise when a period is set. 0 disables it.
+  double warp_m = 0.0;
+  double warp_frequency = 1.0 / 1000.0;
+  std::uint64_t seed = 0;
+};
+
+// A compiled noise generator. Construction validates the settings (throwing relief::Error naming
+// the field: "octaves", "frequency", "lacunarity", "persistence", "scale_x", "scale_z", "jitter",
+// "period_x_m", "period_z_m", "warp_m", "warp_frequency", "basis", "fractal", "cellular") and
+// builds one seeded permutation table per octave for Perlin (a Fisher–Yates shuffle driven by mix64,
+// as seed 002 describes) plus a seeded lattice offset per octave, so octaves are decorrelated and
+// their lattices do not line up (no common zeros at the first octave's lattice points).
+// Evaluation is const and thread-safe.
+//
+// Bases (single octave, in lattice units of that octave):
+//   Perlin    improved Perlin 2D (exactly perlin2 with the octave's table); one octave repeats
+//             every 256 of its own cells (the table's period), the per-octave tables and offsets
+//             keep the octaves of a sum from repeating together.
+//   Simplex   OpenSimplex2S-style: Σ over simplex-lattice vertices of max(0, 2/3 − |d|²)⁴ · (g·d),
+//             24 unit gradients, scaled by a bound on the supremum so that |n| ≤ 1.
+//   Value     hashed lattice values in [−1, 1), quintic interpolation.
+//   Cellular  Worley, one feature point per cell at its centre + jitter·U(−½, ½)², 3×3 search.
+//             F1 is exact after clamping to 1 cell. F2, F2−F1 and (only where F1 ≥ 1 cell)
+//             CellValue can differ from an exhaustive search in the rare cases where the point
+//             they need lies outside the 3×3 block.
+// Value, Simplex and Cellular hash lattice points with mix64(keyₖ + X·Pₓ + Z·P_z): no period.
+//
+// Precision: positions are doubles, the lattice work is done in double and the result rounded to
+// float once. Coordinates must be finite (non-finite ones give unspecified values, never UB).
+// FMA contraction would change the last bits (see noise.cpp).
+class Noise {
+ public:
+  explicit Noise(const NoiseSettings& s);
+
+  // out[i] = value at (x, z_m) with x = double(i0 + i) · dx_m, for i in [0, n): positions come from
+  // the integer sample index so that any window of the same grid gives bit-identical values.
+  // n ≤ 0 writes nothing. Values are in [−1, 1], with aₖ = persistenceᵏ:
+  //   fBm: Σ aₖ·nₖ / Σ aₖ;  billow: Σ aₖ·(2|nₖ|−1) / Σ aₖ;  ridged: 2·Σ aₖ·(1−|nₖ|)² / Σ aₖ − 1;
+  //   None: n₀ (only the first octave is evaluated; octaves is ignored).
+  //   Cellular F1/F2 are mapped from distance d (in cells) as 2·min(d,1)−1 (F2: d/1.5, F2−F1: d),
+  //   CellValue is a hash of the owning cell in [−1, 1).
+  void row(double z_m, std::int64_t i0, double dx_m, int n, float* out) const;
+  // One value; bit-identical to row() at the same (x_m, z_m).
+  float at(double x_m, double z_m) const;
+  const NoiseSettings& settings() const { return s_; }
+
+ private:
+  // Everything the row kernels need for one octave (or one warp noise), precomputed.
+  struct Octave {
+    double freq_x = 0.0, freq_z = 0.0;        // lattice cells per metre (anisotropy, period rounding)
+    double offset_x = 0.0, offset_z = 0.0;    // seeded lattice offset in [0, 256) cells
+    std::int64_t period_x = 0, period_z = 0;  // lattice cells per period; 0 = not periodic
+    double amp = 1.0;                         // persistenceᵏ
+    std::uint64_t key = 0;                    // lattice hash key (Value, Simplex, Cellular)
+    std::array<std::uint8_t, 512> perm{};     // doubled permutation (Perlin)
+  };
+
+  template <class XAt>
+  void run(double z_m, XAt x_at, int n, float* out) const;
+
+  NoiseSettings s_;
+  std::vector<Octave> octaves_;   // 1 for Fractal::None, else s_.octaves
+  std::array<Octave, 2> warp_{};  // n1 (x displacement), n2 (z displacement); used if warp_m > 0
+  double inv_amp_sum_ = 1.0;      // 1 / Σ aₖ
+};
+
+// ---- single-octave bases (for tests and reference; values nominally in [−1, 1]) -------------
+// Ken Perlin's ImprovedNoise with his published permutation table, in double precision.
+double perlin_reference(double x, double y, double z);
+// Improved Perlin 2D with a given doubled permutation table. Equal to perlin_reference(x, y, 0)
+// when `perm` is Perlin's table.
+double perlin2(const std::uint8_t* perm512, double x, double y);
+// Perlin's published permutation, doubled to 512 entries.
+const std::array<std::uint8_t, 512>& perlin_permutation();
+// A seeded permutation (Fisher–Yates with mix64), doubled to 512 entries.
+std::array<std::uint8_t, 512> seeded_permutation(std::uint64_t seed);
+
+}  // namespace relief

@@ -1,0 +1,231 @@
+#pragma once
+// The one parameter table.
+//
+// Each stage (and the recipe's `world` block) declares its parameters once, as a list of
+// Field<P> bound to members of a plain params struct P. That list alone drives:
+//   * parsing and validation of recipe JSON (errors name `stages[i].field`),
+//   * defaults (taken from a default-constructed P),
+//   * `--set` overrides (applied to the recipe JSON, then parsed by the same table),
+//   * `relief explain`, the studio's generated controls and the docs (via ParamInfo::to_json).
+// Nothing re-declares a parameter by hand elsewhere.
+#include <cmath>
+#include <cstdint>
+#include <functional>
+#include <limits>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <type_traits>
+#include <vector>
+
+#include "relief/error.hpp"
+
+namespace relief {
+
+using json = nlohmann::ordered_json;
+
+enum class ParamType { Int, Float, Bool, Choice, Color, Curve, Levels, Text };
+// What a change to the parameter invalidates: the heights (regenerate) or only the colours.
+enum class Effect { Regenerate, Recolour };
+
+struct Rgb {
+  float r = 0, g = 0, b = 0;  // 0..1
+  bool operator==(const Rgb&) const = default;
+};
+// A colour level: elevation (or other value) threshold and its colour. Optional texture image.
+struct Level {
+  double at = 0;
+  Rgb color;
+  std::string name;
+  bool operator==(const Level&) const = default;
+};
+struct CurvePoint {
+  double x = 0, y = 0;
+  bool operator==(const CurvePoint&) const = default;
+};
+
+struct ParamInfo {
+  std::string name;
+  ParamType type = ParamType::Float;
+  json default_value;
+  double min = 0, max = 0;  // inclusive range for Int/Float (and element ranges for Curve/Levels)
+  std::string unit;         // "m", "deg", "" …
+  std::string description;  // one line
+  std::vector<std::string> choices;  // for Choice
+  Effect effect = Effect::Regenerate;
+  json to_json() const;  // {name, type, default, min, max, unit, description, choices, effect}
+};
+
+const char* to_string(ParamType t);
+
+template <class P>
+struct Field {
+  ParamInfo info;
+  std::function<void(P&, const json&, const std::string& path)> read;  // validates, throws Error
+  std::function<json(const P&)> write;
+};
+
+// ---- value readers (throw relief::Error naming `path`) ------------------------------------
+std::string describe(const json& v);  // short human form of a JSON value for messages
+std::int64_t read_int(const json& v, const std::string& path, double min, double max);
+double read_float(const json& v, const std::string& path, double min, double max);
+bool read_bool(const json& v, const std::string& path);
+std::string read_choice(const json& v, const std::string& path, const std::vector<std::string>& choices);
+Rgb read_color(const json& v, const std::string& path);  // "#rrggbb" or [r,g,b] in 0..255
+json write_color(const Rgb& c);                          // "#rrggbb"
+std::vector<CurvePoint> read_curve(const json& v, const std::string& path, double min, double max);
+std::vector<Level> read_levels(const json& v, const std::string& path, double min, double max);
+json write_levels(const std::vector<Level>& l);
+// Closest name by edit distance, for "did you mean" hints ("" if nothing is close).
+std::string nearest_name(const std::string& given, const std::vector<std::string>& names);
+
+// ---- field builders ------------------------------------------------------------------------
+// Numbers and booleans: the type follows the member (int / std::int64_t / double / bool).
+template <class P, class T>
+Field<P> param(T P::*m, std::string name, double min, double max, std::string unit, std::string description,
+               Effect effect = Effect::Regenerate) {
+  Field<P> f;
+  f.info.name = std::move(name);
+  f.info.min = min;
+  f.info.max = max;
+  f.info.unit = std::move(unit);
+  f.info.description = std::move(description);
+  f.info.effect = effect;
+  if constexpr (std::is_same_v<T, bool>) {
+    f.info.type = ParamType::Bool;
+    f.read = [m](P& p, const json& v, const std::string& path) { p.*m = read_bool(v, path); };
+  } else if constexpr (std::is_integral_v<T>) {
+    f.info.type = ParamType::Int;
+    f.read = [m, min, max](P& p, const json& v, const std::string& path) { p.*m = T(read_int(v, path, min, max)); };
+  } else {
+    static_assert(std::is_floating_point_v<T>);
+    f.info.type = ParamType::Float;
+    f.read = [m, min, max](P& p, const json& v, const std::string& path) { p.*m = T(read_float(v, path, min, max)); };
+  }
+  f.write = [m](const P& p) { return json(p.*m); };
+  return f;
+}
+
+template <class P>
+Field<P> choice(std::string P::*m, std::string name, std::vector<std::string> choices, std::string description,
+                Effect effect = Effect::Regenerate) {
+  Field<P> f;
+  f.info.name = std::move(name);
+  f.info.type = ParamType::Choice;
+  f.info.choices = choices;
+  f.info.description = std::move(description);
+  f.info.effect = effect;
+  f.read = [m, choices](P& p, const json& v, const std::string& path) { p.*m = read_choice(v, path, choices); };
+  f.write = [m](const P& p) { return json(p.*m); };
+  return f;
+}
+
+template <class P>
+Field<P> text(std::string P::*m, std::string name, std::string description, Effect effect = Effect::Regenerate) {
+  Field<P> f;
+  f.info.name = std::move(name);
+  f.info.type = ParamType::Text;
+  f.info.description = std::move(description);
+  f.info.effect = effect;
+  f.read = [m](P& p, const json& v, const std::string& path) {
+    if (!v.is_string()) throw Error(path, "expected a string, got " + describe(v));
+    p.*m = v.get<std::string>();
+  };
+  f.write = [m](const P& p) { return json(p.*m); };
+  return f;
+}
+
+template <class P>
+Field<P> color(Rgb P::*m, std::string name, std::string description, Effect effect = Effect::Recolour) {
+  Field<P> f;
+  f.info.name = std::move(name);
+  f.info.type = ParamType::Color;
+  f.info.description = std::move(description);
+  f.info.effect = effect;
+  f.read = [m](P& p, const json& v, const std::string& path) { p.*m = read_color(v, path); };
+  f.write = [m](const P& p) { return write_color(p.*m); };
+  return f;
+}
+
+// Control points [[x, y], …], x strictly increasing, each coordinate in [min, max].
+template <class P>
+Field<P> curve(std::vector<CurvePoint> P::*m, std::string name, double min, double max, std::string description,
+               Effect effect = Effect::Regenerate) {
+  Field<P> f;
+  f.info.name = std::move(name);
+  f.info.type = ParamType::Curve;
+  f.info.min = min;
+  f.info.max = max;
+  f.info.description = std::move(description);
+  f.info.effect = effect;
+  f.read = [m, min, max](P& p, const json& v, const std::string& path) { p.*m = read_curve(v, path, min, max); };
+  f.write = [m](const P& p) {
+    json a = json::array();
+    for (auto& c : p.*m) a.push_back(json::array({c.x, c.y}));
+    return a;
+  };
+  return f;
+}
+
+// Colour levels [{"at": 0.4, "color": "#rrggbb", "name": "sand"}, …], `at` non-decreasing in [min, max].
+template <class P>
+Field<P> levels(std::vector<Level> P::*m, std::string name, double min, double max, std::string description,
+                Effect effect = Effect::Recolour) {
+  Field<P> f;
+  f.info.name = std::move(name);
+  f.info.type = ParamType::Levels;
+  f.info.min = min;
+  f.info.max = max;
+  f.info.description = std::move(description);
+  f.info.effect = effect;
+  f.read = [m, min, max](P& p, const json& v, const std::string& path) { p.*m = read_levels(v, path, min, max); };
+  f.write = [m](const P& p) { return write_levels(p.*m); };
+  return f;
+}
+
+// A parsed table: the fields of P plus helpers to read/write a whole object.
+template <class P>
+struct Table {
+  std::vector<Field<P>> fields;
+
+  std::vector<ParamInfo> infos() const {
+    std::vector<ParamInfo> out;
+    P defaults{};
+    for (auto& f : fields) {
+      ParamInfo i = f.info;
+      i.default_value = f.write(defaults);
+      out.push_back(std::move(i));
+    }
+    return out;
+  }
+  // Reads fields present in `obj` (a JSON object) into a default P. Keys in `ignore` are skipped;
+  // any other unknown key is an error naming the nearest known field.
+  P read(const json& obj, const std::string& path, const std::vector<std::string>& ignore = {}) const {
+    P p{};
+    if (!obj.is_object()) throw Error(path, "expected an object, got " + describe(obj));
+    std::vector<std::string> names;
+    for (auto& f : fields) names.push_back(f.info.name);
+    for (auto it = obj.begin(); it != obj.end(); ++it) {
+      const std::string& k = it.key();
+      bool ign = false;
+      for (auto& s : ignore) ign = ign || s == k;
+      if (ign) continue;
+      const Field<P>* hit = nullptr;
+      for (auto& f : fields)
+        if (f.info.name == k) hit = &f;
+      const std::string fpath = path.empty() ? k : path + "." + k;
+      if (!hit) {
+        std::string near = nearest_name(k, names);
+        throw Error(fpath, "unknown parameter" + (near.empty() ? std::string() : " (did you mean '" + near + "'?)"));
+      }
+      hit->read(p, it.value(), fpath);
+    }
+    return p;
+  }
+  json write(const P& p) const {
+    json o = json::object();
+    for (auto& f : fields) o[f.info.name] = f.write(p);
+    return o;
+  }
+};
+
+}  // namespace relief

@@ -1,0 +1,48 @@
+#pragma once
+// Running a recipe: the one function behind the CLI, the studio and the tests.
+#include <cstdint>
+#include <functional>
+#include <optional>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "relief/recipe.hpp"
+#include "relief/terrain.hpp"
+
+namespace relief {
+
+struct StageTiming {
+  std::string name, label;
+  double ms = 0;
+};
+
+struct RunOptions {
+  int threads = 0;  // 0 = all hardware threads; results are identical for any count
+  // Optional window of the world (default: the whole world of the recipe). Pointwise stages
+  // give identical samples wherever a window falls, so windows tile seamlessly.
+  std::optional<Frame> window;
+  std::function<void(std::string_view stage, double fraction)> progress;
+  // Called after each stage with a read-only view (the studio's and `--steps` stage strips).
+  std::function<void(const Terrain&, const RecipeStage&, int index)> after_stage;
+};
+
+struct RunResult {
+  Terrain terrain;
+  std::uint64_t seed = 0;  // the seed used (drawn at random if the recipe had none)
+  std::vector<StageTiming> timings;
+  double total_ms = 0;
+};
+
+// Estimated peak bytes for running `r` at its size, used to refuse sizes the machine cannot hold.
+std::uint64_t estimate_memory_bytes(const Recipe& r, bool with_mesh);
+// Physical memory of this machine in bytes (0 if unknown).
+std::uint64_t physical_memory_bytes();
+// A fresh random seed in 0..2^53−1 (from std::random_device; printed by the CLI).
+std::uint64_t random_seed();
+
+// Runs every stage in order. If the recipe has no seed, one is drawn and returned in the result.
+// Throws relief::Error on bad input; never prints, never exits.
+RunResult run(const Recipe& r, const RunOptions& opt = {});
+
+}  // namespace relief

@@ -1,0 +1,74 @@
+#pragma once
+// Recipes: JSON documents naming the world and an ordered list of stages.
+//
+//   {
+//     "name": "island", "description": "…", "seed": 7,          // seed optional
+//     "world": {"size": [1025, 1025], "width_m": 4000, "height_m": 600, "sea_level": 0.4},
+//     "stages": [ {"stage": "noise", "octaves": 6, …}, {"stage": "island", …}, … ]
+//   }
+//
+// Field paths (`world.width_m`, `stages[1].octaves`, `seed`) are the same in error messages and
+// in `--set PATH=VALUE` overrides.
+#include <cstdint>
+#include <memory>
+#include <optional>
+#include <string>
+#include <vector>
+
+#include "relief/params.hpp"
+#include "relief/stage.hpp"
+#include "relief/terrain.hpp"
+
+namespace relief {
+
+constexpr std::uint64_t kMaxSeed = (std::uint64_t(1) << 53) - 1;  // exact in a JavaScript number
+
+struct World {
+  int nx = 513, nz = 513;   // samples per axis (corners included)
+  double width_m = 4000;    // x extent; depth follows the aspect so that cells stay square
+  double height_m = 600;    // metres between elevation 0 and 1
+  double sea_level = 0.4;   // normalised
+  Frame frame() const;      // the whole world as one window
+};
+
+struct RecipeStage {
+  const StageDef* def = nullptr;
+  std::string label;  // caption ("" = the stage's name)
+  std::shared_ptr<const Stage> stage;
+};
+
+struct Recipe {
+  std::string name = "custom";
+  std::string description;
+  std::optional<std::uint64_t> seed;
+  World world;
+  std::vector<RecipeStage> stages;
+
+  // The fully resolved recipe: every parameter with its value, defaults filled in.
+  json to_json() const;
+};
+
+// Parses and validates; throws relief::Error naming the field.
+Recipe parse_recipe(const json& doc);
+// Parses text (JSON syntax errors become Error("", "recipe is not valid JSON: …")).
+Recipe parse_recipe_text(const std::string& text, const std::string& origin = "recipe");
+
+// Applies `PATH=VALUE` to a recipe document. VALUE is read as JSON when it parses as JSON,
+// otherwise as a string. PATH uses `a.b[2].c`; the parent must exist. Throws Error on a bad path.
+void apply_override(json& doc, const std::string& assignment);
+
+// World parameter table, for explain and the studio.
+std::vector<ParamInfo> world_params();
+
+// ---- presets --------------------------------------------------------------------------------
+struct PresetInfo {
+  std::string name, description, origin;  // origin: "built-in" or the file path
+};
+// Built-in presets, then user presets from $RELIEF_PRESETS (':'-separated folders) and
+// ~/.config/relief/presets (or $XDG_CONFIG_HOME/relief/presets). A user preset with a built-in's
+// name replaces it. Unreadable files are skipped in the listing but reported when loaded.
+std::vector<PresetInfo> list_presets();
+// The recipe document of a preset; throws Error("preset", …) with the nearest name.
+json load_preset(const std::string& name);
+
+}  // namespace relief

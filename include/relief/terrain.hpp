@@ -1,0 +1,86 @@
+#pragma once
+// The Terrain: the one value that flows through the pipeline.
+//
+// Coordinates (stated once, relied on everywhere):
+//   * The world is the rectangle [0, world_width_m] × [0, world_depth_m] in metres, x east, z south.
+//   * A Terrain covers a window of the world: nx × nz samples, corners included, on the world's
+//     sample grid of spacing spacing_m = world_width_m / (world nx − 1) (cells are square; the
+//     world's depth follows the sample aspect). Sample (i, j) sits at
+//       x = (ix0 + i) · cell_m,   z = (iz0 + j) · cell_m,
+//     where (ix0, iz0) is the window's integer offset on that grid. Positions are computed from
+//     the integer index, never accumulated, so neighbouring windows share their border samples
+//     bit for bit and a 2ⁿ+1 preview equals every other sample of the 2ⁿ⁺¹+1 build. nx, nz ≥ 2.
+//   * Layers are row-major, x fastest: value (i, j) of channel c is data[(j·nx + i)·channels + c].
+//     Image row 0 is the z-min edge, image column 0 the x-min edge.
+//   * Elevation ("height" layer) is normalised: 0 is the lowest possible, 1 the highest, with
+//     sea_level in between. Metres appear only at the edges: y_m = (e − sea_level) · height_m,
+//     so the sea surface sits at y = 0.
+#include <cstddef>
+#include <cstdint>
+#include <map>
+#include <string>
+#include <vector>
+
+namespace relief {
+
+struct Frame {
+  double world_width_m = 4000.0;  // x extent of the whole world
+  double world_depth_m = 4000.0;  // z extent of the whole world
+  double spacing_m = 4000.0 / 512;  // sample spacing (square cells) = world_width_m / (world nx − 1)
+  int nx = 513, nz = 513;         // samples in this window, corners included (≥ 2 each)
+  std::int64_t ix0 = 0, iz0 = 0;  // window offset in samples on the world grid
+  double height_m = 600.0;        // metres between elevation 0 and elevation 1
+  double sea_level = 0.4;         // normalised elevation of the sea surface
+
+  double cell_m() const { return spacing_m; }
+  double width_m() const { return spacing_m * (nx - 1); }   // window extent along x
+  double depth_m() const { return spacing_m * (nz - 1); }   // window extent along z
+  double x_m(int i) const { return double(ix0 + i) * spacing_m; }
+  double z_m(int j) const { return double(iz0 + j) * spacing_m; }
+  double x0_m() const { return double(ix0) * spacing_m; }
+  double z0_m() const { return double(iz0) * spacing_m; }
+  std::size_t count() const { return std::size_t(nx) * std::size_t(nz); }
+  // y in metres of a normalised elevation (sea surface at 0).
+  double y_m(double e) const { return (e - sea_level) * height_m; }
+  // The window of `nx` × `nz` samples starting at sample (ix0, iz0) of this frame's world grid.
+  Frame window(std::int64_t ix0, std::int64_t iz0, int nx, int nz) const {
+    Frame f = *this;
+    f.ix0 = ix0;
+    f.iz0 = iz0;
+    f.nx = nx;
+    f.nz = nz;
+    return f;
+  }
+};
+
+// A named grid of floats with one or more channels (colour layers have 3, in 0..1 linear-free sRGB).
+struct Layer {
+  int channels = 1;
+  std::vector<float> data;
+  float* row(int j, int nx) { return data.data() + std::size_t(j) * nx * channels; }
+  const float* row(int j, int nx) const { return data.data() + std::size_t(j) * nx * channels; }
+};
+
+// A placed point: props, feature points (volcano centre, peaks) in world metres.
+struct Point {
+  std::string kind;     // "prop", "volcano", "peak", …
+  std::string type;     // prop type or feature name
+  double x_m = 0, y_m = 0, z_m = 0;
+  double rotation_deg = 0, scale = 1;
+};
+
+struct Terrain {
+  Frame frame;
+  std::map<std::string, Layer> layers;
+  std::vector<Point> points;
+
+  bool has(const std::string& name) const { return layers.count(name) != 0; }
+  // Returns the layer, creating it (zero-filled) with `channels` channels if missing or if its
+  // channel count differs.
+  Layer& layer(const std::string& name, int channels = 1);
+  // Returns an existing layer; throws relief::Error naming the layer if it is missing.
+  const Layer& get(const std::string& name) const;
+  Layer& get(const std::string& name);
+};
+
+}  // namespace relief

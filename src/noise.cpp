@@ -1,0 +1,548 @@
+// Noise bases, fractals, periodicity and domain warp, evaluated a row at a time.
+//
+// Sources (implemented from the papers' descriptions, not from anyone's code):
+//   * Ken Perlin, "Improving Noise", SIGGRAPH 2002, and his Java reference ImprovedNoise
+//     (https://mrl.cs.nyu.edu/~perlin/noise/): quintic fade, 12 gradient directions picked by
+//     the low 4 bits of a permutation hash, published permutation table.
+//   * K. Spencer, OpenSimplex2 (2022), 2D "S" variant: vertices of the skewed triangular lattice
+//     contribute max(0, r² − |d|²)⁴ · (g·d) with r² = 2/3 (the lattice's edge length squared), so
+//     the kernel is wider and smoother than classic simplex noise (r² = 1/2).
+//   * Steven Worley, "A Cellular Texture Basis Function", SIGGRAPH 1996: F1, F2, cell identity.
+//   * F. K. Musgrave, in Ebert et al., "Texturing and Modeling: A Procedural Approach", ch. 16:
+//     fBm, ridged multifractal, billow. Normalised by the analytic amplitude sum Σ aₖ.
+//   * Inigo Quilez, "Domain warping" (2002): p' = p + w·(n₁(p), n₂(p)).
+//   * D. Lemire, "Fast random integer generation in an interval" (2019): the multiply-shift
+//     reduction used to draw Fisher–Yates indices and gradient indices from 64-bit hashes.
+//
+// Structure. Noise::run() walks a row in chunks of kChunk samples. For each chunk it computes the
+// world positions (from the integer sample index, in double), optionally displaces them by the
+// two warp noises, then evaluates each octave into a scratch buffer with a basis kernel and folds
+// it into an accumulator with the fractal's shaping function. Kernels are templates over whether z
+// is the same for the whole chunk (no warp): then everything that depends only on z (lattice row,
+// fade, hash row keys) is computed once per octave per chunk. No virtual calls, no allocation.
+// All arithmetic is plain double (floor via truncation, table lookups, 64-bit integer hashing),
+// which is what a later Highway port needs.
+//
+// Floating point: every result is a fixed sequence of IEEE double operations, so values are
+// reproducible across compilers and machines as long as a·b + c is not contracted to an FMA. GCC
+// contracts by default (even with -std=c++20) once the target has FMA (-march=native, x86-64-v3),
+// so the pragmas below turn contraction off for this file. perlin_reference's exact Java values
+// and the golden hashes in tests/test_noise.cpp depend on it. A SIMD port that wants FMA must
+// state and test its tolerance against this scalar path.
+#include "relief/noise.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+#include <limits>
+#include <string>
+#include <utility>
+
+#include "relief/error.hpp"
+#include "relief/random.hpp"
+
+// No FMA contraction in this file, whatever -march says (see the note at the top).
+#if defined(__clang__)
+#pragma STDC FP_CONTRACT OFF
+#elif defined(__GNUC__)
+#pragma GCC optimize("fp-contract=off")
+#endif
+
+namespace relief {
+namespace {
+
+// ---- Perlin's reference --------------------------------------------------------------------------
+
+constexpr std::array<std::uint8_t, 256> kPerlinTable = {
+    151, 160, 137, 91,  90,  15,  131, 13,  201, 95,  96,  53,  194, 233, 7,   225, 140, 36,  103, 30,
+    69,  142, 8,   99,  37,  240, 21,  10,  23,  190, 6,   148, 247, 120, 234, 75,  0,   26,  197, 62,
+    94,  252, 219, 203, 117, 35,  11,  32,  57,  177, 33,  88,  237, 149, 56,  87,  174, 20,  125, 136,
+    171, 168, 68,  175, 74,  165, 71,  134, 139, 48,  27,  166, 77,  146, 158, 231, 83,  111, 229, 122,
+    60,  211, 133, 230, 220, 105, 92,  41,  55,  46,  245, 40,  244, 102, 143, 54,  65,  25,  63,  161,
+    1,   216, 80,  73,  209, 76,  132, 187, 208, 89,  18,  169, 200, 196, 135, 130, 116, 188, 159, 86,
+    164, 100, 109, 198, 173, 186, 3,   64,  52,  217, 226, 250, 124, 123, 5,   202, 38,  147, 118, 126,
+    255, 82,  85,  212, 207, 206, 59,  227, 47,  16,  58,  17,  182, 189, 28,  42,  223, 183, 170, 213,
+    119, 248, 152, 2,   44,  154, 163, 70,  221, 153, 101, 155, 167, 43,  172, 9,   129, 22,  39,  253,
+    19,  98,  108, 110, 79,  113, 224, 232, 178, 185, 112, 104, 218, 246, 97,  228, 251, 34,  242, 193,
+    238, 210, 144, 12,  191, 179, 162, 241, 81,  51,  145, 235, 249, 14,  239, 107, 49,  192, 214, 31,
+    181, 199, 106, 157, 184, 84,  204, 176, 115, 121, 50,  45,  127, 4,   150, 254, 138, 236, 205, 93,
+    222, 114, 67,  29,  24,  72,  243, 141, 128, 195, 78,  66,  215, 61,  156, 180};
+
+constexpr std::array<std::uint8_t, 512> doubled(const std::array<std::uint8_t, 256>& t) {
+  std::array<std::uint8_t, 512> p{};
+  for (int i = 0; i < 256; ++i) p[std::size_t(i)] = p[std::size_t(i) + 256] = t[std::size_t(i)];
+  return p;
+}
+constexpr std::array<std::uint8_t, 512> kPerlinPerm = doubled(kPerlinTable);
+
+// Perlin's fade 6t⁵ − 15t⁴ + 10t³ and lerp, written with his operation order (bit-exactness).
+inline double fade(double t) { return t * t * t * (t * (t * 6 - 15) + 10); }
+inline double lerp(double t, double a, double b) { return a + t * (b - a); }
+
+// Perlin's grad(): the low 4 bits of the hash pick one of 12 edge directions of the cube (4 twice).
+constexpr double grad3(int hash, double x, double y, double z) {
+  const int h = hash & 15;
+  const double u = h < 8 ? x : y;
+  const double v = h < 4 ? y : (h == 12 || h == 14) ? x : z;
+  return ((h & 1) == 0 ? u : -u) + ((h & 2) == 0 ? v : -v);
+}
+
+// Java's (int) cast of a double: NaN → 0, saturating at the int range.
+inline int java_int(double v) {
+  if (v != v) return 0;
+  if (v >= 2147483647.0) return 2147483647;
+  if (v <= -2147483648.0) return -2147483647 - 1;
+  return int(v);
+}
+
+// ---- 2D improved Perlin ---------------------------------------------------------------------------
+
+// grad3(h, x, y, 0) as gx·x + gy·y. The coefficients are −1, 0 or 1, so every product is exact and
+// the sum equals Perlin's value bit for bit (up to the sign of a zero).
+struct Grad2Table {
+  double x[16], y[16];
+};
+constexpr Grad2Table make_grad2() {
+  Grad2Table t{};
+  for (int h = 0; h < 16; ++h) {
+    t.x[h] = grad3(h, 1.0, 0.0, 0.0);
+    t.y[h] = grad3(h, 0.0, 1.0, 0.0);
+  }
+  return t;
+}
+constexpr Grad2Table kGrad2 = make_grad2();
+
+// floor(u) as an integer. Clamped to ±2⁶² first so that the conversion is always defined (NaN
+// becomes −2⁶²); plain truncation plus a correction, which needs no SSE4.1 and vectorises.
+inline std::int64_t floor_i64(double u) {
+  constexpr double kBig = 4611686018427387904.0;  // 2⁶²
+  double c = u > -kBig ? u : -kBig;
+  c = c < kBig ? c : kBig;
+  const std::int64_t i = std::int64_t(c);
+  return i - std::int64_t(c < double(i));
+}
+
+inline std::int64_t wrap(std::int64_t i, std::int64_t period) {
+  if (period == 0) return i;
+  const std::int64_t r = i % period;
+  return r < 0 ? r + period : r;
+}
+
+// A lattice coordinate split into the cell index, the next cell's index (both wrapped by the
+// period when there is one) and the fractional position in the cell.
+struct Axis {
+  std::int64_t i0, i1;
+  double f;
+};
+inline Axis axis(double u, std::int64_t period) {
+  const std::int64_t i = floor_i64(u);
+  Axis a;
+  a.f = u - double(i);
+  if (period == 0) {
+    a.i0 = i;
+    a.i1 = i + 1;
+  } else {
+    a.i0 = wrap(i, period);
+    a.i1 = a.i0 + 1 == period ? 0 : a.i0 + 1;
+  }
+  return a;
+}
+
+// The z-only part of a 2D Perlin evaluation.
+struct PerlinRow {
+  int y0, y1;  // lattice rows & 255
+  double fy, sy;
+};
+inline PerlinRow perlin_row(const Axis& az) {
+  return {int(az.i0 & 255), int(az.i1 & 255), az.f, fade(az.f)};
+}
+
+// Perlin's noise(x, y, 0) with Z = 0: the hash of corner (X, Y) is p[p[p[X] + Y]]. Using (Y+1)&255
+// for the upper row instead of Java's unmasked A+1 is the same entry of the doubled table.
+inline double perlin_core(const std::uint8_t* p, const Axis& ax, const PerlinRow& r) {
+  const int A = p[ax.i0 & 255], B = p[ax.i1 & 255];
+  const int h00 = p[p[A + r.y0]] & 15, h10 = p[p[B + r.y0]] & 15;
+  const int h01 = p[p[A + r.y1]] & 15, h11 = p[p[B + r.y1]] & 15;
+  const double fx = ax.f, fx1 = fx - 1, fy1 = r.fy - 1;
+  const double g00 = kGrad2.x[h00] * fx + kGrad2.y[h00] * r.fy;
+  const double g10 = kGrad2.x[h10] * fx1 + kGrad2.y[h10] * r.fy;
+  const double g01 = kGrad2.x[h01] * fx + kGrad2.y[h01] * fy1;
+  const double g11 = kGrad2.x[h11] * fx1 + kGrad2.y[h11] * fy1;
+  const double sx = fade(fx);
+  return lerp(r.sy, lerp(sx, g00, g10), lerp(sx, g01, g11));
+}
+
+// ---- lattice hashing (Value, Simplex, Cellular) ---------------------------------------------------
+
+// mix64(key + X·Px + Z·Pz). The linear part is injective for |ΔX|, |ΔZ| far beyond any terrain
+// (odd 64-bit multipliers), mix64 is a bijective finaliser, and the z part is hoisted per row.
+constexpr std::uint64_t kPx = 0x9E3779B97F4A7C15ull;
+constexpr std::uint64_t kPz = 0xC2B2AE3D27D4EB4Full;
+inline std::uint64_t row_key(std::uint64_t key, std::int64_t z) { return key + std::uint64_t(z) * kPz; }
+inline std::uint64_t lattice_hash(std::uint64_t rowkey, std::int64_t x) {
+  return mix64(rowkey + std::uint64_t(x) * kPx);
+}
+// Top 53 bits of h as a double in [−1, 1) (exact: a 53-bit integer times 2⁻⁵², minus one).
+inline double signed_unit(std::uint64_t h) { return double(h >> 11) * (1.0 / 4503599627370496.0) - 1.0; }
+
+// ---- value noise ----------------------------------------------------------------------------------
+
+struct ValueRow {
+  std::uint64_t k0, k1;  // row keys of lattice rows z0, z1
+  double sy;
+};
+template <class Oct>
+inline ValueRow value_row(const Oct& o, const Axis& az) {
+  return {row_key(o.key, az.i0), row_key(o.key, az.i1), fade(az.f)};
+}
+inline double value_core(const Axis& ax, const ValueRow& r) {
+  const double v00 = signed_unit(lattice_hash(r.k0, ax.i0)), v10 = signed_unit(lattice_hash(r.k0, ax.i1));
+  const double v01 = signed_unit(lattice_hash(r.k1, ax.i0)), v11 = signed_unit(lattice_hash(r.k1, ax.i1));
+  const double sx = fade(ax.f);
+  return lerp(r.sy, lerp(sx, v00, v10), lerp(sx, v01, v11));
+}
+
+// ---- OpenSimplex2S-style 2D simplex ---------------------------------------------------------------
+
+constexpr double kSkew = 0.36602540378443864676;    // (√3 − 1)/2: input → lattice (skewed) space
+constexpr double kUnskew = 0.21132486540518711775;  // (3 − √3)/6: lattice → input space
+constexpr double kSimplexR2 = 2.0 / 3.0;            // kernel radius² = lattice edge length²
+// sup over positions and gradient choices of Σ max(0, r² − |d|²)⁴ · (g·d) is 0.054818664956251
+// (found numerically: grid search over the rhombus cell, then local refinement; attained near
+// skewed (0.357, 0.660)). 18.24 < 1/0.054818664956251 = 18.24196…, so |n| ≤ 0.9999.
+constexpr double kSimplexScale = 18.24;
+
+// 24 unit gradients at 7.5° + 15°·k (OpenSimplex2's 2D set). Literals, not std::cos, so every
+// libm gives the same table: cos(7.5°), cos(22.5°), …, cos(82.5°).
+constexpr double kC[6] = {0.99144486137381038, 0.92387953251128674, 0.79335334029123517,
+                          0.60876142900872066, 0.38268343236508978, 0.13052619222005159};
+struct Grad24Table {
+  double x[24], y[24];
+};
+constexpr Grad24Table make_grad24() {
+  Grad24Table t{};
+  for (int k = 0; k < 6; ++k) {  // first quadrant: angle 7.5° + 15°·k = (cos, sin) = (kC[k], kC[5−k])
+    const double c = kC[k], s = kC[5 - k];
+    t.x[k] = c, t.y[k] = s;              // quadrant I
+    t.x[k + 6] = -s, t.y[k + 6] = c;     // rotated by 90°
+    t.x[k + 12] = -c, t.y[k + 12] = -s;  // 180°
+    t.x[k + 18] = s, t.y[k + 18] = -c;   // 270°
+  }
+  return t;
+}
+constexpr Grad24Table kGrad24 = make_grad24();
+
+// The only lattice vertices (relative to the rhombus cell's base corner) that can lie within
+// r² = 2/3 of a point in the cell; every other vertex is at distance ≥ r. Evaluating all eight
+// with the attenuation clamped at 0 is branch-free and gives exactly the sum over all vertices.
+constexpr int kSimplexVerts[8][2] = {{0, 0}, {1, 0}, {0, 1}, {1, 1}, {-1, 0}, {0, -1}, {2, 1}, {1, 2}};
+
+inline double simplex_core(std::uint64_t key, double u, double v) {
+  const double s = (u + v) * kSkew;
+  const double xs = u + s, ys = v + s;
+  const std::int64_t i = floor_i64(xs), j = floor_i64(ys);
+  const double xi = xs - double(i), yi = ys - double(j);
+  const double t = (xi + yi) * kUnskew;
+  const double dx0 = xi - t, dy0 = yi - t;  // offset from vertex (i, j), in input space
+  double sum = 0.0;
+  for (const auto& vtx : kSimplexVerts) {
+    const int a = vtx[0], b = vtx[1];
+    const double back = double(a + b) * kUnskew;
+    const double dx = dx0 - double(a) + back, dy = dy0 - double(b) + back;
+    double att = kSimplexR2 - dx * dx - dy * dy;
+    att = att > 0.0 ? att : 0.0;
+    const std::uint64_t h = lattice_hash(row_key(key, j + b), i + a);
+    const int g = int(((h >> 32) * 24u) >> 32);
+    const double att2 = att * att;
+    sum += att2 * att2 * (kGrad24.x[g] * dx + kGrad24.y[g] * dy);
+  }
+  return sum * kSimplexScale;
+}
+
+// ---- cellular (Worley) ----------------------------------------------------------------------------
+
+constexpr double k2m21 = 1.0 / 2097152.0;  // 2⁻²¹
+
+struct CellRow {
+  std::uint64_t k[3];  // row keys of lattice rows z−1, z, z+1 (wrapped)
+  double fy;
+};
+template <class Oct>
+inline CellRow cell_row(const Oct& o, double v) {
+  const std::int64_t j = floor_i64(v);
+  CellRow r;
+  for (int b = -1; b <= 1; ++b) r.k[b + 1] = row_key(o.key, wrap(j + b, o.period_z));
+  r.fy = v - double(j);
+  return r;
+}
+
+// Feature point of a cell: centre + jitter·(U − ½) per axis, U from 21 hash bits each; the cell's
+// value uses the lowest 22 bits. Returns the basis value mapped to [−1, 1].
+inline double cellular_core(const CellRow& r, double u, std::int64_t period_x, double jitter,
+                            CellularReturn ret) {
+  const std::int64_t i = floor_i64(u);
+  const double fx = u - double(i);
+  double d1 = std::numeric_limits<double>::infinity(), d2 = d1;  // squared distances, F1 ≤ F2
+  std::uint64_t h1 = 0;
+  for (int b = -1; b <= 1; ++b) {
+    for (int a = -1; a <= 1; ++a) {
+      const std::uint64_t h = lattice_hash(r.k[b + 1], wrap(i + a, period_x));
+      const double px = double(a) + 0.5 + jitter * (double(h >> 43) * k2m21 - 0.5);
+      const double py = double(b) + 0.5 + jitter * (double((h >> 22) & 0x1FFFFF) * k2m21 - 0.5);
+      const double dx = px - fx, dy = py - r.fy;
+      const double d = dx * dx + dy * dy;
+      if (d < d1) {
+        d2 = d1;
+        d1 = d;
+        h1 = h;
+      } else if (d < d2) {
+        d2 = d;
+      }
+    }
+  }
+  switch (ret) {
+    case CellularReturn::F1: return 2.0 * std::min(std::sqrt(d1), 1.0) - 1.0;
+    case CellularReturn::F2: return 2.0 * std::min(std::sqrt(d2) * (1.0 / 1.5), 1.0) - 1.0;
+    case CellularReturn::F2MinusF1: return 2.0 * std::min(std::sqrt(d2) - std::sqrt(d1), 1.0) - 1.0;
+    case CellularReturn::CellValue: break;
+  }
+  return double(h1 & 0x3FFFFF) * k2m21 - 1.0;
+}
+
+// ---- one octave over a chunk ----------------------------------------------------------------------
+
+// out[i] = basis value at lattice position (x[i]·fx + ox, z·fz + oz), z = zc when kUniformZ, else
+// z[i]. Only the x work is inside the loop when z is uniform.
+template <bool kUniformZ, class Oct>
+void octave_chunk(NoiseBasis basis, CellularReturn ret, double jitter, const Oct& o, const double* x,
+                  const double* z, double zc, int m, double* out) {
+  auto vz = [&](int i) { return (kUniformZ ? zc : z[i]) * o.freq_z + o.offset_z; };
+  auto ux = [&](int i) { return x[i] * o.freq_x + o.offset_x; };
+  switch (basis) {
+    case NoiseBasis::Perlin: {
+      const std::uint8_t* p = o.perm.data();
+      if constexpr (kUniformZ) {
+        const PerlinRow r = perlin_row(axis(vz(0), o.period_z));
+        for (int i = 0; i < m; ++i) out[i] = perlin_core(p, axis(ux(i), o.period_x), r);
+      } else {
+        for (int i = 0; i < m; ++i)
+          out[i] = perlin_core(p, axis(ux(i), o.period_x), perlin_row(axis(vz(i), o.period_z)));
+      }
+      break;
+    }
+    case NoiseBasis::Value: {
+      if constexpr (kUniformZ) {
+        const ValueRow r = value_row(o, axis(vz(0), o.period_z));
+        for (int i = 0; i < m; ++i) out[i] = value_core(axis(ux(i), o.period_x), r);
+      } else {
+        for (int i = 0; i < m; ++i)
+          out[i] = value_core(axis(ux(i), o.period_x), value_row(o, axis(vz(i), o.period_z)));
+      }
+      break;
+    }
+    case NoiseBasis::Simplex: {
+      for (int i = 0; i < m; ++i) out[i] = simplex_core(o.key, ux(i), vz(i));
+      break;
+    }
+    case NoiseBasis::Cellular: {
+      if constexpr (kUniformZ) {
+        const CellRow r = cell_row(o, vz(0));
+        for (int i = 0; i < m; ++i) out[i] = cellular_core(r, ux(i), o.period_x, jitter, ret);
+      } else {
+        for (int i = 0; i < m; ++i)
+          out[i] = cellular_core(cell_row(o, vz(i)), ux(i), o.period_x, jitter, ret);
+      }
+      break;
+    }
+  }
+}
+
+// ---- construction helpers -------------------------------------------------------------------------
+
+// Stream tags for hash64(seed, tag, index): independent values for independent purposes.
+constexpr std::uint64_t kTagTable = 0x7461626c65ull;   // "table": per-octave permutation / hash key
+constexpr std::uint64_t kTagOffset = 0x6f6666736574ull;  // "offset": per-octave lattice offsets
+constexpr std::uint64_t kWarpIndex = 1000;             // octave index of warp noise n1 (n2: 1001)
+
+std::string num(double v) {
+  char buf[64];
+  std::snprintf(buf, sizeof buf, "%.17g", v);
+  return buf;
+}
+
+void require_positive(const char* field, double v) {
+  if (!std::isfinite(v) || v <= 0.0) throw Error(field, "expected a finite number > 0, got " + num(v));
+}
+
+// Cells per period for a frequency, or 0 without a period.
+std::int64_t period_cells(const char* field, double freq, double period_m) {
+  if (period_m == 0.0) return 0;
+  const double cells = std::max(1.0, std::round(freq * period_m));
+  if (!(cells <= 2147483648.0))
+    throw Error(field, "period of " + num(period_m) + " m holds " + num(cells) +
+                           " lattice cells at the highest octave's frequency; at most 2^31 are supported");
+  return std::int64_t(cells);
+}
+
+template <class Oct>
+Oct make_octave(const NoiseSettings& s, std::uint64_t index, double fx, double fz, double amp) {
+  Oct o;
+  o.period_x = period_cells("period_x_m", fx, s.period_x_m);
+  o.period_z = period_cells("period_z_m", fz, s.period_z_m);
+  o.freq_x = o.period_x ? double(o.period_x) / s.period_x_m : fx;
+  o.freq_z = o.period_z ? double(o.period_z) / s.period_z_m : fz;
+  o.offset_x = 256.0 * unit_double(hash64(s.seed, kTagOffset, 2 * index));
+  o.offset_z = 256.0 * unit_double(hash64(s.seed, kTagOffset, 2 * index + 1));
+  o.amp = amp;
+  o.key = hash64(s.seed, kTagTable, index);
+  if (s.basis == NoiseBasis::Perlin) o.perm = seeded_permutation(o.key);
+  return o;
+}
+
+}  // namespace
+
+// ---- public single-octave functions ---------------------------------------------------------------
+
+const std::array<std::uint8_t, 512>& perlin_permutation() { return kPerlinPerm; }
+
+double perlin_reference(double x, double y, double z) {
+  const std::uint8_t* p = kPerlinPerm.data();
+  const int X = java_int(std::floor(x)) & 255, Y = java_int(std::floor(y)) & 255,
+            Z = java_int(std::floor(z)) & 255;
+  x -= std::floor(x);
+  y -= std::floor(y);
+  z -= std::floor(z);
+  const double u = fade(x), v = fade(y), w = fade(z);
+  const int A = p[X] + Y, AA = p[A] + Z, AB = p[A + 1] + Z;
+  const int B = p[X + 1] + Y, BA = p[B] + Z, BB = p[B + 1] + Z;
+  return lerp(w,
+              lerp(v, lerp(u, grad3(p[AA], x, y, z), grad3(p[BA], x - 1, y, z)),
+                   lerp(u, grad3(p[AB], x, y - 1, z), grad3(p[BB], x - 1, y - 1, z))),
+              lerp(v, lerp(u, grad3(p[AA + 1], x, y, z - 1), grad3(p[BA + 1], x - 1, y, z - 1)),
+                   lerp(u, grad3(p[AB + 1], x, y - 1, z - 1), grad3(p[BB + 1], x - 1, y - 1, z - 1))));
+}
+
+double perlin2(const std::uint8_t* perm512, double x, double y) {
+  return perlin_core(perm512, axis(x, 0), perlin_row(axis(y, 0)));
+}
+
+std::array<std::uint8_t, 512> seeded_permutation(std::uint64_t seed) {
+  std::array<std::uint8_t, 256> t{};
+  for (int i = 0; i < 256; ++i) t[std::size_t(i)] = std::uint8_t(i);
+  // Fisher–Yates (Durstenfeld): swap entry i with a uniform j in [0, i], for i = 255 … 1.
+  for (int i = 255; i > 0; --i) {
+    const std::uint64_t h = hash64(seed, std::uint64_t(i));
+    const std::size_t j = std::size_t(((h >> 32) * std::uint64_t(i + 1)) >> 32);
+    std::swap(t[std::size_t(i)], t[j]);
+  }
+  return doubled(t);
+}
+
+// ---- Noise ----------------------------------------------------------------------------------------
+
+Noise::Noise(const NoiseSettings& s) : s_(s) {
+  if (unsigned(s.basis) > unsigned(NoiseBasis::Cellular)) throw Error("basis", "unknown noise basis");
+  if (unsigned(s.fractal) > unsigned(Fractal::Billow)) throw Error("fractal", "unknown fractal mode");
+  if (unsigned(s.cellular) > unsigned(CellularReturn::CellValue))
+    throw Error("cellular", "unknown cellular return");
+  if (s.octaves < 1 || s.octaves > 16)
+    throw Error("octaves", "expected an integer in 1..16, got " + std::to_string(s.octaves));
+  require_positive("frequency", s.frequency);
+  require_positive("lacunarity", s.lacunarity);
+  require_positive("persistence", s.persistence);
+  require_positive("scale_x", s.scale_x);
+  require_positive("scale_z", s.scale_z);
+  if (!(s.jitter >= 0.0 && s.jitter <= 1.0)) throw Error("jitter", "expected 0..1, got " + num(s.jitter));
+  for (auto [field, v] : {std::pair{"period_x_m", s.period_x_m}, std::pair{"period_z_m", s.period_z_m}}) {
+    if (!std::isfinite(v) || v < 0.0)
+      throw Error(field, "expected a finite period >= 0 m (0 = not periodic), got " + num(v));
+    if (v > 0.0 && s.basis == NoiseBasis::Simplex)
+      throw Error(field, "periodic noise needs basis perlin, value or cellular; simplex has no square lattice");
+  }
+  if (!std::isfinite(s.warp_m) || s.warp_m < 0.0)
+    throw Error("warp_m", "expected a finite distance >= 0 m, got " + num(s.warp_m));
+  require_positive("warp_frequency", s.warp_frequency);
+
+  const int count = s.fractal == Fractal::None ? 1 : s.octaves;
+  octaves_.reserve(std::size_t(count));
+  double f = s.frequency, amp = 1.0, amp_sum = 0.0;
+  for (int k = 0; k < count; ++k) {
+    const double fx = f * s.scale_x, fz = f * s.scale_z;
+    if (!std::isfinite(fx) || !std::isfinite(fz) || !(fx > 0.0) || !(fz > 0.0) || !(amp > 0.0))
+      throw Error(k == 0 ? "frequency" : "lacunarity",
+                  "octave " + std::to_string(k) + " has frequency " + num(fx) + " x " + num(fz) +
+                      " and amplitude " + num(amp) + "; expected finite and > 0");
+    octaves_.push_back(make_octave<Octave>(s, std::uint64_t(k), fx, fz, amp));
+    amp_sum += amp;
+    f *= s.lacunarity;
+    amp *= s.persistence;
+  }
+  if (!std::isfinite(amp_sum)) throw Error("persistence", "the octave amplitudes overflow: " + num(s.persistence));
+  inv_amp_sum_ = 1.0 / amp_sum;
+  if (s.warp_m > 0.0)
+    for (int w = 0; w < 2; ++w)
+      warp_[std::size_t(w)] = make_octave<Octave>(s, kWarpIndex + std::uint64_t(w), s.warp_frequency,
+                                                  s.warp_frequency, 1.0);
+}
+
+template <class XAt>
+void Noise::run(double z_m, XAt x_at, int n, float* out) const {
+  constexpr int kChunk = 256;
+  double xs[kChunk], zs[kChunk], nb[kChunk], acc[kChunk];
+  const NoiseBasis basis = s_.basis;
+  const CellularReturn ret = s_.cellular;
+  const double jitter = s_.jitter;
+  const bool warp = s_.warp_m > 0.0;
+  for (int start = 0; start < n; start += kChunk) {
+    const int m = std::min(kChunk, n - start);
+    for (int i = 0; i < m; ++i) xs[i] = x_at(start + i);
+    if (warp) {
+      // Both displacements are sampled at the unwarped position, then applied together.
+      octave_chunk<true>(basis, ret, jitter, warp_[1], xs, nullptr, z_m, m, nb);
+      for (int i = 0; i < m; ++i) zs[i] = z_m + s_.warp_m * nb[i];
+      octave_chunk<true>(basis, ret, jitter, warp_[0], xs, nullptr, z_m, m, nb);
+      for (int i = 0; i < m; ++i) xs[i] = xs[i] + s_.warp_m * nb[i];
+    }
+    for (int i = 0; i < m; ++i) acc[i] = 0.0;
+    for (const Octave& o : octaves_) {
+      if (warp)
+        octave_chunk<false>(basis, ret, jitter, o, xs, zs, 0.0, m, nb);
+      else
+        octave_chunk<true>(basis, ret, jitter, o, xs, nullptr, z_m, m, nb);
+      const double a = o.amp;
+      switch (s_.fractal) {
+        case Fractal::None:
+        case Fractal::Fbm:
+          for (int i = 0; i < m; ++i) acc[i] += a * nb[i];
+          break;
+        case Fractal::Ridged:
+          for (int i = 0; i < m; ++i) {
+            const double r = 1.0 - std::fabs(nb[i]);
+            acc[i] += a * (r * r);
+          }
+          break;
+        case Fractal::Billow:
+          for (int i = 0; i < m; ++i) acc[i] += a * (2.0 * std::fabs(nb[i]) - 1.0);
+          break;
+      }
+    }
+    float* dst = out + start;
+    if (s_.fractal == Fractal::Ridged) {
+      for (int i = 0; i < m; ++i) dst[i] = float(2.0 * (acc[i] * inv_amp_sum_) - 1.0);
+    } else {
+      for (int i = 0; i < m; ++i) dst[i] = float(acc[i] * inv_amp_sum_);
+    }
+  }
+}
+
+void Noise::row(double z_m, std::int64_t i0, double dx_m, int n, float* out) const {
+  run(z_m, [=](int i) { return double(i0 + i) * dx_m; }, n, out);
+}
+
+float Noise::at(double x_m, double z_m) const {
+  float v = 0.0f;
+  run(z_m, [=](int) { return x_m; }, 1, &v);
+  return v;
+}
+
+}  // namespace relief

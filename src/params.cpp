@@ -1,0 +1,220 @@
+#include "relief/params.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstdio>
+
+namespace relief {
+
+const char* to_string(ParamType t) {
+  switch (t) {
+    case ParamType::Int: return "int";
+    case ParamType::Float: return "float";
+    case ParamType::Bool: return "bool";
+    case ParamType::Choice: return "choice";
+    case ParamType::Color: return "color";
+    case ParamType::Curve: return "curve";
+    case ParamType::Levels: return "levels";
+    case ParamType::Text: return "text";
+  }
+  return "?";
+}
+
+json ParamInfo::to_json() const {
+  json o;
+  o["name"] = name;
+  o["type"] = to_string(type);
+  o["default"] = default_value;
+  if (type == ParamType::Int || type == ParamType::Float || type == ParamType::Curve || type == ParamType::Levels) {
+    o["min"] = min;
+    o["max"] = max;
+  }
+  if (!unit.empty()) o["unit"] = unit;
+  o["description"] = description;
+  if (!choices.empty()) o["choices"] = choices;
+  o["effect"] = effect == Effect::Regenerate ? "regenerate" : "recolour";
+  return o;
+}
+
+std::string describe(const json& v) {
+  std::string s;
+  if (v.is_string()) {
+    s.push_back('"');
+    s.append(v.get<std::string>());
+    s.push_back('"');
+  } else {
+    s = v.dump();
+  }
+  if (s.size() > 60) {
+    s.resize(57);
+    s.append("...");
+  }
+  const char* kind = v.is_null() ? "null" : v.is_boolean() ? "a boolean" : v.is_number() ? nullptr
+                     : v.is_string() ? "a string" : v.is_array() ? "an array" : "an object";
+  if (!kind || v.is_string()) return s;
+  if (v.is_null()) return "null";
+  return std::string(kind) + " " + s;
+}
+
+static std::string num(double x) {
+  char buf[64];
+  if (x == std::floor(x) && std::fabs(x) < 1e17) std::snprintf(buf, sizeof buf, "%.0f", x);
+  else std::snprintf(buf, sizeof buf, "%g", x);
+  return buf;
+}
+
+std::int64_t read_int(const json& v, const std::string& path, double min, double max) {
+  const std::string expect = "expected an integer in " + num(min) + ".." + num(max);
+  if (v.is_number_integer() || v.is_number_unsigned()) {
+    double d = v.is_number_unsigned() ? double(v.get<std::uint64_t>()) : double(v.get<std::int64_t>());
+    if (d < min || d > max) throw Error(path, expect + ", got " + v.dump());
+    return v.is_number_unsigned() ? std::int64_t(v.get<std::uint64_t>()) : v.get<std::int64_t>();
+  }
+  if (v.is_number_float()) {
+    double d = v.get<double>();
+    if (std::isfinite(d) && d == std::floor(d) && d >= min && d <= max) return std::int64_t(d);
+  }
+  throw Error(path, expect + ", got " + describe(v));
+}
+
+double read_float(const json& v, const std::string& path, double min, double max) {
+  const std::string expect = "expected a number in " + num(min) + ".." + num(max);
+  if (!v.is_number()) throw Error(path, expect + ", got " + describe(v));
+  double d = v.get<double>();
+  if (!std::isfinite(d)) throw Error(path, expect + ", got a non-finite value");
+  if (d < min || d > max) throw Error(path, expect + ", got " + num(d));
+  return d;
+}
+
+bool read_bool(const json& v, const std::string& path) {
+  if (!v.is_boolean()) throw Error(path, "expected true or false, got " + describe(v));
+  return v.get<bool>();
+}
+
+std::string read_choice(const json& v, const std::string& path, const std::vector<std::string>& choices) {
+  std::string list;
+  for (auto& c : choices) list += (list.empty() ? "" : ", ") + c;
+  if (!v.is_string()) throw Error(path, "expected one of " + list + ", got " + describe(v));
+  std::string s = v.get<std::string>();
+  if (std::find(choices.begin(), choices.end(), s) == choices.end()) {
+    std::string near = nearest_name(s, choices);
+    throw Error(path, "expected one of " + list + ", got \"" + s + "\"" +
+                          (near.empty() ? "" : " (did you mean '" + near + "'?)"));
+  }
+  return s;
+}
+
+static int hexval(char c) {
+  if (c >= '0' && c <= '9') return c - '0';
+  if (c >= 'a' && c <= 'f') return c - 'a' + 10;
+  if (c >= 'A' && c <= 'F') return c - 'A' + 10;
+  return -1;
+}
+
+Rgb read_color(const json& v, const std::string& path) {
+  const std::string expect = "expected a colour \"#rrggbb\" or [r, g, b] with 0..255 each";
+  if (v.is_string()) {
+    std::string s = v.get<std::string>();
+    if (s.size() == 7 && s[0] == '#') {
+      int c[6];
+      bool ok = true;
+      for (int k = 0; k < 6; ++k) ok = ok && (c[k] = hexval(s[k + 1])) >= 0;
+      if (ok) return Rgb{(c[0] * 16 + c[1]) / 255.0f, (c[2] * 16 + c[3]) / 255.0f, (c[4] * 16 + c[5]) / 255.0f};
+    }
+    throw Error(path, expect + ", got " + describe(v));
+  }
+  if (v.is_array() && v.size() == 3) {
+    float c[3];
+    for (int k = 0; k < 3; ++k) c[k] = float(read_float(v[k], path + "[" + std::to_string(k) + "]", 0, 255) / 255.0);
+    return Rgb{c[0], c[1], c[2]};
+  }
+  throw Error(path, expect + ", got " + describe(v));
+}
+
+json write_color(const Rgb& c) {
+  auto b = [](float x) { return int(std::lround(std::clamp(x, 0.0f, 1.0f) * 255.0f)); };
+  char buf[8];
+  std::snprintf(buf, sizeof buf, "#%02x%02x%02x", b(c.r), b(c.g), b(c.b));
+  return std::string(buf);
+}
+
+std::vector<CurvePoint> read_curve(const json& v, const std::string& path, double min, double max) {
+  if (!v.is_array() || v.size() < 2)
+    throw Error(path, "expected at least 2 control points [[x, y], …], got " + describe(v));
+  std::vector<CurvePoint> out;
+  for (std::size_t k = 0; k < v.size(); ++k) {
+    const std::string p = path + "[" + std::to_string(k) + "]";
+    if (!v[k].is_array() || v[k].size() != 2) throw Error(p, "expected a point [x, y], got " + describe(v[k]));
+    CurvePoint c{read_float(v[k][0], p + "[0]", min, max), read_float(v[k][1], p + "[1]", min, max)};
+    if (!out.empty() && !(c.x > out.back().x))
+      throw Error(p + "[0]", "expected x greater than the previous point's " + num(out.back().x) + ", got " + num(c.x));
+    out.push_back(c);
+  }
+  return out;
+}
+
+std::vector<Level> read_levels(const json& v, const std::string& path, double min, double max) {
+  if (!v.is_array() || v.empty())
+    throw Error(path, "expected a non-empty list of levels [{\"at\": x, \"color\": \"#rrggbb\"}, …], got " + describe(v));
+  std::vector<Level> out;
+  for (std::size_t k = 0; k < v.size(); ++k) {
+    const std::string p = path + "[" + std::to_string(k) + "]";
+    const json& e = v[k];
+    if (!e.is_object()) throw Error(p, "expected an object {\"at\": x, \"color\": \"#rrggbb\"}, got " + describe(e));
+    Level l;
+    for (auto it = e.begin(); it != e.end(); ++it) {
+      if (it.key() == "at") l.at = read_float(it.value(), p + ".at", min, max);
+      else if (it.key() == "color") l.color = read_color(it.value(), p + ".color");
+      else if (it.key() == "name") {
+        if (!it.value().is_string()) throw Error(p + ".name", "expected a string, got " + describe(it.value()));
+        l.name = it.value().get<std::string>();
+      } else {
+        throw Error(p + "." + it.key(), "unknown key (expected at, color, name)");
+      }
+    }
+    if (!e.contains("at")) throw Error(p + ".at", "missing");
+    if (!e.contains("color")) throw Error(p + ".color", "missing");
+    if (!out.empty() && l.at < out.back().at)
+      throw Error(p + ".at", "expected levels in increasing order (≥ " + num(out.back().at) + "), got " + num(l.at));
+    out.push_back(l);
+  }
+  return out;
+}
+
+json write_levels(const std::vector<Level>& levels) {
+  json a = json::array();
+  for (auto& l : levels) {
+    json o;
+    o["at"] = l.at;
+    o["color"] = write_color(l.color);
+    if (!l.name.empty()) o["name"] = l.name;
+    a.push_back(o);
+  }
+  return a;
+}
+
+static std::size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<std::size_t> prev(b.size() + 1), cur(b.size() + 1);
+  for (std::size_t j = 0; j <= b.size(); ++j) prev[j] = j;
+  for (std::size_t i = 1; i <= a.size(); ++i) {
+    cur[0] = i;
+    for (std::size_t j = 1; j <= b.size(); ++j)
+      cur[j] = std::min({prev[j] + 1, cur[j - 1] + 1, prev[j - 1] + (a[i - 1] == b[j - 1] ? 0 : 1)});
+    std::swap(prev, cur);
+  }
+  return prev[b.size()];
+}
+
+std::string nearest_name(const std::string& given, const std::vector<std::string>& names) {
+  std::string best;
+  std::size_t bestd = std::string::npos;
+  for (auto& n : names) {
+    std::size_t d = edit_distance(given, n);
+    if (n.find(given) != std::string::npos || given.find(n) != std::string::npos) d = std::min<std::size_t>(d, 1);
+    if (d < bestd) bestd = d, best = n;
+  }
+  if (best.empty() || bestd > std::max<std::size_t>(2, given.size() / 2)) return "";
+  return best;
+}
+
+}  // namespace relief

@@ -1,0 +1,317 @@
+#include "relief/recipe.hpp"
+
+#include <algorithm>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+namespace relief {
+namespace detail {
+const std::vector<std::pair<std::string_view, std::string_view>>& builtin_preset_texts();
+}
+
+namespace {
+
+// `size` is special (an integer or [nx, nz]); the rest of the world block is a plain table.
+struct WorldScalars {
+  double width_m = 4000, height_m = 600, sea_level = 0.4;
+};
+Table<WorldScalars> world_table() {
+  using W = WorldScalars;
+  return {{
+      param(&W::width_m, "width_m", 1, 1e7, "m", "World extent along x; depth follows the sample aspect"),
+      param(&W::height_m, "height_m", 0.01, 1e5, "m", "Metres between elevation 0 and elevation 1"),
+      param(&W::sea_level, "sea_level", 0, 1, "", "Normalised elevation of the sea surface"),
+  }};
+}
+
+constexpr int kMaxSamples = 32769;
+
+int read_size(const json& v, const std::string& path) {
+  return int(read_int(v, path, 2, kMaxSamples));
+}
+
+}  // namespace
+
+Frame World::frame() const {
+  Frame f;
+  f.nx = nx;
+  f.nz = nz;
+  f.world_width_m = width_m;
+  f.spacing_m = width_m / (nx - 1);
+  f.world_depth_m = f.spacing_m * (nz - 1);
+  f.height_m = height_m;
+  f.sea_level = sea_level;
+  return f;
+}
+
+std::vector<ParamInfo> world_params() {
+  ParamInfo size;
+  size.name = "size";
+  size.type = ParamType::Int;
+  size.default_value = json::array({513, 513});
+  size.min = 2;
+  size.max = kMaxSamples;
+  size.description = "Samples per axis, corners included: N or [nx, nz] (2^n+1 suits engines)";
+  std::vector<ParamInfo> out{size};
+  for (auto& i : world_table().infos()) out.push_back(i);
+  return out;
+}
+
+json Recipe::to_json() const {
+  json o;
+  o["name"] = name;
+  if (!description.empty()) o["description"] = description;
+  if (seed) o["seed"] = *seed;
+  json w;
+  w["size"] = json::array({world.nx, world.nz});
+  w["width_m"] = world.width_m;
+  w["height_m"] = world.height_m;
+  w["sea_level"] = world.sea_level;
+  o["world"] = w;
+  json st = json::array();
+  for (auto& s : stages) {
+    json e;
+    e["stage"] = s.def->name;
+    if (!s.label.empty()) e["label"] = s.label;
+    const json params = s.stage->params();
+    for (auto it = params.begin(); it != params.end(); ++it) e[it.key()] = it.value();
+    st.push_back(e);
+  }
+  o["stages"] = st;
+  return o;
+}
+
+Recipe parse_recipe(const json& doc) {
+  if (!doc.is_object()) throw Error("", "a recipe must be a JSON object, got " + describe(doc));
+  Recipe r;
+  for (auto it = doc.begin(); it != doc.end(); ++it) {
+    const std::string& k = it.key();
+    const json& v = it.value();
+    if (k == "name" || k == "description") {
+      if (!v.is_string()) throw Error(k, "expected a string, got " + describe(v));
+      (k == "name" ? r.name : r.description) = v.get<std::string>();
+    } else if (k == "seed") {
+      r.seed = std::uint64_t(read_int(v, "seed", 0, double(kMaxSeed)));
+    } else if (k == "world") {
+      if (!v.is_object()) throw Error("world", "expected an object, got " + describe(v));
+      WorldScalars ws = world_table().read(v, "world", {"size"});
+      r.world.width_m = ws.width_m;
+      r.world.height_m = ws.height_m;
+      r.world.sea_level = ws.sea_level;
+      if (v.contains("size")) {
+        const json& s = v["size"];
+        if (s.is_array()) {
+          if (s.size() != 2) throw Error("world.size", "expected N or [nx, nz], got " + describe(s));
+          r.world.nx = read_size(s[0], "world.size[0]");
+          r.world.nz = read_size(s[1], "world.size[1]");
+        } else {
+          r.world.nx = r.world.nz = read_size(s, "world.size");
+        }
+      }
+    } else if (k == "stages") {
+      if (!v.is_array()) throw Error("stages", "expected a list of stages, got " + describe(v));
+      for (std::size_t i = 0; i < v.size(); ++i) {
+        const std::string path = "stages[" + std::to_string(i) + "]";
+        const json& e = v[i];
+        if (!e.is_object()) throw Error(path, "expected an object {\"stage\": NAME, …}, got " + describe(e));
+        if (!e.contains("stage") || !e["stage"].is_string())
+          throw Error(path + ".stage", "expected a stage name, got " + (e.contains("stage") ? describe(e["stage"]) : std::string("nothing")));
+        const std::string name = e["stage"].get<std::string>();
+        const StageDef* def = find_stage(name);
+        if (!def) {
+          std::vector<std::string> names;
+          for (auto& d : stage_registry()) names.push_back(d.name);
+          std::string near = nearest_name(name, names);
+          throw Error(path + ".stage", "unknown stage \"" + name + "\"" +
+                                           (near.empty() ? "" : " (did you mean '" + near + "'?)") +
+                                           "; `relief explain` lists the stages");
+        }
+        RecipeStage rs;
+        rs.def = def;
+        if (e.contains("label")) {
+          if (!e["label"].is_string()) throw Error(path + ".label", "expected a string, got " + describe(e["label"]));
+          rs.label = e["label"].get<std::string>();
+        }
+        rs.stage = def->parse(e, path);
+        r.stages.push_back(std::move(rs));
+      }
+    } else {
+      std::string near = nearest_name(k, {"name", "description", "seed", "world", "stages"});
+      throw Error(k, "unknown recipe key" + (near.empty() ? std::string() : " (did you mean '" + near + "'?)"));
+    }
+  }
+  return r;
+}
+
+Recipe parse_recipe_text(const std::string& text, const std::string& origin) {
+  json doc;
+  try {
+    doc = json::parse(text);
+  } catch (const json::exception& e) {
+    throw Error("", origin + " is not valid JSON: " + std::string(e.what()));
+  }
+  return parse_recipe(doc);
+}
+
+// ---- overrides ------------------------------------------------------------------------------
+
+void apply_override(json& doc, const std::string& assignment) {
+  const auto eq = assignment.find('=');
+  if (eq == std::string::npos || eq == 0)
+    throw Error("--set", "expected PATH=VALUE (e.g. stages[1].octaves=8), got \"" + assignment + "\"");
+  const std::string path = assignment.substr(0, eq);
+  const std::string text = assignment.substr(eq + 1);
+  json value;
+  try {
+    value = json::parse(text);
+  } catch (const json::parse_error&) {
+    value = text;
+  } catch (const json::exception&) {  // e.g. 1e999: a number JSON cannot hold
+    throw Error(path, "expected a finite value, got " + text);
+  }
+  // Walk a.b[2].c
+  json* cur = &doc;
+  std::string walked;
+  std::size_t p = 0;
+  while (p < path.size()) {
+    if (path[p] == '[') {
+      auto close = path.find(']', p);
+      if (close == std::string::npos) throw Error(path, "malformed path: missing ']'");
+      const std::string idx = path.substr(p + 1, close - p - 1);
+      if (idx.empty() || idx.find_first_not_of("0123456789") != std::string::npos)
+        throw Error(path, "malformed path: index \"" + idx + "\" is not a number");
+      std::size_t i = std::stoul(idx);
+      walked += "[" + idx + "]";
+      if (!cur->is_array() || i >= cur->size())
+        throw Error(walked, cur->is_array() ? "index out of range (there are " + std::to_string(cur->size()) + ")"
+                                            : "not a list");
+      p = close + 1;
+      if (p < path.size() && path[p] == '.') ++p;
+      if (p >= path.size()) {
+        (*cur)[i] = value;
+        return;
+      }
+      cur = &(*cur)[i];
+    } else {
+      auto end = path.find_first_of(".[", p);
+      const std::string key = path.substr(p, end == std::string::npos ? std::string::npos : end - p);
+      if (key.empty()) throw Error(path, "malformed path");
+      walked += (walked.empty() ? "" : ".") + key;
+      if (cur->is_null()) *cur = json::object();
+      if (!cur->is_object()) throw Error(walked, "cannot set a field inside " + describe(*cur));
+      if (end == std::string::npos) {
+        (*cur)[key] = value;
+        return;
+      }
+      cur = &(*cur)[key];
+      p = end;
+      if (path[p] == '.') ++p;
+    }
+  }
+  throw Error(path, "malformed path");
+}
+
+// ---- presets --------------------------------------------------------------------------------
+
+namespace {
+
+std::vector<std::filesystem::path> user_preset_dirs() {
+  std::vector<std::filesystem::path> dirs;
+  if (const char* env = std::getenv("RELIEF_PRESETS")) {
+    std::string s = env;
+    std::size_t start = 0;
+    while (start <= s.size()) {
+      auto end = s.find(':', start);
+      std::string d = s.substr(start, end == std::string::npos ? std::string::npos : end - start);
+      if (!d.empty()) dirs.emplace_back(d);
+      if (end == std::string::npos) break;
+      start = end + 1;
+    }
+  }
+  if (const char* xdg = std::getenv("XDG_CONFIG_HOME"); xdg && *xdg)
+    dirs.emplace_back(std::filesystem::path(xdg) / "relief" / "presets");
+  else if (const char* home = std::getenv("HOME"); home && *home)
+    dirs.emplace_back(std::filesystem::path(home) / ".config" / "relief" / "presets");
+  return dirs;
+}
+
+std::string read_text(const std::filesystem::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  if (!in) throw Error("preset", "cannot read '" + p.string() + "'");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+// name → (origin, text); user presets replace built-ins of the same name; earlier dirs win.
+std::vector<std::pair<std::string, std::pair<std::string, std::string>>> all_presets(bool read_user_text) {
+  std::vector<std::pair<std::string, std::pair<std::string, std::string>>> out;
+  auto put = [&](const std::string& name, std::string origin, std::string text) {
+    for (auto& e : out)
+      if (e.first == name) return;
+    out.push_back({name, {std::move(origin), std::move(text)}});
+  };
+  std::error_code ec;
+  for (auto& d : user_preset_dirs()) {
+    if (!std::filesystem::is_directory(d, ec)) continue;
+    std::vector<std::filesystem::path> files;
+    for (auto& e : std::filesystem::directory_iterator(d, ec))
+      if (e.path().extension() == ".json") files.push_back(e.path());
+    std::sort(files.begin(), files.end());
+    for (auto& f : files) {
+      std::string text;
+      if (read_user_text) {
+        try {
+          text = read_text(f);
+        } catch (const Error&) {
+          continue;
+        }
+      }
+      put(f.stem().string(), f.string(), text);
+    }
+  }
+  for (auto& [n, t] : detail::builtin_preset_texts()) put(std::string(n), "built-in", std::string(t));
+  std::sort(out.begin(), out.end(), [](auto& a, auto& b) { return a.first < b.first; });
+  return out;
+}
+
+}  // namespace
+
+std::vector<PresetInfo> list_presets() {
+  std::vector<PresetInfo> out;
+  for (auto& [name, ot] : all_presets(true)) {
+    PresetInfo pi{name, "", ot.first};
+    try {
+      json doc = json::parse(ot.second);
+      if (doc.is_object() && doc.contains("description") && doc["description"].is_string())
+        pi.description = doc["description"].get<std::string>();
+    } catch (const json::exception&) {
+      pi.description = "(not valid JSON)";
+    }
+    out.push_back(pi);
+  }
+  return out;
+}
+
+json load_preset(const std::string& name) {
+  auto all = all_presets(true);
+  for (auto& [n, ot] : all) {
+    if (n != name) continue;
+    try {
+      return json::parse(ot.second);
+    } catch (const json::exception& e) {
+      throw Error("preset", "'" + ot.first + "' is not valid JSON: " + e.what());
+    }
+  }
+  std::vector<std::string> names;
+  for (auto& e : all) names.push_back(e.first);
+  std::string near = nearest_name(name, names);
+  std::string list;
+  for (auto& n : names) list += (list.empty() ? "" : ", ") + n;
+  throw Error("preset", "unknown preset \"" + name + "\"" + (near.empty() ? "" : " (did you mean '" + near + "'?)") +
+                            "; available: " + list);
+}
+
+}  // namespace relief

@@ -1,0 +1,16 @@
+#pragma once
+// Internal: the factories of every built-in stage, listed by stage_registry() in stage.cpp.
+#include "relief/stage.hpp"
+
+namespace relief::stages {
+
+StageDef noise();        // stage_noise.cpp: fractal noise into a layer (set/add/multiply/…)
+StageDef redistribute(); // stage_shape.cpp: e' = clamp(modifier · e^exponent)
+StageDef terrace();      // stage_shape.cpp: round(e·n)/n, or smooth terraces with sloped walls
+StageDef island();       // stage_shape.cpp: distance functions and circular falloff, mixed
+StageDef curve();        // stage_shape.cpp: monotone cubic Hermite remap through control points
+StageDef slope();        // stage_color.cpp: slope layers (seed 001's mean abs difference; degrees)
+StageDef colorize();     // stage_color.cpp: "color" stage — levels on elevation + slope rules
+StageDef hillshade();    // stage_color.cpp: hillshaded colour from albedo
+
+}  // namespace relief::stages

@@ -1,0 +1,229 @@
+// The `relief` binary end to end: exit codes, messages naming the field, byte-identical output
+// for any thread count, recipes saved and replayed, and files never left half-written.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Result {
+  int code = -1;
+  std::string out;
+};
+
+Result relief(const std::string& args) {
+  std::string cmd = std::string(RELIEF_BINARY) + " " + args + " 2>&1";
+  Result r;
+  FILE* p = popen(cmd.c_str(), "r");
+  if (!p) return r;
+  std::array<char, 4096> buf;
+  std::size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
+  int st = pclose(p);
+  r.code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  return r;
+}
+
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+
+struct TempDir {
+  fs::path path;
+  TempDir() {
+    path = fs::temp_directory_path() / ("relief-cli-" + std::to_string(::getpid()) + "-" + std::to_string(counter()++));
+    fs::remove_all(path);
+    fs::create_directories(path);
+  }
+  ~TempDir() { fs::remove_all(path); }
+  static int& counter() {
+    static int c = 0;
+    return c;
+  }
+  std::string operator/(const std::string& s) const { return (path / s).string(); }
+};
+
+void expect_bad_input(const std::string& args, const std::string& needle) {
+  Result r = relief(args);
+  EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
+  EXPECT_NE(r.out.find(needle), std::string::npos) << args << "\nexpected to find: " << needle << "\ngot: " << r.out;
+}
+
+}  // namespace
+
+TEST(Cli, HelpDocumentsEveryCommandAndOption) {
+  Result top = relief("--help");
+  EXPECT_EQ(top.code, 0);
+  for (const char* c : {"generate", "presets", "explain"}) EXPECT_NE(top.out.find(c), std::string::npos) << c;
+  Result gen = relief("generate --help");
+  EXPECT_EQ(gen.code, 0);
+  for (const char* o : {"--preset", "--seed", "--size", "--formats", "--set", "--threads", "--save-recipe", "--out"})
+    EXPECT_NE(gen.out.find(o), std::string::npos) << o;
+}
+
+TEST(Cli, PresetsListsTheBuiltIns) {
+  Result r = relief("presets");
+  EXPECT_EQ(r.code, 0);
+  for (const char* p : {"island", "hills", "mountains", "desert"}) EXPECT_NE(r.out.find(p), std::string::npos) << p;
+}
+
+TEST(Cli, ExplainShowsTheParameterTable) {
+  Result r = relief("explain noise");
+  EXPECT_EQ(r.code, 0);
+  EXPECT_NE(r.out.find("octaves"), std::string::npos);
+  EXPECT_NE(r.out.find("1..16"), std::string::npos);
+  Result j = relief("explain --json");
+  ASSERT_EQ(j.code, 0);
+  auto doc = nlohmann::json::parse(j.out);
+  EXPECT_GE(doc["stages"].size(), 8u);
+  EXPECT_GE(doc["formats"].size(), 5u);
+}
+
+TEST(Cli, GenerateWritesTheDefaultFiles) {
+  TempDir d;
+  Result r = relief("generate --preset island --seed 7 --size 65 -o " + d.path.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (const char* f : {"height.png", "height.r16", "height.json", "color.png", "albedo.png", "terrain.obj",
+                        "terrain.mtl", "report.json"}) {
+    EXPECT_TRUE(fs::exists(d.path / f)) << f;
+    EXPECT_NE(r.out.find(f), std::string::npos) << "output should list " << f;
+  }
+  EXPECT_EQ(fs::file_size(d.path / "height.r16"), 65u * 65u * 2u);
+  auto report = nlohmann::json::parse(slurp(d.path / "report.json"));
+  EXPECT_EQ(report["seed"], 7);
+  EXPECT_EQ(report["recipe"]["world"]["size"], nlohmann::json::array({65, 65}));
+  EXPECT_TRUE(report["performance"]["stages"].is_array());
+  EXPECT_GT(report["performance"]["peak_memory_bytes"].get<double>(), 0);
+  // No temporary files are left behind.
+  for (auto& e : fs::directory_iterator(d.path)) EXPECT_EQ(e.path().filename().string().find(".tmp"), std::string::npos);
+}
+
+TEST(Cli, OutputIsByteIdenticalForAnyThreadCount) {
+  TempDir a, b;
+  ASSERT_EQ(relief("generate island --seed 11 --size 97x65 --threads 1 -q -o " + a.path.string()).code, 0);
+  ASSERT_EQ(relief("generate island --seed 11 --size 97x65 --threads 3 -q -o " + b.path.string()).code, 0);
+  for (auto& e : fs::directory_iterator(a.path)) {
+    const std::string name = e.path().filename().string();
+    if (name == "report.json") {
+      auto ja = nlohmann::json::parse(slurp(e.path())), jb = nlohmann::json::parse(slurp(b.path / name));
+      ja.erase("performance"), jb.erase("performance");
+      EXPECT_EQ(ja, jb);
+    } else {
+      EXPECT_EQ(slurp(e.path()), slurp(b.path / name)) << name;
+    }
+  }
+}
+
+TEST(Cli, DifferentSeedsGiveDifferentHeights) {
+  TempDir a, b;
+  ASSERT_EQ(relief("generate --seed 1 --size 33 --formats heightmap -q -o " + a.path.string()).code, 0);
+  ASSERT_EQ(relief("generate --seed 2 --size 33 --formats heightmap -q -o " + b.path.string()).code, 0);
+  EXPECT_NE(slurp(a.path / "height.r16"), slurp(b.path / "height.r16"));
+}
+
+TEST(Cli, RandomSeedIsPrintedAndReproduces) {
+  TempDir a, b;
+  Result r = relief("generate --size 33 --formats heightmap -o " + a.path.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  auto pos = r.out.find("--seed ");
+  ASSERT_NE(pos, std::string::npos) << r.out;
+  std::string seed = r.out.substr(pos + 7, r.out.find(')', pos) - pos - 7);
+  ASSERT_EQ(relief("generate --size 33 --formats heightmap -q --seed " + seed + " -o " + b.path.string()).code, 0);
+  EXPECT_EQ(slurp(a.path / "height.r16"), slurp(b.path / "height.r16"));
+}
+
+TEST(Cli, SavedRecipeReproducesTheResult) {
+  TempDir a, b;
+  ASSERT_EQ(relief("generate mountains --seed 5 --size 49 --set 'stages[0].octaves=5' --formats heightmap -q -o " +
+                   a.path.string() + " --save-recipe " + (a / "resolved.json"))
+                .code,
+            0);
+  auto doc = nlohmann::json::parse(slurp(a.path / "resolved.json"));
+  EXPECT_EQ(doc["seed"], 5);
+  EXPECT_EQ(doc["stages"][0]["octaves"], 5);
+  ASSERT_EQ(relief("generate " + (a / "resolved.json") + " --formats heightmap -q -o " + b.path.string()).code, 0);
+  EXPECT_EQ(slurp(a.path / "height.png"), slurp(b.path / "height.png"));
+}
+
+TEST(Cli, SetOverridesChangeTheResult) {
+  TempDir a, b;
+  ASSERT_EQ(relief("generate --seed 3 --size 33 --formats heightmap -q -o " + a.path.string()).code, 0);
+  ASSERT_EQ(relief("generate --seed 3 --size 33 --formats heightmap -q --set 'stages[0].octaves=2' -o " + b.path.string()).code, 0);
+  EXPECT_NE(slurp(a.path / "height.r16"), slurp(b.path / "height.r16"));
+}
+
+TEST(CliBadInput, OutOfRangeParameter) {
+  expect_bad_input("generate --size 33 -q --set 'stages[0].octaves=40' -o /tmp/relief-never",
+                   "stages[0].octaves: expected an integer in 1..16, got 40");
+}
+
+TEST(CliBadInput, NonFiniteParameter) {
+  expect_bad_input("generate --size 33 -q --set 'stages[0].lacunarity=1e999' -o /tmp/relief-never", "stages[0].lacunarity");
+}
+
+TEST(CliBadInput, WrongType) {
+  expect_bad_input("generate --size 33 -q --set 'stages[0].octaves=\"many\"' -o /tmp/relief-never",
+                   "stages[0].octaves: expected an integer in 1..16, got \"many\"");
+}
+
+TEST(CliBadInput, UnknownPresetSuggests) {
+  expect_bad_input("generate --preset moutains -o /tmp/relief-never", "did you mean 'mountains'?");
+}
+
+TEST(CliBadInput, UnknownStageSuggests) {
+  TempDir d;
+  std::ofstream(d / "r.json") << R"({"stages": [{"stage": "terace"}]})";
+  expect_bad_input("generate " + (d / "r.json") + " -o " + (d / "out"), "stages[0].stage: unknown stage \"terace\" (did you mean 'terrace'?)");
+  EXPECT_FALSE(fs::exists(d.path / "out" / "height.png"));
+}
+
+TEST(CliBadInput, MalformedRecipe) {
+  TempDir d;
+  std::ofstream(d / "r.json") << R"({"stages": [{"stage": "noise",]})";
+  expect_bad_input("generate " + (d / "r.json") + " -o " + (d / "out"), "is not valid JSON");
+}
+
+TEST(CliBadInput, BadSizeAndSeed) {
+  expect_bad_input("generate --size 1 -o /tmp/relief-never", "--size: expected N or NxM");
+  expect_bad_input("generate --size 12x -o /tmp/relief-never", "--size: expected N or NxM");
+  expect_bad_input("generate --seed -4 -o /tmp/relief-never", "--seed: expected an integer in 0..9007199254740991");
+  expect_bad_input("generate --seed 9007199254740992 -o /tmp/relief-never", "--seed");
+}
+
+TEST(CliBadInput, UnknownFormat) {
+  expect_bad_input("generate --size 33 --formats heightmap,gltf -o /tmp/relief-never", "--formats: unknown format \"gltf\"");
+}
+
+TEST(CliBadInput, SizeBeyondMemory) {
+  expect_bad_input("generate --size 32769 -o /tmp/relief-never", "world.size: a 32769x32769 terrain");
+}
+
+TEST(CliBadInput, UnwritableOutputDirectory) {
+  TempDir d;
+  std::ofstream(d / "file") << "x";
+  expect_bad_input("generate --size 33 -o " + (d / "file") + "/sub", "output: ");
+}
+
+TEST(CliBadInput, FailedRunLeavesPreviousFilesIntact) {
+  TempDir d;
+  ASSERT_EQ(relief("generate --seed 1 --size 33 -q -o " + d.path.string()).code, 0);
+  const std::string before = slurp(d.path / "height.png"), color_before = slurp(d.path / "color.png");
+  // A recipe with no colour stage cannot write color.png: the run fails before any file changes.
+  std::ofstream(d / "plain.json") << R"({"seed": 2, "world": {"size": 33}, "stages": [{"stage": "noise"}]})";
+  expect_bad_input("generate " + (d / "plain.json") + " --formats heightmap,color -o " + d.path.string(), "color");
+  EXPECT_EQ(slurp(d.path / "height.png"), before);
+  EXPECT_EQ(slurp(d.path / "color.png"), color_before);
+}

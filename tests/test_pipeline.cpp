@@ -1,0 +1,212 @@
+// The pipeline as a whole: determinism across thread counts, resolution independence (a 2^n+1
+// preview equals every other sample of the 2^(n+1)+1 build), seamless windows of the world, and
+// the claim each preset makes about itself, as numbers.
+#include <gtest/gtest.h>
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+
+#include "relief/pipeline.hpp"
+#include "relief/recipe.hpp"
+
+using namespace relief;
+
+namespace {
+
+Recipe preset(const std::string& name, int size, std::uint64_t seed = 7) {
+  json doc = load_preset(name);
+  doc["world"]["size"] = size;
+  doc["seed"] = seed;
+  return parse_recipe(doc);
+}
+
+const std::vector<std::string> kCore = {"island", "hills", "mountains", "desert"};
+
+std::uint64_t fnv1a(const std::vector<float>& v) {
+  std::uint64_t h = 1469598103934665603ull;
+  const unsigned char* p = reinterpret_cast<const unsigned char*>(v.data());
+  for (std::size_t i = 0; i < v.size() * sizeof(float); ++i) h = (h ^ p[i]) * 1099511628211ull;
+  return h;
+}
+
+struct Stats {
+  double water = 0, border_water = 0, centre_land = 0, relief = 0, mean_slope = 0, p95_slope = 0;
+  double mean_sat = 0, mean_blue_excess = 0;
+};
+
+Stats stats(const RunResult& r) {
+  const Terrain& t = r.terrain;
+  const Frame& f = t.frame;
+  const auto& h = t.get("height").data;
+  Stats s;
+  std::size_t border = 0, centre = 0;
+  float lo = 1, hi = 0;
+  std::vector<double> slopes;
+  for (int j = 0; j < f.nz; ++j)
+    for (int i = 0; i < f.nx; ++i) {
+      const float e = h[std::size_t(j) * f.nx + i];
+      const bool sea = e < f.sea_level;
+      lo = std::min(lo, e), hi = std::max(hi, e);
+      s.water += sea;
+      if (i == 0 || j == 0 || i == f.nx - 1 || j == f.nz - 1) border++, s.border_water += sea;
+      const double dx = (i - (f.nx - 1) / 2.0) / ((f.nx - 1) / 2.0), dz = (j - (f.nz - 1) / 2.0) / ((f.nz - 1) / 2.0);
+      if (dx * dx + dz * dz < 0.3 * 0.3) centre++, s.centre_land += !sea;
+      if (i > 0 && j > 0 && !sea) {
+        const double gx = (e - h[std::size_t(j) * f.nx + i - 1]) * f.height_m / f.cell_m();
+        const double gz = (e - h[std::size_t(j - 1) * f.nx + i]) * f.height_m / f.cell_m();
+        slopes.push_back(std::atan(std::sqrt(gx * gx + gz * gz)) * 180 / M_PI);
+      }
+    }
+  s.water /= double(f.count());
+  s.border_water /= double(border);
+  s.centre_land /= double(std::max<std::size_t>(centre, 1));
+  s.relief = (hi - lo) * f.height_m;
+  if (!slopes.empty()) {
+    double sum = 0;
+    for (double x : slopes) sum += x;
+    s.mean_slope = sum / double(slopes.size());
+    std::nth_element(slopes.begin(), slopes.begin() + slopes.size() * 95 / 100, slopes.end());
+    s.p95_slope = slopes[slopes.size() * 95 / 100];
+  }
+  const auto& c = t.get("albedo").data;
+  for (std::size_t k = 0; k < f.count(); ++k) {
+    const float R = c[3 * k], G = c[3 * k + 1], B = c[3 * k + 2];
+    s.mean_blue_excess += B - std::max(R, G);
+  }
+  s.mean_blue_excess /= double(f.count());
+  return s;
+}
+
+}  // namespace
+
+TEST(Pipeline, SameSeedSameBytesForAnyThreadCount) {
+  for (const auto& name : kCore) {
+    Recipe r = preset(name, 129);
+    std::map<std::string, std::uint64_t> ref;
+    for (int threads : {1, 2, 3, 7}) {
+      RunOptions o;
+      o.threads = threads;
+      RunResult res = run(r, o);
+      for (auto& [lname, layer] : res.terrain.layers) {
+        auto h = fnv1a(layer.data);
+        if (threads == 1) ref[lname] = h;
+        else EXPECT_EQ(h, ref[lname]) << name << " layer " << lname << " threads " << threads;
+      }
+    }
+    EXPECT_FALSE(ref.empty());
+  }
+}
+
+TEST(Pipeline, DifferentSeedsDiffer) {
+  for (const auto& name : kCore) {
+    auto a = run(preset(name, 65, 1)).terrain.get("height").data;
+    auto b = run(preset(name, 65, 2)).terrain.get("height").data;
+    EXPECT_NE(a, b) << name;
+  }
+}
+
+TEST(Pipeline, NoSeedDrawsOneAndReportsIt) {
+  json doc = load_preset("island");
+  doc["world"]["size"] = 33;
+  Recipe r = parse_recipe(doc);
+  RunResult a = run(r);
+  EXPECT_LE(a.seed, kMaxSeed);
+  Recipe again = r;
+  again.seed = a.seed;
+  EXPECT_EQ(run(again).terrain.get("height").data, a.terrain.get("height").data);
+}
+
+TEST(Pipeline, PreviewEqualsEveryOtherSampleOfBuild) {
+  for (const auto& name : kCore) {
+    RunResult p = run(preset(name, 257)), b = run(preset(name, 513));
+    const auto& hp = p.terrain.get("height").data;
+    const auto& hb = b.terrain.get("height").data;
+    std::size_t mismatches = 0;
+    for (int j = 0; j < 257; ++j)
+      for (int i = 0; i < 257; ++i)
+        mismatches += hp[std::size_t(j) * 257 + i] != hb[std::size_t(2 * j) * 513 + 2 * i];
+    EXPECT_EQ(mismatches, 0u) << name;
+  }
+}
+
+TEST(Pipeline, NeighbouringWindowsAreSeamless) {
+  for (const auto& name : kCore) {
+    Recipe r = preset(name, 257);
+    const Frame world = r.world.frame();
+    RunResult whole = run(r);
+    // Four windows of 129×129 samples sharing their borders.
+    for (int wz = 0; wz < 2; ++wz)
+      for (int wx = 0; wx < 2; ++wx) {
+        RunOptions o;
+        o.window = world.window(wx * 128, wz * 128, 129, 129);
+        RunResult part = run(r, o);
+        const auto& hp = part.terrain.get("height").data;
+        const auto& hw = whole.terrain.get("height").data;
+        std::size_t mismatches = 0;
+        for (int j = 0; j < 129; ++j)
+          for (int i = 0; i < 129; ++i)
+            mismatches += hp[std::size_t(j) * 129 + i] != hw[std::size_t(wz * 128 + j) * 257 + (wx * 128 + i)];
+        EXPECT_EQ(mismatches, 0u) << name << " window " << wx << "," << wz;
+      }
+  }
+}
+
+TEST(Pipeline, HeightsStayNormalised) {
+  for (const auto& name : list_presets()) {
+    if (name.origin != "built-in") continue;
+    RunResult r = run(preset(name.name, 129));
+    for (float e : r.terrain.get("height").data) {
+      ASSERT_GE(e, 0.0f) << name.name;
+      ASSERT_LE(e, 1.0f) << name.name;
+    }
+  }
+}
+
+// ---- each preset's claim, as a number (seeds 1..3, 257²) ----------------------------------
+
+TEST(PresetClaims, IslandHasWaterAllRoundAndLandInTheMiddle) {
+  for (std::uint64_t seed : {1, 2, 3}) {
+    Stats s = stats(run(preset("island", 257, seed)));
+    EXPECT_GE(s.border_water, 0.95) << "seed " << seed;
+    EXPECT_GE(s.centre_land, 0.7) << "seed " << seed;
+    EXPECT_GT(s.water, 0.3) << "seed " << seed;
+  }
+}
+
+TEST(PresetClaims, HillsHaveLittleWaterAndGentleSlopes) {
+  for (std::uint64_t seed : {1, 2, 3}) {
+    Stats s = stats(run(preset("hills", 257, seed)));
+    EXPECT_LE(s.water, 0.10) << "seed " << seed;
+    EXPECT_LE(s.p95_slope, 20.0) << "seed " << seed;
+    EXPECT_GE(s.mean_slope, 1.0) << "seed " << seed;  // not flat either
+  }
+}
+
+TEST(PresetClaims, MountainsHaveTheWidestReliefAndSteepestSlopes) {
+  for (std::uint64_t seed : {1, 2, 3}) {
+    Stats m = stats(run(preset("mountains", 257, seed)));
+    for (const char* other : {"island", "hills", "desert"}) {
+      Stats o = stats(run(preset(other, 257, seed)));
+      EXPECT_GT(m.relief, o.relief) << other << " seed " << seed;
+      EXPECT_GT(m.mean_slope, o.mean_slope) << other << " seed " << seed;
+      EXPECT_GT(m.p95_slope, o.p95_slope) << other << " seed " << seed;
+    }
+  }
+}
+
+TEST(PresetClaims, DesertIsDryAndHasAlmostNoWater) {
+  for (std::uint64_t seed : {1, 2, 3}) {
+    RunResult r = run(preset("desert", 257, seed));
+    Stats s = stats(r);
+    EXPECT_LE(s.water, 0.02) << "seed " << seed;
+    // Dry colours: red exceeds blue and green stays below red on average (sand, ochre), no blue cast.
+    const auto& c = r.terrain.get("albedo").data;
+    double red = 0, green = 0, blue = 0;
+    const std::size_t n = r.terrain.frame.count();
+    for (std::size_t k = 0; k < n; ++k) red += c[3 * k], green += c[3 * k + 1], blue += c[3 * k + 2];
+    EXPECT_GT(red / n, blue / n + 0.15) << "seed " << seed;
+    EXPECT_GT(red / n, green / n) << "seed " << seed;
+    EXPECT_LT(s.mean_blue_excess, 0.0);
+  }
+}

@@ -1,0 +1,241 @@
+// Recipe parsing, the parameter table, overrides and presets.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+
+#include "relief/recipe.hpp"
+
+using namespace relief;
+
+namespace {
+
+std::string error_of(const json& doc) {
+  try {
+    parse_recipe(doc);
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+json minimal() {
+  return json::parse(R"({"world": {"size": 33}, "stages": [{"stage": "noise", "octaves": 4}]})");
+}
+
+}  // namespace
+
+TEST(Recipe, DefaultsAreFilledIn) {
+  Recipe r = parse_recipe(minimal());
+  ASSERT_EQ(r.stages.size(), 1u);
+  json j = r.to_json();
+  EXPECT_EQ(j["stages"][0]["octaves"], 4);
+  EXPECT_EQ(j["stages"][0]["lacunarity"], 2.0);  // default from the table
+  EXPECT_EQ(j["world"]["size"], json::array({33, 33}));
+  EXPECT_FALSE(j.contains("seed"));
+}
+
+TEST(Recipe, ResolvedRecipeRoundTrips) {
+  json doc = minimal();
+  doc["seed"] = 99;
+  Recipe a = parse_recipe(doc);
+  Recipe b = parse_recipe(a.to_json());
+  EXPECT_EQ(a.to_json().dump(), b.to_json().dump());
+  EXPECT_EQ(*b.seed, 99u);
+}
+
+TEST(Recipe, OutOfRangeIntegerNamesFieldExpectedAndGot) {
+  json doc = minimal();
+  doc["stages"][0]["octaves"] = 40;
+  EXPECT_EQ(error_of(doc), "stages[0].octaves: expected an integer in 1..16, got 40");
+}
+
+TEST(Recipe, WrongTypeNamesField) {
+  json doc = minimal();
+  doc["stages"][0]["octaves"] = "six";
+  EXPECT_EQ(error_of(doc), "stages[0].octaves: expected an integer in 1..16, got \"six\"");
+  doc["stages"][0]["octaves"] = 4.5;
+  EXPECT_EQ(error_of(doc), "stages[0].octaves: expected an integer in 1..16, got 4.5");
+}
+
+TEST(Recipe, NonFiniteFloatIsRejected) {
+  // JSON has no NaN literal; nlohmann stores NaN from code, which is how a caller could pass it.
+  json doc = minimal();
+  doc["stages"][0]["lacunarity"] = std::nan("");
+  EXPECT_NE(error_of(doc).find("stages[0].lacunarity: expected a number in 1..4, got a non-finite value"), std::string::npos);
+}
+
+TEST(Recipe, UnknownStageSuggestsNearest) {
+  json doc = minimal();
+  doc["stages"][0]["stage"] = "noize";
+  std::string e = error_of(doc);
+  EXPECT_NE(e.find("stages[0].stage: unknown stage \"noize\" (did you mean 'noise'?)"), std::string::npos) << e;
+}
+
+TEST(Recipe, UnknownParameterSuggestsNearest) {
+  json doc = minimal();
+  doc["stages"][0]["octave"] = 3;
+  EXPECT_EQ(error_of(doc), "stages[0].octave: unknown parameter (did you mean 'octaves'?)");
+}
+
+TEST(Recipe, SeedRange) {
+  json doc = minimal();
+  doc["seed"] = -1;
+  EXPECT_EQ(error_of(doc), "seed: expected an integer in 0..9007199254740991, got -1");
+  doc["seed"] = 9007199254740992ull;
+  EXPECT_EQ(error_of(doc), "seed: expected an integer in 0..9007199254740991, got 9007199254740992");
+  doc["seed"] = 9007199254740991ull;
+  EXPECT_EQ(error_of(doc), "");
+}
+
+TEST(Recipe, WorldSizeValidation) {
+  json doc = minimal();
+  doc["world"]["size"] = 1;
+  EXPECT_EQ(error_of(doc), "world.size: expected an integer in 2..32769, got 1");
+  doc["world"]["size"] = json::array({65, 0});
+  EXPECT_EQ(error_of(doc), "world.size[1]: expected an integer in 2..32769, got 0");
+  doc["world"]["size"] = json::array({65, 33});
+  Recipe r = parse_recipe(doc);
+  Frame f = r.world.frame();
+  EXPECT_EQ(f.nx, 65);
+  EXPECT_EQ(f.nz, 33);
+  EXPECT_DOUBLE_EQ(f.depth_m(), r.world.width_m / 2);  // square cells, depth follows the aspect
+}
+
+TEST(Recipe, UnknownTopLevelKey) {
+  json doc = minimal();
+  doc["stagse"] = json::array();
+  EXPECT_EQ(error_of(doc), "stagse: unknown recipe key (did you mean 'stages'?)");
+}
+
+TEST(Recipe, MalformedJsonText) {
+  try {
+    parse_recipe_text("{\"stages\": [", "my.json");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("my.json is not valid JSON"), std::string::npos);
+  }
+}
+
+TEST(Override, SetsNestedFieldWithJsonValue) {
+  json doc = minimal();
+  apply_override(doc, "stages[0].octaves=8");
+  EXPECT_EQ(doc["stages"][0]["octaves"], 8);
+  apply_override(doc, "world.sea_level=0.25");
+  EXPECT_EQ(doc["world"]["sea_level"], 0.25);
+  apply_override(doc, "stages[0].basis=simplex");  // not JSON: taken as a string
+  EXPECT_EQ(doc["stages"][0]["basis"], "simplex");
+  apply_override(doc, "seed=12");
+  EXPECT_EQ(doc["seed"], 12);
+}
+
+TEST(Override, BadPathsAreErrors) {
+  json doc = minimal();
+  EXPECT_THROW(apply_override(doc, "stages[5].octaves=8"), Error);
+  EXPECT_THROW(apply_override(doc, "stages[x].octaves=8"), Error);
+  EXPECT_THROW(apply_override(doc, "octaves"), Error);
+  try {
+    apply_override(doc, "stages[3].octaves=1");
+  } catch (const Error& e) {
+    EXPECT_EQ(std::string(e.what()), "stages[3]: index out of range (there are 1)");
+  }
+}
+
+TEST(Override, ValueIsValidatedByTheTable) {
+  json doc = minimal();
+  apply_override(doc, "stages[0].octaves=40");
+  EXPECT_EQ(error_of(doc), "stages[0].octaves: expected an integer in 1..16, got 40");
+}
+
+TEST(ParamTable, ExplainJsonHasEveryField) {
+  const StageDef* d = find_stage("noise");
+  ASSERT_NE(d, nullptr);
+  json j = d->to_json();
+  bool found = false;
+  for (auto& p : j["params"])
+    if (p["name"] == "octaves") {
+      found = true;
+      EXPECT_EQ(p["type"], "int");
+      EXPECT_EQ(p["default"], 6);
+      EXPECT_EQ(p["min"], 1);
+      EXPECT_EQ(p["max"], 16);
+      EXPECT_FALSE(p["description"].get<std::string>().empty());
+    }
+  EXPECT_TRUE(found);
+}
+
+TEST(ParamTable, EveryStageParamHasDescriptionAndValidDefault) {
+  for (auto& d : stage_registry()) {
+    EXPECT_FALSE(d.summary.empty()) << d.name;
+    json obj = json::object();
+    for (auto& p : d.params) {
+      EXPECT_FALSE(p.description.empty()) << d.name << "." << p.name;
+      obj[p.name] = p.default_value;
+    }
+    // The defaults themselves must pass validation.
+    EXPECT_NO_THROW(d.parse(obj, "stages[0]")) << d.name;
+  }
+}
+
+TEST(Colors, HexAndArrayForms) {
+  Rgb a = read_color(json("#ff8000"), "c");
+  EXPECT_FLOAT_EQ(a.r, 1.0f);
+  EXPECT_FLOAT_EQ(a.g, 128 / 255.0f);
+  EXPECT_FLOAT_EQ(a.b, 0.0f);
+  EXPECT_EQ(write_color(a), "#ff8000");
+  Rgb b = read_color(json::array({0, 255, 10}), "c");
+  EXPECT_EQ(write_color(b), "#00ff0a");
+  EXPECT_THROW(read_color(json("#ff80"), "c"), Error);
+  EXPECT_THROW(read_color(json::array({0, 256, 0}), "c"), Error);
+}
+
+TEST(Presets, BuiltInsAreListedWithDescriptions) {
+  auto list = list_presets();
+  for (const char* name : {"island", "hills", "mountains", "desert"}) {
+    bool found = false;
+    for (auto& p : list)
+      if (p.name == name) {
+        found = true;
+        EXPECT_FALSE(p.description.empty()) << name;
+      }
+    EXPECT_TRUE(found) << name;
+  }
+  EXPECT_GE(list.size(), 5u);
+}
+
+TEST(Presets, EveryBuiltInParses) {
+  for (auto& p : list_presets()) {
+    if (p.origin != "built-in") continue;
+    EXPECT_NO_THROW(parse_recipe(load_preset(p.name))) << p.name;
+  }
+}
+
+TEST(Presets, UnknownPresetSuggestsNearest) {
+  try {
+    load_preset("islnd");
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.what()).find("did you mean 'island'?"), std::string::npos) << e.what();
+  }
+}
+
+TEST(Presets, UserFolderFromEnvironmentIsListedAndLoaded) {
+  auto dir = std::filesystem::temp_directory_path() / ("relief-presets-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(dir);
+  {
+    std::ofstream(dir / "my-valley.json") << R"({"description": "my own valley", "stages": [{"stage": "noise"}]})";
+  }
+  ::setenv("RELIEF_PRESETS", dir.c_str(), 1);
+  bool found = false;
+  for (auto& p : list_presets())
+    if (p.name == "my-valley") {
+      found = true;
+      EXPECT_EQ(p.description, "my own valley");
+      EXPECT_EQ(p.origin, (dir / "my-valley.json").string());
+    }
+  EXPECT_TRUE(found);
+  EXPECT_EQ(load_preset("my-valley")["description"], "my own valley");
+  ::unsetenv("RELIEF_PRESETS");
+  std::filesystem::remove_all(dir);
+}
