@@ -17,6 +17,7 @@
 #include "relief/output.hpp"
 #include "relief/pipeline.hpp"
 #include "relief/recipe.hpp"
+#include "relief/stage.hpp"
 
 namespace relief::cli {
 namespace {
@@ -155,6 +156,87 @@ int run_bench(const BenchSettings& s) {
         }
         e["peak_memory_bytes"] = peak_rss();
         print_row(e);
+        entries.push_back(e);
+      }
+    }
+  }
+
+  if (want("stages")) {
+    // Pointwise stages on a size² layer against a plain copy of that layer (the floor: one read
+    // and one write). The target is ≤ 2× the copy.
+    const int n = s.noise_size;
+    Terrain base;
+    base.frame = World{n, n, 4000.0, 600.0, 0.4}.frame();
+    {
+      json noise_doc = {{"stage", "noise"}, {"octaves", 4}};
+      auto st = find_stage("noise")->parse(noise_doc, "noise");
+      Context c;
+      c.seed = 1;
+      st->apply(base, c);
+    }
+    const std::vector<float> original = base.get("height").data;
+    std::vector<float> copy_dst(original.size());
+    for (int threads : s.threads) {
+      tbb::task_arena arena(threads);
+      // The copy is split into the same row blocks the stages use.
+      Sample copy = time_runs(s.runs, [&] {
+        arena.execute([&] {
+          detail::parallel_rows(n, [&](int j) {
+            std::copy_n(original.data() + std::size_t(j) * n, n, copy_dst.data() + std::size_t(j) * n);
+          }, 16);
+        });
+      });
+      json ce;
+      ce["name"] = "copy (floor)";
+      ce["size"] = json::array({n, n});
+      ce["threads"] = threads;
+      ce["median_ms"] = copy.median;
+      ce["min_ms"] = copy.min;
+      ce["max_ms"] = copy.max;
+      ce["msamples_per_s"] = double(n) * n / (copy.median * 1e3);
+      print_row(ce);
+      entries.push_back(ce);
+      const std::vector<json> cases = {
+          {{"stage", "redistribute"}, {"exponent", 1.4}},
+          {{"stage", "redistribute"}, {"exponent", 1.4}, {"land_only", true}},
+          {{"stage", "terrace"}, {"levels", 8}},
+          {{"stage", "terrace"}, {"mode", "smooth"}, {"levels", 8}},
+          {{"stage", "island"}, {"distance", "square_bump"}},
+          {{"stage", "island"}, {"distance", "euclidean2"}},
+          {{"stage", "island"}, {"distance", "hyperboloid"}},
+          {{"stage", "island"}, {"distance", "trig_product"}},
+          {{"stage", "island"}, {"distance", "squircle"}},
+          {{"stage", "island"}, {"distance", "circular"}, {"shaping", "subtract"}},
+          {{"stage", "curve"}, {"points", json::array({json::array({0, 0}), json::array({0.4, 0.2}), json::array({0.7, 0.8}), json::array({1, 1})})}},
+      };
+      for (const json& c : cases) {
+        auto st = find_stage(c["stage"].get<std::string>())->parse(c, "bench");
+        Terrain t = base;
+        Context ctx;
+        ctx.seed = 1;
+        std::vector<double> ms;
+        for (int r = 0; r <= s.runs; ++r) {
+          std::copy(original.begin(), original.end(), t.get("height").data.begin());
+          auto t0 = std::chrono::steady_clock::now();
+          arena.execute([&] { st->apply(t, ctx); });
+          if (r > 0) ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+        }
+        std::sort(ms.begin(), ms.end());
+        std::string name = c["stage"].get<std::string>();
+        for (auto it = c.begin(); it != c.end(); ++it)
+          if (it.key() != "stage" && it.key() != "points") name += " " + (it.value().is_string() ? it.value().get<std::string>() : it.key());
+        json e;
+        e["name"] = name;
+        e["size"] = json::array({n, n});
+        e["threads"] = threads;
+        e["median_ms"] = ms[ms.size() / 2];
+        e["min_ms"] = ms.front();
+        e["max_ms"] = ms.back();
+        e["msamples_per_s"] = double(n) * n / (ms[ms.size() / 2] * 1e3);
+        e["vs_copy"] = ms[ms.size() / 2] / copy.median;
+        std::printf("%-28s %6s %3d %10.2f %10.2f %10.2f %9.1f   %.2fx copy\n", name.c_str(), (std::to_string(n) + "²").c_str(),
+                    threads, ms[ms.size() / 2], ms.front(), ms.back(), e["msamples_per_s"].get<double>(), e["vs_copy"].get<double>());
+        std::fflush(stdout);
         entries.push_back(e);
       }
     }
