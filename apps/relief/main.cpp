@@ -11,7 +11,11 @@
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <mutex>
 #include <sstream>
+
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #include "bench.hpp"
 #include "relief/output.hpp"
@@ -158,17 +162,36 @@ int cmd_generate(const GenerateSettings& s) {
   wc.seed = res.seed;
   wc.recipe = recipe.to_json();
   wc.progress = [&](std::string_view what, double f) { prog(what, 0.7 + 0.3 * f); };
+  // Writers encode in parallel (each into its own memory output), then their files are merged
+  // in a fixed order, so the bytes never depend on scheduling.
   MemoryOutput mem;
   json write_ms = json::object();
   const WriterDef* report = nullptr;
+  std::vector<const WriterDef*> encoders;
   for (auto* w : writers) {
-    if (w->name == "report") {
-      report = w;
-      continue;
+    if (w->name == "report") report = w;
+    else encoders.push_back(w);
+  }
+  {
+    std::vector<MemoryOutput> outs(encoders.size());
+    std::vector<double> ms(encoders.size());
+    std::mutex progress_mutex;
+    wc.progress = [&](std::string_view what, double f) {
+      std::lock_guard<std::mutex> lock(progress_mutex);
+      prog(what, 0.7 + 0.2 * f);
+    };
+    tbb::task_arena arena(s.threads > 0 ? s.threads : tbb::task_arena::automatic);
+    arena.execute([&] {
+      tbb::parallel_for(std::size_t(0), encoders.size(), [&](std::size_t k) {
+        const auto t0 = std::chrono::steady_clock::now();
+        encoders[k]->write(res.terrain, wc, outs[k]);
+        ms[k] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+      });
+    });
+    for (std::size_t k = 0; k < encoders.size(); ++k) {
+      write_ms[encoders[k]->name] = ms[k];
+      for (auto& [name, bytes] : outs[k].files) mem.put(name, std::move(bytes));
     }
-    const auto t0 = std::chrono::steady_clock::now();
-    w->write(res.terrain, wc, mem);
-    write_ms[w->name] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
   }
   if (report) {
     json perf;
