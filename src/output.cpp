@@ -198,6 +198,12 @@ std::string encode_png_rgb8(const Layer& l, int nx, int nz) {
   return encode_png(px.data(), px.size(), nx, nz, 8, SPNG_COLOR_TYPE_TRUECOLOR);
 }
 
+std::string encode_png_rgb8(const std::uint8_t* rgb, int width, int height) {
+  if (width < 1 || height < 1)
+    throw Error("layer", "RGB PNG: invalid size " + std::to_string(width) + "x" + std::to_string(height));
+  return encode_png(rgb, std::size_t(width) * std::size_t(height) * 3, width, height, 8, SPNG_COLOR_TYPE_TRUECOLOR);
+}
+
 std::string encode_png_gray8(const Layer& l, int nx, int nz) {
   check_layer(l, nx, nz, 1, "8-bit PNG");
   std::vector<std::uint8_t> px(l.data.size());
