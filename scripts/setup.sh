@@ -1,12 +1,13 @@
 #!/usr/bin/env bash
 # Installs what Relief needs on Debian 12: apt-get only what is missing (idempotent).
-# Usage: scripts/setup.sh [--with-clients]   (clients: Blender, assimp, Tiled, Chromium — later issues)
+# Usage: scripts/setup.sh
 set -euo pipefail
 packages=(
   g++ cmake ninja-build pkg-config git
   libhwy-dev libtbb-dev nlohmann-json3-dev libcli11-dev libspng-dev
   libgtest-dev libgmock-dev libbenchmark-dev libnoise-dev
   python3-pil python3-numpy
+  tiled  # tmxrasterizer and `tiled --export-tileset`: the tilemap tests load our TMX/TMJ/TSX in Tiled
 )
 missing=()
 for p in "${packages[@]}"; do
