@@ -1,6 +1,6 @@
 #!/usr/bin/env bash
 # Installs what Relief needs on Debian 12: apt-get only what is missing (idempotent).
-# Usage: scripts/setup.sh
+# Usage: scripts/setup.sh [--with-clients]   (clients: Blender, assimp, Tiled, Chromium — later issues)
 set -euo pipefail
 packages=(
   g++ cmake ninja-build pkg-config git
