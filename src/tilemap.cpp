@@ -234,6 +234,10 @@ std::vector<float> periodic(int S, NoiseBasis basis, Fractal fractal, int octave
   return out;
 }
 
+// Lattice cells per tile for features of about `feature_px` pixels (at least 2): features keep
+// their size in pixels whatever the tile size, so a texture repeats less visibly in big tiles.
+double cells(int S, double feature_px) { return std::max(2.0, std::round(S / feature_px)); }
+
 // Texture of one type: relative brightness L(x, y) (about −1..1) and its amplitude, plus a tint.
 struct Texture {
   std::vector<float> L;  // S × S
@@ -247,14 +251,14 @@ Texture make_texture(Kind kind, int S, std::uint64_t seed) {
   switch (kind) {
     case Kind::Deep:
     case Kind::Water: {  // long horizontal swells with a few bright glints
-      auto a = periodic(S, NoiseBasis::Value, Fractal::Fbm, 2, 1, 4, seed);
-      auto b = periodic(S, NoiseBasis::Value, Fractal::Fbm, 2, 2, 6, seed + 1);
+      auto a = periodic(S, NoiseBasis::Value, Fractal::Fbm, 2, cells(S, 24), cells(S, 6), seed);
+      auto b = periodic(S, NoiseBasis::Value, Fractal::Fbm, 2, cells(S, 10), cells(S, 4), seed + 1);
       for (std::size_t i = 0; i < t.L.size(); ++i) t.L[i] = float(0.8 * a[i] + (b[i] > 0.45f ? 3.0 * (b[i] - 0.45) : 0.0));
       t.amp = kind == Kind::Deep ? 0.06 : 0.08;
       break;
     }
     case Kind::Sand: {  // fine grain and a few dark specks
-      auto a = periodic(S, NoiseBasis::Value, Fractal::Fbm, 2, 3, 3, seed);
+      auto a = periodic(S, NoiseBasis::Value, Fractal::Fbm, 2, cells(S, 5), cells(S, 5), seed);
       for (int y = 0; y < S; ++y)
         for (int x = 0; x < S; ++x) {
           const double r = px(x, y);
@@ -264,41 +268,46 @@ Texture make_texture(Kind kind, int S, std::uint64_t seed) {
       break;
     }
     case Kind::Grass: {  // soft patches with light and dark tufts
-      auto a = periodic(S, NoiseBasis::Perlin, Fractal::Fbm, 3, 2, 2, seed);
+      auto a = periodic(S, NoiseBasis::Perlin, Fractal::Fbm, 2, cells(S, 8), cells(S, 8), seed);
       for (int y = 0; y < S; ++y)
         for (int x = 0; x < S; ++x) {
           const double r = px(x, y);
-          t.L[std::size_t(y) * S + x] = float(a[std::size_t(y) * S + x] * 1.2 + (r > 0.9 ? 0.9 : r < 0.08 ? -0.9 : 0.0));
+          t.L[std::size_t(y) * S + x] = float(a[std::size_t(y) * S + x] * 0.8 + (r > 0.9 ? 0.9 : r < 0.08 ? -0.9 : 0.0));
         }
       t.amp = 0.09;
       break;
     }
     case Kind::Forest: {  // tree crowns of varied tone: bright centres, dark gaps between them
-      auto f1 = periodic(S, NoiseBasis::Cellular, Fractal::None, 1, 4, 4, seed, CellularReturn::F1);
-      auto id = periodic(S, NoiseBasis::Cellular, Fractal::None, 1, 4, 4, seed, CellularReturn::CellValue);
-      auto a = periodic(S, NoiseBasis::Value, Fractal::None, 1, 2, 2, seed + 2);
+      auto f1 = periodic(S, NoiseBasis::Cellular, Fractal::None, 1, cells(S, 8), cells(S, 8), seed, CellularReturn::F1);
+      auto id = periodic(S, NoiseBasis::Cellular, Fractal::None, 1, cells(S, 8), cells(S, 8), seed, CellularReturn::CellValue);
+      auto a = periodic(S, NoiseBasis::Value, Fractal::None, 1, cells(S, 12), cells(S, 12), seed + 2);
       for (std::size_t i = 0; i < t.L.size(); ++i) {
         const double d = 0.5 * (f1[i] + 1.0);  // distance to the crown's centre, 0..1 cells
         t.L[i] = float(0.8 - 2.2 * d * d + 0.45 * id[i] + 0.35 * a[i]);
       }
-      t.amp = 0.22;
-      break;
-    }
-    case Kind::Rock: {  // cracks along ridges, mottled faces
-      auto r = periodic(S, NoiseBasis::Perlin, Fractal::Ridged, 3, 2, 2, seed);
-      auto a = periodic(S, NoiseBasis::Value, Fractal::Fbm, 2, 3, 3, seed + 3);
-      for (std::size_t i = 0; i < t.L.size(); ++i) t.L[i] = float(0.5 * a[i] - (r[i] > 0.55f ? 1.4 * (r[i] - 0.55) / 0.45 : 0.0));
       t.amp = 0.18;
       break;
     }
+    case Kind::Rock: {  // angular plates split by cracks (Worley F2 − F1 is small along cell borders)
+      auto e = periodic(S, NoiseBasis::Cellular, Fractal::None, 1, cells(S, 11), cells(S, 11), seed, CellularReturn::F2MinusF1);
+      auto a = periodic(S, NoiseBasis::Value, Fractal::Fbm, 2, cells(S, 6), cells(S, 6), seed + 3);
+      auto w = periodic(S, NoiseBasis::Value, Fractal::None, 1, cells(S, 12), cells(S, 12), seed + 4);
+      for (std::size_t i = 0; i < t.L.size(); ++i) {
+        const double d = 0.5 * (e[i] + 1.0);  // F2 − F1 in cells
+        const double crack = std::max(0.0, 1.0 - d / 0.08) * std::clamp(0.3 + w[i], 0.0, 1.0);  // some cracks fade out
+        t.L[i] = float(0.6 * a[i] + 0.6 * std::min(d, 0.5) - 1.1 * crack);
+      }
+      t.amp = 0.16;
+      break;
+    }
     case Kind::Snow: {
-      auto a = periodic(S, NoiseBasis::Perlin, Fractal::Fbm, 2, 2, 1, seed);
+      auto a = periodic(S, NoiseBasis::Perlin, Fractal::Fbm, 2, cells(S, 16), cells(S, 24), seed);
       for (std::size_t i = 0; i < t.L.size(); ++i) t.L[i] = a[i];
       t.amp = 0.04;
       break;
     }
     case Kind::Plain: {
-      auto a = periodic(S, NoiseBasis::Perlin, Fractal::Fbm, 3, 2, 2, seed);
+      auto a = periodic(S, NoiseBasis::Perlin, Fractal::Fbm, 2, cells(S, 10), cells(S, 10), seed);
       for (std::size_t i = 0; i < t.L.size(); ++i) t.L[i] = a[i];
       t.amp = 0.08;
       break;
