@@ -128,9 +128,14 @@ class ShapeEval {
     types_[n_++] = sh.favoured;
     for (int t : sorted)
       if (std::find(types_.begin(), types_.begin() + n_, t) == types_.begin() + n_) types_[n_++] = t;
-    for (int q = 0; q < 4; ++q)
-      for (int m = 0; m < n_; ++m)
-        if (types_[m] == c[q]) owner_[q] = m;
+    for (int m = 0; m < n_; ++m) {
+      Owned& o = owned_[m];
+      for (int q = 0; q < 4; ++q)
+        if (c[q] == types_[m]) o.q[o.n++] = q;
+      if (o.n == 3)  // keep the one corner of another type in q[3]
+        for (int q = 0; q < 4; ++q)
+          if (c[q] != types_[m]) o.q[3] = q;
+    }
     saddle_ = is_saddle(sh.corners);
   }
 
@@ -138,20 +143,16 @@ class ShapeEval {
     const double sx = ax_.s[gx], sy = ax_.s[gy];
     const double cx = ax_.s[G_ - 1 - gx], cy = ax_.s[G_ - 1 - gy];  // 1 − s(x), 1 − s(y) by symmetry
     const std::array<double, 4> w{cx * cy, sx * cy, cx * sy, sx * sy};  // TL, TR, BL, BR
-    // Sum each type's weights smallest first: the same total whatever the corners' order.
-    std::array<std::array<double, 4>, 4> parts{};
-    std::array<int, 4> cnt{};
-    for (int q = 0; q < 4; ++q) parts[owner_[q]][cnt[owner_[q]]++] = w[q];
+    // A type's score is the sum of its corners' weights, written so that it does not depend on
+    // the corners' order (exactly the same numbers for a rotated tile): one corner w, two corners
+    // wa + wb (addition commutes), three corners 1 − w(the other corner), four corners 1.
     const double b = 16.0 * ax_.q[gx] * ax_.q[gy];
     Pick pk;
     pk.centre = b * b;
     std::array<double, 4> score{};
     for (int m = 0; m < n_; ++m) {
-      auto& v = parts[m];
-      std::sort(v.begin(), v.begin() + cnt[m]);
-      double sum = 0;
-      for (int e = 0; e < cnt[m]; ++e) sum += v[e];
-      score[m] = sum;
+      const Owned& o = owned_[m];
+      score[m] = o.n == 1 ? w[o.q[0]] : o.n == 2 ? w[o.q[0]] + w[o.q[1]] : o.n == 3 ? 1.0 - w[o.q[3]] : 1.0;
     }
     if (saddle_) score[0] += kBump * pk.centre;  // types_[0] is the favoured type
     int best = 0;
@@ -173,7 +174,11 @@ class ShapeEval {
   Axis ax_;
   int G_;
   std::array<int, 4> types_{};
-  std::array<int, 4> owner_{};
+  struct Owned {
+    int n = 0;                  // corners of this type
+    std::array<int, 4> q{};     // their indices (TL, TR, BL, BR = 0..3)
+  };
+  std::array<Owned, 4> owned_{};
   int n_ = 0;
   bool saddle_ = false;
 };
