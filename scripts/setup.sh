@@ -7,6 +7,7 @@ packages=(
   libhwy-dev libtbb-dev nlohmann-json3-dev libcli11-dev libspng-dev
   libgtest-dev libgmock-dev libbenchmark-dev libnoise-dev
   python3-pil python3-numpy
+  tiled  # tmxrasterizer and `tiled --export-tileset`: the tilemap tests load our TMX/TMJ/TSX in Tiled
 )
 missing=()
 for p in "${packages[@]}"; do

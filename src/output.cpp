@@ -82,7 +82,8 @@ void check_layer(const Layer& l, int nx, int nz, int channels, const char* what)
 // colour images are ~10 % larger than at 6. Level 9 is an order of magnitude slower for RGB.
 constexpr int kPngCompressionLevel = 4;
 
-std::string encode_png(const void* pixels, std::size_t len, int w, int h, int bit_depth, int color_type) {
+std::string encode_png(const void* pixels, std::size_t len, int w, int h, int bit_depth, int color_type,
+                       int filter_choice = SPNG_FILTER_CHOICE_ALL) {
   std::unique_ptr<spng_ctx, decltype(&spng_ctx_free)> ctx(spng_ctx_new(SPNG_CTX_ENCODER), &spng_ctx_free);
   if (!ctx) throw Error("output", "PNG encoder: out of memory");
   auto check = [](int r) {
@@ -90,6 +91,7 @@ std::string encode_png(const void* pixels, std::size_t len, int w, int h, int bi
   };
   check(spng_set_option(ctx.get(), SPNG_ENCODE_TO_BUFFER, 1));
   check(spng_set_option(ctx.get(), SPNG_IMG_COMPRESSION_LEVEL, kPngCompressionLevel));
+  check(spng_set_option(ctx.get(), SPNG_FILTER_CHOICE, filter_choice));
   spng_ihdr ihdr{};
   ihdr.width = std::uint32_t(w);
   ihdr.height = std::uint32_t(h);
@@ -196,6 +198,15 @@ std::string encode_png_rgb8(const Layer& l, int nx, int nz) {
   std::vector<std::uint8_t> px(l.data.size());
   for (std::size_t k = 0; k < px.size(); ++k) px[k] = to_u8(l.data[k]);
   return encode_png(px.data(), px.size(), nx, nz, 8, SPNG_COLOR_TYPE_TRUECOLOR);
+}
+
+std::string encode_png_rgb8(const std::uint8_t* rgb, int width, int height) {
+  if (width < 1 || height < 1)
+    throw Error("layer", "RGB PNG: invalid size " + std::to_string(width) + "x" + std::to_string(height));
+  // One SUB filter instead of the adaptive choice: measured on an 8192² tilemap render (libspng
+  // 0.7.3, level 4, one core) 715 ms and 6.67 MB against 1970 ms and 6.85 MB adaptive.
+  return encode_png(rgb, std::size_t(width) * std::size_t(height) * 3, width, height, 8, SPNG_COLOR_TYPE_TRUECOLOR,
+                    SPNG_FILTER_CHOICE_SUB);
 }
 
 std::string encode_png_gray8(const Layer& l, int nx, int nz) {

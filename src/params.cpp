@@ -16,6 +16,7 @@ const char* to_string(ParamType t) {
     case ParamType::Curve: return "curve";
     case ParamType::Levels: return "levels";
     case ParamType::Text: return "text";
+    case ParamType::IntList: return "int_list";
   }
   return "?";
 }
@@ -25,7 +26,8 @@ json ParamInfo::to_json() const {
   o["name"] = name;
   o["type"] = to_string(type);
   o["default"] = default_value;
-  if (type == ParamType::Int || type == ParamType::Float || type == ParamType::Curve || type == ParamType::Levels) {
+  if (type == ParamType::Int || type == ParamType::Float || type == ParamType::Curve || type == ParamType::Levels ||
+      type == ParamType::IntList) {
     o["min"] = min;
     o["max"] = max;
   }

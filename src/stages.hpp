@@ -12,5 +12,6 @@ StageDef curve();        // stage_shape.cpp: monotone cubic Hermite remap throug
 StageDef slope();        // stage_color.cpp: slope layers (seed 001's mean abs difference; degrees)
 StageDef colorize();     // stage_color.cpp: "color" stage — levels on elevation + slope rules
 StageDef hillshade();    // stage_color.cpp: hillshaded colour from albedo
+StageDef tilemap();      // stage_tilemap.cpp: inside-outside tile grid for the tilemap writer
 
 }  // namespace relief::stages

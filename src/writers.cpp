@@ -15,6 +15,7 @@
 
 #include "relief/error.hpp"
 #include "relief/output.hpp"
+#include "writer_defs.hpp"
 
 #ifndef RELIEF_VERSION
 #define RELIEF_VERSION "0.1.0"  // keep in step with project(VERSION) in CMakeLists.txt
@@ -296,6 +297,7 @@ std::vector<WriterDef> make_registry() {
                {"terrain.obj", "terrain.mtl"}, true, write_obj});
   w.push_back({"report", "report.json: version, seed, resolved recipe, timings and peak memory", {"report.json"}, true,
                write_report});
+  w.push_back(writers::tilemap());
   return w;
 }
 

@@ -23,6 +23,7 @@
 
 #include "relief/error.hpp"
 #include "relief/output.hpp"
+#include "relief/stage.hpp"
 
 #ifndef RELIEF_SYSTEM_PYTHON
 #define RELIEF_SYSTEM_PYTHON "/usr/bin/python3"
@@ -377,12 +378,12 @@ TEST(Writers, RegistryOrderAndFiles) {
   std::vector<std::string> names;
   for (auto& w : r) {
     names.push_back(w.name);
-    EXPECT_TRUE(w.in_default_set) << w.name;
+    EXPECT_EQ(w.in_default_set, w.name != "tilemap") << w.name;  // tilemap needs its stage
     EXPECT_FALSE(w.files.empty()) << w.name;
     EXPECT_FALSE(w.description.empty()) << w.name;
     EXPECT_TRUE(bool(w.write)) << w.name;
   }
-  EXPECT_EQ(names, (std::vector<std::string>{"heightmap", "color", "albedo", "obj", "report"}));
+  EXPECT_EQ(names, (std::vector<std::string>{"heightmap", "color", "albedo", "obj", "report", "tilemap"}));
   EXPECT_EQ(find_writer("obj"), &r[3]);
   EXPECT_EQ(find_writer("png"), nullptr);
 }
@@ -391,6 +392,8 @@ TEST(Writers, EachWriterWritesExactlyItsDeclaredFiles) {
   Terrain t = small_terrain();
   t.layers["color"] = colour_layer(5, 3, 1);
   t.layers["albedo"] = colour_layer(5, 3, 2);
+  // The tilemap writer encodes what the tilemap stage made.
+  find_stage("tilemap")->parse({{"stage", "tilemap"}, {"tiles_x", 3}, {"tiles_z", 2}, {"tile_size", 8}}, "stages[0]")->apply(t, {});
   for (auto& w : writer_registry()) {
     MemoryOutput out;
     w.write(t, {}, out);

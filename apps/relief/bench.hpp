@@ -10,10 +10,14 @@ struct BenchSettings {
   int peer_size = 1024;               // libnoise cases (slower): size², compared per sample
   std::vector<int> threads = {1, 2};  // thread counts to measure
   std::vector<int> preset_sizes = {1025, 4097};
-  std::vector<std::string> cases;     // "noise", "presets"; empty = all
+  std::vector<std::string> cases;     // "noise", "presets", "tilemap"; empty = all
   std::string json_path;
 };
 
 int run_bench(const BenchSettings& s);
+// The case groups `--cases` accepts.
+bool is_bench_group(const std::string& name);
+std::string bench_group_list();  // "noise, stages, …"
+
 
 }  // namespace relief::cli

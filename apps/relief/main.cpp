@@ -5,6 +5,7 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -38,6 +39,9 @@ struct GenerateSettings {
   bool seed_given = false;
   int threads = 0;
   bool quiet = false;
+  // Tilemap shortcuts: they set parameters of the recipe's "tilemap" stage (added when missing).
+  std::string tile_size;  // --tile-size N
+  std::string map_tiles;  // --map-tiles N or NxM
 };
 
 bool is_tty() { return isatty(fileno(stderr)) != 0; }
@@ -100,6 +104,44 @@ void parse_size(const std::string& text, json& doc) {
   doc["world"]["size"] = json::array({nx, nz});
 }
 
+bool formats_name(const std::string& formats, const std::string& name) {
+  std::stringstream ss(formats);
+  std::string item;
+  while (std::getline(ss, item, ','))
+    if (item == name) return true;
+  return false;
+}
+
+// --formats tilemap, --tile-size and --map-tiles: make sure the recipe has a "tilemap" stage and
+// write the flags into it, so that the stage's parameter table validates them. Returns the
+// stage's path ("stages[N]"), or "" when no tilemap is wanted.
+std::string apply_tilemap_shortcuts(const GenerateSettings& s, json& doc) {
+  const bool flags = !s.tile_size.empty() || !s.map_tiles.empty();
+  if (!flags && !formats_name(s.formats, "tilemap")) return "";
+  if (!doc.contains("stages") || !doc["stages"].is_array()) return "";  // parse_recipe reports it
+  json& st = doc["stages"];
+  std::size_t at = st.size();
+  for (std::size_t i = 0; i < st.size(); ++i)
+    if (st[i].is_object() && st[i].value("stage", json()) == "tilemap") at = i;
+  if (at == st.size()) st.push_back({{"stage", "tilemap"}});
+  json& stage = st[at];
+  auto number = [](const std::string& t, const std::string& flag, const std::string& text, const char* expect) {
+    if (t.empty() || t.size() > 9 || t.find_first_not_of("0123456789") != std::string::npos)
+      throw Error(flag, std::string("expected ") + expect + ", got \"" + text + "\"");
+    return std::stoll(t);
+  };
+  if (!s.tile_size.empty()) stage["tile_size"] = number(s.tile_size, "--tile-size", s.tile_size, "a tile size in pixels (e.g. 32)");
+  if (!s.map_tiles.empty()) {
+    const auto x = s.map_tiles.find_first_of("xX");
+    const char* expect = "N or NxM tiles (e.g. 128x128)";
+    const long long w = number(s.map_tiles.substr(0, x), "--map-tiles", s.map_tiles, expect);
+    const long long h = x == std::string::npos ? w : number(s.map_tiles.substr(x + 1), "--map-tiles", s.map_tiles, expect);
+    stage["tiles_x"] = w;
+    stage["tiles_z"] = h;
+  }
+  return "stages[" + std::to_string(at) + "]";
+}
+
 int cmd_generate(const GenerateSettings& s) {
   const auto t_start = std::chrono::steady_clock::now();
   json doc = read_recipe_doc(s);
@@ -110,8 +152,21 @@ int cmd_generate(const GenerateSettings& s) {
       throw Error("--seed", "expected an integer in 0..9007199254740991, got " + std::to_string(s.seed));
     doc["seed"] = s.seed;
   }
+  const std::string tilemap_stage = apply_tilemap_shortcuts(s, doc);
   for (auto& a : s.sets) apply_override(doc, a);
-  Recipe recipe = parse_recipe(doc);
+  Recipe recipe;
+  try {
+    recipe = parse_recipe(doc);
+  } catch (const Error& e) {
+    // A bad value that came from a tilemap flag: name the flag as well as the field.
+    const std::string& p = e.path();
+    const std::string field = tilemap_stage.empty() || p.rfind(tilemap_stage + ".", 0) != 0 ? "" : p.substr(tilemap_stage.size() + 1);
+    const char* flag = field == "tile_size" && !s.tile_size.empty() ? "--tile-size"
+                       : (field == "tiles_x" || field == "tiles_z") && !s.map_tiles.empty() ? "--map-tiles"
+                                                                                            : nullptr;
+    if (flag) throw Error(std::string(flag) + " (" + p + ")", std::string(e.what()).substr(p.size() + 2));
+    throw;
+  }
 
   // Writers: validated before any work is done.
   std::vector<const WriterDef*> writers;
@@ -136,6 +191,9 @@ int cmd_generate(const GenerateSettings& s) {
     }
     if (writers.empty()) throw Error("--formats", "expected at least one format, got \"" + s.formats + "\"");
   }
+  // The tilemap flags imply the tilemap writer.
+  if (!tilemap_stage.empty() && std::find_if(writers.begin(), writers.end(), [](auto* w) { return w->name == "tilemap"; }) == writers.end())
+    writers.push_back(find_writer("tilemap"));
   bool with_mesh = false, with_albedo = false;
   for (auto* w : writers) with_mesh = with_mesh || w->name == "obj", with_albedo = with_albedo || w->name == "albedo";
   // terrain.mtl references albedo.png: an OBJ is never written without its texture.
@@ -323,6 +381,10 @@ int main(int argc, char** argv) {
       ->check(CLI::Range(0, 1024));
   gen->add_option("--save-recipe", gs.save_recipe, "Write the fully resolved recipe (defaults and seed) to FILE");
   gen->add_flag("--quiet,-q", gs.quiet, "Print nothing but errors");
+  gen->add_option("--tile-size", gs.tile_size,
+                  "Tilemap: tile size in pixels (16, 32, 64 …); sets the tilemap stage's tile_size and implies --formats tilemap");
+  gen->add_option("--map-tiles", gs.map_tiles,
+                  "Tilemap: tiles across and down, N or NxM (e.g. 128x128); sets tiles_x/tiles_z of the tilemap stage");
 
   bool presets_json = false;
   auto* pre = app.add_subcommand("presets", "List presets: built-in, then $RELIEF_PRESETS folders and ~/.config/relief/presets");
@@ -342,7 +404,7 @@ int main(int argc, char** argv) {
   ben->add_option("--peer-size", bs.peer_size, "libnoise cases evaluate size² samples (compared per sample)")->check(CLI::Range(16, 16384))->capture_default_str();
   ben->add_option("--threads", bench_threads, "Comma-separated thread counts")->capture_default_str();
   ben->add_option("--preset-sizes", bench_sizes, "Comma-separated preset sizes")->capture_default_str();
-  ben->add_option("--cases", bench_cases, "Comma-separated groups: noise, stages, presets (default: all)");
+  ben->add_option("--cases", bench_cases, "Comma-separated groups: " + cli::bench_group_list() + " (default: all)");
   ben->add_option("--json", bs.json_path, "Also write the results as JSON to FILE");
 
   try {
@@ -382,8 +444,7 @@ int main(int argc, char** argv) {
       std::stringstream ss(bench_cases);
       std::string c;
       while (std::getline(ss, c, ',')) {
-        if (c != "noise" && c != "presets" && c != "stages")
-          throw Error("--cases", "expected noise, stages or presets, got \"" + c + "\"");
+        if (!cli::is_bench_group(c)) throw Error("--cases", "expected one of " + cli::bench_group_list() + ", got \"" + c + "\"");
         bs.cases.push_back(c);
       }
       return cli::run_bench(bs);

@@ -69,6 +69,9 @@ const WriterDef* find_writer(std::string_view name);
 std::string encode_png_gray16(const Layer& l, int nx, int nz);
 // 8-bit RGB PNG of a three-channel layer in 0..1.
 std::string encode_png_rgb8(const Layer& l, int nx, int nz);
+// 8-bit RGB PNG of width × height pixels, 3 bytes per pixel, row-major (row 0 at the top). Uses the
+// SUB filter on every row (fast for large, flat-coloured images such as tilemap renders).
+std::string encode_png_rgb8(const std::uint8_t* rgb, int width, int height);
 // 8-bit greyscale PNG of a one-channel layer in 0..1.
 std::string encode_png_gray8(const Layer& l, int nx, int nz);
 // Little-endian unsigned 16-bit raw, same mapping as the PNG.

@@ -23,7 +23,7 @@ namespace relief {
 
 using json = nlohmann::ordered_json;
 
-enum class ParamType { Int, Float, Bool, Choice, Color, Curve, Levels, Text };
+enum class ParamType { Int, Float, Bool, Choice, Color, Curve, Levels, Text, IntList };
 // What a change to the parameter invalidates: the heights (regenerate) or only the colours.
 enum class Effect { Regenerate, Recolour };
 
@@ -179,6 +179,27 @@ Field<P> levels(std::vector<Level> P::*m, std::string name, double min, double m
   f.info.effect = effect;
   f.read = [m, min, max](P& p, const json& v, const std::string& path) { p.*m = read_levels(v, path, min, max); };
   f.write = [m](const P& p) { return write_levels(p.*m); };
+  return f;
+}
+
+// A list of integers, each in [min, max] (may be empty), e.g. [0, 0, 2, 3].
+template <class P>
+Field<P> int_list(std::vector<int> P::*m, std::string name, int min, int max, std::string description,
+                  Effect effect = Effect::Regenerate) {
+  Field<P> f;
+  f.info.name = std::move(name);
+  f.info.type = ParamType::IntList;
+  f.info.min = min;
+  f.info.max = max;
+  f.info.description = std::move(description);
+  f.info.effect = effect;
+  f.read = [m, min, max](P& p, const json& v, const std::string& path) {
+    if (!v.is_array()) throw Error(path, "expected a list of integers, got " + describe(v));
+    std::vector<int> out;
+    for (std::size_t k = 0; k < v.size(); ++k) out.push_back(int(read_int(v[k], path + "[" + std::to_string(k) + "]", min, max)));
+    p.*m = std::move(out);
+  };
+  f.write = [m](const P& p) { return json(p.*m); };
   return f;
 }
 

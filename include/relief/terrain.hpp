@@ -18,6 +18,7 @@
 #include <cstddef>
 #include <cstdint>
 #include <map>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -69,10 +70,14 @@ struct Point {
   double rotation_deg = 0, scale = 1;
 };
 
+struct TileMap;  // relief/tilemap.hpp
+
 struct Terrain {
   Frame frame;
   std::map<std::string, Layer> layers;
   std::vector<Point> points;
+  // Set by the "tilemap" stage: a tile grid of its own size (not a layer of the sample grid).
+  std::shared_ptr<const TileMap> tilemap;
 
   bool has(const std::string& name) const { return layers.count(name) != 0; }
   // Returns the layer, creating it (zero-filled) with `channels` channels if missing or if its
