@@ -12,5 +12,10 @@ StageDef curve();        // stage_shape.cpp: monotone cubic Hermite remap throug
 StageDef slope();        // stage_color.cpp: slope layers (seed 001's mean abs difference; degrees)
 StageDef colorize();     // stage_color.cpp: "color" stage — levels on elevation + slope rules
 StageDef hillshade();    // stage_color.cpp: hillshaded colour from albedo
+StageDef hydraulic();    // stage_erosion.cpp: droplet hydraulic erosion (global)
+StageDef thermal();      // stage_erosion.cpp: thermal erosion to a talus angle (global)
+StageDef fill();         // stage_erosion.cpp: Priority-Flood+ε depression filling (global)
+StageDef flow();         // stage_erosion.cpp: D8 flow, accumulation, rivers, lakes, water layer (global)
+StageDef stream_power(); // stage_erosion.cpp: stream-power uplift and incision (global)
 
 }  // namespace relief::stages

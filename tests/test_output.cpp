@@ -382,7 +382,7 @@ TEST(Writers, RegistryOrderAndFiles) {
     EXPECT_FALSE(w.description.empty()) << w.name;
     EXPECT_TRUE(bool(w.write)) << w.name;
   }
-  EXPECT_EQ(names, (std::vector<std::string>{"heightmap", "color", "albedo", "obj", "report"}));
+  EXPECT_EQ(names, (std::vector<std::string>{"heightmap", "color", "albedo", "obj", "rivers", "lakes", "report"}));
   EXPECT_EQ(find_writer("obj"), &r[3]);
   EXPECT_EQ(find_writer("png"), nullptr);
 }
@@ -391,6 +391,7 @@ TEST(Writers, EachWriterWritesExactlyItsDeclaredFiles) {
   Terrain t = small_terrain();
   t.layers["color"] = colour_layer(5, 3, 1);
   t.layers["albedo"] = colour_layer(5, 3, 2);
+  t.layer("flow", 1);  // rivers.json and lakes.json are written for recipes with a flow stage
   for (auto& w : writer_registry()) {
     MemoryOutput out;
     w.write(t, {}, out);
