@@ -680,3 +680,40 @@ TEST(ErosionRecipe, PreviewAndBuildAgree) {
                        std::sqrt((laa / m - la / m * la / m) * (lbb / m - lb / m * lb / m));
   EXPECT_GE(lcorr, 0.9);
 }
+
+// ================================================================================ presets
+
+TEST(ErosionPresets, ValleysBranchAndRiversReachTheSea) {
+#if defined(__SANITIZE_ADDRESS__)
+  const int size = 129;  // the same property, smaller, under the sanitizers
+#else
+  const int size = 257;
+#endif
+  for (const char* name : {"eroded-mountains", "river-island"}) {
+    json doc = load_preset(name);
+    doc["world"]["size"] = size;
+    doc["seed"] = 2;
+#if defined(__SANITIZE_ADDRESS__)
+    for (auto& s : doc["stages"])  // droplet counts follow the world's area, not the sample count
+      if (s["stage"] == "hydraulic") s["droplets_per_km2"] = 500;
+#endif
+    const Terrain t = run(parse_recipe(doc)).terrain;
+    int to_sea = 0, confluences = 0, max_order = 0;
+    for (const River& r : t.rivers) {
+      to_sea += r.end == "sea";
+      confluences += r.end == "river";
+      max_order = std::max(max_order, r.order);
+    }
+    EXPECT_GE(to_sea, 5) << name;
+    EXPECT_GE(confluences, 5) << name << ": a branching network, not parallel streams";
+    EXPECT_GE(max_order, 2) << name;
+    // Every land sample drains to the sea or the edge, or lies under a lake.
+    std::vector<float> z = t.get("height").data;
+    hydro::fill_depressions<float>(z.data(), t.frame.nx, t.frame.nz, float(t.frame.sea_level), 0.0f);
+    const auto& h = t.get("height").data;
+    const auto& w = t.get("water").data;
+    std::size_t dry_pits = 0;
+    for (std::size_t c = 0; c < z.size(); ++c) dry_pits += z[c] > h[c] && w[c] < 1.0f;
+    EXPECT_EQ(dry_pits, 0u) << name << " (" << t.lakes.size() << " lakes)";
+  }
+}
