@@ -26,6 +26,8 @@ const std::vector<StageDef>& stage_registry() {
       stages::noise(),    stages::redistribute(), stages::terrace(), stages::island(),
       stages::curve(),    stages::slope(),        stages::colorize(), stages::hillshade(),
       stages::tilemap(),
+      stages::hydraulic(), stages::thermal(),     stages::fill(),     stages::flow(),
+      stages::stream_power(),
   };
   return all;
 }

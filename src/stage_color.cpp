@@ -119,6 +119,7 @@ struct ColorParams {
   double rock_max = 0.9;
   double variation = 0.04;
   double variation_scale_m = 20.0;
+  Rgb water_color = hex(0x3f7fb5);
 };
 
 // bands:    the colour of the first level with e ≤ at; above the last `at`, the last colour.
@@ -173,6 +174,12 @@ void apply_color(Terrain& t, const ColorParams& p, const Context& ctx) {
     const Layer& l = t.get("slope_deg");
     if (l.channels == 1 && l.data.size() == fr.count()) given_slope = &l;
   }
+  // Surface water from the "flow" stage (rivers and lakes, cover 0..1), painted over the levels.
+  const Layer* water = nullptr;
+  if (t.has("water")) {
+    const Layer& l = t.get("water");
+    if (l.channels == 1 && l.data.size() == fr.count()) water = &l;
+  }
   const bool gradient = p.mode == "gradient";
   // Salted by the recipe seed only (not the stage index), so inserting stages before `color`
   // does not change its speckle.
@@ -193,6 +200,10 @@ void apply_color(Terrain& t, const ColorParams& p, const Context& ctx) {
                        : Rgb{float(c.r + (p.rock_color.r - c.r) * w), float(c.g + (p.rock_color.g - c.g) * w),
                              float(c.b + (p.rock_color.b - c.b) * w)};
         }
+      }
+      if (water && water->data[k] > 0.0f) {
+        const float w = water->data[k];
+        c = Rgb{c.r + (p.water_color.r - c.r) * w, c.g + (p.water_color.g - c.g) * w, c.b + (p.water_color.b - c.b) * w};
       }
       double f = 1.0;
       if (p.variation > 0.0) f = 1.0 + p.variation * (2.0 * value_noise(vseed, fr.x_m(i), z, p.variation_scale_m) - 1.0);
@@ -289,6 +300,8 @@ StageDef colorize() {
       param(&P::variation, "variation", 0.0, 0.2, "",
             "Brightness speckle amplitude: colour × (1 ± variation) from world-space value noise", R),
       param(&P::variation_scale_m, "variation_scale_m", 1.0, 10000.0, "m", "Feature size of the speckle noise", R),
+      color(&P::water_color, "water_color",
+            "Colour of rivers and lakes from a 'flow' stage earlier in the recipe (layer 'water', blended by cover)"),
   }};
   return make_stage<P>("color",
                        "Colour by elevation levels, with rock on steep ground; writes 'albedo' (3 channels)",

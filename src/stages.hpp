@@ -13,5 +13,10 @@ StageDef slope();        // stage_color.cpp: slope layers (seed 001's mean abs d
 StageDef colorize();     // stage_color.cpp: "color" stage — levels on elevation + slope rules
 StageDef hillshade();    // stage_color.cpp: hillshaded colour from albedo
 StageDef tilemap();      // stage_tilemap.cpp: inside-outside tile grid for the tilemap writer
+StageDef hydraulic();    // stage_erosion.cpp: droplet hydraulic erosion (global)
+StageDef thermal();      // stage_erosion.cpp: thermal erosion to a talus angle (global)
+StageDef fill();         // stage_erosion.cpp: Priority-Flood+ε depression filling (global)
+StageDef flow();         // stage_erosion.cpp: D8 flow, accumulation, rivers, lakes, water layer (global)
+StageDef stream_power(); // stage_erosion.cpp: stream-power uplift and incision (global)
 
 }  // namespace relief::stages

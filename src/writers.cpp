@@ -16,6 +16,7 @@
 #include "relief/error.hpp"
 #include "relief/output.hpp"
 #include "writer_defs.hpp"
+#include "writers_water.hpp"
 
 #ifndef RELIEF_VERSION
 #define RELIEF_VERSION "0.1.0"  // keep in step with project(VERSION) in CMakeLists.txt
@@ -295,6 +296,7 @@ std::vector<WriterDef> make_registry() {
                }});
   w.push_back({"obj", "Wavefront OBJ mesh (Y up, metres) with normals and UVs, plus its MTL using albedo.png",
                {"terrain.obj", "terrain.mtl"}, true, write_obj});
+  for (auto& ww : water_writers()) w.push_back(std::move(ww));
   w.push_back({"report", "report.json: version, seed, resolved recipe, timings and peak memory", {"report.json"}, true,
                write_report});
   w.push_back(writers::tilemap());

@@ -383,7 +383,7 @@ TEST(Writers, RegistryOrderAndFiles) {
     EXPECT_FALSE(w.description.empty()) << w.name;
     EXPECT_TRUE(bool(w.write)) << w.name;
   }
-  EXPECT_EQ(names, (std::vector<std::string>{"heightmap", "color", "albedo", "obj", "report", "tilemap"}));
+  EXPECT_EQ(names, (std::vector<std::string>{"heightmap", "color", "albedo", "obj", "rivers", "lakes", "report", "tilemap"}));
   EXPECT_EQ(find_writer("obj"), &r[3]);
   EXPECT_EQ(find_writer("png"), nullptr);
 }
@@ -394,6 +394,7 @@ TEST(Writers, EachWriterWritesExactlyItsDeclaredFiles) {
   t.layers["albedo"] = colour_layer(5, 3, 2);
   // The tilemap writer encodes what the tilemap stage made.
   find_stage("tilemap")->parse({{"stage", "tilemap"}, {"tiles_x", 3}, {"tiles_z", 2}, {"tile_size", 8}}, "stages[0]")->apply(t, {});
+  t.layer("flow", 1);  // rivers.json and lakes.json are written for recipes with a flow stage
   for (auto& w : writer_registry()) {
     MemoryOutput out;
     w.write(t, {}, out);

@@ -12,6 +12,8 @@
 #include <fstream>
 #include <libnoise/noise.h>
 
+#include "../../src/erosion.hpp"
+#include "../../src/hydrology.hpp"
 #include "../../src/parallel.hpp"
 #include "relief/noise.hpp"
 #include "relief/output.hpp"
@@ -25,22 +27,37 @@ namespace {
 
 struct Sample {
   double median = 0, min = 0, max = 0;
+  double cpu_median = 0;  // process CPU time (all threads) per run: the work, whatever the machine's load
 };
+
+double cpu_ms() {
+  rusage u{};
+  getrusage(RUSAGE_SELF, &u);
+  return (double(u.ru_utime.tv_sec) + double(u.ru_stime.tv_sec)) * 1e3 +
+         (double(u.ru_utime.tv_usec) + double(u.ru_stime.tv_usec)) * 1e-3;
+}
+
+double median_of(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+}
 
 template <class F>
 Sample time_runs(int runs, F&& f) {
-  std::vector<double> ms;
+  std::vector<double> ms, cpu;
   f();  // warm-up: page faults, caches, lazy init
   for (int r = 0; r < runs; ++r) {
+    const double c0 = cpu_ms();
     auto t0 = std::chrono::steady_clock::now();
     f();
     ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    cpu.push_back(cpu_ms() - c0);
   }
-  std::sort(ms.begin(), ms.end());
   Sample s;
-  s.min = ms.front();
-  s.max = ms.back();
-  s.median = ms.size() % 2 ? ms[ms.size() / 2] : 0.5 * (ms[ms.size() / 2 - 1] + ms[ms.size() / 2]);
+  s.min = *std::min_element(ms.begin(), ms.end());
+  s.max = *std::max_element(ms.begin(), ms.end());
+  s.median = median_of(ms);
+  s.cpu_median = median_of(cpu);
   return s;
 }
 
@@ -61,7 +78,7 @@ struct NoiseCase {
 }  // namespace
 
 namespace {
-const std::vector<std::string> kGroups = {"noise", "stages", "presets", "tilemap"};
+const std::vector<std::string> kGroups = {"noise", "stages", "presets", "tilemap", "erosion"};
 }
 
 bool is_bench_group(const std::string& name) {
@@ -80,6 +97,7 @@ int run_bench(const BenchSettings& s) {
     std::printf("%-28s %6s %3d %10.2f %10.2f %10.2f %9.1f", e["name"].get<std::string>().c_str(),
                 (std::to_string(e["size"][0].get<int>()) + "²").c_str(), e["threads"].get<int>(), e["median_ms"].get<double>(),
                 e["min_ms"].get<double>(), e["max_ms"].get<double>(), e["msamples_per_s"].get<double>());
+    if (e.contains("cpu_median_ms")) std::printf("   cpu %10.2f ms (all threads)", e["cpu_median_ms"].get<double>());
     if (e.contains("peer")) {
       std::printf("   %-22s %9.1f  %7.1fx", e["peer"]["name"].get<std::string>().c_str(),
                   e["peer"]["msamples_per_s"].get<double>(), e["ratio"].get<double>());
@@ -374,6 +392,100 @@ int run_bench(const BenchSettings& s) {
     }
   }
 
+  if (want("erosion")) {
+    // Terrains: the island preset's fBm relief at the sizes, with the sea lowered so that
+    // almost every droplet starts on land.
+    auto terrain = [](int size) {
+      json doc = load_preset("island");
+      doc["world"]["size"] = size;
+      doc["world"]["sea_level"] = 0.05;
+      doc["seed"] = 1;
+      doc["stages"] = json::array({doc["stages"][0], doc["stages"][1]});
+      RunOptions o;
+      return run(parse_recipe(doc), o).terrain;
+    };
+    auto record = [&](const std::string& name, int size, int threads, const Sample& t, json extra) {
+      json e;
+      e["name"] = name;
+      e["size"] = json::array({size, size});
+      e["threads"] = threads;
+      e["median_ms"] = t.median;
+      e["min_ms"] = t.min;
+      e["max_ms"] = t.max;
+      e["msamples_per_s"] = double(size) * size / (t.median * 1e3);
+      e["cpu_median_ms"] = t.cpu_median;
+      for (auto it = extra.begin(); it != extra.end(); ++it) e[it.key()] = it.value();
+      e["peak_memory_bytes"] = peak_rss();
+      print_row(e);
+      entries.push_back(e);
+    };
+    const int n = s.erosion_size;
+    const Terrain base = terrain(n);
+    const Frame& f = base.frame;
+    const std::vector<float>& h0 = base.get("height").data;
+    std::vector<float> h(h0.size()), next(h0.size()), scratch(h0.size());
+    for (int threads : s.threads) {
+      tbb::task_arena arena(threads);
+      // 1M droplets, brush radius 3 samples, lifetime 30 steps of one sample.
+      erosion::HydraulicSettings hs;
+      hs.brush_radius_m = 3 * f.cell_m();
+      hs.step_m = f.cell_m();
+      hs.lifetime = 30;
+      const double area_km2 = double(n - 1) * double(n - 1) * f.cell_m() * f.cell_m() * 1e-6;
+      std::size_t land = 0;
+      for (float v : h0) land += v >= f.sea_level;
+      hs.droplets_per_km2 = 1e6 / area_km2 * double(h0.size()) / double(std::max<std::size_t>(land, 1));
+      erosion::HydraulicStats hst;
+      Sample t = time_runs(s.runs, [&] {
+        h = h0;
+        arena.execute([&] { hst = erosion::hydraulic_erosion(h.data(), f, hs, 1); });
+      });
+      record("hydraulic 1M droplets r3 l30", n, threads, t, {{"droplets", hst.droplets}});
+      // Thermal: 20 iterations per run, reported per iteration.
+      constexpr int kIter = 20;
+      t = time_runs(s.runs, [&] {
+        h = h0;
+        arena.execute([&] {
+          for (int it = 0; it < kIter; ++it) {
+            erosion::thermal_iteration(h.data(), next.data(), scratch.data(), f, 30.0, 0.5);
+            h.swap(next);
+          }
+        });
+      });
+      t.median /= kIter, t.min /= kIter, t.max /= kIter, t.cpu_median /= kIter;
+      record("thermal, per iteration", n, threads, t, json::object());
+      // Stream power, 100 steps.
+      erosion::StreamPowerSettings sp;
+      sp.steps = 100;
+      sp.duration_years = 1e6;
+      sp.k = 1e-5;
+      sp.uplift_mm_per_year = 2.0;
+      t = time_runs(std::max(3, s.runs / 2 + 1), [&] {
+        h = h0;
+        arena.execute([&] { erosion::stream_power(h.data(), f, sp); });
+      });
+      record("stream power 100 steps", n, threads, t, json::object());
+    }
+    // Priority-Flood+ε, D8 and accumulation at the flood size.
+    const int m = s.flood_size;
+    const Terrain big = terrain(m);
+    const std::vector<float>& b0 = big.get("height").data;
+    std::vector<float> b(b0.size());
+    std::vector<std::uint32_t> rec(b0.size()), order, count(b0.size());
+    for (int threads : s.threads) {
+      tbb::task_arena arena(threads);
+      const float sea = float(big.frame.sea_level);
+      Sample t = time_runs(std::max(3, s.runs / 2 + 1), [&] {
+        b = b0;
+        arena.execute([&] {
+          hydro::fill_depressions<float>(b.data(), m, m, sea, 0.0f);
+          hydro::d8_receivers<float>(b.data(), m, m, sea, rec.data());
+          hydro::flow_order(rec.data(), b.size(), order, count.data());
+        });
+      });
+      record("fill + d8 + accumulation", m, threads, t, json::object());
+    }
+  }
   std::printf("peak memory %.1f MiB\n", double(peak_rss()) / (1 << 20));
   if (!s.json_path.empty()) {
     json doc;

@@ -10,7 +10,9 @@ struct BenchSettings {
   int peer_size = 1024;               // libnoise cases (slower): size², compared per sample
   std::vector<int> threads = {1, 2};  // thread counts to measure
   std::vector<int> preset_sizes = {1025, 4097};
-  std::vector<std::string> cases;     // "noise", "presets", "tilemap"; empty = all
+  int erosion_size = 1024;            // hydraulic, thermal and stream-power cases: size² samples
+  int flood_size = 4096;              // Priority-Flood + D8 + accumulation case: size² samples
+  std::vector<std::string> cases;     // see bench_group_list(); empty = all
   std::string json_path;
 };
 

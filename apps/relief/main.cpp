@@ -398,12 +398,16 @@ int main(int argc, char** argv) {
 
   cli::BenchSettings bs;
   std::string bench_threads = "1,2", bench_sizes = "1025,4097", bench_cases;
-  auto* ben = app.add_subcommand("bench", "Measure noise and whole presets (medians), with libnoise as the peer in the same run");
+  auto* ben = app.add_subcommand("bench", "Measure noise, erosion and whole presets (medians), with libnoise as the peer for noise");
   ben->add_option("--runs", bs.runs, "Timed runs per case (at least 5 for published figures)")->check(CLI::Range(1, 1000))->capture_default_str();
   ben->add_option("--noise-size", bs.noise_size, "Noise cases evaluate size² samples")->check(CLI::Range(16, 16384))->capture_default_str();
   ben->add_option("--peer-size", bs.peer_size, "libnoise cases evaluate size² samples (compared per sample)")->check(CLI::Range(16, 16384))->capture_default_str();
   ben->add_option("--threads", bench_threads, "Comma-separated thread counts")->capture_default_str();
   ben->add_option("--preset-sizes", bench_sizes, "Comma-separated preset sizes")->capture_default_str();
+  ben->add_option("--erosion-size", bs.erosion_size, "Droplet, thermal and stream-power cases use size² samples")
+      ->check(CLI::Range(16, 16384))->capture_default_str();
+  ben->add_option("--flood-size", bs.flood_size, "Priority-Flood + D8 + accumulation case uses size² samples")
+      ->check(CLI::Range(16, 32768))->capture_default_str();
   ben->add_option("--cases", bench_cases, "Comma-separated groups: " + cli::bench_group_list() + " (default: all)");
   ben->add_option("--json", bs.json_path, "Also write the results as JSON to FILE");
 

@@ -71,6 +71,28 @@ struct Point {
 };
 
 struct TileMap;  // relief/tilemap.hpp
+// A river polyline (written by the "flow" stage, read by the rivers.json writer). Vertices run
+// downstream, in world metres (y above the sea surface), each with the discharge through it and the
+// channel width derived from that discharge.
+struct RiverVertex {
+  double x_m = 0, y_m = 0, z_m = 0;
+  double discharge_m3s = 0, width_m = 0;
+};
+struct River {
+  int order = 1;            // Strahler order of the segment
+  std::string end;          // where its last vertex lies: "sea", "edge" or "river" (a confluence)
+  std::vector<RiverVertex> vertices;
+};
+
+// A lake: a depression kept with a flat water surface at its spill level (the "flow" stage).
+struct Lake {
+  double level_m = 0;                    // water surface, metres above the sea surface
+  double area_m2 = 0, volume_m3 = 0, max_depth_m = 0;
+  double x_m = 0, z_m = 0;               // centroid of the water surface
+  double x0_m = 0, z0_m = 0, x1_m = 0, z1_m = 0;  // bounding box of the lake's sample positions
+  double outlet_x_m = 0, outlet_z_m = 0; // the lake sample through which it drains
+  std::size_t samples = 0;
+};
 
 struct Terrain {
   Frame frame;
@@ -78,6 +100,8 @@ struct Terrain {
   std::vector<Point> points;
   // Set by the "tilemap" stage: a tile grid of its own size (not a layer of the sample grid).
   std::shared_ptr<const TileMap> tilemap;
+  std::vector<River> rivers;  // empty unless a stage traced rivers
+  std::vector<Lake> lakes;    // empty unless a stage kept lakes
 
   bool has(const std::string& name) const { return layers.count(name) != 0; }
   // Returns the layer, creating it (zero-filled) with `channels` channels if missing or if its

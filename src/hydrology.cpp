@@ -1,0 +1,288 @@
+// Grid hydrology: Priority-Flood+ε depression filling, D8 receivers, flow order and accumulation.
+//
+// Sources:
+//   * R. Barnes, C. Lehman, D. Mulla, "Priority-Flood: An optimal depression-filling and
+//     watershed-labeling algorithm for digital elevation models", Computers & Geosciences 62,
+//     2014 — Algorithm 3 (Priority-Flood+ε) and its plain FIFO "pit" queue for cells inside
+//     depressions.
+//   * G. Zhou, Z. Sun, S. Fu, "An efficient variant of the Priority-Flood algorithm for filling
+//     depressions in raster digital elevation models", Computers & Geosciences 90, 2016 — cells
+//     reached uphill of the flood front keep their elevation and are traversed at once; only cells
+//     bordering lower unvisited cells enter the priority queue.
+//   * R. K. Ahuja, K. Mehlhorn, J. Orlin, R. Tarjan, "Faster algorithms for the shortest path
+//     problem", J. ACM 37(2), 1990 — the radix heap: Priority-Flood pops non-decreasing levels, so
+//     a monotone integer queue keyed on the order-preserving bits of the float replaces the binary
+//     heap.
+//   * J. F. O'Callaghan, D. M. Mark, "The extraction of drainage networks from digital elevation
+//     data", CVGIP 28, 1984 — D8 steepest descent.
+//   * A. B. Kahn, "Topological sorting of large networks", CACM 5(11), 1962.
+#include "hydrology.hpp"
+
+#include <cmath>
+#include <cstring>
+#include <limits>
+
+#include "parallel.hpp"
+
+namespace relief::hydro {
+namespace {
+
+// Order-preserving unsigned key of a floating-point value (IEEE 754: flip all bits of negatives,
+// set the sign bit of positives), so that integer order equals numeric order.
+inline std::uint32_t order_key(float v) {
+  std::uint32_t u;
+  std::memcpy(&u, &v, sizeof u);
+  return (u >> 31) ? ~u : (u | 0x80000000u);
+}
+inline std::uint64_t order_key(double v) {
+  std::uint64_t u;
+  std::memcpy(&u, &v, sizeof u);
+  return (u >> 63) ? ~u : (u | 0x8000000000000000ull);
+}
+
+inline float from_key(std::uint32_t k) {
+  const std::uint32_t u = (k >> 31) ? (k & 0x7FFFFFFFu) : ~k;
+  float v;
+  std::memcpy(&v, &u, sizeof v);
+  return v;
+}
+inline double from_key(std::uint64_t k) {
+  const std::uint64_t u = (k >> 63) ? (k & 0x7FFFFFFFFFFFFFFFull) : ~k;
+  double v;
+  std::memcpy(&v, &u, sizeof v);
+  return v;
+}
+
+// Monotone radix heap: push keys ≥ the last popped key; pop returns a smallest key. Bucket b
+// holds keys whose highest bit differing from `last` is bit b − 1; bucket 0 holds keys equal to
+// `last` (popped last-in first-out, which is deterministic because the caller is sequential).
+template <class K>
+class RadixHeap {
+ public:
+  static constexpr int kBuckets = int(sizeof(K) * 8) + 1;
+  struct Entry {
+    K key;
+    std::uint32_t value;
+  };
+  bool empty() const { return size_ == 0; }
+  void push(K key, std::uint32_t value) {
+    buckets_[bucket(key)].push_back({key, value});
+    ++size_;
+  }
+  // The entry that pop() will return next, when it is already known (else nullptr): for prefetching.
+  const Entry* peek_ready() const { return buckets_[0].empty() ? nullptr : &buckets_[0].back(); }
+  Entry pop() {
+    if (buckets_[0].empty()) {
+      int b = 1;
+      while (buckets_[b].empty()) ++b;
+      K lo = buckets_[b][0].key;
+      for (const Entry& e : buckets_[b]) lo = e.key < lo ? e.key : lo;
+      last_ = lo;
+      for (const Entry& e : buckets_[b]) buckets_[bucket(e.key)].push_back(e);
+      buckets_[b].clear();
+    }
+    const Entry e = buckets_[0].back();
+    buckets_[0].pop_back();
+    --size_;
+    return e;
+  }
+
+ private:
+  int bucket(K key) const {
+    const K x = key ^ last_;
+    if (x == 0) return 0;
+    if constexpr (sizeof(K) == 4) return 32 - __builtin_clz(x);
+    else return 64 - __builtin_clzll(x);
+  }
+  std::vector<Entry> buckets_[kBuckets];
+  K last_ = 0;
+  std::size_t size_ = 0;
+};
+
+}  // namespace
+
+template <class T>
+void fill_depressions(T* z, int nx, int nz, T sea, T epsilon) {
+  const std::size_t n = std::size_t(nx) * std::size_t(nz);
+  if (n == 0) return;
+  using K = decltype(order_key(T()));
+  std::vector<std::uint8_t> closed(n, 0);
+  RadixHeap<K> open;
+  std::vector<std::uint32_t> trail;
+  std::size_t pit_head = 0;
+  std::ptrdiff_t off[8];
+  for (int k = 0; k < 8; ++k) off[k] = std::ptrdiff_t(kDj[k]) * nx + kDi[k];
+
+  // Outlets are closed from the start; those bordering other cells seed the flood.
+  for (int j = 0; j < nz; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const std::size_t c = std::size_t(j) * nx + i;
+      closed[c] = on_border(i, j, nx, nz) || z[c] < sea;
+    }
+  for (int j = 0; j < nz; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const std::size_t c = std::size_t(j) * nx + i;
+      if (!closed[c]) continue;
+      bool borders_land = false;
+      for (int k = 0; k < 8 && !borders_land; ++k) {
+        const int a = i + kDi[k], b = j + kDj[k];
+        if (a >= 0 && b >= 0 && a < nx && b < nz) borders_land = !closed[std::size_t(b) * nx + a];
+      }
+      if (borders_land) open.push(order_key(z[c]), std::uint32_t(c));
+    }
+
+  // Zhou's slope traversal from a freshly reached cell m whose level is final (z[m] unchanged):
+  // cells uphill of it are final too; a cell enters the queue only when it borders a lower or
+  // equal unvisited cell. Non-outlet cells are interior, so their neighbours are in bounds.
+  auto traverse = [&](std::uint32_t m) {
+    trail.push_back(m);
+    while (!trail.empty()) {
+      const std::uint32_t q = trail.back();
+      trail.pop_back();
+      const T zq = z[q];
+      bool boundary = false;
+      for (int k = 0; k < 8; ++k) {
+        const std::size_t r = std::size_t(std::ptrdiff_t(q) + off[k]);
+        if (closed[r]) continue;
+        if (z[r] > zq) {
+          closed[r] = 1;
+          trail.push_back(std::uint32_t(r));
+        } else {
+          boundary = true;
+        }
+      }
+      if (boundary) open.push(order_key(zq), q);
+    }
+  };
+
+  // Pit queue entries carry their level, so that popping does not reload it.
+  struct PitEntry {
+    T level;
+    std::uint32_t cell;
+  };
+  std::vector<PitEntry> pits;
+  for (;;) {
+    std::uint32_t c;
+    T lc;
+    if (pit_head < pits.size()) {
+      c = pits[pit_head].cell;
+      lc = pits[pit_head].level;
+      ++pit_head;
+    } else {
+      pits.clear();
+      pit_head = 0;
+      if (open.empty()) break;
+      const auto top = open.pop();
+      c = top.value;
+      lc = from_key(top.key);
+      if (const auto* next_top = open.peek_ready()) {  // its rows will be needed soon
+        const std::size_t q = next_top->value;
+        __builtin_prefetch(z + q - (q >= std::size_t(nx) ? nx : 0));
+        __builtin_prefetch(z + q + (q + nx < n ? nx : 0));
+        __builtin_prefetch(closed.data() + q - (q >= std::size_t(nx) ? nx : 0));
+        __builtin_prefetch(closed.data() + q + (q + nx < n ? nx : 0));
+      }
+    }
+    // Level of a cell filled from c: max(lc + ε, the next float above lc).
+    T next = from_key(K(order_key(lc) + 1));
+    if (!(next > lc)) next = from_key(K(order_key(lc) + 2));  // −0 → +0 is not a step
+    if (lc + epsilon > next) next = lc + epsilon;
+    const int i = int(c % std::uint32_t(nx)), j = int(c / std::uint32_t(nx));
+    const bool interior = !on_border(i, j, nx, nz);
+    for (int k = 0; k < 8; ++k) {
+      std::size_t m;
+      if (interior) {
+        m = std::size_t(std::ptrdiff_t(c) + off[k]);
+      } else {
+        const int a = i + kDi[k], b = j + kDj[k];
+        if (a < 0 || b < 0 || a >= nx || b >= nz) continue;
+        m = std::size_t(b) * nx + a;
+      }
+      if (closed[m]) continue;
+      closed[m] = 1;
+      if (z[m] < next) {  // inside a depression (or a flat): raise just above the cell it drains to
+        z[m] = next;
+        pits.push_back({next, std::uint32_t(m)});
+      } else {
+        traverse(std::uint32_t(m));
+      }
+    }
+  }
+}
+
+template <class T>
+void d8_receivers(const T* z, int nx, int nz, T sea, std::uint32_t* rec) {
+  // Drops are compared in T: straight neighbours by z_c − z_n, diagonal ones by (z_c − z_n)/√2.
+  const T inv_diag = T(1.0 / kDist[1]);
+  std::ptrdiff_t off[8];
+  for (int k = 0; k < 8; ++k) off[k] = std::ptrdiff_t(kDj[k]) * nx + kDi[k];
+  detail::parallel_rows(nz, [&](int j) {
+    const std::size_t row = std::size_t(j) * nx;
+    for (int i = 0; i < nx; ++i) rec[row + i] = std::uint32_t(row + i);
+    if (j == 0 || j == nz - 1) return;
+    for (int i = 1; i + 1 < nx; ++i) {
+      const std::size_t c = row + i;
+      const T zc = z[c];
+      if (zc < sea) continue;
+      T best = 0;
+      int bk = -1;
+      for (int k = 0; k < 8; ++k) {
+        T drop = zc - z[std::ptrdiff_t(c) + off[k]];
+        if (k & 1) drop *= inv_diag;
+        const bool better = drop > best;
+        best = better ? drop : best;
+        bk = better ? k : bk;
+      }
+      if (bk >= 0) rec[c] = std::uint32_t(std::ptrdiff_t(c) + off[bk]);
+    }
+  }, 16);
+}
+
+void flow_order(const std::uint32_t* rec, std::size_t n, std::vector<std::uint32_t>& order, std::uint32_t* count) {
+  // Donor counts (at most 8 in D8; 0xFF marks a cell already placed in the order).
+  std::vector<std::uint8_t> donors(n, 0);
+  for (std::size_t c = 0; c < n; ++c)
+    if (rec[c] != c) ++donors[rec[c]];
+  if (count)
+    for (std::size_t c = 0; c < n; ++c) count[c] = 1;
+  order.resize(n);
+  std::size_t w = 0;
+  for (std::size_t c = 0; c < n; ++c) {
+    if (donors[c] != 0) continue;
+    // A source: follow the chain downstream while each next cell has received all its donors.
+    std::uint32_t x = std::uint32_t(c);
+    for (;;) {
+      donors[x] = 0xFF;
+      order[w++] = x;
+      const std::uint32_t r = rec[x];
+      if (r == x) break;
+      if (count) count[r] += count[x];
+      if (--donors[r] != 0) break;
+      x = r;
+    }
+  }
+  order.resize(w);  // == n for an acyclic graph
+}
+
+template <class T>
+std::size_t count_pits(const T* z, int nx, int nz, T sea) {
+  std::size_t pits = 0;
+  for (int j = 1; j + 1 < nz; ++j)
+    for (int i = 1; i + 1 < nx; ++i) {
+      const std::size_t c = std::size_t(j) * nx + i;
+      if (z[c] < sea) continue;
+      bool lower = false;
+      for (int k = 0; k < 8 && !lower; ++k) lower = z[std::size_t(j + kDj[k]) * nx + std::size_t(i + kDi[k])] < z[c];
+      pits += !lower;
+    }
+  return pits;
+}
+
+template void fill_depressions<float>(float*, int, int, float, float);
+template void fill_depressions<double>(double*, int, int, double, double);
+template void d8_receivers<float>(const float*, int, int, float, std::uint32_t*);
+template void d8_receivers<double>(const double*, int, int, double, std::uint32_t*);
+template std::size_t count_pits<float>(const float*, int, int, float);
+template std::size_t count_pits<double>(const double*, int, int, double);
+
+}  // namespace relief::hydro

@@ -1,0 +1,55 @@
+#pragma once
+// Internal: grid hydrology shared by the erosion stages, the benchmarks and the tests.
+//
+// Index space: cell c = j·nx + i of an nx × nz grid (row-major, x fastest), the same as a Layer.
+// Neighbours are the 8 cells around c (D8). A cell is an *outlet* (base level) when it lies on the
+// border of the grid or below the sea (`z < sea`): water reaching an outlet leaves the map or
+// enters the sea. Everything here is sequential or row-parallel with per-cell arithmetic that does
+// not depend on scheduling, so results are identical for any thread count.
+#include <cstddef>
+#include <cstdint>
+#include <vector>
+
+namespace relief::hydro {
+
+// Neighbour k of 8 (E, SE, S, SW, W, NW, N, NE): offsets and distances in cells.
+inline constexpr int kDi[8] = {1, 1, 0, -1, -1, -1, 0, 1};
+inline constexpr int kDj[8] = {0, 1, 1, 1, 0, -1, -1, -1};
+inline constexpr double kDist[8] = {1.0, 1.4142135623730951, 1.0, 1.4142135623730951,
+                                    1.0, 1.4142135623730951, 1.0, 1.4142135623730951};
+
+inline bool on_border(int i, int j, int nx, int nz) { return i == 0 || j == 0 || i == nx - 1 || j == nz - 1; }
+
+// Priority-Flood+ε depression filling (Barnes, Lehman, Mulla 2014, Algorithm 3), with the slope
+// traversal of Zhou, Sun, Fu 2016 (cells met uphill of the flood front are final at once and only
+// enter the priority queue when they border lower unvisited cells) and a monotone radix heap
+// (Ahuja, Mehlhorn, Orlin, Tarjan 1990) keyed on the order-preserving bits of the elevation.
+//
+// `z` (nx·nz values, any finite values) is raised in place to the filled surface: outlets keep
+// their values; every other cell ends strictly above at least one neighbour through which it
+// drains, step by step, to an outlet. A cell filled inside a depression is raised to
+// max(level + epsilon, next representable value above level) of the cell it was reached from, so
+// flats get a gradient of at least `epsilon` (≥ 0, in the units of z) per cell towards the spill
+// point. Cells that are not in a depression are unchanged. nx, nz ≥ 1.
+template <class T>
+void fill_depressions(T* z, int nx, int nz, T sea, T epsilon);
+
+// D8 steepest descent: rec[c] = the neighbour with the largest drop / distance, if that drop is
+// > 0; rec[c] = c for outlets and for pits (no lower neighbour). Ties go to the first neighbour in
+// the order E, SE, S, SW, W, NW, N, NE. Row-parallel.
+template <class T>
+void d8_receivers(const T* z, int nx, int nz, T sea, std::uint32_t* rec);
+
+// A topological order of the flow graph, donors before receivers: every cell appears after all
+// cells that drain into it (Kahn 1962, following chains downstream from the sources). `rec` must
+// be acyclic apart from self-loops (true for receivers of d8_receivers). Fills `order` with all
+// n cells. If `count` is not null it receives the number of cells draining through each cell,
+// itself included (the drainage area in cells).
+void flow_order(const std::uint32_t* rec, std::size_t n, std::vector<std::uint32_t>& order,
+                std::uint32_t* count = nullptr);
+
+// Number of cells that are not outlets and have no strictly lower neighbour.
+template <class T>
+std::size_t count_pits(const T* z, int nx, int nz, T sea);
+
+}  // namespace relief::hydro
