@@ -163,7 +163,8 @@ int run_bench(const BenchSettings& s) {
 
   if (want("stages")) {
     // Pointwise stages on a size² layer against a plain copy of that layer (the floor: one read
-    // and one write). The target is ≤ 2× the copy.
+    // and one write). The target is ≤ 2× the copy. The colour passes (color, hillshade) write
+    // 3-channel layers and are compared with a copy of a 3-channel layer of the same size.
     const int n = s.noise_size;
     Terrain base;
     base.frame = World{n, n, 4000.0, 600.0, 0.4}.frame();
@@ -175,27 +176,40 @@ int run_bench(const BenchSettings& s) {
       st->apply(base, c);
     }
     const std::vector<float> original = base.get("height").data;
-    std::vector<float> copy_dst(original.size());
+    // hillshade reads an albedo: the colour stage's output on this height field.
+    Terrain coloured = base;
+    {
+      auto st = find_stage("color")->parse(json{{"stage", "color"}}, "color");
+      Context c;
+      c.seed = 1;
+      st->apply(coloured, c);
+    }
+    const std::vector<float> original3(std::size_t(3) * n * n, 0.5f);
+    std::vector<float> copy_dst(original.size()), copy_dst3(original3.size());
     for (int threads : s.threads) {
       tbb::task_arena arena(threads);
-      // The copy is split into the same row blocks the stages use.
-      Sample copy = time_runs(s.runs, [&] {
-        arena.execute([&] {
-          detail::parallel_rows(n, [&](int j) {
-            std::copy_n(original.data() + std::size_t(j) * n, n, copy_dst.data() + std::size_t(j) * n);
-          }, 16);
+      // The copies are split into the same row blocks the stages use.
+      auto time_copy = [&](const std::vector<float>& src, std::vector<float>& dst, int channels, const char* name) {
+        const std::size_t w = std::size_t(n) * channels;
+        Sample copy = time_runs(s.runs, [&] {
+          arena.execute([&] {
+            detail::parallel_rows(n, [&](int j) { std::copy_n(src.data() + j * w, w, dst.data() + j * w); });
+          });
         });
-      });
-      json ce;
-      ce["name"] = "copy (floor)";
-      ce["size"] = json::array({n, n});
-      ce["threads"] = threads;
-      ce["median_ms"] = copy.median;
-      ce["min_ms"] = copy.min;
-      ce["max_ms"] = copy.max;
-      ce["msamples_per_s"] = double(n) * n / (copy.median * 1e3);
-      print_row(ce);
-      entries.push_back(ce);
+        json ce;
+        ce["name"] = name;
+        ce["size"] = json::array({n, n});
+        ce["threads"] = threads;
+        ce["median_ms"] = copy.median;
+        ce["min_ms"] = copy.min;
+        ce["max_ms"] = copy.max;
+        ce["msamples_per_s"] = double(n) * n / (copy.median * 1e3);
+        print_row(ce);
+        entries.push_back(ce);
+        return copy.median;
+      };
+      const double copy1 = time_copy(original, copy_dst, 1, "copy (floor)");
+      const double copy3 = time_copy(original3, copy_dst3, 3, "copy 3 channels (floor)");
       const std::vector<json> cases = {
           {{"stage", "redistribute"}, {"exponent", 1.4}},
           {{"stage", "redistribute"}, {"exponent", 1.4}, {"land_only", true}},
@@ -208,10 +222,15 @@ int run_bench(const BenchSettings& s) {
           {{"stage", "island"}, {"distance", "squircle"}},
           {{"stage", "island"}, {"distance", "circular"}, {"shaping", "subtract"}},
           {{"stage", "curve"}, {"points", json::array({json::array({0, 0}), json::array({0.4, 0.2}), json::array({0.7, 0.8}), json::array({1, 1})})}},
+          {{"stage", "color"}, {"mode", "bands"}},
+          {{"stage", "color"}, {"mode", "gradient"}},
+          {{"stage", "hillshade"}},
       };
       for (const json& c : cases) {
-        auto st = find_stage(c["stage"].get<std::string>())->parse(c, "bench");
-        Terrain t = base;
+        const std::string stage = c["stage"].get<std::string>();
+        const bool colour = stage == "color" || stage == "hillshade";
+        auto st = find_stage(stage)->parse(c, "bench");
+        Terrain t = stage == "hillshade" ? coloured : base;
         Context ctx;
         ctx.seed = 1;
         std::vector<double> ms;
@@ -222,9 +241,10 @@ int run_bench(const BenchSettings& s) {
           if (r > 0) ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
         }
         std::sort(ms.begin(), ms.end());
-        std::string name = c["stage"].get<std::string>();
+        std::string name = stage;
         for (auto it = c.begin(); it != c.end(); ++it)
           if (it.key() != "stage" && it.key() != "points") name += " " + (it.value().is_string() ? it.value().get<std::string>() : it.key());
+        const double floor = colour ? copy3 : copy1;
         json e;
         e["name"] = name;
         e["size"] = json::array({n, n});
@@ -233,12 +253,55 @@ int run_bench(const BenchSettings& s) {
         e["min_ms"] = ms.front();
         e["max_ms"] = ms.back();
         e["msamples_per_s"] = double(n) * n / (ms[ms.size() / 2] * 1e3);
-        e["vs_copy"] = ms[ms.size() / 2] / copy.median;
-        std::printf("%-28s %6s %3d %10.2f %10.2f %10.2f %9.1f   %.2fx copy\n", name.c_str(), (std::to_string(n) + "²").c_str(),
-                    threads, ms[ms.size() / 2], ms.front(), ms.back(), e["msamples_per_s"].get<double>(), e["vs_copy"].get<double>());
+        e["vs_copy"] = ms[ms.size() / 2] / floor;
+        e["copy_channels"] = colour ? 3 : 1;
+        std::printf("%-28s %6s %3d %10.2f %10.2f %10.2f %9.1f   %.2fx copy%s\n", name.c_str(), (std::to_string(n) + "²").c_str(),
+                    threads, ms[ms.size() / 2], ms.front(), ms.back(), e["msamples_per_s"].get<double>(), e["vs_copy"].get<double>(),
+                    colour ? " (3 channels)" : "");
         std::fflush(stdout);
         entries.push_back(e);
       }
+    }
+  }
+
+  if (want("regenerate")) {
+    // What the studio does on a slider move: run() the island preset at 513², in memory, no
+    // writers. Target ≤ 15 ms. The per-stage medians show where the time goes.
+    json doc = load_preset("island");
+    doc["world"]["size"] = 513;
+    doc["seed"] = 1;
+    const Recipe r = parse_recipe(doc);
+    for (int threads : s.threads) {
+      RunOptions o;
+      o.threads = threads;
+      std::vector<std::vector<double>> stage_ms(r.stages.size());
+      Sample t = time_runs(s.runs, [&] {
+        RunResult res = run(r, o);
+        for (std::size_t k = 0; k < res.timings.size() && k < stage_ms.size(); ++k) stage_ms[k].push_back(res.timings[k].ms);
+      });
+      json e;
+      e["name"] = "island regenerate 513² in memory";
+      e["size"] = json::array({513, 513});
+      e["threads"] = threads;
+      e["median_ms"] = t.median;
+      e["min_ms"] = t.min;
+      e["max_ms"] = t.max;
+      e["msamples_per_s"] = 513.0 * 513.0 / (t.median * 1e3);
+      json per = json::array();
+      std::string line = "    stages:";
+      for (std::size_t k = 0; k < stage_ms.size(); ++k) {
+        auto& v = stage_ms[k];
+        std::sort(v.begin(), v.end());
+        const double med = v.empty() ? 0.0 : v[v.size() / 2];
+        per.push_back({{"stage", r.stages[k].def->name}, {"median_ms", med}});
+        char buf[64];
+        std::snprintf(buf, sizeof buf, " %s %.2f", r.stages[k].def->name.c_str(), med);
+        line += buf;
+      }
+      e["stages"] = per;
+      print_row(e);
+      std::printf("%s ms\n", line.c_str());
+      entries.push_back(e);
     }
   }
 
