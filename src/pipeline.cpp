@@ -39,6 +39,12 @@ RunResult run(const Recipe& r, const RunOptions& opt) {
   RunResult res;
   res.seed = r.seed ? *r.seed : random_seed();
   res.terrain.frame = opt.window ? *opt.window : r.world.frame();
+  if (opt.recycle && opt.recycle != &res.terrain) {
+    for (auto& [name, l] : opt.recycle->layers) res.terrain.spare.push_back(std::move(l.data));
+    for (auto& b : opt.recycle->spare) res.terrain.spare.push_back(std::move(b));
+    opt.recycle->layers.clear();
+    opt.recycle->spare.clear();
+  }
   const Frame& f = res.terrain.frame;
   if (f.nx < 2 || f.nz < 2) throw Error("world.size", "expected at least 2 samples per axis, got " +
                                                           std::to_string(f.nx) + "x" + std::to_string(f.nz));
@@ -109,6 +115,8 @@ RunResult run(const Recipe& r, const RunOptions& opt) {
       i = end;
     }
   });
+  res.terrain.spare.clear();  // unused spare buffers go back to the allocator
+  res.terrain.spare.shrink_to_fit();
   if (opt.progress) opt.progress("done", 1.0);
   res.total_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_all).count();
   return res;

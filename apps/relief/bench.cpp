@@ -10,6 +10,8 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <ctime>
+#include <utility>
 #include <libnoise/noise.h>
 
 #include "../../src/parallel.hpp"
@@ -24,23 +26,48 @@ namespace {
 
 struct Sample {
   double median = 0, min = 0, max = 0;
+  // Median process CPU time per run (all threads; with more than one thread it includes oneTBB's
+  // workers spinning briefly after the work). On a shared, loaded machine the 1-thread CPU time
+  // shows the work itself while wall time also holds the waits for a core.
+  double cpu_median = 0;
 };
 
-template <class F>
-Sample time_runs(int runs, F&& f) {
-  std::vector<double> ms;
-  f();  // warm-up: page faults, caches, lazy init
+double cpu_ms() {
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) * 1e3 + double(ts.tv_nsec) * 1e-6;
+}
+
+double median_of(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+}
+
+// Runs setup() then f() once to warm up (page faults, caches, lazy init), then `runs` timed f()
+// calls, each after an untimed setup().
+template <class F, class S>
+Sample time_runs(int runs, F&& f, S&& setup) {
+  std::vector<double> ms, cpu;
+  setup();
+  f();
   for (int r = 0; r < runs; ++r) {
+    setup();
+    const double c0 = cpu_ms();
     auto t0 = std::chrono::steady_clock::now();
     f();
     ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    cpu.push_back(cpu_ms() - c0);
   }
-  std::sort(ms.begin(), ms.end());
   Sample s;
-  s.min = ms.front();
-  s.max = ms.back();
-  s.median = ms.size() % 2 ? ms[ms.size() / 2] : 0.5 * (ms[ms.size() / 2 - 1] + ms[ms.size() / 2]);
+  s.min = *std::min_element(ms.begin(), ms.end());
+  s.max = *std::max_element(ms.begin(), ms.end());
+  s.median = median_of(ms);
+  s.cpu_median = median_of(cpu);
   return s;
+}
+template <class F>
+Sample time_runs(int runs, F&& f) {
+  return time_runs(runs, std::forward<F>(f), [] {});
 }
 
 std::uint64_t peak_rss() {
@@ -204,12 +231,13 @@ int run_bench(const BenchSettings& s) {
         ce["min_ms"] = copy.min;
         ce["max_ms"] = copy.max;
         ce["msamples_per_s"] = double(n) * n / (copy.median * 1e3);
+        ce["median_cpu_ms"] = copy.cpu_median;
         print_row(ce);
         entries.push_back(ce);
-        return copy.median;
+        return copy;
       };
-      const double copy1 = time_copy(original, copy_dst, 1, "copy (floor)");
-      const double copy3 = time_copy(original3, copy_dst3, 3, "copy 3 channels (floor)");
+      const Sample copy1 = time_copy(original, copy_dst, 1, "copy (floor)");
+      const Sample copy3 = time_copy(original3, copy_dst3, 3, "copy 3 channels (floor)");
       const std::vector<json> cases = {
           {{"stage", "redistribute"}, {"exponent", 1.4}},
           {{"stage", "redistribute"}, {"exponent", 1.4}, {"land_only", true}},
@@ -233,31 +261,28 @@ int run_bench(const BenchSettings& s) {
         Terrain t = stage == "hillshade" ? coloured : base;
         Context ctx;
         ctx.seed = 1;
-        std::vector<double> ms;
-        for (int r = 0; r <= s.runs; ++r) {
-          std::copy(original.begin(), original.end(), t.get("height").data.begin());
-          auto t0 = std::chrono::steady_clock::now();
-          arena.execute([&] { st->apply(t, ctx); });
-          if (r > 0) ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-        }
-        std::sort(ms.begin(), ms.end());
+        Sample ts = time_runs(
+            s.runs, [&] { arena.execute([&] { st->apply(t, ctx); }); },
+            [&] { std::copy(original.begin(), original.end(), t.get("height").data.begin()); });
         std::string name = stage;
         for (auto it = c.begin(); it != c.end(); ++it)
           if (it.key() != "stage" && it.key() != "points") name += " " + (it.value().is_string() ? it.value().get<std::string>() : it.key());
-        const double floor = colour ? copy3 : copy1;
+        const double floor = colour ? copy3.median : copy1.median;
         json e;
         e["name"] = name;
         e["size"] = json::array({n, n});
         e["threads"] = threads;
-        e["median_ms"] = ms[ms.size() / 2];
-        e["min_ms"] = ms.front();
-        e["max_ms"] = ms.back();
-        e["msamples_per_s"] = double(n) * n / (ms[ms.size() / 2] * 1e3);
-        e["vs_copy"] = ms[ms.size() / 2] / floor;
+        e["median_ms"] = ts.median;
+        e["min_ms"] = ts.min;
+        e["max_ms"] = ts.max;
+        e["median_cpu_ms"] = ts.cpu_median;
+        e["msamples_per_s"] = double(n) * n / (ts.median * 1e3);
+        e["vs_copy"] = ts.median / floor;
+        e["vs_copy_min"] = ts.min / (colour ? copy3.min : copy1.min);
         e["copy_channels"] = colour ? 3 : 1;
-        std::printf("%-28s %6s %3d %10.2f %10.2f %10.2f %9.1f   %.2fx copy%s\n", name.c_str(), (std::to_string(n) + "²").c_str(),
-                    threads, ms[ms.size() / 2], ms.front(), ms.back(), e["msamples_per_s"].get<double>(), e["vs_copy"].get<double>(),
-                    colour ? " (3 channels)" : "");
+        std::printf("%-28s %6s %3d %10.2f %10.2f %10.2f %9.1f   %.2fx copy (min %.2fx), cpu %.2f ms%s\n", name.c_str(),
+                    (std::to_string(n) + "²").c_str(), threads, ts.median, ts.min, ts.max, e["msamples_per_s"].get<double>(),
+                    e["vs_copy"].get<double>(), e["vs_copy_min"].get<double>(), ts.cpu_median, colour ? " (3 channels)" : "");
         std::fflush(stdout);
         entries.push_back(e);
       }
@@ -266,42 +291,55 @@ int run_bench(const BenchSettings& s) {
 
   if (want("regenerate")) {
     // What the studio does on a slider move: run() the island preset at 513², in memory, no
-    // writers. Target ≤ 15 ms. The per-stage medians show where the time goes.
+    // writers, handing the previous result back for its buffers (RunOptions::recycle). Target
+    // ≤ 15 ms. Also without recycling (fresh allocations) and without fusion, for comparison. The
+    // per-stage medians show where the time goes (a fused chain's time sits on its first stage).
     json doc = load_preset("island");
     doc["world"]["size"] = 513;
     doc["seed"] = 1;
     const Recipe r = parse_recipe(doc);
+    struct Variant {
+      const char* name;
+      bool recycle, fuse;
+    };
     for (int threads : s.threads) {
-      RunOptions o;
-      o.threads = threads;
-      std::vector<std::vector<double>> stage_ms(r.stages.size());
-      Sample t = time_runs(s.runs, [&] {
-        RunResult res = run(r, o);
-        for (std::size_t k = 0; k < res.timings.size() && k < stage_ms.size(); ++k) stage_ms[k].push_back(res.timings[k].ms);
-      });
-      json e;
-      e["name"] = "island regenerate 513² in memory";
-      e["size"] = json::array({513, 513});
-      e["threads"] = threads;
-      e["median_ms"] = t.median;
-      e["min_ms"] = t.min;
-      e["max_ms"] = t.max;
-      e["msamples_per_s"] = 513.0 * 513.0 / (t.median * 1e3);
-      json per = json::array();
-      std::string line = "    stages:";
-      for (std::size_t k = 0; k < stage_ms.size(); ++k) {
-        auto& v = stage_ms[k];
-        std::sort(v.begin(), v.end());
-        const double med = v.empty() ? 0.0 : v[v.size() / 2];
-        per.push_back({{"stage", r.stages[k].def->name}, {"median_ms", med}});
-        char buf[64];
-        std::snprintf(buf, sizeof buf, " %s %.2f", r.stages[k].def->name.c_str(), med);
-        line += buf;
+      for (const Variant& v : {Variant{"island regenerate 513² in memory", true, true},
+                               Variant{"  same, fresh allocations", false, true},
+                               Variant{"  same, unfused", true, false}}) {
+        RunOptions o;
+        o.threads = threads;
+        o.fuse = v.fuse;
+        Terrain previous;
+        std::vector<std::vector<double>> stage_ms(r.stages.size());
+        Sample t = time_runs(s.runs, [&] {
+          if (v.recycle) o.recycle = &previous;
+          RunResult res = run(r, o);
+          for (std::size_t k = 0; k < res.timings.size() && k < stage_ms.size(); ++k) stage_ms[k].push_back(res.timings[k].ms);
+          if (v.recycle) previous = std::move(res.terrain);
+        });
+        json e;
+        e["name"] = v.name;
+        e["size"] = json::array({513, 513});
+        e["threads"] = threads;
+        e["median_ms"] = t.median;
+        e["min_ms"] = t.min;
+        e["max_ms"] = t.max;
+        e["median_cpu_ms"] = t.cpu_median;
+        e["msamples_per_s"] = 513.0 * 513.0 / (t.median * 1e3);
+        json per = json::array();
+        std::string line = "    stages (median ms):";
+        for (std::size_t k = 0; k < stage_ms.size(); ++k) {
+          const double med = stage_ms[k].empty() ? 0.0 : median_of(stage_ms[k]);
+          per.push_back({{"stage", r.stages[k].def->name}, {"median_ms", med}});
+          char buf[64];
+          std::snprintf(buf, sizeof buf, " %s %.2f", r.stages[k].def->name.c_str(), med);
+          line += buf;
+        }
+        e["stages"] = per;
+        print_row(e);
+        std::printf("%s; cpu %.2f ms per run\n", line.c_str(), t.cpu_median);
+        entries.push_back(e);
       }
-      e["stages"] = per;
-      print_row(e);
-      std::printf("%s ms\n", line.c_str());
-      entries.push_back(e);
     }
   }
 

@@ -34,6 +34,10 @@ struct RunOptions {
   // curve) run in one pass over the rows, each row going through the whole chain while it is in
   // cache. The bytes are identical with and without fusion; off when after_stage is set.
   bool fuse = true;
+  // Optional: a previous result's terrain whose buffers the new run may reuse (its layers are moved
+  // into the new terrain's spare buffers; it is left without layers). Saves the page faults of
+  // fresh allocations when regenerating, as the studio does on every change. Results are the same.
+  Terrain* recycle = nullptr;
 };
 
 struct RunResult {
