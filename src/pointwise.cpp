@@ -273,9 +273,24 @@ void LatticeRowImpl(const float* HWY_RESTRICT lat, const std::int32_t* HWY_RESTR
   }
 }
 
-HWY_INLINE void HillshadeVec(D d, const HillshadeRow& k, const float* HWY_RESTRICT e_in, const float* HWY_RESTRICT fx_in,
-                             const float* HWY_RESTRICT fz_in, const float* HWY_RESTRICT albedo,
-                             float* HWY_RESTRICT shade, float* HWY_RESTRICT rgb) {
+// Lane l of the three vectors spread[0..2] holds lane (k·N + l)/3 of a vector: one value per
+// interleaved RGB sample, so that a shade multiplies an RGB row without de-interleaving it.
+struct Spread {
+  using Idx = decltype(hn::SetTableIndices(D(), static_cast<const std::int32_t*>(nullptr)));
+  Idx idx[3];
+  explicit Spread(D d) {
+    const int N = int(hn::Lanes(d));
+    HWY_ALIGN std::int32_t lanes[kRowPad];
+    for (int k = 0; k < 3; ++k) {
+      for (int l = 0; l < N; ++l) lanes[l] = (k * N + l) / 3;
+      idx[k] = hn::SetTableIndices(d, lanes);
+    }
+  }
+};
+
+HWY_INLINE void HillshadeVec(D d, const Spread& spread, const HillshadeRow& k, const float* HWY_RESTRICT e_in,
+                             const float* HWY_RESTRICT fx_in, const float* HWY_RESTRICT fz_in,
+                             const float* HWY_RESTRICT albedo, float* HWY_RESTRICT shade, float* HWY_RESTRICT rgb) {
   const V one = hn::Set(d, 1.0f);
   const V fx = hn::LoadU(d, fx_in), fz = hn::LoadU(d, fz_in);
   const V num = hn::Sub(hn::Add(hn::Mul(hn::Neg(fx), hn::Set(d, k.lx)), hn::Set(d, k.ly)), hn::Mul(fz, hn::Set(d, k.lz)));
@@ -286,12 +301,10 @@ HWY_INLINE void HillshadeVec(D d, const HillshadeRow& k, const float* HWY_RESTRI
   const V water = hn::Add(flat, hn::Mul(hn::Set(d, k.water_relief), hn::Sub(s, flat)));
   s = hn::IfThenElse(hn::Lt(hn::LoadU(d, e_in), hn::Set(d, k.sea_below)), water, s);
   hn::StoreU(s, d, shade);
-  if (albedo) {
-    V r, g, b;
-    hn::LoadInterleaved3(d, albedo, r, g, b);
-    hn::StoreInterleaved3(hn::Mul(r, s), hn::Mul(g, s), hn::Mul(b, s), d, rgb);
-  } else {
-    hn::StoreInterleaved3(s, s, s, d, rgb);
+  const std::size_t N = hn::Lanes(d);
+  for (int c = 0; c < 3; ++c) {
+    const V sc = hn::TableLookupLanes(s, spread.idx[c]);
+    hn::StoreU(albedo ? hn::Mul(hn::LoadU(d, albedo + c * N), sc) : sc, d, rgb + c * N);
   }
 }
 
@@ -299,10 +312,11 @@ void HillshadeRowImpl(const HillshadeRow& k, const float* HWY_RESTRICT e, const 
                       const float* HWY_RESTRICT fz, const float* HWY_RESTRICT albedo, float* HWY_RESTRICT shade,
                       float* HWY_RESTRICT rgb, int n) {
   const D d;
+  const Spread spread(d);
   const int N = int(hn::Lanes(d));
   int i = 0;
   for (; i + N <= n; i += N)
-    HillshadeVec(d, k, e + i, fx + i, fz + i, albedo ? albedo + 3 * i : nullptr, shade + i, rgb + 3 * i);
+    HillshadeVec(d, spread, k, e + i, fx + i, fz + i, albedo ? albedo + 3 * i : nullptr, shade + i, rgb + 3 * i);
   if (i < n) {
     const int m = n - i;
     HWY_ALIGN float eb[kRowPad] = {}, xb[kRowPad] = {}, zb[kRowPad] = {}, ab[3 * kRowPad] = {};
@@ -311,10 +325,48 @@ void HillshadeRowImpl(const HillshadeRow& k, const float* HWY_RESTRICT e, const 
     std::copy(fx + i, fx + n, xb);
     std::copy(fz + i, fz + n, zb);
     if (albedo) std::copy(albedo + 3 * i, albedo + 3 * n, ab);
-    HillshadeVec(d, k, eb, xb, zb, albedo ? ab : nullptr, sb, out);
+    HillshadeVec(d, spread, k, eb, xb, zb, albedo ? ab : nullptr, sb, out);
     std::copy(sb, sb + m, shade + i);
     std::copy(out, out + 3 * m, rgb + 3 * i);
   }
+}
+
+// The border columns and the columns after the last full vector are computed one by one with the
+// same two exactly rounded operations, so they equal what a vector lane would give.
+template <bool kSquare>
+void GradientRowT(const float* HWY_RESTRICT up, const float* HWY_RESTRICT mid, const float* HWY_RESTRICT down,
+                  float central, float edge, float kz, float* HWY_RESTRICT gx, float* HWY_RESTRICT gz, int n) {
+  const D d;
+  const int N = int(hn::Lanes(d));
+  const V vc = hn::Set(d, central), vz = hn::Set(d, kz);
+  auto one = [&](int i, float x) {
+    const float z = (down[i] - up[i]) * kz;
+    if constexpr (kSquare) gx[i] = x * x + z * z;
+    else gx[i] = x, gz[i] = z;
+  };
+  one(0, (mid[1] - mid[0]) * edge);
+  int i = 1;
+  for (; i + N <= n - 1; i += N) {
+    const V x = hn::Mul(hn::Sub(hn::LoadU(d, mid + i + 1), hn::LoadU(d, mid + i - 1)), vc);
+    const V z = hn::Mul(hn::Sub(hn::LoadU(d, down + i), hn::LoadU(d, up + i)), vz);
+    if constexpr (kSquare) {
+      hn::StoreU(hn::Add(hn::Mul(x, x), hn::Mul(z, z)), d, gx + i);
+    } else {
+      hn::StoreU(x, d, gx + i);
+      hn::StoreU(z, d, gz + i);
+    }
+  }
+  for (; i < n - 1; ++i) one(i, (mid[i + 1] - mid[i - 1]) * central);
+  one(n - 1, (mid[n - 1] - mid[n - 2]) * edge);
+}
+
+void GradientRowImpl(const float* up, const float* mid, const float* down, float central, float edge, float kz,
+                     float* gx, float* gz, int n) {
+  GradientRowT<false>(up, mid, down, central, edge, kz, gx, gz, n);
+}
+void Gradient2RowImpl(const float* up, const float* mid, const float* down, float central, float edge, float kz,
+                      float* g2, int n) {
+  GradientRowT<true>(up, mid, down, central, edge, kz, g2, nullptr, n);
 }
 
 const char* TargetImpl() { return hwy::TargetName(HWY_TARGET); }
@@ -333,6 +385,8 @@ HWY_EXPORT(CurveRowImpl);
 HWY_EXPORT(ColorRowImpl);
 HWY_EXPORT(LatticeRowImpl);
 HWY_EXPORT(HillshadeRowImpl);
+HWY_EXPORT(GradientRowImpl);
+HWY_EXPORT(Gradient2RowImpl);
 HWY_EXPORT(TargetImpl);
 
 float float_at_most(double v) {
@@ -377,6 +431,14 @@ void lattice_row(const float* lat, const std::int32_t* ix, const float* tx, floa
 void hillshade_row(const HillshadeRow& k, const float* e, const float* fx, const float* fz, const float* albedo,
                    float* shade, float* rgb, int n) {
   HWY_DYNAMIC_DISPATCH(HillshadeRowImpl)(k, e, fx, fz, albedo, shade, rgb, n);
+}
+void gradient_row(const float* up, const float* mid, const float* down, float central, float edge, float kz, float* gx,
+                  float* gz, int n) {
+  HWY_DYNAMIC_DISPATCH(GradientRowImpl)(up, mid, down, central, edge, kz, gx, gz, n);
+}
+void gradient2_row(const float* up, const float* mid, const float* down, float central, float edge, float kz, float* g2,
+                   int n) {
+  HWY_DYNAMIC_DISPATCH(Gradient2RowImpl)(up, mid, down, central, edge, kz, g2, n);
 }
 const char* pointwise_target() { return HWY_DYNAMIC_DISPATCH(TargetImpl)(); }
 
