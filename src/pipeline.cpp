@@ -7,6 +7,9 @@
 #include <random>
 #include <thread>
 
+#include "parallel.hpp"
+#include "relief/stage.hpp"
+
 namespace relief {
 
 std::uint64_t physical_memory_bytes() {
@@ -36,34 +39,84 @@ RunResult run(const Recipe& r, const RunOptions& opt) {
   RunResult res;
   res.seed = r.seed ? *r.seed : random_seed();
   res.terrain.frame = opt.window ? *opt.window : r.world.frame();
+  if (opt.recycle && opt.recycle != &res.terrain) {
+    for (auto& [name, l] : opt.recycle->layers) res.terrain.spare.push_back(std::move(l.data));
+    for (auto& b : opt.recycle->spare) res.terrain.spare.push_back(std::move(b));
+    opt.recycle->layers.clear();
+    opt.recycle->spare.clear();
+  }
   const Frame& f = res.terrain.frame;
   if (f.nx < 2 || f.nz < 2) throw Error("world.size", "expected at least 2 samples per axis, got " +
                                                           std::to_string(f.nx) + "x" + std::to_string(f.nz));
   int threads = opt.threads > 0 ? opt.threads : int(std::max(1u, std::thread::hardware_concurrency()));
   tbb::task_arena arena(threads);
   const auto t_all = std::chrono::steady_clock::now();
+  const bool fuse = opt.fuse && !opt.after_stage;
+  auto context = [&](std::size_t i) {
+    Context ctx;
+    ctx.seed = res.seed;
+    ctx.stage_index = int(i);
+    ctx.progress = opt.progress;
+    return ctx;
+  };
+  // Stage errors about layers name the stage that failed.
+  auto named = [](std::size_t i, auto&& f) {
+    try {
+      f();
+    } catch (const Error& e) {
+      if (e.path().empty()) throw Error("stages[" + std::to_string(i) + "]", std::string(e.what()));
+      throw;
+    }
+  };
+  using clock = std::chrono::steady_clock;
+  auto ms_since = [](clock::time_point t0) { return std::chrono::duration<double, std::milli>(clock::now() - t0).count(); };
   arena.execute([&] {
-    for (std::size_t i = 0; i < r.stages.size(); ++i) {
-      const RecipeStage& s = r.stages[i];
-      Context ctx;
-      ctx.seed = res.seed;
-      ctx.stage_index = int(i);
-      ctx.progress = opt.progress;
-      if (opt.progress) opt.progress(s.def->name, double(i) / double(r.stages.size()));
-      const auto t0 = std::chrono::steady_clock::now();
-      try {
-        s.stage->apply(res.terrain, ctx);
-      } catch (const Error& e) {
-        // Stage errors about layers name the stage that failed.
-        if (e.path().empty())
-          throw Error("stages[" + std::to_string(i) + "]", std::string(e.what()));
-        throw;
+    for (std::size_t i = 0; i < r.stages.size();) {
+      // A chain of consecutive fusable stages [i, end): one pass over the rows.
+      std::size_t end = i + 1;
+      if (fuse && r.stages[i].stage->fusable())
+        while (end < r.stages.size() && r.stages[end].stage->fusable()) ++end;
+      if (end == i + 1) {
+        const RecipeStage& s = r.stages[i];
+        if (opt.progress) opt.progress(s.def->name, double(i) / double(r.stages.size()));
+        const auto t0 = clock::now();
+        named(i, [&] { s.stage->apply(res.terrain, context(i)); });
+        res.timings.push_back({s.def->name, s.label, ms_since(t0)});
+        if (opt.after_stage) opt.after_stage(res.terrain, s, int(i));
+        i = end;
+        continue;
       }
-      const auto t1 = std::chrono::steady_clock::now();
-      res.timings.push_back({s.def->name, s.label, std::chrono::duration<double, std::milli>(t1 - t0).count()});
-      if (opt.after_stage) opt.after_stage(res.terrain, s, int(i));
+      const auto t0 = clock::now();
+      std::vector<std::unique_ptr<RowKernel>> kernels;
+      for (std::size_t k = i; k < end; ++k) {
+        const RecipeStage& s = r.stages[k];
+        if (opt.progress) opt.progress(s.def->name, double(k) / double(r.stages.size()));
+        named(k, [&] { kernels.push_back(s.stage->prepare_rows(res.terrain, context(k))); });
+      }
+      // Layers are looked up once every kernel is prepared (preparing may create layers).
+      std::vector<float*> data;
+      for (std::size_t k = 0; k < kernels.size(); ++k) {
+        Layer* l = nullptr;
+        named(i + k, [&] { l = &res.terrain.get(kernels[k]->layer()); });
+        if (l->channels != 1 || l->data.size() != f.count())
+          throw Error("stages[" + std::to_string(i + k) + "]",
+                      "layer '" + kernels[k]->layer() + "' must have one channel and one value per sample");
+        data.push_back(l->data.data());
+      }
+      detail::parallel_rows(f.nz, [&](int j) {
+        const std::size_t offset = std::size_t(j) * std::size_t(f.nx);
+        for (std::size_t k = 0; k < kernels.size(); ++k) kernels[k]->apply_row(j, data[k] + offset);
+      });
+      const double chain_ms = ms_since(t0);
+      for (std::size_t k = i; k < end; ++k) {
+        const RecipeStage& s = r.stages[k];
+        res.timings.push_back({s.def->name, s.label, k == i ? chain_ms : 0.0, k > i});
+      }
+      i = end;
     }
   });
+  res.terrain.spare.clear();  // unused spare buffers go back to the allocator
+  res.terrain.spare.shrink_to_fit();
   if (opt.progress) opt.progress("done", 1.0);
   res.total_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_all).count();
   return res;

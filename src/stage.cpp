@@ -1,5 +1,6 @@
 #include "relief/stage.hpp"
 
+#include "parallel.hpp"
 #include "relief/random.hpp"
 #include "stages.hpp"
 
@@ -7,6 +8,16 @@ namespace relief {
 
 std::uint64_t Context::stage_seed(std::uint64_t salt) const {
   return hash64(seed, 0x5354414745ull + std::uint64_t(stage_index), salt);
+}
+
+std::unique_ptr<RowKernel> Stage::prepare_rows(Terrain&, const Context&) const { return nullptr; }
+
+void apply_rows(Terrain& t, const RowKernel& k) {
+  const Frame& f = t.frame;
+  Layer& l = t.get(k.layer());
+  if (l.channels != 1 || l.data.size() != f.count())
+    throw Error("", "layer '" + k.layer() + "' must have one channel and one value per sample");
+  detail::parallel_rows(f.nz, [&](int j) { k.apply_row(j, l.row(j, f.nx)); });
 }
 
 json StageDef::to_json() const {

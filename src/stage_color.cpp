@@ -15,14 +15,19 @@
 // the same world agree on slope_deg and shade up to discretisation (not bit for bit: these are
 // neighbourhood stages whose finite differences depend on the cell size).
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <cstdio>
+#include <limits>
 #include <numbers>
 #include <string>
+#include <tuple>
+#include <utility>
 #include <vector>
 
 #include "parallel.hpp"
+#include "pointwise.hpp"
 #include "relief/error.hpp"
 #include "relief/random.hpp"
 #include "stages.hpp"
@@ -127,89 +132,185 @@ struct ColorParams {
 //           below the first `at`, the last colour above the last `at`.
 // Comparisons are made in single precision, the precision of the layers, so that a height of
 // 0.3f counts as "at" a level written as 0.3.
-Rgb level_color(const std::vector<Level>& lv, bool gradient, float e) {
-  auto at = [&](std::size_t k) { return float(lv[k].at); };
-  if (!gradient) {
-    for (std::size_t k = 0; k < lv.size(); ++k)
-      if (e <= at(k)) return lv[k].color;
-    return lv.back().color;
-  }
-  if (e <= at(0)) return lv.front().color;
-  if (e >= at(lv.size() - 1)) return lv.back().color;
-  std::size_t k = 0;
-  while (!(e <= at(k + 1))) ++k;  // at[k] < e ≤ at[k+1], so at[k+1] > at[k]
-  const double s = (double(e) - at(k)) / (double(at(k + 1)) - at(k));
-  const Rgb& a = lv[k].color;
-  const Rgb& b = lv[k + 1].color;
-  return Rgb{float(a.r + (b.r - a.r) * s), float(a.g + (b.g - a.g) * s), float(a.b + (b.b - a.b) * s)};
+//
+// Rock: where rock_min < e < rock_max and the slope exceeds rock_slope_deg, the colour turns to
+// rock_color with weight smoothstep((slope − rock_slope_deg)/rock_blend_deg). The slope is the
+// slope_deg layer if present, else the gradient of the height in metres (central differences,
+// one-sided at the window border); slope > threshold is decided as |∇y|² > tan²(threshold), and
+// the angle itself (an atan) is only evaluated for vectors that hold rock.
+//
+// Speckle: colour × (1 + variation·(2v − 1)), v smooth value noise in [0, 1] on a lattice of
+// variation_scale_m metres in world coordinates: hashed lattice values (relief/random.hpp),
+// interpolated with smoothstep weights — along z once per row for the lattice columns the row
+// needs (in double), along x per sample (in float). A pure function of (seed, x_m, z_m): every
+// window and every resolution sees the same pattern.
+
+double smoothstep_weight(double s) { return smoothstep01(s); }
+
+// Surface gradient of row j in metres per metre times `scale`, as gradient_at (central
+// differences inside, one-sided at the window border), in single precision.
+void gradient_row(const Frame& fr, const Layer& h, int j, double scale, float* gx, float* gz) {
+  const int nx = fr.nx;
+  const float* mid = h.row(j, nx);
+  const float* up = h.row(std::max(j - 1, 0), nx);
+  const float* down = h.row(std::min(j + 1, fr.nz - 1), nx);
+  const double per_m = scale * fr.height_m / fr.cell_m();
+  const float central = float(per_m / 2.0), edge = float(per_m);
+  const float kz = (j > 0 && j < fr.nz - 1) ? central : edge;
+  gx[0] = (mid[1] - mid[0]) * edge;
+  for (int i = 1; i + 1 < nx; ++i) gx[i] = (mid[i + 1] - mid[i - 1]) * central;
+  gx[nx - 1] = (mid[nx - 1] - mid[nx - 2]) * edge;
+  for (int i = 0; i < nx; ++i) gz[i] = (down[i] - up[i]) * kz;
 }
 
-// Smooth value noise in [0, 1] on a lattice of `cell_m` metres in world coordinates: a pure
-// function of (seed, x_m, z_m), so every window and every resolution sees the same pattern.
-double value_noise(std::uint64_t seed, double x_m, double z_m, double cell_m) {
-  const double gx = x_m / cell_m, gz = z_m / cell_m;
-  const double fx = std::floor(gx), fz = std::floor(gz);
-  const auto ix = std::int64_t(fx), iz = std::int64_t(fz);
-  auto v = [&](std::int64_t a, std::int64_t b) { return unit_double(hash64(seed, std::uint64_t(a), std::uint64_t(b))); };
-  const double tx = smoothstep01(gx - fx), tz = smoothstep01(gz - fz);
-  const double top = v(ix, iz) + (v(ix + 1, iz) - v(ix, iz)) * tx;
-  const double bottom = v(ix, iz + 1) + (v(ix + 1, iz + 1) - v(ix, iz + 1)) * tx;
-  return top + (bottom - top) * tz;
+void require_single(const Terrain& t, const Layer& h, const char* name) {
+  if (h.channels != 1 || h.data.size() != t.frame.count())
+    throw Error("", std::string("layer '") + name + "' must have one channel and one value per sample");
 }
 
 void apply_color(Terrain& t, const ColorParams& p, const Context& ctx) {
   const Frame& fr = t.frame;
   const Layer& h = t.get("height");
-  require_nonempty(t, h, "height");
+  require_single(t, h, "height");
+  const int nx = fr.nx;
+  detail::ColorRow k;
+  std::vector<float> at, r, g, b;
+  for (const Level& l : p.levels) at.push_back(float(l.at)), r.push_back(l.color.r), g.push_back(l.color.g), b.push_back(l.color.b);
+  k.levels = int(at.size());
+  k.at = at.data(), k.r = r.data(), k.g = g.data(), k.b = b.data();
+  k.gradient = p.mode == "gradient";
   // Per-map normalisation (seed 000): the only non-local step; off by default.
-  double scale = 1.0;
   if (p.relative_to_max) {
     float hmax = 0.0f;
-    for (std::size_t k = 0; k < fr.count(); ++k) hmax = std::max(hmax, h.data[k * h.channels]);
-    if (hmax > 0.0f) scale = 1.0 / double(hmax);
+    for (float v : h.data) hmax = std::max(hmax, v);
+    k.relative = hmax > 0.0f;
+    k.max_height = hmax;
   }
-  const bool rock = p.rock_slope_deg < 90.0 && p.rock_min < p.rock_max;
+  k.rock = p.rock_slope_deg < 90.0 && p.rock_min < p.rock_max;
   const Layer* given_slope = nullptr;
-  if (rock && t.has("slope_deg")) {
+  if (k.rock && t.has("slope_deg")) {
     const Layer& l = t.get("slope_deg");
     if (l.channels == 1 && l.data.size() == fr.count()) given_slope = &l;
   }
-  // Surface water from the "flow" stage (rivers and lakes, cover 0..1), painted over the levels.
+  k.slope_is_gradient2 = given_slope == nullptr;
+  k.rock_min = float(p.rock_min);
+  k.rock_max = float(p.rock_max);
+  const double tan_t = std::tan(p.rock_slope_deg / kDeg);
+  k.rock_gate = given_slope ? detail::float_at_most(p.rock_slope_deg) : float(tan_t * tan_t);
+  k.rock_slope_deg = float(p.rock_slope_deg);
+  k.rock_blend_deg = float(p.rock_blend_deg);
+  k.rock_r = p.rock_color.r, k.rock_g = p.rock_color.g, k.rock_b = p.rock_color.b;
+  if (k.rock && p.rock_blend_deg > 0.0) {
+    const double full_deg = p.rock_slope_deg + p.rock_blend_deg;
+    const double tan_f = full_deg < 90.0 ? std::tan(full_deg / kDeg) : std::numeric_limits<double>::infinity();
+    k.rock_full_gate = given_slope ? detail::float_at_least(full_deg) : float(tan_f * tan_f);
+  }
+  k.speckle = p.variation > 0.0;
+  k.variation = float(p.variation);
+
+  // Speckle lattice: per column the lattice cell and the weight tx; `cols` lists the lattice
+  // columns the rows need (every cell c and c + 1, ascending), `col_key` their hash keys, and
+  // ix[i] the position of column i's cell in `cols`.
+  // Salted by the recipe seed only (not the stage index), so inserting stages before `color`
+  // does not change its speckle.
+  const std::uint64_t vseed = hash64(ctx.seed, 0x636f6c6f72ull /* "color" */);
+  const double cell = p.variation_scale_m;
+  std::vector<std::int32_t> ix(std::size_t(nx) + detail::kRowPad, 0);
+  std::vector<float> tx(std::size_t(nx) + detail::kRowPad, 0.0f);
+  std::vector<std::int64_t> cols;
+  if (k.speckle) {
+    for (int i = 0; i < nx; ++i) {
+      const double gx = fr.x_m(i) / cell, fx = std::floor(gx);
+      const auto c = std::int64_t(fx);
+      if (cols.empty() || cols.back() < c) cols.push_back(c);  // x increases with i: append only
+      if (cols.back() < c + 1) cols.push_back(c + 1);
+      ix[std::size_t(i)] = std::int32_t(std::lower_bound(cols.begin(), cols.end(), c) - cols.begin());
+      tx[std::size_t(i)] = float(smoothstep_weight(gx - fx));
+    }
+  }
+  std::vector<std::uint64_t> col_key(cols.size());
+  for (std::size_t m = 0; m < cols.size(); ++m) col_key[m] = hash64(vseed, std::uint64_t(cols[m]));
+  // The speckle of lattice row iz interpolated along x, for every column: a pure function of iz.
+  // Rows between the same two lattice rows share it, so each thread keeps the last two it made
+  // (tagged with this call's id); the result does not depend on what the cache holds.
+  static std::atomic<std::uint64_t> next_call{1};
+  const std::uint64_t call = next_call.fetch_add(1);
+  struct LatticeCache {
+    std::uint64_t call = 0;
+    std::int64_t iz[2] = {0, 0};
+    bool valid[2] = {false, false};
+    std::vector<float> along_x[2];
+    std::vector<float> lat;
+  };
+  auto make = [&](LatticeCache& c, int s, std::int64_t iz) {
+    const std::uint64_t zkey = mix64(std::uint64_t(iz));
+    c.lat.resize(cols.size() + 1);
+    // hash64(hash64(vseed, x), z) = mix64(hash64(vseed, x) ^ mix64(z))
+    for (std::size_t m = 0; m < cols.size(); ++m) c.lat[m] = float(unit_double(mix64(col_key[m] ^ zkey)));
+    c.lat[cols.size()] = 0.0f;
+    c.along_x[s].resize(std::size_t(nx) + detail::kRowPad, 0.0f);
+    detail::lattice_row(c.lat.data(), ix.data(), tx.data(), c.along_x[s].data(), nx);
+    c.iz[s] = iz;
+    c.valid[s] = true;
+  };
+  // Lattice rows iz and iz + 1, along x.
+  auto lattice_pair = [&](LatticeCache& c, std::int64_t iz) -> std::pair<const float*, const float*> {
+    if (c.call != call) c.call = call, c.valid[0] = c.valid[1] = false;
+    int slot[2] = {-1, -1};
+    for (int s = 0; s < 2; ++s)
+      for (int w = 0; w < 2; ++w)
+        if (c.valid[s] && c.iz[s] == iz + w) slot[w] = s;
+    for (int w = 0; w < 2; ++w)
+      if (slot[w] < 0) {
+        slot[w] = slot[1 - w] == 0 ? 1 : 0;  // the entry the other row does not use
+        make(c, slot[w], iz + w);
+      }
+    return {c.along_x[slot[0]].data(), c.along_x[slot[1]].data()};
+  };
+
+  // Surface water from a "flow" stage (rivers and lakes, cover 0..1), painted over the result.
   const Layer* water = nullptr;
   if (t.has("water")) {
     const Layer& l = t.get("water");
     if (l.channels == 1 && l.data.size() == fr.count()) water = &l;
   }
-  const bool gradient = p.mode == "gradient";
-  // Salted by the recipe seed only (not the stage index), so inserting stages before `color`
-  // does not change its speckle.
-  const std::uint64_t vseed = hash64(ctx.seed, 0x636f6c6f72ull /* "color" */);
+  const float wr = p.water_color.r, wg = p.water_color.g, wb = p.water_color.b;
+
   Layer& out = t.layer("albedo", 3);
   detail::parallel_rows(fr.nz, [&](int j) {
-    float* row = out.row(j, fr.nx);
-    const double z = fr.z_m(j);
-    for (int i = 0; i < fr.nx; ++i) {
-      const std::size_t k = std::size_t(j) * fr.nx + i;
-      const float e = float(double(h.data[k * h.channels]) * scale);
-      Rgb c = level_color(p.levels, gradient, e);
-      if (rock && e > float(p.rock_min) && e < float(p.rock_max)) {
-        const double s = given_slope ? double(given_slope->data[k]) : slope_deg_at(fr, h, i, j);
-        if (s > p.rock_slope_deg) {
-          const double w = p.rock_blend_deg > 0.0 ? smoothstep01((s - p.rock_slope_deg) / p.rock_blend_deg) : 1.0;
-          c = w >= 1.0 ? p.rock_color
-                       : Rgb{float(c.r + (p.rock_color.r - c.r) * w), float(c.g + (p.rock_color.g - c.g) * w),
-                             float(c.b + (p.rock_color.b - c.b) * w)};
-        }
+    thread_local std::vector<float> slope, gz;
+    thread_local LatticeCache cache;
+    const float* slope_row = nullptr;
+    if (k.rock) {
+      if (given_slope) {
+        slope_row = given_slope->row(j, nx);
+      } else {
+        slope.resize(std::size_t(nx));
+        gz.resize(std::size_t(nx));
+        gradient_row(fr, h, j, 1.0, slope.data(), gz.data());
+        for (int i = 0; i < nx; ++i) slope[std::size_t(i)] = slope[std::size_t(i)] * slope[std::size_t(i)] + gz[std::size_t(i)] * gz[std::size_t(i)];
+        slope_row = slope.data();
       }
-      if (water && water->data[k] > 0.0f) {
-        const float w = water->data[k];
-        c = Rgb{c.r + (p.water_color.r - c.r) * w, c.g + (p.water_color.g - c.g) * w, c.b + (p.water_color.b - c.b) * w};
+    }
+    const float *a0 = nullptr, *a1 = nullptr;
+    float tz = 0.0f;
+    if (k.speckle) {
+      const double gzl = fr.z_m(j) / cell, fz = std::floor(gzl);
+      const auto iz = std::int64_t(fz);
+      tz = float(smoothstep_weight(gzl - fz));
+      std::tie(a0, a1) = lattice_pair(cache, iz);
+    }
+    float* row = out.row(j, nx);
+    detail::color_row(k, h.row(j, nx), slope_row, a0, a1, tz, row, nx);
+    if (water) {
+      const float* w = water->row(j, nx);
+      for (int i = 0; i < nx; ++i) {
+        if (!(w[i] > 0.0f)) continue;
+        float* c = row + 3 * i;
+        c[0] += (wr - c[0]) * w[i];
+        c[1] += (wg - c[1]) * w[i];
+        c[2] += (wb - c[2]) * w[i];
       }
-      double f = 1.0;
-      if (p.variation > 0.0) f = 1.0 + p.variation * (2.0 * value_noise(vseed, fr.x_m(i), z, p.variation_scale_m) - 1.0);
-      row[3 * i + 0] = float(std::clamp(c.r * f, 0.0, 1.0));
-      row[3 * i + 1] = float(std::clamp(c.g * f, 0.0, 1.0));
-      row[3 * i + 2] = float(std::clamp(c.b * f, 0.0, 1.0));
     }
   });
 }
@@ -238,11 +339,18 @@ struct HillshadeParams {
 void apply_hillshade(Terrain& t, const HillshadeParams& p, const Context&) {
   const Frame& fr = t.frame;
   const Layer& h = t.get("height");
-  require_nonempty(t, h, "height");
+  require_single(t, h, "height");
+  const int nx = fr.nx;
   const double az = p.azimuth_deg / kDeg, alt = p.altitude_deg / kDeg;
   // World axes: x east, y up, z south. Azimuth is clockwise from north (−z).
   const double lx = std::cos(alt) * std::sin(az), ly = std::sin(alt), lz = -std::cos(alt) * std::cos(az);
-  const double flat = p.ambient + (1.0 - p.ambient) * ly;
+  detail::HillshadeRow k;
+  k.lx = float(lx), k.ly = float(ly), k.lz = float(lz);
+  k.ambient = float(p.ambient);
+  k.diffuse = float(1.0 - p.ambient);
+  k.flat = float(p.ambient + (1.0 - p.ambient) * ly);
+  k.water_relief = float(p.water_relief);
+  k.sea_below = detail::float_at_least(fr.sea_level);
   const Layer* albedo = nullptr;
   if (t.has("albedo")) {
     const Layer& a = t.get("albedo");
@@ -251,16 +359,12 @@ void apply_hillshade(Terrain& t, const HillshadeParams& p, const Context&) {
   Layer& shade = t.layer("shade", 1);
   Layer& color = t.layer("color", 3);
   detail::parallel_rows(fr.nz, [&](int j) {
-    for (int i = 0; i < fr.nx; ++i) {
-      const std::size_t k = std::size_t(j) * fr.nx + i;
-      const Gradient g = gradient_at(fr, h, i, j);
-      const double fx = p.z_factor * g.dx, fz = p.z_factor * g.dz;
-      const double ndotl = (-fx * lx + ly - fz * lz) / std::sqrt(1.0 + fx * fx + fz * fz);
-      double s = p.ambient + (1.0 - p.ambient) * std::max(0.0, ndotl);
-      if (double(h.data[k * h.channels]) < fr.sea_level) s = flat + p.water_relief * (s - flat);
-      shade.data[k] = float(s);
-      for (int c = 0; c < 3; ++c) color.data[3 * k + c] = float((albedo ? double(albedo->data[3 * k + c]) : 1.0) * s);
-    }
+    thread_local std::vector<float> fx, fz;
+    fx.resize(std::size_t(nx));
+    fz.resize(std::size_t(nx));
+    gradient_row(fr, h, j, p.z_factor, fx.data(), fz.data());
+    detail::hillshade_row(k, h.row(j, nx), fx.data(), fz.data(), albedo ? albedo->row(j, nx) : nullptr, shade.row(j, nx),
+                          color.row(j, nx), nx);
   });
 }
 

@@ -3,8 +3,9 @@
 // function of its world position, the recipe seed and the parameters.
 #include <algorithm>
 #include <cmath>
+#include <utility>
+#include <vector>
 
-#include "parallel.hpp"
 #include "relief/noise.hpp"
 #include "stages.hpp"
 
@@ -90,28 +91,19 @@ void validate(const NoiseParams& p, const std::string& path) {
     throw Error(path + ".periodic", "periodic noise needs basis perlin, value or cellular, got simplex");
 }
 
-void apply(Terrain& t, const NoiseParams& p, const Context& ctx) {
-  const Frame& f = t.frame;
-  const Noise noise = [&] {
-    try {
-      return Noise(settings_for(p, f, ctx.stage_seed(std::uint64_t(p.salt))));
-    } catch (const Error& e) {
-      // Settings derived from the world (frequency per metre, period) are checked here.
-      throw Error("stages[" + std::to_string(ctx.stage_index) + "]", e.what());
-    }
-  }();
-  const bool existed = t.has(p.layer) && t.layers[p.layer].channels == 1;
-  Layer& l = t.layer(p.layer, 1);
-  if (!existed && p.blend == "multiply") std::fill(l.data.begin(), l.data.end(), 1.0f);
-  const int nx = f.nx;
-  const double dx = f.cell_m();
-  const float amp = float(p.amplitude), off = float(p.offset);
-  const int mode = p.blend == "set" ? 0 : p.blend == "add" ? 1 : p.blend == "multiply" ? 2 : p.blend == "max" ? 3 : 4;
-  detail::parallel_rows(f.nz, [&](int j) {
-    float* row = l.row(j, nx);
+// A row stage (stage.hpp: RowKernel): Noise::row evaluates a whole row, then the blend folds it
+// into the layer's row while both are in cache.
+struct NoiseKernel final : RowKernel {
+  Noise noise;
+  Frame frame;
+  float amp = 1.0f, off = 0.0f;
+  int mode = 0;  // set, add, multiply, max, min
+  NoiseKernel(std::string layer, Noise n) : RowKernel(std::move(layer)), noise(std::move(n)) {}
+  void apply_row(int j, float* row) const override {
+    const int nx = frame.nx;
     thread_local std::vector<float> buf;
     buf.resize(std::size_t(nx));
-    noise.row(f.z_m(j), f.ix0, dx, nx, buf.data());
+    noise.row(frame.z_m(j), frame.ix0, frame.cell_m(), nx, buf.data());
     for (int i = 0; i < nx; ++i) {
       const float v = buf[std::size_t(i)];
       const float u = off + amp * (0.5f + 0.5f * v);  // [-1,1] → [0,1], scaled and offset
@@ -125,14 +117,36 @@ void apply(Terrain& t, const NoiseParams& p, const Context& ctx) {
       }
       row[i] = std::clamp(h, 0.0f, 1.0f);
     }
-  });
+  }
+};
+
+std::unique_ptr<RowKernel> prepare(Terrain& t, const NoiseParams& p, const Context& ctx) {
+  const Frame& f = t.frame;
+  Noise noise = [&] {
+    try {
+      return Noise(settings_for(p, f, ctx.stage_seed(std::uint64_t(p.salt))));
+    } catch (const Error& e) {
+      // Settings derived from the world (frequency per metre, period) are checked here.
+      throw Error("stages[" + std::to_string(ctx.stage_index) + "]", e.what());
+    }
+  }();
+  const bool existed = t.has(p.layer) && t.layers[p.layer].channels == 1;
+  t.layer(p.layer, 1);  // created zero-filled (or reshaped) if needed
+  auto k = std::make_unique<NoiseKernel>(p.layer, std::move(noise));
+  k->frame = f;
+  k->amp = float(p.amplitude);
+  k->off = float(p.offset);
+  k->mode = p.blend == "set" ? 0 : p.blend == "add" ? 1 : p.blend == "multiply" ? 2 : p.blend == "max" ? 3 : 4;
+  // Multiplying a layer that did not exist multiplies by 1: that is `set` (same bits).
+  if (!existed && k->mode == 2) k->mode = 0;
+  return k;
 }
 
 }  // namespace
 
 StageDef noise() {
-  return make_stage<NoiseParams>("noise", "Fractal noise (Perlin, simplex, value, cellular) into a layer",
-                                 Locality::Pointwise, 0, table(), apply, validate);
+  return make_row_stage<NoiseParams>("noise", "Fractal noise (Perlin, simplex, value, cellular) into a layer", table(),
+                                     prepare, validate);
 }
 
 }  // namespace relief::stages

@@ -21,36 +21,26 @@
 #include <cmath>
 #include <numbers>
 #include <string>
+#include <utility>
 #include <vector>
 
-#include "parallel.hpp"
+#include "pointwise.hpp"
 #include "relief/error.hpp"
 #include "stages.hpp"
 
 namespace relief::stages {
 namespace {
 
-double clamp01(double v) { return std::clamp(v, 0.0, 1.0); }
+// The shaping stages are row stages (stage.hpp: RowKernel): preparing one hoists everything that
+// does not change per sample — choices as enums, thresholds as float constants, functions of x as
+// a per-column vector — and the rows then run the vectorised kernels of pointwise.hpp. Arithmetic
+// is single precision, the precision of the layer (pointwise.hpp states the exactness rules).
 
-// Applies e' = f(e, x_m, z_m) to every sample of the "height" layer, row-parallel.
-template <class F>
-void map_height(Terrain& t, F&& f) {
-  const Frame& fr = t.frame;
-  Layer& h = t.get("height");
-  detail::parallel_rows(fr.nz, [&](int j) {
-    float* row = h.row(j, fr.nx);
-    const double z = fr.z_m(j);
-    for (int i = 0; i < fr.nx; ++i) row[i * h.channels] = float(clamp01(f(clamp01(double(row[i * h.channels])), fr.x_m(i), z)));
-  });
-}
-
-// Land-only helper: maps e > sea to u = (e − sea)/(1 − sea) in (0, 1], applies g(u) ∈ [0, 1], maps
-// back; the sea floor (e ≤ sea) is returned unchanged. With sea ≥ 1 there is no land: identity.
-template <class G>
-double above_sea(double e, double sea, G&& g) {
-  if (e <= sea || sea >= 1.0) return e;
-  const double u = (e - sea) / (1.0 - sea);
-  return sea + (1.0 - sea) * clamp01(g(u));
+// The "height" layer as the row stages need it: present, one channel, one value per sample.
+void require_height(Terrain& t) {
+  const Layer& h = t.get("height");
+  if (h.channels != 1 || h.data.size() != t.frame.count())
+    throw Error("", "layer 'height' must have one channel and one value per sample");
 }
 
 // ================================================================================ redistribute
@@ -61,10 +51,25 @@ struct RedistributeParams {
   bool land_only = false;
 };
 
-void apply_redistribute(Terrain& t, const RedistributeParams& p, const Context&) {
-  const double sea = t.frame.sea_level;
-  auto g = [&](double e) { return clamp01(p.modifier * std::pow(e, p.exponent)); };
-  map_height(t, [&](double e, double, double) { return p.land_only ? above_sea(e, sea, g) : g(e); });
+// e' = clamp(modifier · e^exponent); land_only applies it to u = (e − sea)/(1 − sea) above the sea
+// (pointwise.hpp: LandOnly). pow is exp(exponent · log e) in single precision (≤ 1e-6 from the
+// double result over [0, 1]); exponent 1 is exact.
+struct RedistributeKernel final : RowKernel {
+  detail::RedistributeRow k;
+  int nx = 0;
+  RedistributeKernel() : RowKernel("height") {}
+  void apply_row(int, float* row) const override { detail::redistribute_row(k, row, nx); }
+};
+
+std::unique_ptr<RowKernel> prepare_redistribute(Terrain& t, const RedistributeParams& p, const Context&) {
+  require_height(t);
+  auto r = std::make_unique<RedistributeKernel>();
+  r->k.exponent = float(p.exponent);
+  r->k.modifier = float(p.modifier);
+  r->k.power = p.exponent != 1.0;
+  r->k.land = detail::LandOnly::make(p.land_only, t.frame.sea_level);
+  r->nx = t.frame.nx;
+  return r;
 }
 
 // ===================================================================================== terrace
@@ -82,20 +87,25 @@ struct TerraceParams {
 //         Plateaus keep the round levels k/n; the wall between level k/n and (k+1)/n rises over
 //         the central fraction w of the step, centred on (k + ½)/n, with zero slope where it meets
 //         the plateaus. Continuous and non-decreasing in e; w = 0 is exactly `round`.
-double terrace_value(double e, const TerraceParams& p) {
-  const double n = p.levels;
-  const double tt = e * n;
-  if (p.mode == "round" || p.wall <= 0.0) return std::round(tt) / n;
-  const double k = std::floor(tt);
-  const double f = tt - k;
-  const double s = std::clamp((f - 0.5 * (1.0 - p.wall)) / p.wall, 0.0, 1.0);
-  return (k + s * s * (3.0 - 2.0 * s)) / n;
-}
+// t = e·n is rounded to float, so a sample within half an ulp of a step edge may land on the
+// other side of it (the same on every target and at every resolution).
+struct TerraceKernel final : RowKernel {
+  detail::TerraceRow k;
+  int nx = 0;
+  TerraceKernel() : RowKernel("height") {}
+  void apply_row(int, float* row) const override { detail::terrace_row(k, row, nx); }
+};
 
-void apply_terrace(Terrain& t, const TerraceParams& p, const Context&) {
-  const double sea = t.frame.sea_level;
-  auto g = [&](double e) { return terrace_value(e, p); };
-  map_height(t, [&](double e, double, double) { return p.land_only ? above_sea(e, sea, g) : g(e); });
+std::unique_ptr<RowKernel> prepare_terrace(Terrain& t, const TerraceParams& p, const Context&) {
+  require_height(t);
+  auto r = std::make_unique<TerraceKernel>();
+  r->k.levels = float(p.levels);
+  r->k.smooth = p.mode == "smooth" && p.wall > 0.0;
+  r->k.wall = float(p.wall);
+  r->k.wall_lo = float(0.5 * (1.0 - p.wall));
+  r->k.land = detail::LandOnly::make(p.land_only, t.frame.sea_level);
+  r->nx = t.frame.nx;
+  return r;
 }
 
 // ====================================================================================== island
@@ -111,29 +121,16 @@ struct IslandParams {
 
 // Distance d ∈ [0, 1]: 0 at the world centre, 1 at the border (and clamped to 1 beyond it).
 // nx = 2x/W − 1, nz = 2z/D − 1 are world coordinates normalised to [−1, 1] over the whole world
-// (not the window), so the rectangle-fitted functions follow the world's aspect ratio.
-double island_distance(const IslandParams& p, double x_m, double z_m, double W, double D) {
-  const double nx = 2.0 * x_m / W - 1.0, nz = 2.0 * z_m / D - 1.0;
-  const double x2 = nx * nx, z2 = nz * nz;
-  double d = 0;
-  if (p.distance == "square_bump") {
-    d = 1.0 - (1.0 - x2) * (1.0 - z2);
-  } else if (p.distance == "euclidean2") {
-    d = (x2 + z2) / std::numbers::sqrt2;  // 1/√2 at edge midpoints, 1 at the corners
-  } else if (p.distance == "hyperboloid") {
-    const double a = p.hyperboloid_a;
-    d = (std::sqrt(x2 + z2 + a * a) - a) / (std::sqrt(1.0 + a * a) - a);  // 1 at edge midpoints
-  } else if (p.distance == "trig_product") {
-    d = 1.0 - std::cos(nx * std::numbers::pi / 2) * std::cos(nz * std::numbers::pi / 2);
-  } else if (p.distance == "squircle") {
-    d = std::sqrt(x2 * x2 + z2 * z2);
-  } else {  // circular: true circle in metres, radius a fraction of half the shorter world side
-    const double r = std::hypot(x_m - 0.5 * W, z_m - 0.5 * D);
-    d = r / (p.radius * 0.5 * std::min(W, D));
-  }
-  return clamp01(d);
-}
-
+// (not the window), so the rectangle-fitted functions follow the world's aspect ratio:
+//   square_bump   1 − (1 − nx²)(1 − nz²)
+//   euclidean2    (nx² + nz²)/√2                 (1/√2 at edge midpoints, 1 at the corners)
+//   hyperboloid   (√(nx² + nz² + a²) − a)/(√(1 + a²) − a)   (1 at edge midpoints)
+//   trig_product  1 − cos(nx·π/2)·cos(nz·π/2)
+//   squircle      √(nx⁴ + nz⁴)
+//   circular      |(x, z) − centre| / (radius · ½ · min(W, D))   (a true circle in metres)
+// Each is computed as a per-column term of x (once per frame, in double, stored as float), a
+// per-row term of z (once per row) and one multiply or add (plus a square root) per sample.
+//
 // e' = clamp(lerp(e, target, mix)) with
 //   lerp     target = 1 − d        (Red Blob Games: the noise fades into a cone/dome shape)
 //   multiply target = e · (1 − d)  (keeps the noise's detail, scaled down towards the border)
@@ -141,14 +138,71 @@ double island_distance(const IslandParams& p, double x_m, double z_m, double W, 
 // Sea-floor guarantee: with mix = 1, `lerp` and `multiply` give exactly 0 wherever d = 1, below any
 // sea_level > 0; `subtract` gives e − rate there, below sea level for every e ≤ 1 when
 // rate > 1 − sea_level.
-void apply_island(Terrain& t, const IslandParams& p, const Context&) {
-  const double W = t.frame.world_width_m, D = t.frame.world_depth_m;
-  const int shaping = p.shaping == "lerp" ? 0 : p.shaping == "multiply" ? 1 : 2;
-  map_height(t, [&](double e, double x, double z) {
-    const double d = island_distance(p, x, z, W, D);
-    const double target = shaping == 0 ? 1.0 - d : shaping == 1 ? e * (1.0 - d) : e - p.falloff_rate * d;
-    return e + (target - e) * p.mix;
-  });
+enum class Distance { SquareBump, Euclidean2, Hyperboloid, TrigProduct, Squircle, Circular };
+
+struct IslandKernel final : RowKernel {
+  detail::IslandRow k;
+  std::vector<float> col;  // per-column term, padded
+  Distance distance = Distance::SquareBump;
+  Frame frame;
+  double a = 0.0, radius_m = 1.0;
+  IslandKernel() : RowKernel("height") {}
+
+  // The term of a normalised coordinate v = 2x/W − 1 (columns) or 2z/D − 1 (rows); `row` adds a²
+  // for the hyperboloid. Circular works on the distance from the centre in metres instead.
+  double term(double v, double offset_m, bool row) const {
+    switch (distance) {
+      case Distance::SquareBump: return 1.0 - v * v;
+      case Distance::Euclidean2: return v * v / std::numbers::sqrt2;
+      case Distance::Hyperboloid: return v * v + (row ? a * a : 0.0);
+      case Distance::TrigProduct: return std::cos(v * std::numbers::pi / 2);
+      case Distance::Squircle: return v * v * v * v;
+      case Distance::Circular: {
+        const double r = offset_m / radius_m;
+        return r * r;
+      }
+    }
+    return 0.0;
+  }
+  void apply_row(int j, float* row) const override {
+    const double z = frame.z_m(j), D = frame.world_depth_m;
+    detail::island_row(k, float(term(2.0 * z / D - 1.0, z - 0.5 * D, true)), row, frame.nx);
+  }
+};
+
+std::unique_ptr<RowKernel> prepare_island(Terrain& t, const IslandParams& p, const Context&) {
+  require_height(t);
+  auto r = std::make_unique<IslandKernel>();
+  const Frame& f = t.frame;
+  const double W = f.world_width_m, D = f.world_depth_m;
+  r->frame = f;
+  r->a = p.hyperboloid_a;
+  r->radius_m = p.radius * 0.5 * std::min(W, D);
+  using detail::IslandForm;
+  static const std::pair<const char*, std::pair<Distance, IslandForm>> kDistances[] = {
+      {"square_bump", {Distance::SquareBump, IslandForm::Product}},
+      {"euclidean2", {Distance::Euclidean2, IslandForm::Sum}},
+      {"hyperboloid", {Distance::Hyperboloid, IslandForm::RootAffine}},
+      {"trig_product", {Distance::TrigProduct, IslandForm::Product}},
+      {"squircle", {Distance::Squircle, IslandForm::Root}},
+      {"circular", {Distance::Circular, IslandForm::Root}},
+  };
+  for (auto& [name, kind] : kDistances)
+    if (p.distance == name) r->distance = kind.first, r->k.form = kind.second;
+  r->k.shaping = p.shaping == "lerp"       ? detail::IslandShaping::Lerp
+                 : p.shaping == "multiply" ? detail::IslandShaping::Multiply
+                                           : detail::IslandShaping::Subtract;
+  r->k.mix = float(p.mix);
+  r->k.rate = float(p.falloff_rate);
+  r->k.a = float(p.hyperboloid_a);
+  r->k.norm = float(std::sqrt(1.0 + p.hyperboloid_a * p.hyperboloid_a) - p.hyperboloid_a);
+  r->col.assign(std::size_t(f.nx) + detail::kRowPad, 0.0f);
+  for (int i = 0; i < f.nx; ++i) {
+    const double x = f.x_m(i);
+    r->col[std::size_t(i)] = float(r->term(2.0 * x / W - 1.0, x - 0.5 * W, false));
+  }
+  r->k.col = r->col.data();
+  return r;
 }
 
 // ======================================================================================= curve
@@ -182,23 +236,48 @@ std::vector<double> monotone_tangents(const std::vector<CurvePoint>& c) {
   return m;
 }
 
-double eval_curve(const std::vector<CurvePoint>& c, const std::vector<double>& m, double x) {
-  if (x <= c.front().x) return c.front().y;
-  if (x >= c.back().x) return c.back().y;
-  // First k with c[k+1].x > x.
-  std::size_t k = std::size_t(std::upper_bound(c.begin(), c.end(), x, [](double v, const CurvePoint& p) { return v < p.x; }) -
-                              c.begin()) - 1;
-  const double h = c[k + 1].x - c[k].x, s = (x - c[k].x) / h;
-  const double s2 = s * s, s3 = s2 * s;
-  const double y = (2 * s3 - 3 * s2 + 1) * c[k].y + (s3 - 2 * s2 + s) * h * m[k] + (-2 * s3 + 3 * s2) * c[k + 1].y +
-                   (s3 - s2) * h * m[k + 1];
-  // Exact no-overshoot guarantee (the tangents make it hold mathematically; this removes rounding).
-  return std::clamp(y, std::min(c[k].y, c[k + 1].y), std::max(c[k].y, c[k + 1].y));
-}
+// Each segment [x_k, x_k+1] is the cubic Hermite interpolant of (y_k, m_k), (y_k+1, m_k+1),
+// rewritten once as a polynomial in s = (x − x_k)/h (coefficients in double, stored as float):
+//   y = y_k + s·(h·m_k + s·(3Δy − 2h·m_k − h·m_k+1 + s·(−2Δy + h·m_k + h·m_k+1))),  Δy = y_k+1 − y_k,
+// then clamped to [min, max] of y_k, y_k+1 — an exact no-overshoot guarantee (the tangents make it
+// hold mathematically; the clamp removes rounding). Knots are compared in float exactly as the
+// double comparison would decide (pointwise.hpp: float_at_least / float_at_most), so a control
+// point's own x maps to its own y. Cost per sample grows with the number of control points
+// (one compare and eight selects per interior point and vector).
+struct CurveKernel final : RowKernel {
+  detail::CurveRow k;
+  std::vector<float> x0, h, c0, c1, c2, c3, lo, hi;
+  int nx = 0;
+  CurveKernel() : RowKernel("height") {}
+  void apply_row(int, float* row) const override { detail::curve_row(k, row, nx); }
+};
 
-void apply_curve(Terrain& t, const CurveParams& p, const Context&) {
-  const std::vector<double> m = monotone_tangents(p.points);
-  map_height(t, [&](double e, double, double) { return eval_curve(p.points, m, e); });
+std::unique_ptr<RowKernel> prepare_curve(Terrain& t, const CurveParams& p, const Context&) {
+  require_height(t);
+  const std::vector<CurvePoint>& c = p.points;
+  const std::vector<double> m = monotone_tangents(c);
+  auto r = std::make_unique<CurveKernel>();
+  for (std::size_t k = 0; k + 1 < c.size(); ++k) {
+    const double h = c[k + 1].x - c[k].x, dy = c[k + 1].y - c[k].y;
+    const double hm0 = h * m[k], hm1 = h * m[k + 1];
+    r->x0.push_back(detail::float_at_least(c[k].x));
+    r->h.push_back(float(h));
+    r->c0.push_back(float(c[k].y));
+    r->c1.push_back(float(hm0));
+    r->c2.push_back(float(3.0 * dy - 2.0 * hm0 - hm1));
+    r->c3.push_back(float(-2.0 * dy + hm0 + hm1));
+    r->lo.push_back(float(std::min(c[k].y, c[k + 1].y)));
+    r->hi.push_back(float(std::max(c[k].y, c[k + 1].y)));
+  }
+  r->k.segments = int(r->x0.size());
+  r->k.x0 = r->x0.data(), r->k.h = r->h.data(), r->k.c0 = r->c0.data(), r->k.c1 = r->c1.data();
+  r->k.c2 = r->c2.data(), r->k.c3 = r->c3.data(), r->k.lo = r->lo.data(), r->k.hi = r->hi.data();
+  r->k.first_x = detail::float_at_most(c.front().x);
+  r->k.first_y = float(c.front().y);
+  r->k.last_x = detail::float_at_least(c.back().x);
+  r->k.last_y = float(c.back().y);
+  r->nx = t.frame.nx;
+  return r;
 }
 
 }  // namespace
@@ -212,8 +291,8 @@ StageDef redistribute() {
       param(&P::land_only, "land_only", 0, 1, "",
             "Apply only above sea level, to (e − sea)/(1 − sea); the sea floor and coastline stay put"),
   }};
-  return make_stage<P>("redistribute", "Redistribute elevation: e' = clamp(modifier · e^exponent)", Locality::Pointwise, 0,
-                       std::move(table), apply_redistribute);
+  return make_row_stage<P>("redistribute", "Redistribute elevation: e' = clamp(modifier · e^exponent)", std::move(table),
+                           prepare_redistribute);
 }
 
 StageDef terrace() {
@@ -227,8 +306,8 @@ StageDef terrace() {
       param(&P::land_only, "land_only", 0, 1, "",
             "Terrace only above sea level, in steps of (1 − sea)/n; the sea floor is unchanged"),
   }};
-  return make_stage<P>("terrace", "Terraces: round(e·n)/n, or smooth terraces with sloped walls", Locality::Pointwise, 0,
-                       std::move(table), apply_terrace);
+  return make_row_stage<P>("terrace", "Terraces: round(e·n)/n, or smooth terraces with sloped walls", std::move(table),
+                           prepare_terrace);
 }
 
 StageDef island() {
@@ -246,8 +325,8 @@ StageDef island() {
       param(&P::hyperboloid_a, "hyperboloid_a", 0.01, 4.0, "",
             "Hyperboloid distance: rounding of the centre, d = (√(nx²+nz²+a²) − a)/(√(1+a²) − a)"),
   }};
-  return make_stage<P>("island", "Island shaping: a distance from the world centre pulls the border down",
-                       Locality::Pointwise, 0, std::move(table), apply_island);
+  return make_row_stage<P>("island", "Island shaping: a distance from the world centre pulls the border down",
+                           std::move(table), prepare_island);
 }
 
 StageDef curve() {
@@ -257,8 +336,8 @@ StageDef curve() {
                     "Control points [[e, e'], …] with increasing e; monotone cubic (Fritsch–Carlson), no overshoot; "
                     "elevations outside the first/last x take the first/last y"),
   }};
-  return make_stage<P>("curve", "Remap elevation through a monotone curve (an animation-curve remap)",
-                       Locality::Pointwise, 0, std::move(table), apply_curve);
+  return make_row_stage<P>("curve", "Remap elevation through a monotone curve (an animation-curve remap)",
+                           std::move(table), prepare_curve);
 }
 
 }  // namespace relief::stages

@@ -10,6 +10,8 @@
 #include <chrono>
 #include <cstdio>
 #include <fstream>
+#include <ctime>
+#include <utility>
 #include <libnoise/noise.h>
 
 #include "../../src/erosion.hpp"
@@ -27,14 +29,16 @@ namespace {
 
 struct Sample {
   double median = 0, min = 0, max = 0;
-  double cpu_median = 0;  // process CPU time (all threads) per run: the work, whatever the machine's load
+  // Median process CPU time per run (all threads; with more than one thread it includes oneTBB's
+  // workers spinning briefly after the work). On a shared, loaded machine the 1-thread CPU time
+  // shows the work itself while wall time also holds the waits for a core.
+  double cpu_median = 0;
 };
 
 double cpu_ms() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return (double(u.ru_utime.tv_sec) + double(u.ru_stime.tv_sec)) * 1e3 +
-         (double(u.ru_utime.tv_usec) + double(u.ru_stime.tv_usec)) * 1e-3;
+  timespec ts{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &ts);
+  return double(ts.tv_sec) * 1e3 + double(ts.tv_nsec) * 1e-6;
 }
 
 double median_of(std::vector<double> v) {
@@ -42,11 +46,15 @@ double median_of(std::vector<double> v) {
   return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
 }
 
-template <class F>
-Sample time_runs(int runs, F&& f) {
+// Runs setup() then f() once to warm up (page faults, caches, lazy init), then `runs` timed f()
+// calls, each after an untimed setup().
+template <class F, class S>
+Sample time_runs(int runs, F&& f, S&& setup) {
   std::vector<double> ms, cpu;
-  f();  // warm-up: page faults, caches, lazy init
+  setup();
+  f();
   for (int r = 0; r < runs; ++r) {
+    setup();
     const double c0 = cpu_ms();
     auto t0 = std::chrono::steady_clock::now();
     f();
@@ -59,6 +67,10 @@ Sample time_runs(int runs, F&& f) {
   s.median = median_of(ms);
   s.cpu_median = median_of(cpu);
   return s;
+}
+template <class F>
+Sample time_runs(int runs, F&& f) {
+  return time_runs(runs, std::forward<F>(f), [] {});
 }
 
 std::uint64_t peak_rss() {
@@ -78,7 +90,7 @@ struct NoiseCase {
 }  // namespace
 
 namespace {
-const std::vector<std::string> kGroups = {"noise", "stages", "presets", "tilemap", "erosion"};
+const std::vector<std::string> kGroups = {"noise", "stages", "regenerate", "presets", "tilemap", "erosion"};
 }
 
 bool is_bench_group(const std::string& name) {
@@ -196,7 +208,8 @@ int run_bench(const BenchSettings& s) {
 
   if (want("stages")) {
     // Pointwise stages on a size² layer against a plain copy of that layer (the floor: one read
-    // and one write). The target is ≤ 2× the copy.
+    // and one write). The target is ≤ 2× the copy. The colour passes (color, hillshade) write
+    // 3-channel layers and are compared with a copy of a 3-channel layer of the same size.
     const int n = s.noise_size;
     Terrain base;
     base.frame = World{n, n, 4000.0, 600.0, 0.4}.frame();
@@ -208,27 +221,43 @@ int run_bench(const BenchSettings& s) {
       st->apply(base, c);
     }
     const std::vector<float> original = base.get("height").data;
-    std::vector<float> copy_dst(original.size());
+    // hillshade reads an albedo: the colour stage's output on this height field.
+    Terrain coloured = base;
+    {
+      auto st = find_stage("color")->parse(json{{"stage", "color"}}, "color");
+      Context c;
+      c.seed = 1;
+      st->apply(coloured, c);
+    }
+    const std::vector<float> original3(std::size_t(3) * n * n, 0.5f);
+    std::vector<float> copy_dst(original.size()), copy_dst3(original3.size());
     for (int threads : s.threads) {
       tbb::task_arena arena(threads);
-      // The copy is split into the same row blocks the stages use.
-      Sample copy = time_runs(s.runs, [&] {
-        arena.execute([&] {
-          detail::parallel_rows(n, [&](int j) {
-            std::copy_n(original.data() + std::size_t(j) * n, n, copy_dst.data() + std::size_t(j) * n);
-          }, 16);
+      // The copies are split into the same row blocks the stages use.
+      auto time_copy = [&](const std::vector<float>& src, std::vector<float>& dst, int channels, const char* name) {
+        const std::size_t w = std::size_t(n) * channels;
+        Sample copy = time_runs(s.runs, [&] {
+          arena.execute([&] {
+            detail::parallel_rows(n, [&](int j) { std::copy_n(src.data() + j * w, w, dst.data() + j * w); });
+          });
         });
-      });
-      json ce;
-      ce["name"] = "copy (floor)";
-      ce["size"] = json::array({n, n});
-      ce["threads"] = threads;
-      ce["median_ms"] = copy.median;
-      ce["min_ms"] = copy.min;
-      ce["max_ms"] = copy.max;
-      ce["msamples_per_s"] = double(n) * n / (copy.median * 1e3);
-      print_row(ce);
-      entries.push_back(ce);
+        json ce;
+        ce["name"] = name;
+        ce["size"] = json::array({n, n});
+        ce["threads"] = threads;
+        ce["median_ms"] = copy.median;
+        ce["min_ms"] = copy.min;
+        ce["max_ms"] = copy.max;
+        ce["msamples_per_s"] = double(n) * n / (copy.median * 1e3);
+        ce["median_cpu_ms"] = copy.cpu_median;
+        std::printf("%-28s %6s %3d %10.2f %10.2f %10.2f %9.1f   cpu %.2f ms\n", name, (std::to_string(n) + "²").c_str(), threads,
+                    copy.median, copy.min, copy.max, ce["msamples_per_s"].get<double>(), copy.cpu_median);
+        std::fflush(stdout);
+        entries.push_back(ce);
+        return copy;
+      };
+      const Sample copy1 = time_copy(original, copy_dst, 1, "copy (floor)");
+      const Sample copy3 = time_copy(original3, copy_dst3, 3, "copy 3 channels (floor)");
       const std::vector<json> cases = {
           {{"stage", "redistribute"}, {"exponent", 1.4}},
           {{"stage", "redistribute"}, {"exponent", 1.4}, {"land_only", true}},
@@ -241,35 +270,96 @@ int run_bench(const BenchSettings& s) {
           {{"stage", "island"}, {"distance", "squircle"}},
           {{"stage", "island"}, {"distance", "circular"}, {"shaping", "subtract"}},
           {{"stage", "curve"}, {"points", json::array({json::array({0, 0}), json::array({0.4, 0.2}), json::array({0.7, 0.8}), json::array({1, 1})})}},
+          {{"stage", "color"}, {"mode", "bands"}},
+          {{"stage", "color"}, {"mode", "gradient"}},
+          {{"stage", "hillshade"}},
       };
       for (const json& c : cases) {
-        auto st = find_stage(c["stage"].get<std::string>())->parse(c, "bench");
-        Terrain t = base;
+        const std::string stage = c["stage"].get<std::string>();
+        const bool colour = stage == "color" || stage == "hillshade";
+        auto st = find_stage(stage)->parse(c, "bench");
+        Terrain t = stage == "hillshade" ? coloured : base;
         Context ctx;
         ctx.seed = 1;
-        std::vector<double> ms;
-        for (int r = 0; r <= s.runs; ++r) {
-          std::copy(original.begin(), original.end(), t.get("height").data.begin());
-          auto t0 = std::chrono::steady_clock::now();
-          arena.execute([&] { st->apply(t, ctx); });
-          if (r > 0) ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
-        }
-        std::sort(ms.begin(), ms.end());
-        std::string name = c["stage"].get<std::string>();
+        Sample ts = time_runs(
+            s.runs, [&] { arena.execute([&] { st->apply(t, ctx); }); },
+            [&] { std::copy(original.begin(), original.end(), t.get("height").data.begin()); });
+        std::string name = stage;
         for (auto it = c.begin(); it != c.end(); ++it)
           if (it.key() != "stage" && it.key() != "points") name += " " + (it.value().is_string() ? it.value().get<std::string>() : it.key());
+        const double floor = colour ? copy3.median : copy1.median;
         json e;
         e["name"] = name;
         e["size"] = json::array({n, n});
         e["threads"] = threads;
-        e["median_ms"] = ms[ms.size() / 2];
-        e["min_ms"] = ms.front();
-        e["max_ms"] = ms.back();
-        e["msamples_per_s"] = double(n) * n / (ms[ms.size() / 2] * 1e3);
-        e["vs_copy"] = ms[ms.size() / 2] / copy.median;
-        std::printf("%-28s %6s %3d %10.2f %10.2f %10.2f %9.1f   %.2fx copy\n", name.c_str(), (std::to_string(n) + "²").c_str(),
-                    threads, ms[ms.size() / 2], ms.front(), ms.back(), e["msamples_per_s"].get<double>(), e["vs_copy"].get<double>());
+        e["median_ms"] = ts.median;
+        e["min_ms"] = ts.min;
+        e["max_ms"] = ts.max;
+        e["median_cpu_ms"] = ts.cpu_median;
+        e["msamples_per_s"] = double(n) * n / (ts.median * 1e3);
+        e["vs_copy"] = ts.median / floor;
+        e["vs_copy_min"] = ts.min / (colour ? copy3.min : copy1.min);
+        e["copy_channels"] = colour ? 3 : 1;
+        e["vs_copy_cpu"] = ts.cpu_median / (colour ? copy3.cpu_median : copy1.cpu_median);
+        std::printf("%-28s %6s %3d %10.2f %10.2f %10.2f %9.1f   %.2fx copy (min %.2fx), cpu %.2f ms = %.2fx copy%s\n",
+                    name.c_str(), (std::to_string(n) + "²").c_str(), threads, ts.median, ts.min, ts.max,
+                    e["msamples_per_s"].get<double>(), e["vs_copy"].get<double>(), e["vs_copy_min"].get<double>(), ts.cpu_median,
+                    e["vs_copy_cpu"].get<double>(), colour ? " (3 channels)" : "");
         std::fflush(stdout);
+        entries.push_back(e);
+      }
+    }
+  }
+
+  if (want("regenerate")) {
+    // What the studio does on a slider move: run() the island preset at 513², in memory, no
+    // writers, handing the previous result back for its buffers (RunOptions::recycle). Target
+    // ≤ 15 ms. Also without recycling (fresh allocations) and without fusion, for comparison. The
+    // per-stage medians show where the time goes (a fused chain's time sits on its first stage).
+    json doc = load_preset("island");
+    doc["world"]["size"] = 513;
+    doc["seed"] = 1;
+    const Recipe r = parse_recipe(doc);
+    struct Variant {
+      const char* name;
+      bool recycle, fuse;
+    };
+    for (int threads : s.threads) {
+      for (const Variant& v : {Variant{"island regenerate 513² in memory", true, true},
+                               Variant{"  same, fresh allocations", false, true},
+                               Variant{"  same, unfused", true, false}}) {
+        RunOptions o;
+        o.threads = threads;
+        o.fuse = v.fuse;
+        Terrain previous;
+        std::vector<std::vector<double>> stage_ms(r.stages.size());
+        Sample t = time_runs(s.runs, [&] {
+          if (v.recycle) o.recycle = &previous;
+          RunResult res = run(r, o);
+          for (std::size_t k = 0; k < res.timings.size() && k < stage_ms.size(); ++k) stage_ms[k].push_back(res.timings[k].ms);
+          if (v.recycle) previous = std::move(res.terrain);
+        });
+        json e;
+        e["name"] = v.name;
+        e["size"] = json::array({513, 513});
+        e["threads"] = threads;
+        e["median_ms"] = t.median;
+        e["min_ms"] = t.min;
+        e["max_ms"] = t.max;
+        e["median_cpu_ms"] = t.cpu_median;
+        e["msamples_per_s"] = 513.0 * 513.0 / (t.median * 1e3);
+        json per = json::array();
+        std::string line = "    stages (median ms):";
+        for (std::size_t k = 0; k < stage_ms.size(); ++k) {
+          const double med = stage_ms[k].empty() ? 0.0 : median_of(stage_ms[k]);
+          per.push_back({{"stage", r.stages[k].def->name}, {"median_ms", med}});
+          char buf[64];
+          std::snprintf(buf, sizeof buf, " %s %.2f", r.stages[k].def->name.c_str(), med);
+          line += buf;
+        }
+        e["stages"] = per;
+        print_row(e);
+        std::printf("%s; cpu %.2f ms per run\n", line.c_str(), t.cpu_median);
         entries.push_back(e);
       }
     }

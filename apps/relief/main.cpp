@@ -255,7 +255,11 @@ int cmd_generate(const GenerateSettings& s) {
     json perf;
     perf["threads"] = s.threads;
     json st = json::array();
-    for (auto& t : res.timings) st.push_back({{"stage", t.name}, {"label", t.label}, {"ms", t.ms}});
+    for (auto& t : res.timings) {
+      json e = {{"stage", t.name}, {"label", t.label}, {"ms", t.ms}};
+      if (t.fused) e["fused"] = true;  // ran in one row pass with the stages before it
+      st.push_back(e);
+    }
     perf["stages"] = st;
     perf["generate_ms"] = res.total_ms;
     perf["encode_ms"] = write_ms;

@@ -15,6 +15,10 @@ namespace relief {
 struct StageTiming {
   std::string name, label;
   double ms = 0;
+  // The stage ran in one pass over the rows together with the stages before it (see
+  // RunOptions::fuse). A fused chain's whole wall time is reported on its first stage; the later
+  // stages of the chain report 0 ms and fused = true.
+  bool fused = false;
 };
 
 struct RunOptions {
@@ -24,7 +28,16 @@ struct RunOptions {
   std::optional<Frame> window;
   std::function<void(std::string_view stage, double fraction)> progress;
   // Called after each stage with a read-only view (the studio's and `--steps` stage strips).
+  // Setting it turns fusion off, so that every stage's own output can be seen.
   std::function<void(const Terrain&, const RecipeStage&, int index)> after_stage;
+  // Fusion: consecutive fusable stages (Stage::fusable — noise, island, redistribute, terrace,
+  // curve) run in one pass over the rows, each row going through the whole chain while it is in
+  // cache. The bytes are identical with and without fusion; off when after_stage is set.
+  bool fuse = true;
+  // Optional: a previous result's terrain whose buffers the new run may reuse (its layers are moved
+  // into the new terrain's spare buffers; it is left without layers). Saves the page faults of
+  // fresh allocations when regenerating, as the studio does on every change. Results are the same.
+  Terrain* recycle = nullptr;
 };
 
 struct RunResult {

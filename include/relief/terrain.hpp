@@ -103,9 +103,14 @@ struct Terrain {
   std::vector<River> rivers;  // empty unless a stage traced rivers
   std::vector<Lake> lakes;    // empty unless a stage kept lakes
 
+  // Float buffers that layer() reuses (by capacity) when it creates a layer, instead of
+  // allocating: run() fills it from RunOptions::recycle, so that regenerating a terrain touches
+  // memory that is already mapped. Never visible as layers.
+  std::vector<std::vector<float>> spare;
+
   bool has(const std::string& name) const { return layers.count(name) != 0; }
   // Returns the layer, creating it (zero-filled) with `channels` channels if missing or if its
-  // channel count differs.
+  // channel count differs (reusing a spare buffer when one is large enough).
   Layer& layer(const std::string& name, int channels = 1);
   // Returns an existing layer; throws relief::Error naming the layer if it is missing.
   const Layer& get(const std::string& name) const;

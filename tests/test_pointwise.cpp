@@ -1,0 +1,300 @@
+// The vectorised row kernels (src/pointwise.cpp): every compiled Highway target against the scalar
+// target, independence of a sample's position in the row, single-precision results against the
+// double-precision formulas, and the colour stage's rock blend (the atan path).
+#include <gtest/gtest.h>
+#include <hwy/targets.h>
+
+#include <algorithm>
+#include <cmath>
+#include <functional>
+#include <map>
+#include <numbers>
+#include <string>
+#include <vector>
+
+#include "pointwise.hpp"
+#include "relief/stage.hpp"
+#include "relief/terrain.hpp"
+#include "stages.hpp"
+
+using relief::json;
+using relief::Terrain;
+namespace st = relief::stages;
+
+namespace {
+
+// A world_m × (world_m·(nz−1)/(nx−1)) world sampled with nx × nz samples.
+relief::Frame frame(int nx, int nz, double world_m = 4000.0) {
+  relief::Frame f;
+  f.spacing_m = world_m / (nx - 1);
+  f.world_width_m = world_m;
+  f.world_depth_m = f.spacing_m * (nz - 1);
+  f.nx = nx;
+  f.nz = nz;
+  f.height_m = 600.0;
+  f.sea_level = 0.4;
+  return f;
+}
+
+// Heights that cover [0, 1] with structure at several scales, plus exact 0, 1 and sea level.
+Terrain field(const relief::Frame& f) {
+  Terrain t;
+  t.frame = f;
+  auto& l = t.layer("height", 1);
+  for (int j = 0; j < f.nz; ++j)
+    for (int i = 0; i < f.nx; ++i) {
+      const double x = f.x_m(i), z = f.z_m(j);
+      double e = 0.5 + 0.3 * std::sin(x / 310.0) * std::cos(z / 470.0 + 0.3) + 0.25 * std::sin(x / 37.0 + z / 53.0);
+      if ((i + 3 * j) % 17 == 0) e = 0.0;
+      if ((i + 5 * j) % 19 == 0) e = 1.0;
+      if ((2 * i + j) % 23 == 0) e = 0.4;
+      l.data[std::size_t(j) * f.nx + i] = float(std::clamp(e, 0.0, 1.0));
+    }
+  return t;
+}
+
+void run(const std::string& stage, json params, Terrain& t, std::uint64_t seed = 3) {
+  params["stage"] = stage;
+  auto s = relief::find_stage(stage)->parse(params, "stages[0]");
+  relief::Context ctx;
+  ctx.seed = seed;
+  s->apply(t, ctx);
+}
+
+struct Case {
+  std::string stage;
+  json params;
+  std::vector<std::string> layers;  // outputs to compare
+  bool exact;                       // bit-identical on every target (no transcendental function)
+};
+
+std::vector<Case> cases() {
+  std::vector<Case> c = {
+      {"redistribute", {{"exponent", 1.7}, {"modifier", 1.2}}, {"height"}, false},
+      {"redistribute", {{"exponent", 0.3}, {"land_only", true}}, {"height"}, false},
+      {"redistribute", {{"exponent", 1.0}, {"modifier", 1.3}, {"land_only", true}}, {"height"}, true},
+      {"terrace", {{"levels", 7}}, {"height"}, true},
+      {"terrace", {{"levels", 5}, {"mode", "smooth"}, {"wall", 0.4}, {"land_only", true}}, {"height"}, true},
+      {"curve", {{"points", {{0.0, 0.1}, {0.2, 0.15}, {0.45, 0.8}, {0.8, 0.85}, {1.0, 1.0}}}}, {"height"}, true},
+      {"color", {{"variation", 0.1}, {"rock_blend_deg", 8.0}, {"rock_slope_deg", 20.0}}, {"albedo"}, false},
+      {"color", {{"mode", "gradient"}, {"relative_to_max", true}, {"rock_blend_deg", 0.0}}, {"albedo"}, true},
+      {"hillshade", {{"z_factor", 3.0}}, {"shade", "color"}, true},
+  };
+  for (const char* d : {"square_bump", "euclidean2", "hyperboloid", "trig_product", "squircle", "circular"})
+    for (const char* s : {"lerp", "multiply", "subtract"})
+      c.push_back({"island", {{"distance", d}, {"shaping", s}, {"mix", 0.8}, {"falloff_rate", 0.7}}, {"height"}, true});
+  return c;
+}
+
+// Restores Highway's normal target choice when a test ends.
+struct ForcedTarget {
+  explicit ForcedTarget(std::int64_t target) { hwy::SetSupportedTargetsForTest(target); }
+  ~ForcedTarget() { hwy::SetSupportedTargetsForTest(0); }
+};
+
+// Runs every case on a 67 × 45 field (67 = 4·16 + 3: every vector width leaves a tail) with the
+// given target forced; returns the outputs by case and layer.
+std::map<std::string, std::vector<float>> run_all(std::int64_t target) {
+  ForcedTarget force(target);
+  EXPECT_STREQ(relief::detail::pointwise_target(), hwy::TargetName(target)) << "dispatch did not switch";
+  std::map<std::string, std::vector<float>> out;
+  const auto all = cases();
+  for (std::size_t k = 0; k < all.size(); ++k) {
+    Terrain t = field(frame(67, 45));
+    // An albedo to shade (without the rock blend, whose atan may differ in the last bit).
+    if (all[k].stage == "hillshade") run("color", {{"rock_blend_deg", 0.0}}, t);
+    run(all[k].stage, all[k].params, t);
+    for (auto& l : all[k].layers) out[std::to_string(k) + " " + l] = t.get(l).data;
+  }
+  return out;
+}
+
+}  // namespace
+
+TEST(Targets, ScalarTargetIsCompiled) {
+  const auto targets = hwy::SupportedAndGeneratedTargets();
+  EXPECT_NE(std::find(targets.begin(), targets.end(), HWY_SCALAR), targets.end());
+}
+
+// The acceptance rule of the SIMD port: every compiled target agrees with the scalar target within
+// 1e-5; stages without transcendental functions agree bit for bit (pointwise.hpp).
+TEST(Targets, EveryTargetAgreesWithScalar) {
+  const auto reference = run_all(HWY_SCALAR);
+  const auto all = cases();
+  for (std::int64_t target : hwy::SupportedAndGeneratedTargets()) {
+    if (target == HWY_SCALAR) continue;
+    const auto got = run_all(target);
+    for (auto& [key, want] : reference) {
+      const auto& have = got.at(key);
+      ASSERT_EQ(have.size(), want.size());
+      const Case& c = all[std::size_t(std::stoul(key))];
+      double worst = 0;
+      std::size_t differ = 0;
+      for (std::size_t i = 0; i < want.size(); ++i) {
+        worst = std::max(worst, std::fabs(double(have[i]) - double(want[i])));
+        differ += have[i] != want[i];
+      }
+      EXPECT_LE(worst, 1e-5) << hwy::TargetName(target) << ": " << c.stage << " " << c.params.dump() << " " << key;
+      if (c.exact) {
+        EXPECT_EQ(differ, 0u) << hwy::TargetName(target) << ": " << c.stage << " " << c.params.dump() << " " << key;
+      }
+    }
+  }
+}
+
+// A sample's result must not depend on where it falls in a vector (full vector or padded tail):
+// the same world samples computed as part of a 67-wide window and of a 19-wide window starting at
+// column 5 are identical, on every target.
+TEST(Targets, ResultDoesNotDependOnPositionInRow) {
+  for (std::int64_t target : hwy::SupportedAndGeneratedTargets()) {
+    ForcedTarget force(target);
+    for (const Case& c : cases()) {
+      if (c.stage == "color" || c.stage == "hillshade") continue;  // neighbourhood stages: borders differ
+      Terrain whole = field(frame(67, 45));
+      Terrain part;
+      part.frame = whole.frame.window(5, 0, 19, 45);
+      auto& ph = part.layer("height", 1);
+      for (int j = 0; j < 45; ++j)
+        for (int i = 0; i < 19; ++i) ph.data[std::size_t(j) * 19 + i] = whole.get("height").data[std::size_t(j) * 67 + 5 + i];
+      run(c.stage, c.params, whole);
+      run(c.stage, c.params, part);
+      for (int j = 0; j < 45; ++j)
+        for (int i = 0; i < 19; ++i)
+          ASSERT_EQ(part.get("height").data[std::size_t(j) * 19 + i], whole.get("height").data[std::size_t(j) * 67 + 5 + i])
+              << hwy::TargetName(target) << " " << c.stage << " " << c.params.dump() << " at " << i << "," << j;
+    }
+  }
+}
+
+// ---- single precision against the double formulas ------------------------------------------
+
+namespace {
+Terrain ramp(int n) {
+  Terrain t;
+  t.frame = frame(n, 2, double(n - 1));
+  auto& l = t.layer("height", 1);
+  for (int j = 0; j < 2; ++j)
+    for (int i = 0; i < n; ++i) l.data[std::size_t(j) * n + i] = float(double(i) / (n - 1));
+  return t;
+}
+}  // namespace
+
+TEST(Redistribute, PowWithinOneMillionthOfDouble) {
+  for (double y : {0.1, 0.5, 1.2, 2.0, 3.7, 8.0}) {
+    Terrain t = ramp(10001);
+    const std::vector<float> in = t.get("height").data;
+    run("redistribute", {{"exponent", y}}, t);
+    double worst = 0;
+    for (std::size_t i = 0; i < in.size(); ++i)
+      worst = std::max(worst, std::fabs(double(t.get("height").data[i]) - std::pow(double(in[i]), y)));
+    EXPECT_LE(worst, 1e-6) << "exponent " << y;
+  }
+}
+
+TEST(Redistribute, ExponentOneIsExact) {
+  Terrain t = field(frame(67, 45));
+  const std::vector<float> before = t.get("height").data;
+  run("redistribute", {{"exponent", 1.0}}, t);
+  EXPECT_EQ(t.get("height").data, before);
+}
+
+TEST(Redistribute, ZeroStaysZeroAndTinyPowersFlushToZero) {
+  Terrain t = ramp(3);
+  auto& h = t.get("height").data;
+  h[0] = 0.0f, h[1] = 1e-20f, h[2] = 1e-30f;  // 1e-20^8 = 1e-160: far below the float range
+  run("redistribute", {{"exponent", 8.0}}, t);
+  EXPECT_EQ(h[0], 0.0f);
+  EXPECT_EQ(h[1], 0.0f);
+  EXPECT_EQ(h[2], 0.0f);
+}
+
+TEST(Terrace, SmoothWithinOneMillionthOfDouble) {
+  Terrain t = ramp(10001);
+  const std::vector<float> in = t.get("height").data;
+  run("terrace", {{"levels", 6}, {"mode", "smooth"}, {"wall", 0.35}}, t);
+  double worst = 0;
+  for (std::size_t i = 0; i < in.size(); ++i) {
+    const double tt = double(in[i]) * 6, k = std::floor(tt), f = tt - k;
+    const double s = std::clamp((f - 0.5 * (1 - 0.35)) / 0.35, 0.0, 1.0);
+    worst = std::max(worst, std::fabs(double(t.get("height").data[i]) - (k + s * s * (3 - 2 * s)) / 6));
+  }
+  EXPECT_LE(worst, 1e-6);
+}
+
+TEST(Curve, KnotsCompareAsInDouble) {
+  // 0.1 is not a float: the sample 0.1f (> 0.1) lies right of the knot, the float below it left.
+  Terrain t = ramp(2);
+  auto& h = t.get("height").data;
+  h[0] = 0.1f, h[1] = std::nextafter(0.1f, 0.0f);
+  run("curve", {{"points", {{0.0, 0.0}, {0.1, 0.5}, {1.0, 0.5}}}}, t);
+  EXPECT_EQ(h[0], 0.5f);  // on the flat segment right of the knot
+  EXPECT_LT(h[1], 0.5f);  // still rising towards it
+  EXPECT_GT(h[1], 0.49f);
+}
+
+// ---- the colour stage's rock blend ----------------------------------------------------------
+
+namespace {
+// A plane rising eastwards at `deg` degrees: 8 m cells, 640 m per unit elevation.
+Terrain plane(double deg) {
+  Terrain t;
+  t.frame = frame(9, 9, 64.0);
+  t.frame.height_m = 640.0;
+  auto& l = t.layer("height", 1);
+  for (int j = 0; j < 9; ++j)
+    for (int i = 0; i < 9; ++i) l.data[std::size_t(j) * 9 + i] = float(0.45 + i * 8.0 * std::tan(deg * std::numbers::pi / 180) / 640.0);
+  return t;
+}
+json rock(double blend) {
+  return {{"levels", json::array({{{"at", 1.0}, {"color", "#00ff00"}}})},
+          {"rock_color", "#000000"},
+          {"rock_slope_deg", 35.0},
+          {"rock_blend_deg", blend},
+          {"rock_min", 0.0},
+          {"rock_max", 1.0},
+          {"variation", 0.0}};
+}
+}  // namespace
+
+TEST(Color, RockBlendFollowsSmoothstepOfTheAngle) {
+  // 37.5° is halfway through a 5° blend above 35°: smoothstep(½) = ½ of the way to black.
+  Terrain t = plane(37.5);
+  run("color", rock(5.0), t);
+  EXPECT_NEAR(t.get("albedo").data[(4 * 9 + 4) * 3 + 1], 0.5, 1e-5);
+  // 36.25°: a quarter of the blend, smoothstep(¼) = 0.15625.
+  Terrain q = plane(36.25);
+  run("color", rock(5.0), q);
+  EXPECT_NEAR(q.get("albedo").data[(4 * 9 + 4) * 3 + 1], 1.0 - 0.15625, 1e-5);
+}
+
+TEST(Color, RockAboveTheBlendBandIsExactlyRock) {
+  Terrain t = plane(41.0);
+  run("color", rock(5.0), t);
+  for (int i = 0; i < 9; ++i) EXPECT_EQ(t.get("albedo").data[(4 * 9 + i) * 3 + 1], 0.0f) << i;
+}
+
+TEST(Color, BelowTheRockSlopeIsUntouched) {
+  Terrain t = plane(34.0);
+  run("color", rock(5.0), t);
+  for (int i = 0; i < 9; ++i) EXPECT_EQ(t.get("albedo").data[(4 * 9 + i) * 3 + 1], 1.0f) << i;
+}
+
+TEST(Color, SlopeLayerAndGradientAgreeOnTheBlend) {
+  // The same 37.5° plane with the angle given as a slope_deg layer.
+  Terrain t = plane(37.5);
+  auto& s = t.layer("slope_deg", 1);
+  std::fill(s.data.begin(), s.data.end(), 37.5f);
+  run("color", rock(5.0), t);
+  EXPECT_NEAR(t.get("albedo").data[(4 * 9 + 4) * 3 + 1], 0.5, 1e-6);
+}
+
+TEST(Stages, MultiChannelHeightIsAnError) {
+  Terrain t = field(frame(9, 9));
+  t.layer("height", 2);
+  try {
+    run("island", json::object(), t);
+    ADD_FAILURE() << "expected relief::Error";
+  } catch (const relief::Error& e) {
+    EXPECT_NE(std::string(e.what()).find("one channel"), std::string::npos) << e.what();
+  }
+}
