@@ -6,9 +6,7 @@
 //     is steep between two elevations, elevation bands elsewhere".
 //   * A. Saparov, "A Maya Terrain Generator Based on Perlin Noise" (2021, seed 000): colour levels
 //     (threshold + colour), thresholds optionally relative to the map's highest point.
-//   * Lambertian hillshade as in GIS (Burrough & McDonnell, "Principles of Geographical
-//     Information Systems", 1998; GDAL gdaldem hillshade): light azimuth clockwise from north,
-//     altitude above the horizon, z factor for vertical exaggeration.
+//   * Lambertian hillshade (hillshade.hpp): Burrough & McDonnell 1998, GDAL gdaldem hillshade.
 //
 // Slopes and shading are metric: elevation differences are converted to metres with
 // frame.height_m and divided by the cell size in metres, so a 257² preview and a 513² build of
@@ -22,10 +20,12 @@
 #include <string>
 #include <vector>
 
+#include "hillshade.hpp"
 #include "parallel.hpp"
 #include "relief/error.hpp"
 #include "relief/random.hpp"
 #include "stages.hpp"
+#include "texture.hpp"
 
 namespace relief::stages {
 namespace {
@@ -41,19 +41,8 @@ double smoothstep01(double s) {
   return s * s * (3.0 - 2.0 * s);
 }
 
-// Gradient of the surface y_m(x, z) in metres per metre at sample (i, j): central differences in
-// the interior, one-sided at the border of the window.
-struct Gradient {
-  double dx, dz;
-};
-Gradient gradient_at(const Frame& fr, const Layer& h, int i, int j) {
-  const double cell = fr.cell_m();
-  auto at = [&](int a, int b) { return double(h.data[(std::size_t(b) * fr.nx + a) * h.channels]); };
-  const int i0 = std::max(i - 1, 0), i1 = std::min(i + 1, fr.nx - 1);
-  const int j0 = std::max(j - 1, 0), j1 = std::min(j + 1, fr.nz - 1);
-  return Gradient{(at(i1, j) - at(i0, j)) * fr.height_m / ((i1 - i0) * cell),
-                  (at(i, j1) - at(i, j0)) * fr.height_m / ((j1 - j0) * cell)};
-}
+using detail::Gradient;
+using detail::gradient_at;
 
 double slope_deg_at(const Frame& fr, const Layer& h, int i, int j) {
   const Gradient g = gradient_at(fr, h, i, j);
@@ -99,12 +88,21 @@ void apply_slope(Terrain& t, const SlopeParams& p, const Context&) {
 
 // ======================================================================================= color
 
+Level level(double at, Rgb color, const char* name) {
+  Level l;
+  l.at = at;
+  l.color = color;
+  l.name = name;
+  return l;
+}
+
 std::vector<Level> default_palette() {
   // For the default sea_level 0.4: water below, beach just above it.
   return {
-      {0.30, hex(0x1d4877), "deep water"}, {0.40, hex(0x3a7cb8), "shallow water"}, {0.43, hex(0xd8c88e), "sand"},
-      {0.58, hex(0x6b9b45), "grass"},      {0.72, hex(0x3c6b32), "forest"},         {0.86, hex(0x7f746a), "rock"},
-      {1.00, hex(0xf2f2f4), "snow"},
+      level(0.30, hex(0x1d4877), "deep water"), level(0.40, hex(0x3a7cb8), "shallow water"),
+      level(0.43, hex(0xd8c88e), "sand"),       level(0.58, hex(0x6b9b45), "grass"),
+      level(0.72, hex(0x3c6b32), "forest"),     level(0.86, hex(0x7f746a), "rock"),
+      level(1.00, hex(0xf2f2f4), "snow"),
   };
 }
 
@@ -120,28 +118,6 @@ struct ColorParams {
   double variation = 0.04;
   double variation_scale_m = 20.0;
 };
-
-// bands:    the colour of the first level with e ≤ at; above the last `at`, the last colour.
-// gradient: each level's colour sits exactly at its `at`; linear in between; the first colour
-//           below the first `at`, the last colour above the last `at`.
-// Comparisons are made in single precision, the precision of the layers, so that a height of
-// 0.3f counts as "at" a level written as 0.3.
-Rgb level_color(const std::vector<Level>& lv, bool gradient, float e) {
-  auto at = [&](std::size_t k) { return float(lv[k].at); };
-  if (!gradient) {
-    for (std::size_t k = 0; k < lv.size(); ++k)
-      if (e <= at(k)) return lv[k].color;
-    return lv.back().color;
-  }
-  if (e <= at(0)) return lv.front().color;
-  if (e >= at(lv.size() - 1)) return lv.back().color;
-  std::size_t k = 0;
-  while (!(e <= at(k + 1))) ++k;  // at[k] < e ≤ at[k+1], so at[k+1] > at[k]
-  const double s = (double(e) - at(k)) / (double(at(k + 1)) - at(k));
-  const Rgb& a = lv[k].color;
-  const Rgb& b = lv[k + 1].color;
-  return Rgb{float(a.r + (b.r - a.r) * s), float(a.g + (b.g - a.g) * s), float(a.b + (b.b - a.b) * s)};
-}
 
 // Smooth value noise in [0, 1] on a lattice of `cell_m` metres in world coordinates: a pure
 // function of (seed, x_m, z_m), so every window and every resolution sees the same pattern.
@@ -174,6 +150,7 @@ void apply_color(Terrain& t, const ColorParams& p, const Context& ctx) {
     if (l.channels == 1 && l.data.size() == fr.count()) given_slope = &l;
   }
   const bool gradient = p.mode == "gradient";
+  const auto textures = detail::load_level_textures(p.levels, "stages[" + std::to_string(ctx.stage_index) + "].levels");
   // Salted by the recipe seed only (not the stage index), so inserting stages before `color`
   // does not change its speckle.
   const std::uint64_t vseed = hash64(ctx.seed, 0x636f6c6f72ull /* "color" */);
@@ -184,7 +161,7 @@ void apply_color(Terrain& t, const ColorParams& p, const Context& ctx) {
     for (int i = 0; i < fr.nx; ++i) {
       const std::size_t k = std::size_t(j) * fr.nx + i;
       const float e = float(double(h.data[k * h.channels]) * scale);
-      Rgb c = level_color(p.levels, gradient, e);
+      Rgb c = detail::level_color(p.levels, textures, gradient, e, fr.x_m(i), z);
       if (rock && e > float(p.rock_min) && e < float(p.rock_max)) {
         const double s = given_slope ? double(given_slope->data[k]) : slope_deg_at(fr, h, i, j);
         if (s > p.rock_slope_deg) {
@@ -204,6 +181,7 @@ void apply_color(Terrain& t, const ColorParams& p, const Context& ctx) {
 }
 
 void validate_color(const ColorParams& p, const std::string& path) {
+  detail::load_level_textures(p.levels, path + ".levels");  // a missing texture fails at parse time
   if (p.rock_min > p.rock_max) {
     char buf[96];
     std::snprintf(buf, sizeof buf, "expected a number ≥ rock_min (%g), got %g", p.rock_min, p.rock_max);
@@ -213,44 +191,18 @@ void validate_color(const ColorParams& p, const std::string& path) {
 
 // =================================================================================== hillshade
 
-struct HillshadeParams {
-  double azimuth_deg = 315.0;
-  double altitude_deg = 45.0;
-  double z_factor = 1.0;
-  double ambient = 0.2;
-  double water_relief = 0.3;
-};
+using HillshadeParams = detail::Light;
 
-// shade = ambient + (1 − ambient) · max(0, n · l), n the unit surface normal of z_factor · y_m,
-// l the unit vector towards the light. Under the sea (e < sea_level):
-// shade = flat + water_relief · (shade − flat), flat = ambient + (1 − ambient) · sin(altitude).
 void apply_hillshade(Terrain& t, const HillshadeParams& p, const Context&) {
   const Frame& fr = t.frame;
   const Layer& h = t.get("height");
   require_nonempty(t, h, "height");
-  const double az = p.azimuth_deg / kDeg, alt = p.altitude_deg / kDeg;
-  // World axes: x east, y up, z south. Azimuth is clockwise from north (−z).
-  const double lx = std::cos(alt) * std::sin(az), ly = std::sin(alt), lz = -std::cos(alt) * std::cos(az);
-  const double flat = p.ambient + (1.0 - p.ambient) * ly;
   const Layer* albedo = nullptr;
   if (t.has("albedo")) {
     const Layer& a = t.get("albedo");
     if (a.channels == 3 && a.data.size() == fr.count() * 3) albedo = &a;
   }
-  Layer& shade = t.layer("shade", 1);
-  Layer& color = t.layer("color", 3);
-  detail::parallel_rows(fr.nz, [&](int j) {
-    for (int i = 0; i < fr.nx; ++i) {
-      const std::size_t k = std::size_t(j) * fr.nx + i;
-      const Gradient g = gradient_at(fr, h, i, j);
-      const double fx = p.z_factor * g.dx, fz = p.z_factor * g.dz;
-      const double ndotl = (-fx * lx + ly - fz * lz) / std::sqrt(1.0 + fx * fx + fz * fz);
-      double s = p.ambient + (1.0 - p.ambient) * std::max(0.0, ndotl);
-      if (double(h.data[k * h.channels]) < fr.sea_level) s = flat + p.water_relief * (s - flat);
-      shade.data[k] = float(s);
-      for (int c = 0; c < 3; ++c) color.data[3 * k + c] = float((albedo ? double(albedo->data[3 * k + c]) : 1.0) * s);
-    }
-  });
+  detail::hillshade(fr, h, albedo, p, &t.layer("shade", 1), t.layer("color", 3));
 }
 
 }  // namespace

@@ -69,10 +69,19 @@ struct Point {
   double rotation_deg = 0, scale = 1;
 };
 
+// One entry of the legend of the "biome" layer (colour components in 0..1).
+struct BiomeInfo {
+  std::string name;
+  float r = 0, g = 0, b = 0;
+};
+
 struct Terrain {
   Frame frame;
   std::map<std::string, Layer> layers;
   std::vector<Point> points;
+  // Legend of the "biome" layer: a sample holding k (an integer stored as float) is biomes[k].
+  // Written by the stage that writes "biome"; later stages may append entries (e.g. "lava").
+  std::vector<BiomeInfo> biomes;
 
   bool has(const std::string& name) const { return layers.count(name) != 0; }
   // Returns the layer, creating it (zero-filled) with `channels` channels if missing or if its
