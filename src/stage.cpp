@@ -25,6 +25,8 @@ const std::vector<StageDef>& stage_registry() {
   static const std::vector<StageDef> all = {
       stages::noise(),    stages::redistribute(), stages::terrace(), stages::island(),
       stages::curve(),    stages::slope(),        stages::colorize(), stages::hillshade(),
+      stages::biomes(),   stages::volcano(),      stages::features(), stages::jiggle(),
+      stages::props(),
   };
   return all;
 }

@@ -12,5 +12,10 @@ StageDef curve();        // stage_shape.cpp: monotone cubic Hermite remap throug
 StageDef slope();        // stage_color.cpp: slope layers (seed 001's mean abs difference; degrees)
 StageDef colorize();     // stage_color.cpp: "color" stage — levels on elevation + slope rules
 StageDef hillshade();    // stage_color.cpp: hillshaded colour from albedo
+StageDef biomes();       // stage_biomes.cpp: Voronoi biome regions with their own rules, blended
+StageDef volcano();      // stage_features.cpp: seed 003's volcano
+StageDef features();     // stage_features.cpp: craters and single mountains
+StageDef jiggle();       // stage_features.cpp: vertex jiggle as an 'offset' layer
+StageDef props();        // stage_props.cpp: seed 003's clustered prop placement
 
 }  // namespace relief::stages

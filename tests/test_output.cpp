@@ -382,7 +382,8 @@ TEST(Writers, RegistryOrderAndFiles) {
     EXPECT_FALSE(w.description.empty()) << w.name;
     EXPECT_TRUE(bool(w.write)) << w.name;
   }
-  EXPECT_EQ(names, (std::vector<std::string>{"heightmap", "color", "albedo", "obj", "report"}));
+  EXPECT_EQ(names, (std::vector<std::string>{"heightmap", "color", "albedo", "obj", "biomes", "features", "props",
+                                             "report"}));
   EXPECT_EQ(find_writer("obj"), &r[3]);
   EXPECT_EQ(find_writer("png"), nullptr);
 }
@@ -391,7 +392,12 @@ TEST(Writers, EachWriterWritesExactlyItsDeclaredFiles) {
   Terrain t = small_terrain();
   t.layers["color"] = colour_layer(5, 3, 1);
   t.layers["albedo"] = colour_layer(5, 3, 2);
+  t.layer("biome", 1);  // all ocean
+  t.biomes.push_back({"ocean", 0.1f, 0.2f, 0.6f});
+  t.points.push_back({"prop", "tree", 1, 2, 3, 45, 1});
+  t.points.push_back({"volcano", "volcano", 4, 5, 6, 0, 1});
   for (auto& w : writer_registry()) {
+    EXPECT_TRUE(!w.applies || w.applies(t)) << w.name;
     MemoryOutput out;
     w.write(t, {}, out);
     std::vector<std::string> got;

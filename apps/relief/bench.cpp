@@ -182,6 +182,7 @@ int run_bench(const BenchSettings& s) {
             arena.execute([&] {
               for (auto& w : writer_registry()) {
                 if (!w.in_default_set || (w.name == "obj" && size > 1025)) continue;
+                if (w.applies && !w.applies(res.terrain)) continue;
                 w.write(res.terrain, wc, mem);
               }
             });
