@@ -26,7 +26,7 @@ const std::vector<StageDef>& stage_registry() {
       stages::noise(),    stages::redistribute(), stages::terrace(), stages::island(),
       stages::curve(),    stages::slope(),        stages::colorize(), stages::hillshade(),
       stages::biomes(),   stages::volcano(),      stages::features(), stages::jiggle(),
-      stages::props(),
+      stages::props(),    stages::climate(),
   };
   return all;
 }

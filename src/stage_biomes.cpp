@@ -107,7 +107,7 @@ std::vector<BiomeType> default_biome_types() {
                    {lv(0.4, 0x6e8f46), lv(0.6, 0x8c8378), lv(0.85, 0xc9c2ba)}));
   BiomeType plateau = type("plateau", 0.7, 0.6, {}, 0.0, "fbm", 3, 800,
                            {{0.0, 0.05}, {0.47, 0.07}, {0.53, 0.3}, {1.0, 0.3}},
-                           {lv(0.45, 0x8e6a4e), lv(0.5, 0xa8503a), lv(0.53, 0x8a5c9e)});
+                           {lv(0.43, 0x7d9a4c), lv(0.49, 0xa4563c), lv(0.54, 0x94729f)});
   v.push_back(plateau);
   BiomeType desert = type("desert", 0.9, 0.2, {"forest", "mountains"}, 1.0, "billow", 3, 260,
                           {{0.0, 0.02}, {1.0, 0.09}}, {lv(0.2, 0xe6cf96), lv(0.8, 0xcfae6c)});

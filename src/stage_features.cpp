@@ -140,7 +140,7 @@ struct VolcanoParams {
   double shrink = 0.2;
   int foundation_passes = 2;
   double crater_depth = 0.5;
-  double lava_height = 0.55;
+  double lava_height = 0.35;
   Rgb foundation_color = hex(0x7a5b40);
   Rgb rock_color = hex(0x4f4540);
   Rgb ash_color = hex(0x77706a);
@@ -187,16 +187,8 @@ void apply_volcano(Terrain& t, const VolcanoParams& p, const Context& ctx) {
   std::vector<double> lift(fr.count(), 0.0);
   detail::add_circles(fr, circles, lift);
 
-  // 3. Foundation, lift, crater, colours.
+  // 3. Foundation, lift, crater.
   const double found = 1.0 - std::pow(0.5, p.foundation_passes);  // e → sea + (e − sea)/2^passes
-  const double lava_level = sea + p.lava_height * p.height * land;
-  Layer* albedo = t.has("albedo") && t.get("albedo").channels == 3 ? &t.get("albedo") : nullptr;
-  Layer* biome = t.has("biome") && t.get("biome").channels == 1 ? &t.get("biome") : nullptr;
-  int id_volcano = -1, id_lava = -1;
-  if (biome) {
-    id_volcano = detail::legend_id(t, "volcano", p.rock_color.r, p.rock_color.g, p.rock_color.b);
-    id_lava = detail::legend_id(t, "lava", p.lava_color.r, p.lava_color.g, p.lava_color.b);
-  }
   Layer& mask = t.layer("volcano", 1);
   detail::parallel_rows(fr.nz, [&](int j) {
     const double z = fr.z_m(j);
@@ -207,27 +199,49 @@ void apply_volcano(Terrain& t, const VolcanoParams& p, const Context& ctx) {
       const double w = 1.0 - smoothstep01((d / p.radius_m - 0.7) / 0.3);
       double e = double(h.data[k]);
       e = e - (e - sea) * found * w;
-      const double l = lift[k];
       double crater = 0;
       if (d < p.rim_radius_m) {
         const double s = 1.0 - (d / p.rim_radius_m) * (d / p.rim_radius_m);
         crater = p.crater_depth * p.height * land * s * s;
       }
-      e = std::clamp(e + l - crater, 0.0, 1.0);
-      h.data[k] = float(e);
+      h.data[k] = float(std::clamp(e + lift[k] - crater, 0.0, 1.0));
       mask.data[k] = float(w);
+    }
+  });
+  // 4. Lava fills the crater from its floor up to lava_height of the way to the rim (seed 003:
+  // inside the rim, below a height); colours where the volcano stands above the sea.
+  double rim_e = 0;
+  for (int k = 0; k < 64; ++k)
+    rim_e += detail::sample_bilinear(fr, h, cx + p.rim_radius_m * std::cos(kTau * k / 64), cz + p.rim_radius_m * std::sin(kTau * k / 64));
+  rim_e /= 64;
+  const double floor_e = detail::sample_bilinear(fr, h, cx, cz);
+  const double lava_level = std::max(sea, floor_e + p.lava_height * (rim_e - floor_e));
+  Layer* albedo = t.has("albedo") && t.get("albedo").channels == 3 ? &t.get("albedo") : nullptr;
+  Layer* biome = t.has("biome") && t.get("biome").channels == 1 ? &t.get("biome") : nullptr;
+  int id_volcano = -1, id_lava = -1;
+  if (biome) {
+    id_volcano = detail::legend_id(t, "volcano", p.rock_color.r, p.rock_color.g, p.rock_color.b);
+    id_lava = detail::legend_id(t, "lava", p.lava_color.r, p.lava_color.g, p.lava_color.b);
+  }
+  detail::parallel_rows(fr.nz, [&](int j) {
+    const double z = fr.z_m(j);
+    for (int i = 0; i < fr.nx; ++i) {
+      const std::size_t k = std::size_t(j) * fr.nx + i;
+      const double d = std::hypot(fr.x_m(i) - cx, z - cz);
+      const double e = h.data[k];
+      if (d >= p.radius_m || e <= sea) continue;  // the sea keeps its colour
+      const double w = mask.data[k];
       const bool lava = d < p.rim_radius_m && e < lava_level;
-      if (albedo && e > sea) {  // the sea keeps its colour
-        const double q = l / std::max(1e-12, p.height * land);
+      if (albedo) {
+        const double q = lift[k] / std::max(1e-12, p.height * land);
         Rgb c = mix(p.foundation_color, p.rock_color, smoothstep01((q - 0.1) / 0.5));
         c = mix(c, p.ash_color, smoothstep01((q - 0.75) / 0.3));
         if (lava) c = p.lava_color;
         float* a = albedo->data.data() + 3 * k;
-        const Rgb old{a[0], a[1], a[2]};
-        const Rgb out = mix(old, c, lava ? 1.0 : w);
+        const Rgb out = mix(Rgb{a[0], a[1], a[2]}, c, lava ? 1.0 : w * (0.35 + 0.65 * smoothstep01(q / 0.3)));
         a[0] = out.r, a[1] = out.g, a[2] = out.b;
       }
-      if (biome && e > sea && (w > 0.5 || lava)) biome->data[k] = float(lava ? id_lava : id_volcano);
+      if (biome && (w > 0.5 || lava)) biome->data[k] = float(lava ? id_lava : id_volcano);
     }
   });
   Point pt;
@@ -235,7 +249,7 @@ void apply_volcano(Terrain& t, const VolcanoParams& p, const Context& ctx) {
   pt.type = "volcano";
   pt.x_m = cx;
   pt.z_m = cz;
-  pt.y_m = fr.y_m(sea + p.height * land);
+  pt.y_m = fr.y_m(rim_e);  // the rim's mean height
   t.points.push_back(pt);
 }
 
@@ -413,7 +427,7 @@ StageDef volcano() {
       param(&P::shrink, "shrink", 0.01, 1.0, "", "Radii of the last iteration relative to the first"),
       param(&P::foundation_passes, "foundation_passes", 0, 16, "", "Times the region is averaged with sea level first"),
       param(&P::crater_depth, "crater_depth", 0.0, 2.0, "", "Crater bowl carved inside the rim, as a fraction of height"),
-      param(&P::lava_height, "lava_height", 0.0, 2.0, "", "Lava inside the rim below this fraction of height", R),
+      param(&P::lava_height, "lava_height", 0.0, 2.0, "", "Lava fills the crater this fraction of the way from its floor to the rim", R),
       color(&P::foundation_color, "foundation_color", "Colour of the foundation (volcanic soil)"),
       color(&P::rock_color, "rock_color", "Colour of the cone's flanks"),
       color(&P::ash_color, "ash_color", "Colour near the rim"),

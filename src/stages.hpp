@@ -17,5 +17,6 @@ StageDef volcano();      // stage_features.cpp: seed 003's volcano
 StageDef features();     // stage_features.cpp: craters and single mountains
 StageDef jiggle();       // stage_features.cpp: vertex jiggle as an 'offset' layer
 StageDef props();        // stage_props.cpp: seed 003's clustered prop placement
+StageDef climate();      // stage_climate.cpp: moisture/temperature → Whittaker biomes
 
 }  // namespace relief::stages
