@@ -57,7 +57,8 @@ struct BiomesParams {
   std::string bridge = "plains";
   bool flatten_land = true;
   double flatten_keep = 0.03;
-  double coast_rise = 0.06;
+  double coast_rise = 0.0;
+  double coast_m = 150;
   std::string blend = "interpolate";
   double border_m = 220;
   double selective_radius_m = 40;
@@ -81,9 +82,12 @@ class RegionMap {
   RegionMap(const BiomesParams& p, std::uint64_t seed, double x0_m, double z0_m, double x1_m, double z1_m);
 
   double size_m() const { return size_; }
+  // Cells searched around a position's own cell (±search): enough for the nearest point and for
+  // every point within border_m of it: search · size ≥ √2 · size + border_m.
+  int search() const { return search_; }
   std::int64_t cell(double v_m) const;
   const Point& at(std::int64_t cx, std::int64_t cz) const;
-  // The nearest region point (ties: the first in row-major cell order of the 5×5 block searched).
+  // The nearest region point (ties: the first in row-major cell order of the block searched).
   const Point& nearest(double x_m, double z_m) const;
   // Every point whose type is final (cells within the covered range).
   std::vector<Point> points() const;
@@ -95,6 +99,7 @@ class RegionMap {
   std::int64_t cx0_ = 0, cz0_ = 0;  // first cell of the initial-type range
   int ncx_ = 0, ncz_ = 0;
   int margin_ = 0;  // cells at the range's border whose type is only initial
+  int search_ = 2;
   std::vector<Point> cells_;
   std::vector<std::uint64_t> avoid_;  // symmetric conflict masks
   int bridge_ = 0;

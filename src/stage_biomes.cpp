@@ -31,6 +31,7 @@
 #include <vector>
 
 #include "biomes.hpp"
+#include "climate.hpp"
 #include "curve.hpp"
 #include "parallel.hpp"
 #include "relief/error.hpp"
@@ -142,8 +143,10 @@ RegionMap::RegionMap(const BiomesParams& p, std::uint64_t seed, double x0_m, dou
       avoid_[std::size_t(b)] |= std::uint64_t(1) << a;
     }
   bridge_ = std::max(0, find_type(p.types, p.bridge));
-  // Queries search ±2 cells; the repair of those looks ±4 further (3·size reaches 4 cells).
-  margin_ = 6;
+  // Queries search ±search cells; the repair of those looks ±4 further (3·size reaches 4 cells).
+  // A point in a cell k cells away is at least (k − 1)·size from any position of the centre cell.
+  search_ = std::max(2, int(std::ceil(std::sqrt(2.0) + (p.blend == "interpolate" ? p.border_m : 0.0) / size_)));
+  margin_ = search_ + 4;
   cx0_ = cell(x0_m) - margin_;
   cz0_ = cell(z0_m) - margin_;
   ncx_ = int(cell(x1_m) - cell(x0_m)) + 1 + 2 * margin_;
@@ -212,8 +215,8 @@ const RegionMap::Point& RegionMap::nearest(double x_m, double z_m) const {
   const std::int64_t cx = cell(x_m), cz = cell(z_m);
   const Point* best = nullptr;
   double bd = 0;
-  for (std::int64_t b = cz - 2; b <= cz + 2; ++b)
-    for (std::int64_t a = cx - 2; a <= cx + 2; ++a) {
+  for (std::int64_t b = cz - search_; b <= cz + search_; ++b)
+    for (std::int64_t a = cx - search_; a <= cx + search_; ++a) {
       const Point& q = at(a, b);
       const double d = (q.x_m - x_m) * (q.x_m - x_m) + (q.z_m - z_m) * (q.z_m - z_m);
       if (!best || d < bd) best = &q, bd = d;
@@ -336,10 +339,18 @@ void apply_biomes(Terrain& t, const BiomesParams& p, const Context& ctx) {
   const double keep = p.flatten_land ? p.flatten_keep : 1.0;
   const std::size_t nt = types.size();
 
+  // Distance from each land sample to the nearest sea sample of the incoming terrain, in metres.
+  std::vector<float> coast_dist;
+  if (p.coast_m > 0) {
+    std::vector<unsigned char> sea_mask(fr.count());
+    for (std::size_t k = 0; k < sea_mask.size(); ++k) sea_mask[k] = double(h.data[k]) <= sea;
+    coast_dist = detail::distance_transform(sea_mask, fr.nx, fr.nz);
+  }
   Layer& albedo = t.layer("albedo", 3);
   Layer& biome = t.layer("biome", 1);
   std::vector<std::uint8_t> movable(mode == 1 ? fr.count() : 0);
   constexpr int kMax = 8;  // regions mixed at one sample (more only in degenerate layouts: weakest dropped)
+  constexpr int kSearchMax = 9 * 9;  // border_m ≤ 2 · region_size_m → search ≤ 4
 
   detail::parallel_rows(fr.nz, [&](int j) {
     const int nx = fr.nx;
@@ -361,12 +372,13 @@ void apply_biomes(Terrain& t, const BiomesParams& p, const Context& ctx) {
       const double x = fr.x_m(i);
       Mix& m = mixes[std::size_t(i)];
       const std::int64_t cx = map.cell(x), cz = map.cell(z);
-      double d[25];
-      int tp[25];
+      double d[kSearchMax];
+      int tp[kSearchMax];
       double d1 = 1e300;
       int k1 = 0, n = 0;
-      for (std::int64_t b = cz - 2; b <= cz + 2; ++b)
-        for (std::int64_t a = cx - 2; a <= cx + 2; ++a, ++n) {
+      const int sr = map.search();
+      for (std::int64_t b = cz - sr; b <= cz + sr; ++b)
+        for (std::int64_t a = cx - sr; a <= cx + sr; ++a, ++n) {
           const auto& q = map.at(a, b);
           d[n] = std::hypot(q.x_m - x, q.z_m - z);
           tp[n] = q.type;
@@ -390,7 +402,7 @@ void apply_biomes(Terrain& t, const BiomesParams& p, const Context& ctx) {
         if (w > m.w[weakest]) m.type[weakest] = type, m.w[weakest] = w;
       };
       if (mode == 0) {
-        for (int s = 0; s < 25; ++s) {
+        for (int s = 0; s < n; ++s) {
           const double delta = d[s] - d1;
           if (s == k1 || delta < p.border_m) add(tp[s], s == k1 ? 1.0 : smoothstep01(1.0 - delta / p.border_m));
         }
@@ -440,7 +452,11 @@ void apply_biomes(Terrain& t, const BiomesParams& p, const Context& ctx) {
         b += m.w[s] * c.b;
       }
       const double u0 = (e0 - sea) / land;
-      const double taper = p.coast_rise > 0 ? smoothstep01(u0 / p.coast_rise) : 1.0;
+      double taper = p.coast_rise > 0 ? smoothstep01(u0 / p.coast_rise) : 1.0;
+      if (p.coast_m > 0) {
+        const double dm = double(coast_dist[std::size_t(j) * nx + i]) * fr.cell_m();
+        if (std::isfinite(dm)) taper *= smoothstep01(dm / p.coast_m);
+      }
       const double u = keep * u0 + lift * taper;
       const double e = std::clamp(sea + land * u, sea + 1e-5, 1.0);
       hrow[i] = float(e);
@@ -500,8 +516,8 @@ void validate_biomes(const BiomesParams& p, const std::string& path) {
       throw Error(path + ".bridge", "the bridge type must be allowed beside every type, but \"" + p.bridge +
                                         "\" and \"" + p.types[k].name + "\" avoid each other");
   }
-  if (p.border_m > 0.5 * p.region_size_m)
-    throw Error(path + ".border_m", "expected at most half of region_size_m (" + std::to_string(0.5 * p.region_size_m) +
+  if (p.border_m > 2.0 * p.region_size_m)
+    throw Error(path + ".border_m", "expected at most twice region_size_m (" + std::to_string(2.0 * p.region_size_m) +
                                         "), got " + std::to_string(p.border_m));
 }
 
@@ -549,8 +565,10 @@ StageDef biomes() {
             "Flatten land to sea level before the biomes raise it (seed 003): the island shape decides only what is land"),
       param(&P::flatten_keep, "flatten_keep", 0.0, 1.0, "",
             "Fraction of the island shape's land height kept when flattening (0 = flat like seed 003)"),
+      param(&P::coast_m, "coast_m", 0.0, 1e6, "m",
+            "Biome relief fades in over this distance from the sea (smoothstep): no sea cliffs; 0 = off"),
       param(&P::coast_rise, "coast_rise", 0.0, 1.0, "",
-            "Biome relief fades in over this much of the island shape's land height: no sea cliffs"),
+            "Also fade it in over this much of the island shape's own land height (0 = off)"),
       choice(&P::blend, "blend", {"interpolate", "selective", "none"},
              "interpolate: mix region terrains within border_m; selective: seed 003's masked averaging; none: hard borders"),
       param(&P::border_m, "border_m", 0.0, 1e6, "m", "interpolate: width of the transition between two regions"),
@@ -567,7 +585,7 @@ StageDef biomes() {
   return make_stage<P>("biomes",
                        "Voronoi biome regions with their own noise, curve and colours, blended; writes height, albedo, "
                        "biome",
-                       Locality::Neighbourhood, 0, std::move(table), apply_biomes, validate_biomes);
+                       Locality::Global, 0, std::move(table), apply_biomes, validate_biomes);
 }
 
 }  // namespace stages

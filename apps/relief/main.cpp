@@ -243,7 +243,7 @@ int cmd_presets(bool as_json) {
   return 0;
 }
 
-void print_params(const std::vector<ParamInfo>& ps) {
+void print_params(const std::vector<ParamInfo>& ps, int indent = 4) {
   for (auto& p : ps) {
     std::string range;
     if (p.type == ParamType::Int || p.type == ParamType::Float) {
@@ -253,9 +253,10 @@ void print_params(const std::vector<ParamInfo>& ps) {
     } else if (p.type == ParamType::Choice) {
       for (auto& c : p.choices) range += (range.empty() ? "" : "|") + c;
     }
-    std::printf("    %-16s %-7s default %-12s %-22s %s%s%s\n", p.name.c_str(), to_string(p.type),
+    std::printf("%*s%-16s %-7s default %-12s %-22s %s%s%s\n", indent, "", p.name.c_str(), to_string(p.type),
                 p.default_value.dump().substr(0, 12).c_str(), range.c_str(), p.description.c_str(),
                 p.unit.empty() ? "" : (" [" + p.unit + "]").c_str(), p.effect == Effect::Recolour ? " (recolour)" : "");
+    if (!p.fields.empty()) print_params(p.fields, indent + 4);  // a list's records: one line per field
   }
 }
 
