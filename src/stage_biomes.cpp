@@ -102,7 +102,7 @@ std::vector<BiomeType> default_biome_types() {
                    {lv(0.3, 0x79a64c), lv(0.6, 0x5a8a3c), lv(0.9, 0x8c8a62)}));
   v.push_back(type("mountains", 0.3, 0.8, {"desert"}, 1.0, "ridged", 6, 1000,
                    {{0.0, 0.06}, {0.4, 0.2}, {0.75, 0.55}, {1.0, 0.8}},
-                   {lv(0.3, 0x5f8a42), lv(0.5, 0x7a7066), lv(0.72, 0x8d857c), lv(0.82, 0xf1f2f4)}));
+                   {lv(0.3, 0x5f8a42), lv(0.5, 0x7a7066), lv(0.8, 0x8d857c), lv(0.9, 0xf1f2f4)}));
   v.push_back(type("spiky_mountains", 0.6, 0.9, {}, 0.35, "ridged", 4, 420,
                    {{0.0, 0.04}, {0.55, 0.09}, {0.8, 0.45}, {1.0, 0.85}},
                    {lv(0.4, 0x6e8f46), lv(0.6, 0x8c8378), lv(0.85, 0xc9c2ba)}));
