@@ -6,6 +6,7 @@ packages=(
   g++ cmake ninja-build pkg-config git
   libhwy-dev libtbb-dev nlohmann-json3-dev libcli11-dev libspng-dev
   libgtest-dev libgmock-dev libbenchmark-dev libnoise-dev
+  libfreetype-dev fonts-dejavu-core
   python3-pil python3-numpy
   tiled  # tmxrasterizer and `tiled --export-tileset`: the tilemap tests load our TMX/TMJ/TSX in Tiled
 )

@@ -17,6 +17,8 @@ const char* to_string(ParamType t) {
     case ParamType::Levels: return "levels";
     case ParamType::Text: return "text";
     case ParamType::IntList: return "int_list";
+    case ParamType::Names: return "names";
+    case ParamType::List: return "list";
   }
   return "?";
 }
@@ -27,7 +29,7 @@ json ParamInfo::to_json() const {
   o["type"] = to_string(type);
   o["default"] = default_value;
   if (type == ParamType::Int || type == ParamType::Float || type == ParamType::Curve || type == ParamType::Levels ||
-      type == ParamType::IntList) {
+      type == ParamType::IntList || type == ParamType::List) {
     o["min"] = min;
     o["max"] = max;
   }
@@ -35,6 +37,11 @@ json ParamInfo::to_json() const {
   o["description"] = description;
   if (!choices.empty()) o["choices"] = choices;
   o["effect"] = effect == Effect::Regenerate ? "regenerate" : "recolour";
+  if (!fields.empty()) {
+    json fs = json::array();
+    for (auto& f : fields) fs.push_back(f.to_json());
+    o["fields"] = fs;
+  }
   return o;
 }
 
@@ -170,8 +177,13 @@ std::vector<Level> read_levels(const json& v, const std::string& path, double mi
       else if (it.key() == "name") {
         if (!it.value().is_string()) throw Error(p + ".name", "expected a string, got " + describe(it.value()));
         l.name = it.value().get<std::string>();
+      } else if (it.key() == "texture") {
+        if (!it.value().is_string()) throw Error(p + ".texture", "expected a PNG file name, got " + describe(it.value()));
+        l.texture = it.value().get<std::string>();
+      } else if (it.key() == "tile_m") {
+        l.tile_m = read_float(it.value(), p + ".tile_m", 0.01, 1e6);
       } else {
-        throw Error(p + "." + it.key(), "unknown key (expected at, color, name)");
+        throw Error(p + "." + it.key(), "unknown key (expected at, color, name, texture, tile_m)");
       }
     }
     if (!e.contains("at")) throw Error(p + ".at", "missing");
@@ -190,9 +202,24 @@ json write_levels(const std::vector<Level>& levels) {
     o["at"] = l.at;
     o["color"] = write_color(l.color);
     if (!l.name.empty()) o["name"] = l.name;
+    if (!l.texture.empty()) {
+      o["texture"] = l.texture;
+      o["tile_m"] = l.tile_m;
+    }
     a.push_back(o);
   }
   return a;
+}
+
+std::vector<std::string> read_names(const json& v, const std::string& path) {
+  if (!v.is_array()) throw Error(path, "expected a list of names [\"a\", …], got " + describe(v));
+  std::vector<std::string> out;
+  for (std::size_t k = 0; k < v.size(); ++k) {
+    if (!v[k].is_string() || v[k].get<std::string>().empty())
+      throw Error(path + "[" + std::to_string(k) + "]", "expected a non-empty name, got " + describe(v[k]));
+    out.push_back(v[k].get<std::string>());
+  }
+  return out;
 }
 
 static std::size_t edit_distance(const std::string& a, const std::string& b) {

@@ -171,6 +171,30 @@ void apply_override(json& doc, const std::string& assignment) {
   } catch (const json::exception&) {  // e.g. 1e999: a number JSON cannot hold
     throw Error(path, "expected a finite value, got " + text);
   }
+  // A path into a stage parameter the recipe leaves at its default (`stages[2].types[1].octaves`
+  // where the recipe has no `types`) first copies that parameter's default into the stage object.
+  if (path.rfind("stages[", 0) == 0 && doc.is_object() && doc.contains("stages") && doc["stages"].is_array()) {
+    const auto close = path.find(']');
+    const std::string idx = close == std::string::npos ? "" : path.substr(7, close - 7);
+    if (!idx.empty() && idx.size() < 6 && idx.find_first_not_of("0123456789") == std::string::npos &&
+        close + 1 < path.size() && path[close + 1] == '.') {
+      const std::size_t i = std::stoul(idx);
+      const std::string rest = path.substr(close + 2);
+      const std::string key = rest.substr(0, rest.find_first_of(".["));
+      json& st = doc["stages"];
+      if (i < st.size() && st[i].is_object() && key != rest && !st[i].contains(key) && st[i].contains("stage") &&
+          st[i]["stage"].is_string()) {
+        if (const StageDef* def = find_stage(st[i]["stage"].get<std::string>())) {
+          try {
+            const json params = def->parse(st[i], "stages[" + idx + "]")->params();
+            if (params.contains(key)) st[i][key] = params[key];
+          } catch (const Error&) {
+            // The stage object is invalid as it stands: the walk below reports the path.
+          }
+        }
+      }
+    }
+  }
   // Walk a.b[2].c
   json* cur = &doc;
   std::string walked;

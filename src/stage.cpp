@@ -39,6 +39,8 @@ const std::vector<StageDef>& stage_registry() {
       stages::tilemap(),
       stages::hydraulic(), stages::thermal(),     stages::fill(),     stages::flow(),
       stages::stream_power(),
+      stages::biomes(),   stages::volcano(),      stages::features(), stages::jiggle(),
+      stages::props(),    stages::climate(),
   };
   return all;
 }

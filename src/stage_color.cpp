@@ -6,9 +6,7 @@
 //     is steep between two elevations, elevation bands elsewhere".
 //   * A. Saparov, "A Maya Terrain Generator Based on Perlin Noise" (2021, seed 000): colour levels
 //     (threshold + colour), thresholds optionally relative to the map's highest point.
-//   * Lambertian hillshade as in GIS (Burrough & McDonnell, "Principles of Geographical
-//     Information Systems", 1998; GDAL gdaldem hillshade): light azimuth clockwise from north,
-//     altitude above the horizon, z factor for vertical exaggeration.
+//   * Lambertian hillshade (hillshade.hpp): Burrough & McDonnell 1998, GDAL gdaldem hillshade.
 //
 // Slopes and shading are metric: elevation differences are converted to metres with
 // frame.height_m and divided by the cell size in metres, so a 257² preview and a 513² build of
@@ -26,11 +24,13 @@
 #include <utility>
 #include <vector>
 
+#include "hillshade.hpp"
 #include "parallel.hpp"
 #include "pointwise.hpp"
 #include "relief/error.hpp"
 #include "relief/random.hpp"
 #include "stages.hpp"
+#include "texture.hpp"
 
 namespace relief::stages {
 namespace {
@@ -46,19 +46,8 @@ double smoothstep01(double s) {
   return s * s * (3.0 - 2.0 * s);
 }
 
-// Gradient of the surface y_m(x, z) in metres per metre at sample (i, j): central differences in
-// the interior, one-sided at the border of the window.
-struct Gradient {
-  double dx, dz;
-};
-Gradient gradient_at(const Frame& fr, const Layer& h, int i, int j) {
-  const double cell = fr.cell_m();
-  auto at = [&](int a, int b) { return double(h.data[(std::size_t(b) * fr.nx + a) * h.channels]); };
-  const int i0 = std::max(i - 1, 0), i1 = std::min(i + 1, fr.nx - 1);
-  const int j0 = std::max(j - 1, 0), j1 = std::min(j + 1, fr.nz - 1);
-  return Gradient{(at(i1, j) - at(i0, j)) * fr.height_m / ((i1 - i0) * cell),
-                  (at(i, j1) - at(i, j0)) * fr.height_m / ((j1 - j0) * cell)};
-}
+using detail::Gradient;
+using detail::gradient_at;
 
 double slope_deg_at(const Frame& fr, const Layer& h, int i, int j) {
   const Gradient g = gradient_at(fr, h, i, j);
@@ -104,12 +93,21 @@ void apply_slope(Terrain& t, const SlopeParams& p, const Context&) {
 
 // ======================================================================================= color
 
+Level level(double at, Rgb color, const char* name) {
+  Level l;
+  l.at = at;
+  l.color = color;
+  l.name = name;
+  return l;
+}
+
 std::vector<Level> default_palette() {
   // For the default sea_level 0.4: water below, beach just above it.
   return {
-      {0.30, hex(0x1d4877), "deep water"}, {0.40, hex(0x3a7cb8), "shallow water"}, {0.43, hex(0xd8c88e), "sand"},
-      {0.58, hex(0x6b9b45), "grass"},      {0.72, hex(0x3c6b32), "forest"},         {0.86, hex(0x7f746a), "rock"},
-      {1.00, hex(0xf2f2f4), "snow"},
+      level(0.30, hex(0x1d4877), "deep water"), level(0.40, hex(0x3a7cb8), "shallow water"),
+      level(0.43, hex(0xd8c88e), "sand"),       level(0.58, hex(0x6b9b45), "grass"),
+      level(0.72, hex(0x3c6b32), "forest"),     level(0.86, hex(0x7f746a), "rock"),
+      level(1.00, hex(0xf2f2f4), "snow"),
   };
 }
 
@@ -275,6 +273,11 @@ void apply_color(Terrain& t, const ColorParams& p, const Context& ctx) {
     if (l.channels == 1 && l.data.size() == fr.count()) water = &l;
   }
   const float wr = p.water_color.r, wg = p.water_color.g, wb = p.water_color.b;
+  // Levels that tile an image instead of a flat colour: those rows take a scalar path that
+  // samples the textures at world positions, then applies the same rock rule and speckle.
+  const auto textures = detail::load_level_textures(p.levels, "stages[" + std::to_string(ctx.stage_index) + "].levels");
+  bool textured = false;
+  for (auto& tex : textures) textured = textured || tex != nullptr;
 
   Layer& out = t.layer("albedo", 3);
   detail::parallel_rows(fr.nz, [&](int j) {
@@ -302,6 +305,26 @@ void apply_color(Terrain& t, const ColorParams& p, const Context& ctx) {
     }
     float* row = out.row(j, nx);
     detail::color_row(k, h.row(j, nx), slope_row, a0, a1, tz, row, nx);
+    if (textured) {
+      const float* e = h.row(j, nx);
+      const double z = fr.z_m(j);
+      for (int i = 0; i < nx; ++i) {
+        const float v = k.relative ? e[i] / k.max_height : e[i];
+        Rgb c = detail::level_color(p.levels, textures, k.gradient, v, fr.x_m(i), z);
+        if (k.rock && v > k.rock_min && v < k.rock_max) {
+          const double sd = given_slope ? double(slope_row[i]) : std::atan(std::sqrt(double(slope_row[i]))) * kDeg;
+          if (sd > p.rock_slope_deg) {
+            const double w = p.rock_blend_deg > 0.0 ? smoothstep_weight(std::min(1.0, (sd - p.rock_slope_deg) / p.rock_blend_deg)) : 1.0;
+            c = Rgb{float(c.r + (p.rock_color.r - c.r) * w), float(c.g + (p.rock_color.g - c.g) * w),
+                    float(c.b + (p.rock_color.b - c.b) * w)};
+          }
+        }
+        const float f = k.speckle ? 1.0f + k.variation * (2.0f * (a0[i] + (a1[i] - a0[i]) * tz) - 1.0f) : 1.0f;
+        row[3 * i + 0] = std::clamp(c.r * f, 0.0f, 1.0f);
+        row[3 * i + 1] = std::clamp(c.g * f, 0.0f, 1.0f);
+        row[3 * i + 2] = std::clamp(c.b * f, 0.0f, 1.0f);
+      }
+    }
     if (water) {
       const float* w = water->row(j, nx);
       for (int i = 0; i < nx; ++i) {
@@ -316,6 +339,7 @@ void apply_color(Terrain& t, const ColorParams& p, const Context& ctx) {
 }
 
 void validate_color(const ColorParams& p, const std::string& path) {
+  detail::load_level_textures(p.levels, path + ".levels");  // a missing texture fails at parse time
   if (p.rock_min > p.rock_max) {
     char buf[96];
     std::snprintf(buf, sizeof buf, "expected a number ≥ rock_min (%g), got %g", p.rock_min, p.rock_max);
@@ -325,17 +349,8 @@ void validate_color(const ColorParams& p, const std::string& path) {
 
 // =================================================================================== hillshade
 
-struct HillshadeParams {
-  double azimuth_deg = 315.0;
-  double altitude_deg = 45.0;
-  double z_factor = 1.0;
-  double ambient = 0.2;
-  double water_relief = 0.3;
-};
+using HillshadeParams = detail::Light;
 
-// shade = ambient + (1 − ambient) · max(0, n · l), n the unit surface normal of z_factor · y_m,
-// l the unit vector towards the light. Under the sea (e < sea_level):
-// shade = flat + water_relief · (shade − flat), flat = ambient + (1 − ambient) · sin(altitude).
 void apply_hillshade(Terrain& t, const HillshadeParams& p, const Context&) {
   const Frame& fr = t.frame;
   const Layer& h = t.get("height");

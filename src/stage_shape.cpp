@@ -24,6 +24,7 @@
 #include <utility>
 #include <vector>
 
+#include "curve.hpp"
 #include "pointwise.hpp"
 #include "relief/error.hpp"
 #include "stages.hpp"
@@ -211,30 +212,6 @@ struct CurveParams {
   std::vector<CurvePoint> points{{0.0, 0.0}, {1.0, 1.0}};
 };
 
-// Fritsch–Carlson tangents for control points with strictly increasing x.
-std::vector<double> monotone_tangents(const std::vector<CurvePoint>& c) {
-  const std::size_t n = c.size();
-  std::vector<double> delta(n - 1), m(n);
-  for (std::size_t k = 0; k + 1 < n; ++k) delta[k] = (c[k + 1].y - c[k].y) / (c[k + 1].x - c[k].x);
-  m[0] = delta[0];
-  m[n - 1] = delta[n - 2];
-  for (std::size_t k = 1; k + 1 < n; ++k)
-    m[k] = (delta[k - 1] * delta[k] <= 0.0) ? 0.0 : 0.5 * (delta[k - 1] + delta[k]);
-  for (std::size_t k = 0; k + 1 < n; ++k) {
-    if (delta[k] == 0.0) {
-      m[k] = m[k + 1] = 0.0;
-      continue;
-    }
-    const double a = m[k] / delta[k], b = m[k + 1] / delta[k];
-    const double r2 = a * a + b * b;
-    if (r2 > 9.0) {  // project onto the circle of radius 3: sufficient for monotonicity
-      const double tau = 3.0 / std::sqrt(r2);
-      m[k] = tau * a * delta[k];
-      m[k + 1] = tau * b * delta[k];
-    }
-  }
-  return m;
-}
 
 // Each segment [x_k, x_k+1] is the cubic Hermite interpolant of (y_k, m_k), (y_k+1, m_k+1),
 // rewritten once as a polynomial in s = (x − x_k)/h (coefficients in double, stored as float):
@@ -255,7 +232,7 @@ struct CurveKernel final : RowKernel {
 std::unique_ptr<RowKernel> prepare_curve(Terrain& t, const CurveParams& p, const Context&) {
   require_height(t);
   const std::vector<CurvePoint>& c = p.points;
-  const std::vector<double> m = monotone_tangents(c);
+  const std::vector<double> m = detail::monotone_tangents(c);
   auto r = std::make_unique<CurveKernel>();
   for (std::size_t k = 0; k + 1 < c.size(); ++k) {
     const double h = c[k + 1].x - c[k].x, dy = c[k + 1].y - c[k].y;

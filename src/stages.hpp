@@ -18,5 +18,11 @@ StageDef thermal();      // stage_erosion.cpp: thermal erosion to a talus angle 
 StageDef fill();         // stage_erosion.cpp: Priority-Flood+ε depression filling (global)
 StageDef flow();         // stage_erosion.cpp: D8 flow, accumulation, rivers, lakes, water layer (global)
 StageDef stream_power(); // stage_erosion.cpp: stream-power uplift and incision (global)
+StageDef biomes();       // stage_biomes.cpp: Voronoi biome regions with their own rules, blended
+StageDef volcano();      // stage_features.cpp: seed 003's volcano
+StageDef features();     // stage_features.cpp: craters and single mountains
+StageDef jiggle();       // stage_features.cpp: vertex jiggle as an 'offset' layer
+StageDef props();        // stage_props.cpp: seed 003's clustered prop placement
+StageDef climate();      // stage_climate.cpp: moisture/temperature → Whittaker biomes
 
 }  // namespace relief::stages

@@ -17,6 +17,7 @@
 #include "relief/output.hpp"
 #include "writer_defs.hpp"
 #include "writers_water.hpp"
+#include "writers_islands.hpp"
 
 #ifndef RELIEF_VERSION
 #define RELIEF_VERSION "0.1.0"  // keep in step with project(VERSION) in CMakeLists.txt
@@ -148,6 +149,13 @@ void write_obj(const Terrain& t, const WriteContext& ctx, Output& out) {
       throw Error("height", "non-finite elevation at sample (" + std::to_string(k % nx) + ", " + std::to_string(k / nx) + ")");
     y[k] = f.y_m(h.data[k]);
   }
+  // Vertex jiggle (seed 003): an optional 2-channel layer "offset" = (dx_m, dz_m) moves each vertex
+  // in x/z; heights, normals and UVs stay those of the grid sample.
+  const Layer* offset = find_layer(t, "offset");
+  if (offset && (offset->channels != 2 || offset->data.size() != 2 * f.count()))
+    throw Error("offset", "layer has " + std::to_string(offset->data.size()) + " values in " +
+                              std::to_string(offset->channels) + " channel(s), expected " + std::to_string(f.count()) +
+                              " in 2");
   const double dx = f.cell_m(), dz = f.cell_m();  // square cells
   auto Y = [&](int i, int j) { return y[std::size_t(j) * nx + i]; };
 
@@ -175,12 +183,13 @@ void write_obj(const Terrain& t, const WriteContext& ctx, Output& out) {
   for (int j = 0; j < nz; ++j) {
     for (int i = 0; i < nx; ++i) {
       b.reserve(160);
+      const std::size_t k = std::size_t(j) * nx + i;
       b.put("v ");
-      b.fixed(f.x_m(i), 4);
+      b.fixed(offset ? f.x_m(i) + double(offset->data[2 * k]) : f.x_m(i), 4);
       b.put(' ');
       b.fixed(Y(i, j), 4);
       b.put(' ');
-      b.fixed(f.z_m(j), 4);
+      b.fixed(offset ? f.z_m(j) + double(offset->data[2 * k + 1]) : f.z_m(j), 4);
       b.put('\n');
     }
     tick(0.3 * j / nz);
@@ -297,6 +306,9 @@ std::vector<WriterDef> make_registry() {
   w.push_back({"obj", "Wavefront OBJ mesh (Y up, metres) with normals and UVs, plus its MTL using albedo.png",
                {"terrain.obj", "terrain.mtl"}, true, write_obj});
   for (auto& ww : water_writers()) w.push_back(std::move(ww));
+  w.push_back(detail::biomes_writer());
+  w.push_back(detail::features_writer());
+  w.push_back(detail::props_writer());
   w.push_back({"report", "report.json: version, seed, resolved recipe, timings and peak memory", {"report.json"}, true,
                write_report});
   w.push_back(writers::tilemap());

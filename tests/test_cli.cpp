@@ -4,6 +4,7 @@
 #include <sys/wait.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <array>
 #include <cstdio>
 #include <filesystem>
@@ -226,4 +227,60 @@ TEST(CliBadInput, FailedRunLeavesPreviousFilesIntact) {
   expect_bad_input("generate " + (d / "plain.json") + " --formats heightmap,color -o " + d.path.string(), "color");
   EXPECT_EQ(slurp(d.path / "height.png"), before);
   EXPECT_EQ(slurp(d.path / "color.png"), color_before);
+}
+
+// ---- island presets ------------------------------------------------------------------------------
+
+TEST(CliIslands, VolcanicIslandWritesStepsInStageOrderAndIslandFiles) {
+  TempDir d;
+  Result r = relief("generate --preset volcanic-island --seed 3 --size 129 -q -o " + d / "out" + " --steps " + d / "steps");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const auto recipe = nlohmann::json::parse(slurp(d.path / "out" / "report.json"))["recipe"];
+  std::vector<std::string> want, got;
+  for (std::size_t k = 0; k < recipe["stages"].size(); ++k) {
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%02zu-%s.png", k + 1, recipe["stages"][k]["stage"].get<std::string>().c_str());
+    want.push_back(buf);
+  }
+  want.push_back("steps.png");
+  for (auto& e : fs::directory_iterator(d.path / "steps")) got.push_back(e.path().filename().string());
+  std::sort(got.begin(), got.end());
+  EXPECT_EQ(got, want);
+  const auto props = nlohmann::json::parse(slurp(d.path / "out" / "props.json"));
+  const std::string csv = slurp(d.path / "out" / "props.csv");
+  EXPECT_EQ(std::size_t(std::count(csv.begin(), csv.end(), '\n')), props["count"].get<std::size_t>() + 1);
+  EXPECT_GT(props["count"].get<int>(), 50);
+  const auto biomes = nlohmann::json::parse(slurp(d.path / "out" / "biomes.json"));
+  EXPECT_EQ(biomes["biomes"][0]["name"], "ocean");
+  EXPECT_EQ(nlohmann::json::parse(slurp(d.path / "out" / "features.json"))["features"][0]["kind"], "volcano");
+}
+
+TEST(CliIslands, SameBytesForAnyThreadCount) {
+  TempDir a, b;
+  ASSERT_EQ(relief("generate volcanic-island --seed 8 --size 97 --threads 1 -q -o " + a.path.string()).code, 0);
+  ASSERT_EQ(relief("generate volcanic-island --seed 8 --size 97 --threads 3 -q -o " + b.path.string()).code, 0);
+  for (const char* f : {"props.json", "props.csv", "biome.png", "biomes.json", "features.json", "terrain.obj", "color.png"})
+    EXPECT_EQ(slurp(a.path / f), slurp(b.path / f)) << f;
+}
+
+TEST(CliIslands, DefaultSetSkipsIslandWritersWithNothingToWrite) {
+  TempDir d;
+  ASSERT_EQ(relief("generate island --seed 1 --size 33 -q -o " + d.path.string()).code, 0);
+  EXPECT_FALSE(fs::exists(d.path / "props.json"));
+  EXPECT_FALSE(fs::exists(d.path / "biome.png"));
+  // Asked for by name, the writer says what is missing.
+  expect_bad_input("generate island --seed 1 --size 33 -q --formats biomes -o " + d.path.string(), "biomes needs a 'biome' layer");
+}
+
+TEST(CliIslands, BadIslandParametersExit2NamingTheField) {
+  TempDir d;
+  const std::string g = "generate volcanic-island --size 33 -q -o " + d / "out" + " ";
+  expect_bad_input(g + "--set 'stages[2].types[1].octaves=40'", "stages[2].types[1].octaves: expected an integer in 1..12");
+  expect_bad_input(g + "--set 'stages[2].types[0].texture=\"no-such.png\"'", "stages[2].types[0].texture: cannot read texture 'no-such.png'");
+  expect_bad_input(g + "--set 'stages[3].rim_radius_m=5000'", "stages[3].rim_radius_m");
+  expect_bad_input(g + "--set 'stages[2].blend=\"average\"'", "stages[2].blend");
+  expect_bad_input(g + "--set 'stages[7].types[0].biomes=[\"swamp\"]'", "stages[7].types[0].biomes[0]: unknown biome \"swamp\"");
+  expect_bad_input("generate archipelago --size 33 -q -o " + d / "out" + " --set 'stages[3].table[0].temperature_min=0.1'",
+                   "stages[3].table: no row covers temperature 0.00");
+  EXPECT_TRUE(!fs::exists(d.path / "out") || fs::is_empty(d.path / "out"));  // nothing half-written
 }

@@ -383,7 +383,8 @@ TEST(Writers, RegistryOrderAndFiles) {
     EXPECT_FALSE(w.description.empty()) << w.name;
     EXPECT_TRUE(bool(w.write)) << w.name;
   }
-  EXPECT_EQ(names, (std::vector<std::string>{"heightmap", "color", "albedo", "obj", "rivers", "lakes", "report", "tilemap"}));
+  EXPECT_EQ(names, (std::vector<std::string>{"heightmap", "color", "albedo", "obj", "rivers", "lakes", "biomes", "features",
+                                             "props", "report", "tilemap"}));
   EXPECT_EQ(find_writer("obj"), &r[3]);
   EXPECT_EQ(find_writer("png"), nullptr);
 }
@@ -395,7 +396,12 @@ TEST(Writers, EachWriterWritesExactlyItsDeclaredFiles) {
   // The tilemap writer encodes what the tilemap stage made.
   find_stage("tilemap")->parse({{"stage", "tilemap"}, {"tiles_x", 3}, {"tiles_z", 2}, {"tile_size", 8}}, "stages[0]")->apply(t, {});
   t.layer("flow", 1);  // rivers.json and lakes.json are written for recipes with a flow stage
+  t.layer("biome", 1);  // all ocean
+  t.biomes.push_back({"ocean", 0.1f, 0.2f, 0.6f});
+  t.points.push_back({"prop", "tree", 1, 2, 3, 45, 1});
+  t.points.push_back({"volcano", "volcano", 4, 5, 6, 0, 1});
   for (auto& w : writer_registry()) {
+    EXPECT_TRUE(!w.applies || w.applies(t)) << w.name;
     MemoryOutput out;
     w.write(t, {}, out);
     std::vector<std::string> got;

@@ -90,7 +90,7 @@ struct NoiseCase {
 }  // namespace
 
 namespace {
-const std::vector<std::string> kGroups = {"noise", "stages", "regenerate", "presets", "tilemap", "erosion"};
+const std::vector<std::string> kGroups = {"noise", "stages", "regenerate", "presets", "tilemap", "erosion", "islands"};
 }
 
 bool is_bench_group(const std::string& name) {
@@ -387,6 +387,7 @@ int run_bench(const BenchSettings& s) {
             arena.execute([&] {
               for (auto& w : writer_registry()) {
                 if (!w.in_default_set || (w.name == "obj" && size > 1025)) continue;
+                if (w.applies && !w.applies(res.terrain)) continue;
                 w.write(res.terrain, wc, mem);
               }
             });
@@ -574,6 +575,55 @@ int run_bench(const BenchSettings& s) {
         });
       });
       record("fill + d8 + accumulation", m, threads, t, json::object());
+    }
+  }
+  if (want("islands")) {
+    // The island systems: volcanic-island at 1025² (whole pipeline and every writer that applies,
+    // OBJ included), with the median time of each stage.
+    json doc = load_preset("volcanic-island");
+    doc["world"]["size"] = 1025;
+    doc["seed"] = 1;
+    const Recipe r = parse_recipe(doc);
+    for (int threads : s.threads) {
+      RunOptions o;
+      o.threads = threads;
+      std::vector<std::vector<double>> stage_ms(r.stages.size());
+      Sample t = time_runs(s.runs, [&] {
+        RunResult res = run(r, o);
+        for (std::size_t k = 0; k < res.timings.size(); ++k) stage_ms[k].push_back(res.timings[k].ms);
+        MemoryOutput mem;
+        WriteContext wc;
+        wc.seed = res.seed;
+        tbb::task_arena arena(threads);
+        arena.execute([&] {
+          for (auto& w : writer_registry())
+            if (w.in_default_set && (!w.applies || w.applies(res.terrain))) w.write(res.terrain, wc, mem);
+        });
+      });
+      json e;
+      e["name"] = "islands volcanic-island";
+      e["size"] = json::array({1025, 1025});
+      e["threads"] = threads;
+      e["median_ms"] = t.median;
+      e["min_ms"] = t.min;
+      e["max_ms"] = t.max;
+      e["msamples_per_s"] = 1025.0 * 1025.0 / (t.median * 1e3);
+      json stages = json::array();
+      std::string line;
+      for (std::size_t k = 0; k < stage_ms.size(); ++k) {
+        auto v = stage_ms[k];
+        std::sort(v.begin(), v.end());
+        const double med = v.empty() ? 0.0 : v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+        stages.push_back({{"stage", r.stages[k].def->name}, {"median_ms", med}});
+        char buf[64];
+        std::snprintf(buf, sizeof buf, "%s%s %.0f", line.empty() ? "" : ", ", r.stages[k].def->name.c_str(), med);
+        line += buf;
+      }
+      e["stages"] = stages;
+      e["peak_memory_bytes"] = peak_rss();
+      print_row(e);
+      std::printf("    stages (median ms, generation only): %s\n", line.c_str());
+      entries.push_back(e);
     }
   }
   std::printf("peak memory %.1f MiB\n", double(peak_rss()) / (1 << 20));

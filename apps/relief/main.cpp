@@ -11,6 +11,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <memory>
 #include <iostream>
 #include <mutex>
 #include <sstream>
@@ -22,6 +23,7 @@
 #include "relief/output.hpp"
 #include "relief/pipeline.hpp"
 #include "relief/recipe.hpp"
+#include "relief/steps.hpp"
 
 using namespace relief;
 
@@ -35,6 +37,7 @@ struct GenerateSettings {
   std::string formats;
   std::vector<std::string> sets;
   std::string save_recipe;
+  std::string steps_dir;  // --steps: one picture per stage and a contact sheet
   std::int64_t seed = -1;
   bool seed_given = false;
   int threads = 0;
@@ -170,7 +173,8 @@ int cmd_generate(const GenerateSettings& s) {
 
   // Writers: validated before any work is done.
   std::vector<const WriterDef*> writers;
-  if (s.formats.empty()) {
+  const bool default_set = s.formats.empty();
+  if (default_set) {
     for (auto& w : writer_registry())
       if (w.in_default_set) writers.push_back(&w);
   } else {
@@ -204,13 +208,23 @@ int cmd_generate(const GenerateSettings& s) {
                                   " terrain with these formats needs about " + human_bytes(need) + ", but this machine has " +
                                   human_bytes(have) + "; choose a smaller --size" + (with_mesh ? " or drop obj from --formats" : ""));
 
-  // Check the output directory before spending time on generation.
+  // Check the output directories before spending time on generation.
   FileOutput files(s.out_dir);
+  std::unique_ptr<FileOutput> step_files;
+  if (!s.steps_dir.empty()) step_files = std::make_unique<FileOutput>(s.steps_dir);
 
   Progress prog{is_tty() && !s.quiet};
   RunOptions opt;
   opt.threads = s.threads;
   opt.progress = [&](std::string_view st, double f) { prog(std::string("stage ") + std::string(st), f * 0.7); };
+  std::vector<StepImage> steps;
+  if (step_files)
+    opt.after_stage = [&](const Terrain& t, const RecipeStage& st, int index) {
+      StepImage im = render_step(t, 512);
+      im.file = step_file_name(index, st.def->name);
+      im.caption = std::to_string(index + 1) + ". " + st.def->name + (st.label.empty() ? "" : " \u2014 " + st.label);
+      steps.push_back(std::move(im));
+    };
   if (!recipe.seed && !s.quiet) std::fprintf(stderr, "relief: no seed given; using a random one\n");
   RunResult res = run(recipe, opt);
   recipe.seed = res.seed;
@@ -228,6 +242,7 @@ int cmd_generate(const GenerateSettings& s) {
   std::vector<const WriterDef*> encoders;
   for (auto* w : writers) {
     if (w->name == "report") report = w;
+    else if (default_set && w->applies && !w->applies(res.terrain)) continue;  // e.g. no props in this recipe
     else encoders.push_back(w);
   }
   {
@@ -268,17 +283,27 @@ int cmd_generate(const GenerateSettings& s) {
     wc.report["performance"] = perf;
     report->write(res.terrain, wc, mem);
   }
+  MemoryOutput step_mem;
+  if (step_files) {
+    for (auto& im : steps) step_mem.put(im.file, encode_step_png(im));
+    step_mem.put("steps.png", contact_sheet_png(steps, recipe.name + " \u2014 seed " + std::to_string(res.seed) + ", " +
+                                                          std::to_string(recipe.world.nx) + "x" +
+                                                          std::to_string(recipe.world.nz) + ", step by step"));
+  }
   std::size_t k = 0;
   for (auto& [name, bytes] : mem.files) {
     prog("writing " + name, 0.7 + 0.3 * double(k++) / double(mem.files.size()));
     files.put(name, std::move(bytes));
   }
+  if (step_files)
+    for (auto& [name, bytes] : step_mem.files) step_files->put(name, std::move(bytes));
   if (!s.save_recipe.empty()) {
     write_file_atomic(s.save_recipe, recipe.to_json().dump(2) + "\n");
   }
   prog.done();
   if (!s.quiet) {
     for (auto& p : files.written()) std::printf("wrote %s (%s)\n", p.c_str(), human_bytes(std::filesystem::file_size(p)).c_str());
+    if (step_files) std::printf("wrote %zu stage pictures and steps.png into %s\n", steps.size(), s.steps_dir.c_str());
     if (!s.save_recipe.empty()) std::printf("wrote %s (resolved recipe)\n", s.save_recipe.c_str());
     const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
     std::printf("%s %dx%d in %.2f s (generate %.0f ms), peak memory %s\n", recipe.name.c_str(), recipe.world.nx,
@@ -303,7 +328,7 @@ int cmd_presets(bool as_json) {
   return 0;
 }
 
-void print_params(const std::vector<ParamInfo>& ps) {
+void print_params(const std::vector<ParamInfo>& ps, int indent = 4) {
   for (auto& p : ps) {
     std::string range;
     if (p.type == ParamType::Int || p.type == ParamType::Float) {
@@ -313,9 +338,10 @@ void print_params(const std::vector<ParamInfo>& ps) {
     } else if (p.type == ParamType::Choice) {
       for (auto& c : p.choices) range += (range.empty() ? "" : "|") + c;
     }
-    std::printf("    %-16s %-7s default %-12s %-22s %s%s%s\n", p.name.c_str(), to_string(p.type),
+    std::printf("%*s%-16s %-7s default %-12s %-22s %s%s%s\n", indent, "", p.name.c_str(), to_string(p.type),
                 p.default_value.dump().substr(0, 12).c_str(), range.c_str(), p.description.c_str(),
                 p.unit.empty() ? "" : (" [" + p.unit + "]").c_str(), p.effect == Effect::Recolour ? " (recolour)" : "");
+    if (!p.fields.empty()) print_params(p.fields, indent + 4);  // a list's records: one line per field
   }
 }
 
@@ -384,6 +410,8 @@ int main(int argc, char** argv) {
   gen->add_option("--threads,-j", gs.threads, "Worker threads (0 = all cores); output is identical for any count")
       ->check(CLI::Range(0, 1024));
   gen->add_option("--save-recipe", gs.save_recipe, "Write the fully resolved recipe (defaults and seed) to FILE");
+  gen->add_option("--steps", gs.steps_dir,
+                  "Also write one hillshaded picture per stage (NN-STAGE.png) and a captioned contact sheet steps.png into DIR");
   gen->add_flag("--quiet,-q", gs.quiet, "Print nothing but errors");
   gen->add_option("--tile-size", gs.tile_size,
                   "Tilemap: tile size in pixels (16, 32, 64 …); sets the tilemap stage's tile_size and implies --formats tilemap");

@@ -59,6 +59,9 @@ struct WriterDef {
   std::vector<std::string> files;  // files it writes
   bool in_default_set = true;
   std::function<void(const Terrain&, const WriteContext&, Output&)> write;
+  // When set and false for a terrain (e.g. no biome layer, no props), runs of the default set skip
+  // the writer; named in --formats it runs anyway and its Error names what is missing.
+  std::function<bool(const Terrain&)> applies = nullptr;
 };
 
 const std::vector<WriterDef>& writer_registry();

@@ -12,6 +12,7 @@
 #include <cstdint>
 #include <functional>
 #include <limits>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 #include <type_traits>
@@ -23,7 +24,8 @@ namespace relief {
 
 using json = nlohmann::ordered_json;
 
-enum class ParamType { Int, Float, Bool, Choice, Color, Curve, Levels, Text, IntList };
+// Names: a list of strings; List: a list of records, each read by its own table (ParamInfo::fields).
+enum class ParamType { Int, Float, Bool, Choice, Color, Curve, Levels, Text, Names, List, IntList };
 // What a change to the parameter invalidates: the heights (regenerate) or only the colours.
 enum class Effect { Regenerate, Recolour };
 
@@ -31,11 +33,15 @@ struct Rgb {
   float r = 0, g = 0, b = 0;  // 0..1
   bool operator==(const Rgb&) const = default;
 };
-// A colour level: elevation (or other value) threshold and its colour. Optional texture image.
+// A colour level: elevation (or other value) threshold and its colour. Optional texture image:
+// a PNG file (path relative to the working directory) tiled every `tile_m` metres in world x/z,
+// used instead of the flat colour; a missing or undecodable file is an Error naming the level.
 struct Level {
   double at = 0;
   Rgb color;
   std::string name;
+  std::string texture;  // "" = flat colour
+  double tile_m = 64;   // texture repeat in metres (only with a texture)
   bool operator==(const Level&) const = default;
 };
 struct CurvePoint {
@@ -52,7 +58,8 @@ struct ParamInfo {
   std::string description;  // one line
   std::vector<std::string> choices;  // for Choice
   Effect effect = Effect::Regenerate;
-  json to_json() const;  // {name, type, default, min, max, unit, description, choices, effect}
+  std::vector<ParamInfo> fields;     // for List: the parameters of each record
+  json to_json() const;  // {name, type, default, min, max, unit, description, choices, effect, fields}
 };
 
 const char* to_string(ParamType t);
@@ -75,6 +82,7 @@ json write_color(const Rgb& c);                          // "#rrggbb"
 std::vector<CurvePoint> read_curve(const json& v, const std::string& path, double min, double max);
 std::vector<Level> read_levels(const json& v, const std::string& path, double min, double max);
 json write_levels(const std::vector<Level>& l);
+std::vector<std::string> read_names(const json& v, const std::string& path);  // ["a", …], each non-empty
 // Closest name by edit distance, for "did you mean" hints ("" if nothing is close).
 std::string nearest_name(const std::string& given, const std::vector<std::string>& names);
 
@@ -130,6 +138,20 @@ Field<P> text(std::string P::*m, std::string name, std::string description, Effe
     if (!v.is_string()) throw Error(path, "expected a string, got " + describe(v));
     p.*m = v.get<std::string>();
   };
+  f.write = [m](const P& p) { return json(p.*m); };
+  return f;
+}
+
+// A list of names ["plains", "forest"] (each a non-empty string; the list may be empty).
+template <class P>
+Field<P> names(std::vector<std::string> P::*m, std::string name, std::string description,
+               Effect effect = Effect::Regenerate) {
+  Field<P> f;
+  f.info.name = std::move(name);
+  f.info.type = ParamType::Names;
+  f.info.description = std::move(description);
+  f.info.effect = effect;
+  f.read = [m](P& p, const json& v, const std::string& path) { p.*m = read_names(v, path); };
   f.write = [m](const P& p) { return json(p.*m); };
   return f;
 }
@@ -248,5 +270,35 @@ struct Table {
     return o;
   }
 };
+
+// A list of records [{…}, …] with min_count..max_count entries, each read by `table` into a default
+// R (keys left out keep R's defaults; errors name `path[k].field`). The list's default is P's.
+template <class P, class R>
+Field<P> records(std::vector<R> P::*m, std::string name, Table<R> table, std::size_t min_count, std::size_t max_count,
+                 std::string description, Effect effect = Effect::Regenerate) {
+  Field<P> f;
+  f.info.name = std::move(name);
+  f.info.type = ParamType::List;
+  f.info.min = double(min_count);
+  f.info.max = double(max_count);
+  f.info.description = std::move(description);
+  f.info.effect = effect;
+  f.info.fields = table.infos();
+  auto shared = std::make_shared<const Table<R>>(std::move(table));
+  f.read = [m, shared, min_count, max_count](P& p, const json& v, const std::string& path) {
+    if (!v.is_array() || v.size() < min_count || v.size() > max_count)
+      throw Error(path, "expected a list of " + std::to_string(min_count) + ".." + std::to_string(max_count) +
+                            " objects, got " + describe(v));
+    std::vector<R> out;
+    for (std::size_t k = 0; k < v.size(); ++k) out.push_back(shared->read(v[k], path + "[" + std::to_string(k) + "]"));
+    p.*m = std::move(out);
+  };
+  f.write = [m, shared](const P& p) {
+    json a = json::array();
+    for (auto& r : p.*m) a.push_back(shared->write(r));
+    return a;
+  };
+  return f;
+}
 
 }  // namespace relief

@@ -94,6 +94,12 @@ struct Lake {
   std::size_t samples = 0;
 };
 
+// One entry of the legend of the "biome" layer (colour components in 0..1).
+struct BiomeInfo {
+  std::string name;
+  float r = 0, g = 0, b = 0;
+};
+
 struct Terrain {
   Frame frame;
   std::map<std::string, Layer> layers;
@@ -107,6 +113,9 @@ struct Terrain {
   // allocating: run() fills it from RunOptions::recycle, so that regenerating a terrain touches
   // memory that is already mapped. Never visible as layers.
   std::vector<std::vector<float>> spare;
+  // Legend of the "biome" layer: a sample holding k (an integer stored as float) is biomes[k].
+  // Written by the stage that writes "biome"; later stages may append entries (e.g. "lava").
+  std::vector<BiomeInfo> biomes;
 
   bool has(const std::string& name) const { return layers.count(name) != 0; }
   // Returns the layer, creating it (zero-filled) with `channels` channels if missing or if its
