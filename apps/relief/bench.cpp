@@ -12,6 +12,7 @@
 #include <fstream>
 #include <libnoise/noise.h>
 
+#include "../../src/noise_simd.hpp"
 #include "../../src/parallel.hpp"
 #include "relief/noise.hpp"
 #include "relief/output.hpp"
@@ -79,13 +80,19 @@ int run_bench(const BenchSettings& s) {
   };
 
   if (want("noise")) {
+    // Peers: libnoise's Perlin module (gradient noise; 1 octave for the single-octave gradient-like
+    // bases), its value-noise function, Voronoi for cellular and RidgedMulti for ridged, each at
+    // our octave count.
     const std::vector<NoiseCase> cases = {
         {"perlin", NoiseBasis::Perlin, Fractal::None, 1, "Perlin"},
-        {"simplex", NoiseBasis::Simplex, Fractal::None, 1, nullptr},
-        {"value", NoiseBasis::Value, Fractal::None, 1, nullptr},
+        {"gradient", NoiseBasis::Gradient, Fractal::None, 1, "Perlin"},
+        {"simplex", NoiseBasis::Simplex, Fractal::None, 1, "Perlin"},
+        {"value", NoiseBasis::Value, Fractal::None, 1, "Value"},
         {"cellular", NoiseBasis::Cellular, Fractal::None, 1, "Voronoi"},
         {"perlin fbm 6", NoiseBasis::Perlin, Fractal::Fbm, 6, "Perlin"},
         {"perlin ridged 6", NoiseBasis::Perlin, Fractal::Ridged, 6, "RidgedMulti"},
+        {"gradient fbm 6", NoiseBasis::Gradient, Fractal::Fbm, 6, "Perlin"},
+        {"gradient ridged 6", NoiseBasis::Gradient, Fractal::Ridged, 6, "RidgedMulti"},
         {"simplex fbm 6", NoiseBasis::Simplex, Fractal::Fbm, 6, "Perlin"},
         {"simplex ridged 6", NoiseBasis::Simplex, Fractal::Ridged, 6, "RidgedMulti"},
     };
@@ -112,6 +119,7 @@ int run_bench(const BenchSettings& s) {
         e["name"] = c.name;
         e["size"] = json::array({n, n});
         e["threads"] = threads;
+        e["simd_target"] = detail::noise_simd_current_target();
         e["median_ms"] = t.median;
         e["min_ms"] = t.min;
         e["max_ms"] = t.max;
@@ -131,6 +139,8 @@ int run_bench(const BenchSettings& s) {
             p->SetFrequency(1.0 / 64.0);
             p->SetNoiseQuality(noise::QUALITY_BEST);
             m = std::move(p);
+          } else if (peer == "Value") {
+            m = nullptr;  // noise::ValueCoherentNoise3D below (libnoise has no value-noise module)
           } else {
             auto p = std::make_unique<noise::module::Voronoi>();
             p->SetFrequency(1.0 / 64.0);
@@ -140,7 +150,13 @@ int run_bench(const BenchSettings& s) {
           Sample pt = time_runs(std::max(3, s.runs / 2 + 1), [&] {
             arena.execute([&] {
               detail::parallel_rows(pn, [&](int j) {
-                for (int i = 0; i < pn; ++i) pbuf[std::size_t(j) * pn + i] = m->GetValue(double(i), double(j), 0.0);
+                if (m) {
+                  for (int i = 0; i < pn; ++i) pbuf[std::size_t(j) * pn + i] = m->GetValue(double(i), double(j), 0.0);
+                } else {
+                  for (int i = 0; i < pn; ++i)
+                    pbuf[std::size_t(j) * pn + i] = noise::ValueCoherentNoise3D(
+                        double(i) / 64.0, double(j) / 64.0, 0.0, 1, noise::QUALITY_BEST);
+                }
               }, 16);
             });
           });
