@@ -4,6 +4,7 @@
 #include "bench.hpp"
 
 #include <sys/resource.h>
+#include <time.h>
 #include <tbb/task_arena.h>
 
 #include <algorithm>
@@ -24,22 +25,38 @@ namespace {
 
 struct Sample {
   double median = 0, min = 0, max = 0;
+  // Median CPU time of the process over the same runs (all threads). On a shared, overloaded
+  // machine the wall time includes waiting for a core; CPU time shows the work itself.
+  double cpu_median = 0;
 };
+
+double process_cpu_ms() {
+  timespec t{};
+  clock_gettime(CLOCK_PROCESS_CPUTIME_ID, &t);
+  return double(t.tv_sec) * 1e3 + double(t.tv_nsec) * 1e-6;
+}
+
+double median_of(std::vector<double> v) {
+  std::sort(v.begin(), v.end());
+  return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
+}
 
 template <class F>
 Sample time_runs(int runs, F&& f) {
-  std::vector<double> ms;
+  std::vector<double> ms, cpu;
   f();  // warm-up: page faults, caches, lazy init
   for (int r = 0; r < runs; ++r) {
+    const double c0 = process_cpu_ms();
     auto t0 = std::chrono::steady_clock::now();
     f();
     ms.push_back(std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count());
+    cpu.push_back(process_cpu_ms() - c0);
   }
-  std::sort(ms.begin(), ms.end());
   Sample s;
-  s.min = ms.front();
-  s.max = ms.back();
-  s.median = ms.size() % 2 ? ms[ms.size() / 2] : 0.5 * (ms[ms.size() / 2 - 1] + ms[ms.size() / 2]);
+  s.min = *std::min_element(ms.begin(), ms.end());
+  s.max = *std::max_element(ms.begin(), ms.end());
+  s.median = median_of(ms);
+  s.cpu_median = median_of(cpu);
   return s;
 }
 
@@ -65,15 +82,17 @@ int run_bench(const BenchSettings& s) {
     std::printf("%-28s %6s %3d %10.2f %10.2f %10.2f %9.1f", e["name"].get<std::string>().c_str(),
                 (std::to_string(e["size"][0].get<int>()) + "²").c_str(), e["threads"].get<int>(), e["median_ms"].get<double>(),
                 e["min_ms"].get<double>(), e["max_ms"].get<double>(), e["msamples_per_s"].get<double>());
+    if (e.contains("cpu_median_ms")) std::printf(" %8.2f", e["cpu_median_ms"].get<double>());
+    else std::printf(" %8s", "");
     if (e.contains("peer")) {
-      std::printf("   %-22s %9.1f  %7.1fx", e["peer"]["name"].get<std::string>().c_str(),
-                  e["peer"]["msamples_per_s"].get<double>(), e["ratio"].get<double>());
+      std::printf("   %-22s %9.1f  %7.1fx %7.1fx", e["peer"]["name"].get<std::string>().c_str(),
+                  e["peer"]["msamples_per_s"].get<double>(), e["ratio"].get<double>(), e["cpu_ratio"].get<double>());
     }
     std::printf("\n");
     std::fflush(stdout);
   };
-  std::printf("%-28s %6s %3s %10s %10s %10s %9s   %-22s %9s  %8s\n", "case", "size", "thr", "median ms", "min ms",
-              "max ms", "Msamp/s", "peer (libnoise)", "Msamp/s", "ratio");
+  std::printf("%-28s %6s %3s %10s %10s %10s %9s %8s   %-22s %9s  %8s %8s\n", "case", "size", "thr", "median ms", "min ms",
+              "max ms", "Msamp/s", "cpu ms", "peer (libnoise)", "Msamp/s", "ratio", "cpu ratio");
 
   auto want = [&](const std::string& group) {
     return s.cases.empty() || std::find(s.cases.begin(), s.cases.end(), group) != s.cases.end();
@@ -123,6 +142,7 @@ int run_bench(const BenchSettings& s) {
         e["median_ms"] = t.median;
         e["min_ms"] = t.min;
         e["max_ms"] = t.max;
+        e["cpu_median_ms"] = t.cpu_median;
         e["msamples_per_s"] = double(n) * n / (t.median * 1e3);
         if (c.peer) {
           std::unique_ptr<noise::module::Module> m;
@@ -164,10 +184,13 @@ int run_bench(const BenchSettings& s) {
           e["peer"] = {{"name", "libnoise " + peer + " " + std::to_string(c.octaves) + " oct"},
                        {"size", json::array({pn, pn})},
                        {"median_ms", pt.median},
+                       {"cpu_median_ms", pt.cpu_median},
                        {"min_ms", pt.min},
                        {"max_ms", pt.max},
                        {"msamples_per_s", pms}};
           e["ratio"] = e["msamples_per_s"].get<double>() / pms;
+          // The same ratio by CPU time per sample: robust when other processes share the cores.
+          e["cpu_ratio"] = (pt.cpu_median / (double(pn) * pn)) / (t.cpu_median / (double(n) * n));
         }
         e["peak_memory_bytes"] = peak_rss();
         print_row(e);
