@@ -353,24 +353,14 @@ inline GAxis gaxis(double u, std::int64_t period, double inv_period) {
 }
 inline float gfade(float t) { return t * t * t * (t * (t * 6.0f - 15.0f) + 10.0f); }
 inline float glerp(float t, float a, float b) { return a + t * (b - a); }
-inline float flip_sign(float v, std::uint32_t sign_bit) {
-  std::uint32_t b;
-  std::memcpy(&b, &v, 4);
-  b ^= sign_bit & 0x80000000u;
-  std::memcpy(&v, &b, 4);
-  return v;
-}
-// Gradient dot product at one corner: h = (X·Pₓ ⊕ Z·P_z ⊕ key)·M; bit 29 picks (R, 1) or (1, R),
-// bits 31 and 30 the signs, R = 1 + √2: the 8 directions 22.5° + 45°·k, all of length √(R² + 1).
-inline float gcorner(std::uint32_t xp, std::uint32_t zp, float ax, float rax, float ay, float ray) {
-  const std::uint32_t h = (xp ^ zp) * detail::kGradM;
-  const bool swap = (h << 2) & 0x80000000u;
-  const float p = swap ? ray : rax, q = swap ? ax : ay;
-  return flip_sign(p, h) + flip_sign(q, h << 1);
+// Gradient dot product at one corner: h = (X·Pₓ ⊕ Z·P_z ⊕ key)·M; its top 3 bits pick the gradient.
+inline float gcorner(std::uint32_t xp, std::uint32_t zp, float ax, float ay) {
+  const std::uint32_t k = ((xp ^ zp) * detail::kGradM) >> 29;
+  return detail::kGradDirX[k] * ax + detail::kGradDirY[k] * ay;
 }
 struct GRow {
   std::uint32_t zp0, zp1;  // Z·P_z ⊕ key of the lattice rows below and above
-  float fy, fy1, rfy, rfy1, sy;
+  float fy, fy1, sy;
 };
 inline GRow grow(const detail::NoiseOctave& o, double v) {
   const GAxis a = gaxis(v, o.period_z, o.inv_period_z);
@@ -379,8 +369,6 @@ inline GRow grow(const detail::NoiseOctave& o, double v) {
   r.zp1 = (a.i1 * detail::kGradPz) ^ o.key32;
   r.fy = a.f;
   r.fy1 = a.f - 1.0f;
-  r.rfy = detail::kGradR * r.fy;
-  r.rfy1 = detail::kGradR * r.fy1;
   r.sy = gfade(a.f);
   return r;
 }
@@ -388,13 +376,12 @@ inline float gradient_core(const detail::NoiseOctave& o, const GRow& r, double u
   const GAxis a = gaxis(u, o.period_x, o.inv_period_x);
   const std::uint32_t xp0 = a.i0 * detail::kGradPx, xp1 = a.i1 * detail::kGradPx;
   const float fx = a.f, fx1 = a.f - 1.0f;
-  const float rfx = detail::kGradR * fx, rfx1 = detail::kGradR * fx1;
-  const float g00 = gcorner(xp0, r.zp0, fx, rfx, r.fy, r.rfy);
-  const float g10 = gcorner(xp1, r.zp0, fx1, rfx1, r.fy, r.rfy);
-  const float g01 = gcorner(xp0, r.zp1, fx, rfx, r.fy1, r.rfy1);
-  const float g11 = gcorner(xp1, r.zp1, fx1, rfx1, r.fy1, r.rfy1);
+  const float g00 = gcorner(xp0, r.zp0, fx, r.fy);
+  const float g10 = gcorner(xp1, r.zp0, fx1, r.fy);
+  const float g01 = gcorner(xp0, r.zp1, fx, r.fy1);
+  const float g11 = gcorner(xp1, r.zp1, fx1, r.fy1);
   const float sx = gfade(fx);
-  return glerp(r.sy, glerp(sx, g00, g10), glerp(sx, g01, g11)) * detail::kGradScale;
+  return glerp(r.sy, glerp(sx, g00, g10), glerp(sx, g01, g11));
 }
 
 // ---- one octave over a chunk ----------------------------------------------------------------------

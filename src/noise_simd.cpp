@@ -18,7 +18,8 @@
 //                                     lookups are gathers (int32 table), Simplex's and Perlin's
 //                                     gradient tables too; 64-bit hashing with 64-bit multiplies.
 //   Gradient                          lattice split in double, then float: 2·Lanes(double)
-//                                     samples per step (16 on AVX-512), no gathers.
+//                                     samples per step (16 on AVX-512); the gradient components
+//                                     come from an in-register permute (vpermps), no gathers.
 //
 // Exactness. Every kernel performs the same IEEE operations in the same order as the scalar
 // reference (Noise::row_reference in noise.cpp): no FMA, no reassociation, no approximate
@@ -536,7 +537,7 @@ HWY_INLINE GAxisV GAxis(const VD (&u)[kHalves], std::int64_t period, double inv_
 
 struct GradRow {
   VU32 zp0, zp1;  // Z·P_z ⊕ key of the lattice rows below and above
-  VF fy, fy1, rfy, rfy1, sy;
+  VF fy, fy1, sy;
 };
 template <bool kPZ>
 HWY_INLINE GradRow GradMakeRow(const NoiseOctave& o, const VD (&v)[kHalves]) {
@@ -544,14 +545,11 @@ HWY_INLINE GradRow GradMakeRow(const NoiseOctave& o, const VD (&v)[kHalves]) {
   const DU32 du32;
   const GAxisV az = GAxis<kPZ>(v, o.period_z, o.inv_period_z);
   const VU32 pz = hn::Set(du32, kGradPz), key = hn::Set(du32, o.key32);
-  const VF r = hn::Set(df, kGradR);
   GradRow g;
   g.zp0 = hn::Xor(hn::Mul(az.i0, pz), key);
   g.zp1 = hn::Xor(hn::Mul(az.i1, pz), key);
   g.fy = az.f;
   g.fy1 = hn::Sub(az.f, hn::Set(df, 1.0f));
-  g.rfy = hn::Mul(r, g.fy);
-  g.rfy1 = hn::Mul(r, g.fy1);
   g.sy = Fade(az.f);
   return g;
 }
@@ -561,16 +559,23 @@ HWY_INLINE GradRow GradRowHoisted(const NoiseOctave& o, VD v) {
   return o.period_z ? GradMakeRow<true>(o, vv) : GradMakeRow<false>(o, vv);
 }
 
-// Dot product of corner (xp, zp)'s gradient with its offset (ax, ay); rax = R·ax, ray = R·ay.
-HWY_INLINE VF GradCorner(VU32 xp, VU32 zp, VF ax, VF rax, VF ay, VF ray) {
+// table[idx] for idx in 0..7 (16-entry tables: the 8 repeated). AVX2 and AVX-512 use one
+// in-register permute (vpermps); SSE4 and the scalar fallback read the table from memory.
+HWY_INLINE VF Lookup8(const float* table, VU32 idx) {
   const DF df;
+  const DI32 di32;
+#if HWY_TARGET == HWY_SCALAR || HWY_TARGET == HWY_SSE4
+  return hn::GatherIndex(df, table, hn::BitCast(di32, idx));
+#else
+  return hn::TableLookupLanes(hn::Load(df, table), hn::IndicesFromVec(df, hn::BitCast(di32, idx)));
+#endif
+}
+
+// Dot product of corner (xp, zp)'s gradient with the offset (ax, ay) from it, as gcorner().
+HWY_INLINE VF GradCorner(VU32 xp, VU32 zp, VF ax, VF ay) {
   const DU32 du32;
-  const VU32 h = hn::Mul(hn::Xor(xp, zp), hn::Set(du32, kGradM));
-  const auto swap = hn::RebindMask(df, hn::TestBit(h, hn::Set(du32, 1u << 29)));
-  const VU32 sign = hn::Set(du32, 0x80000000u);
-  const VU32 p = hn::Xor(hn::BitCast(du32, hn::IfThenElse(swap, ray, rax)), hn::And(h, sign));
-  const VU32 q = hn::Xor(hn::BitCast(du32, hn::IfThenElse(swap, ax, ay)), hn::And(hn::ShiftLeft<1>(h), sign));
-  return hn::Add(hn::BitCast(df, p), hn::BitCast(df, q));
+  const VU32 k = hn::ShiftRight<29>(hn::Mul(hn::Xor(xp, zp), hn::Set(du32, kGradM)));
+  return hn::Add(hn::Mul(Lookup8(kGradDirX, k), ax), hn::Mul(Lookup8(kGradDirY, k), ay));
 }
 
 template <bool kPX>
@@ -582,15 +587,13 @@ HWY_INLINE VF GradEval(const NoiseOctave& o, const GradRow& r, const VD (&u)[kHa
   const VU32 xp0 = hn::Mul(ax.i0, px);
   // (i0 + 1)·Pₓ = i0·Pₓ + Pₓ modulo 2³²: the same bits as the scalar's multiply.
   const VU32 xp1 = kPX ? hn::Mul(ax.i1, px) : hn::Add(xp0, px);
-  const VF rr = hn::Set(df, kGradR);
   const VF fx = ax.f, fx1 = hn::Sub(fx, hn::Set(df, 1.0f));
-  const VF rfx = hn::Mul(rr, fx), rfx1 = hn::Mul(rr, fx1);
-  const VF g00 = GradCorner(xp0, r.zp0, fx, rfx, r.fy, r.rfy);
-  const VF g10 = GradCorner(xp1, r.zp0, fx1, rfx1, r.fy, r.rfy);
-  const VF g01 = GradCorner(xp0, r.zp1, fx, rfx, r.fy1, r.rfy1);
-  const VF g11 = GradCorner(xp1, r.zp1, fx1, rfx1, r.fy1, r.rfy1);
+  const VF g00 = GradCorner(xp0, r.zp0, fx, r.fy);
+  const VF g10 = GradCorner(xp1, r.zp0, fx1, r.fy);
+  const VF g01 = GradCorner(xp0, r.zp1, fx, r.fy1);
+  const VF g11 = GradCorner(xp1, r.zp1, fx1, r.fy1);
   const VF sx = Fade(fx);
-  return hn::Mul(Lerp(r.sy, Lerp(sx, g00, g10), Lerp(sx, g01, g11)), hn::Set(df, kGradScale));
+  return Lerp(r.sy, Lerp(sx, g00, g10), Lerp(sx, g01, g11));
 }
 
 template <int kFr>

@@ -14,16 +14,33 @@ namespace relief::detail {
 constexpr double kMagicInt = 6755399441055744.0;
 
 // Gradient basis: hash multipliers (odd 32-bit constants: 2³²/φ, murmur3's c2, xxHash's
-// PRIME32_3) and the gradient shape R = 1 + √2 ((R, 1) is 22.5° off the x axis).
+// PRIME32_3). The top 3 bits of the hash pick one of 8 gradients at 22.5° + 45°·k (the 8 evenly
+// spaced directions that avoid the axes and diagonals), all of length kGradLength = √1.375, the
+// RMS length of the Perlin basis's gradients (grad3(h, x, y, 0): E[gx²] = 10/16, E[gy²] = 12/16),
+// which gives both bases the same variance (tests/test_noise_simd.cpp checks it, the derivative
+// variance and the spectrum). Bound: |value| ≤ kGradLength·√½ < 0.83 (a point is at most √½
+// cells from the corners, whose weights sum to 1).
 constexpr std::uint32_t kGradPx = 0x9E3779B1u;
 constexpr std::uint32_t kGradPz = 0x85EBCA6Bu;
 constexpr std::uint32_t kGradM = 0x27D4EB2Fu;
-constexpr float kGradR = 2.41421356237309505f;
-// Scales the raw dot products (gradients of length √(R² + 1) ≈ 2.798) so that the basis has the
-// Perlin basis's standard deviation (0.2538 measured over 8 seeds × 256² samples, 16 per cell;
-// tests/test_noise_simd.cpp checks it, the derivative variance and the spectrum). Bound:
-// |value| ≤ 0.4507·2.798·√½ < 0.892 (at most √½ cells from the 4 corners, weights summing to 1).
-constexpr float kGradScale = 0.4507f;
+constexpr double kGradLength = 1.1726039399558574;  // √1.375
+constexpr double kCos22_5 = 0.92387953251128674, kSin22_5 = 0.38268343236508978;
+// Direction k (index = hash >> 29), x and y components, float. 16 entries: the 8 repeated, so
+// that a 16-lane table lookup needs no masking.
+alignas(64) constexpr float kGradDirX[16] = {
+    float(kGradLength * kCos22_5),  float(kGradLength * kSin22_5),  float(-kGradLength * kSin22_5),
+    float(-kGradLength * kCos22_5), float(-kGradLength * kCos22_5), float(-kGradLength * kSin22_5),
+    float(kGradLength * kSin22_5),  float(kGradLength * kCos22_5),  float(kGradLength * kCos22_5),
+    float(kGradLength * kSin22_5),  float(-kGradLength * kSin22_5), float(-kGradLength * kCos22_5),
+    float(-kGradLength * kCos22_5), float(-kGradLength * kSin22_5), float(kGradLength * kSin22_5),
+    float(kGradLength * kCos22_5)};
+alignas(64) constexpr float kGradDirY[16] = {
+    float(kGradLength * kSin22_5),  float(kGradLength * kCos22_5),  float(kGradLength * kCos22_5),
+    float(kGradLength * kSin22_5),  float(-kGradLength * kSin22_5), float(-kGradLength * kCos22_5),
+    float(-kGradLength * kCos22_5), float(-kGradLength * kSin22_5), float(kGradLength * kSin22_5),
+    float(kGradLength * kCos22_5),  float(kGradLength * kCos22_5),  float(kGradLength * kSin22_5),
+    float(-kGradLength * kSin22_5), float(-kGradLength * kCos22_5), float(-kGradLength * kCos22_5),
+    float(-kGradLength * kSin22_5)};
 
 // Shared with noise.cpp, which defines the tables from its constexpr generators.
 constexpr std::uint64_t kLatticePx = 0x9E3779B97F4A7C15ull;  // Value / Simplex / Cellular hashing
