@@ -34,10 +34,12 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstring>
 #include <limits>
 #include <string>
 #include <utility>
 
+#include "noise_simd.hpp"
 #include "relief/error.hpp"
 #include "relief/random.hpp"
 
@@ -112,10 +114,12 @@ constexpr Grad2Table make_grad2() {
 }
 constexpr Grad2Table kGrad2 = make_grad2();
 
-// floor(u) as an integer. Clamped to ±2⁶² first so that the conversion is always defined (NaN
-// becomes −2⁶²); plain truncation plus a correction, which needs no SSE4.1 and vectorises.
+// floor(u) as an integer. Clamped to ±2⁵¹ first so that the conversion is always defined (NaN
+// becomes −2⁵¹) and so that the SIMD kernels can do the same integer work exactly in double
+// (x + 1.5·2⁵² holds x's two's complement in its mantissa for |x| ≤ 2⁵¹; a period wrap by a
+// multiply with 1/period is off by at most one and corrected). Plain truncation plus a correction.
 inline std::int64_t floor_i64(double u) {
-  constexpr double kBig = 4611686018427387904.0;  // 2⁶²
+  constexpr double kBig = 2251799813685248.0;  // 2⁵¹
   double c = u > -kBig ? u : -kBig;
   c = c < kBig ? c : kBig;
   const std::int64_t i = std::int64_t(c);
@@ -176,8 +180,8 @@ inline double perlin_core(const std::uint8_t* p, const Axis& ax, const PerlinRow
 
 // mix64(key + X·Px + Z·Pz). The linear part is injective for |ΔX|, |ΔZ| far beyond any terrain
 // (odd 64-bit multipliers), mix64 is a bijective finaliser, and the z part is hoisted per row.
-constexpr std::uint64_t kPx = 0x9E3779B97F4A7C15ull;
-constexpr std::uint64_t kPz = 0xC2B2AE3D27D4EB4Full;
+constexpr std::uint64_t kPx = detail::kLatticePx;
+constexpr std::uint64_t kPz = detail::kLatticePz;
 inline std::uint64_t row_key(std::uint64_t key, std::int64_t z) { return key + std::uint64_t(z) * kPz; }
 inline std::uint64_t lattice_hash(std::uint64_t rowkey, std::int64_t x) {
   return mix64(rowkey + std::uint64_t(x) * kPx);
@@ -204,13 +208,14 @@ inline double value_core(const Axis& ax, const ValueRow& r) {
 
 // ---- OpenSimplex2S-style 2D simplex ---------------------------------------------------------------
 
-constexpr double kSkew = 0.36602540378443864676;    // (√3 − 1)/2: input → lattice (skewed) space
-constexpr double kUnskew = 0.21132486540518711775;  // (3 − √3)/6: lattice → input space
-constexpr double kSimplexR2 = 2.0 / 3.0;            // kernel radius² = lattice edge length²
+constexpr double kSkew = detail::kSimplexSkew;      // (√3 − 1)/2: input → lattice (skewed) space
+constexpr double kUnskew = detail::kSimplexUnskew;  // (3 − √3)/6: lattice → input space
+constexpr double kSimplexR2 = detail::kSimplexR2;   // kernel radius² = lattice edge length²
 // sup over positions and gradient choices of Σ max(0, r² − |d|²)⁴ · (g·d) is 0.054818664956251
 // (found numerically: grid search over the rhombus cell, then local refinement; attained near
 // skewed (0.357, 0.660)). 18.24 < 1/0.054818664956251 = 18.24196…, so |n| ≤ 0.9999.
-constexpr double kSimplexScale = 18.24;
+constexpr double kSimplexScale = detail::kSimplexScale;
+static_assert(kSimplexScale == 18.24);
 
 // 24 unit gradients at 7.5° + 15°·k (OpenSimplex2's 2D set). Literals, not std::cos, so every
 // libm gives the same table: cos(7.5°), cos(22.5°), …, cos(82.5°).
@@ -261,7 +266,7 @@ inline double simplex_core(std::uint64_t key, double u, double v) {
 
 // ---- cellular (Worley) ----------------------------------------------------------------------------
 
-constexpr double k2m21 = 1.0 / 2097152.0;  // 2⁻²¹
+constexpr double k2m21 = detail::kCell2m21;  // 2⁻²¹
 
 struct CellRow {
   std::uint64_t k[3];  // row keys of lattice rows z−1, z, z+1 (wrapped)
@@ -309,6 +314,76 @@ inline double cellular_core(const CellRow& r, double u, std::int64_t period_x, d
   return double(h1 & 0x3FFFFF) * k2m21 - 1.0;
 }
 
+// ---- arithmetic-hash gradient noise (Gradient) -----------------------------------------------------
+//
+// The definition the SIMD kernel (noise_simd.cpp, GradientBasis) reproduces bit for bit: the same
+// IEEE operations in the same order, float after the lattice split, no FMA.
+
+// Lattice split of u: floor in double, the fraction rounded to float, the cell index modulo 2³²
+// from the mantissa of floor(u) + 1.5·2⁵² (exact for |floor(u)| ≤ 2⁵¹; beyond that, some fixed
+// index). With a period the index is wrapped into [0, period) first (exactly, see wrap_double).
+struct GAxis {
+  std::uint32_t i0, i1;
+  float f;
+};
+inline double wrap_double(double fl, double period, double inv_period) {
+  double w = fl - std::floor(fl * inv_period) * period;
+  w = w < 0.0 ? w + period : w;
+  return w >= period ? w - period : w;
+}
+inline std::uint32_t low32(double integral) {
+  const double m = integral + detail::kMagicInt;
+  std::uint64_t bits;
+  std::memcpy(&bits, &m, 8);
+  return std::uint32_t(bits);
+}
+inline GAxis gaxis(double u, std::int64_t period, double inv_period) {
+  double fl = std::floor(u);
+  GAxis a;
+  a.f = float(u - fl);
+  if (period == 0) {
+    a.i0 = low32(fl);
+    a.i1 = a.i0 + 1u;
+  } else {
+    fl = wrap_double(fl, double(period), inv_period);
+    a.i0 = low32(fl);
+    a.i1 = a.i0 + 1u == std::uint32_t(period) ? 0u : a.i0 + 1u;
+  }
+  return a;
+}
+inline float gfade(float t) { return t * t * t * (t * (t * 6.0f - 15.0f) + 10.0f); }
+inline float glerp(float t, float a, float b) { return a + t * (b - a); }
+// Gradient dot product at one corner: h = (X·Pₓ ⊕ Z·P_z ⊕ key)·M; its top 3 bits pick the gradient.
+inline float gcorner(std::uint32_t xp, std::uint32_t zp, float ax, float ay) {
+  const std::uint32_t k = ((xp ^ zp) * detail::kGradM) >> 29;
+  return detail::kGradDirX[k] * ax + detail::kGradDirY[k] * ay;
+}
+struct GRow {
+  std::uint32_t zp0, zp1;  // Z·P_z ⊕ key of the lattice rows below and above
+  float fy, fy1, sy;
+};
+inline GRow grow(const detail::NoiseOctave& o, double v) {
+  const GAxis a = gaxis(v, o.period_z, o.inv_period_z);
+  GRow r;
+  r.zp0 = (a.i0 * detail::kGradPz) ^ o.key32;
+  r.zp1 = (a.i1 * detail::kGradPz) ^ o.key32;
+  r.fy = a.f;
+  r.fy1 = a.f - 1.0f;
+  r.sy = gfade(a.f);
+  return r;
+}
+inline float gradient_core(const detail::NoiseOctave& o, const GRow& r, double u) {
+  const GAxis a = gaxis(u, o.period_x, o.inv_period_x);
+  const std::uint32_t xp0 = a.i0 * detail::kGradPx, xp1 = a.i1 * detail::kGradPx;
+  const float fx = a.f, fx1 = a.f - 1.0f;
+  const float g00 = gcorner(xp0, r.zp0, fx, r.fy);
+  const float g10 = gcorner(xp1, r.zp0, fx1, r.fy);
+  const float g01 = gcorner(xp0, r.zp1, fx, r.fy1);
+  const float g11 = gcorner(xp1, r.zp1, fx1, r.fy1);
+  const float sx = gfade(fx);
+  return glerp(r.sy, glerp(sx, g00, g10), glerp(sx, g01, g11));
+}
+
 // ---- one octave over a chunk ----------------------------------------------------------------------
 
 // out[i] = basis value at lattice position (x[i]·fx + ox, z·fz + oz), z = zc when kUniformZ, else
@@ -344,6 +419,7 @@ void octave_chunk(NoiseBasis basis, CellularReturn ret, double jitter, const Oct
       for (int i = 0; i < m; ++i) out[i] = simplex_core(o.key, ux(i), vz(i));
       break;
     }
+    case NoiseBasis::Gradient: break;  // float pipeline: Noise::run_gradient
     case NoiseBasis::Cellular: {
       if constexpr (kUniformZ) {
         const CellRow r = cell_row(o, vz(0));
@@ -384,22 +460,40 @@ std::int64_t period_cells(const char* field, double freq, double period_m) {
   return std::int64_t(cells);
 }
 
-template <class Oct>
-Oct make_octave(const NoiseSettings& s, std::uint64_t index, double fx, double fz, double amp) {
-  Oct o;
+detail::NoiseOctave make_octave(const NoiseSettings& s, std::uint64_t index, double fx, double fz, double amp) {
+  detail::NoiseOctave o;
   o.period_x = period_cells("period_x_m", fx, s.period_x_m);
   o.period_z = period_cells("period_z_m", fz, s.period_z_m);
+  o.inv_period_x = o.period_x ? 1.0 / double(o.period_x) : 0.0;
+  o.inv_period_z = o.period_z ? 1.0 / double(o.period_z) : 0.0;
   o.freq_x = o.period_x ? double(o.period_x) / s.period_x_m : fx;
   o.freq_z = o.period_z ? double(o.period_z) / s.period_z_m : fz;
   o.offset_x = 256.0 * unit_double(hash64(s.seed, kTagOffset, 2 * index));
   o.offset_z = 256.0 * unit_double(hash64(s.seed, kTagOffset, 2 * index + 1));
   o.amp = amp;
   o.key = hash64(s.seed, kTagTable, index);
-  if (s.basis == NoiseBasis::Perlin) o.perm = seeded_permutation(o.key);
+  o.key32 = std::uint32_t(o.key ^ (o.key >> 32));
+  if (s.basis == NoiseBasis::Perlin) {
+    o.perm = seeded_permutation(o.key);
+    for (std::size_t i = 0; i < 512; ++i) o.perm32[i] = o.perm[i];
+  }
   return o;
 }
 
 }  // namespace
+
+// The tables the SIMD kernels gather from: exactly the scalar ones.
+namespace detail {
+#define RELIEF_TABLE16(t) {t[0], t[1], t[2], t[3], t[4], t[5], t[6], t[7], t[8], t[9], t[10], t[11], t[12], t[13], t[14], t[15]}
+#define RELIEF_TABLE24(t) {t[0], t[1], t[2], t[3], t[4], t[5], t[6], t[7], t[8], t[9], t[10], t[11], t[12], t[13], t[14], t[15], \
+                           t[16], t[17], t[18], t[19], t[20], t[21], t[22], t[23]}
+const double kPerlinGradX[16] = RELIEF_TABLE16(kGrad2.x);
+const double kPerlinGradY[16] = RELIEF_TABLE16(kGrad2.y);
+const double kSimplexGradX[24] = RELIEF_TABLE24(kGrad24.x);
+const double kSimplexGradY[24] = RELIEF_TABLE24(kGrad24.y);
+#undef RELIEF_TABLE16
+#undef RELIEF_TABLE24
+}  // namespace detail
 
 // ---- public single-octave functions ---------------------------------------------------------------
 
@@ -441,7 +535,7 @@ std::array<std::uint8_t, 512> seeded_permutation(std::uint64_t seed) {
 // ---- Noise ----------------------------------------------------------------------------------------
 
 Noise::Noise(const NoiseSettings& s) : s_(s) {
-  if (unsigned(s.basis) > unsigned(NoiseBasis::Cellular)) throw Error("basis", "unknown noise basis");
+  if (unsigned(s.basis) > unsigned(NoiseBasis::Gradient)) throw Error("basis", "unknown noise basis");
   if (unsigned(s.fractal) > unsigned(Fractal::Billow)) throw Error("fractal", "unknown fractal mode");
   if (unsigned(s.cellular) > unsigned(CellularReturn::CellValue))
     throw Error("cellular", "unknown cellular return");
@@ -457,7 +551,7 @@ Noise::Noise(const NoiseSettings& s) : s_(s) {
     if (!std::isfinite(v) || v < 0.0)
       throw Error(field, "expected a finite period >= 0 m (0 = not periodic), got " + num(v));
     if (v > 0.0 && s.basis == NoiseBasis::Simplex)
-      throw Error(field, "periodic noise needs basis perlin, value or cellular; simplex has no square lattice");
+      throw Error(field, "periodic noise needs basis perlin, gradient, value or cellular; simplex has no square lattice");
   }
   if (!std::isfinite(s.warp_m) || s.warp_m < 0.0)
     throw Error("warp_m", "expected a finite distance >= 0 m, got " + num(s.warp_m));
@@ -472,7 +566,7 @@ Noise::Noise(const NoiseSettings& s) : s_(s) {
       throw Error(k == 0 ? "frequency" : "lacunarity",
                   "octave " + std::to_string(k) + " has frequency " + num(fx) + " x " + num(fz) +
                       " and amplitude " + num(amp) + "; expected finite and > 0");
-    octaves_.push_back(make_octave<Octave>(s, std::uint64_t(k), fx, fz, amp));
+    octaves_.push_back(make_octave(s, std::uint64_t(k), fx, fz, amp));
     amp_sum += amp;
     f *= s.lacunarity;
     amp *= s.persistence;
@@ -481,7 +575,7 @@ Noise::Noise(const NoiseSettings& s) : s_(s) {
   inv_amp_sum_ = 1.0 / amp_sum;
   if (s.warp_m > 0.0)
     for (int w = 0; w < 2; ++w)
-      warp_[std::size_t(w)] = make_octave<Octave>(s, kWarpIndex + std::uint64_t(w), s.warp_frequency,
+      warp_[std::size_t(w)] = make_octave(s, kWarpIndex + std::uint64_t(w), s.warp_frequency,
                                                   s.warp_frequency, 1.0);
 }
 
@@ -504,7 +598,7 @@ void Noise::run(double z_m, XAt x_at, int n, float* out) const {
       for (int i = 0; i < m; ++i) xs[i] = xs[i] + s_.warp_m * nb[i];
     }
     for (int i = 0; i < m; ++i) acc[i] = 0.0;
-    for (const Octave& o : octaves_) {
+    for (const detail::NoiseOctave& o : octaves_) {
       if (warp)
         octave_chunk<false>(basis, ret, jitter, o, xs, zs, 0.0, m, nb);
       else
@@ -535,13 +629,82 @@ void Noise::run(double z_m, XAt x_at, int n, float* out) const {
   }
 }
 
-void Noise::row(double z_m, std::int64_t i0, double dx_m, int n, float* out) const {
-  run(z_m, [=](int i) { return double(i0 + i) * dx_m; }, n, out);
+// The Gradient basis in float: the same structure as run(), with float values and accumulator.
+template <class XAt>
+void Noise::run_gradient(double z_m, XAt x_at, int n, float* out) const {
+  constexpr int kChunk = 256;
+  double xs[kChunk], zs[kChunk];
+  float acc[kChunk];
+  const bool warp = s_.warp_m > 0.0;
+  const float inv = float(inv_amp_sum_);
+  for (int start = 0; start < n; start += kChunk) {
+    const int m = std::min(kChunk, n - start);
+    for (int i = 0; i < m; ++i) xs[i] = x_at(start + i);
+    if (warp) {
+      const detail::NoiseOctave &w0 = warp_[0], &w1 = warp_[1];
+      const GRow r1 = grow(w1, z_m * w1.freq_z + w1.offset_z), r0 = grow(w0, z_m * w0.freq_z + w0.offset_z);
+      for (int i = 0; i < m; ++i) {
+        const float n1 = gradient_core(w1, r1, xs[i] * w1.freq_x + w1.offset_x);
+        const float n0 = gradient_core(w0, r0, xs[i] * w0.freq_x + w0.offset_x);
+        zs[i] = z_m + s_.warp_m * double(n1);
+        xs[i] = xs[i] + s_.warp_m * double(n0);
+      }
+    }
+    for (int i = 0; i < m; ++i) acc[i] = 0.0f;
+    for (const detail::NoiseOctave& o : octaves_) {
+      const float a = float(o.amp);
+      const GRow row = grow(o, z_m * o.freq_z + o.offset_z);
+      for (int i = 0; i < m; ++i) {
+        const float v = gradient_core(o, warp ? grow(o, zs[i] * o.freq_z + o.offset_z) : row,
+                                      xs[i] * o.freq_x + o.offset_x);
+        switch (s_.fractal) {
+          case Fractal::None:
+          case Fractal::Fbm: acc[i] = acc[i] + a * v; break;
+          case Fractal::Ridged: {
+            const float r = 1.0f - std::fabs(v);
+            acc[i] = acc[i] + a * (r * r);
+            break;
+          }
+          case Fractal::Billow: acc[i] = acc[i] + a * (2.0f * std::fabs(v) - 1.0f); break;
+        }
+      }
+    }
+    for (int i = 0; i < m; ++i) {
+      float v = s_.fractal == Fractal::Ridged ? 2.0f * (acc[i] * inv) - 1.0f : acc[i] * inv;
+      v = v > -1.0f ? v : -1.0f;  // float rounding of Σ aₖ could step past ±1 by an ulp
+      out[start + i] = v < 1.0f ? v : 1.0f;
+    }
+  }
 }
 
+void Noise::row_reference(double z_m, std::int64_t i0, double dx_m, int n, float* out) const {
+  if (s_.basis == NoiseBasis::Gradient)
+    run_gradient(z_m, [=](int i) { return double(i0 + i) * dx_m; }, n, out);
+  else
+    run(z_m, [=](int i) { return double(i0 + i) * dx_m; }, n, out);
+}
+
+void Noise::row(double z_m, std::int64_t i0, double dx_m, int n, float* out) const {
+  if (n <= 0) return;
+  detail::NoiseKernelArgs a;
+  a.basis = s_.basis;
+  a.fractal = s_.fractal;
+  a.cellular = s_.cellular;
+  a.jitter = s_.jitter;
+  a.periodic = s_.period_x_m > 0.0 || s_.period_z_m > 0.0;
+  a.warp = s_.warp_m > 0.0;
+  a.warp_m = s_.warp_m;
+  a.inv_amp_sum = inv_amp_sum_;
+  a.octaves = octaves_.data();
+  a.count = int(octaves_.size());
+  a.warp_octaves = warp_.data();
+  detail::noise_row_simd(a, z_m, i0, dx_m, n, out);
+}
+
+// x = double(1)·x_m exactly: the row kernel at i0 = 1, dx = x_m evaluates at x_m.
 float Noise::at(double x_m, double z_m) const {
   float v = 0.0f;
-  run(z_m, [=](int) { return x_m; }, 1, &v);
+  row(z_m, 1, x_m, 1, &v);
   return v;
 }
 

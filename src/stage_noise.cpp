@@ -14,7 +14,7 @@ namespace {
 
 struct NoiseParams {
   std::string layer = "height";
-  std::string basis = "perlin";
+  std::string basis = "gradient";
   std::string fractal = "fbm";
   int octaves = 6;
   double frequency = 4.0;  // cycles across the world width (first octave)
@@ -36,8 +36,9 @@ Table<NoiseParams> table() {
   using P = NoiseParams;
   return {{
       text(&P::layer, "layer", "Layer to write (height, moisture, temperature, …)"),
-      choice(&P::basis, "basis", {"perlin", "simplex", "value", "cellular"},
-             "Noise basis: improved Perlin (seeded permutation), OpenSimplex2, value or cellular (Worley)"),
+      choice(&P::basis, "basis", {"gradient", "perlin", "simplex", "value", "cellular"},
+             "Noise basis: gradient (Perlin-equivalent, hashed, fastest), improved Perlin (seeded permutation), "
+             "OpenSimplex2, value or cellular (Worley)"),
       choice(&P::fractal, "fractal", {"none", "fbm", "ridged", "billow"},
              "How octaves combine: none (one octave), fBm, ridged (sharp crests), billow (puffy)"),
       param(&P::octaves, "octaves", 1, 16, "", "Number of octaves summed"),
@@ -53,7 +54,7 @@ Table<NoiseParams> table() {
       choice(&P::cellular, "cellular", {"f1", "f2", "f2_minus_f1", "cell_value"},
              "Cellular basis output: distance to nearest (F1), second nearest (F2), F2−F1 or cell value"),
       param(&P::jitter, "jitter", 0, 1, "", "Cellular feature point jitter within its cell"),
-      param(&P::periodic, "periodic", 0, 1, "", "Make the noise tile across the world extent (perlin, value, cellular)"),
+      param(&P::periodic, "periodic", 0, 1, "", "Make the noise tile across the world extent (gradient, perlin, value, cellular)"),
       param(&P::warp, "warp", 0, 4, "wavelengths", "Domain warp strength in first-octave wavelengths (0 = off)"),
       param(&P::warp_frequency, "warp_frequency", 0.1, 16, "", "Warp noise frequency relative to the first octave"),
       param(&P::salt, "salt", 0, 1000000, "", "Varies this stage's noise without changing the recipe seed"),
@@ -62,8 +63,9 @@ Table<NoiseParams> table() {
 
 NoiseSettings settings_for(const NoiseParams& p, const Frame& f, std::uint64_t seed) {
   NoiseSettings s;
-  s.basis = p.basis == "perlin" ? NoiseBasis::Perlin : p.basis == "simplex" ? NoiseBasis::Simplex
-            : p.basis == "value" ? NoiseBasis::Value : NoiseBasis::Cellular;
+  s.basis = p.basis == "gradient" ? NoiseBasis::Gradient : p.basis == "perlin" ? NoiseBasis::Perlin
+            : p.basis == "simplex" ? NoiseBasis::Simplex : p.basis == "value" ? NoiseBasis::Value
+                                                                : NoiseBasis::Cellular;
   s.fractal = p.fractal == "none" ? Fractal::None : p.fractal == "fbm" ? Fractal::Fbm
               : p.fractal == "ridged" ? Fractal::Ridged : Fractal::Billow;
   s.octaves = p.octaves;
@@ -88,7 +90,7 @@ NoiseSettings settings_for(const NoiseParams& p, const Frame& f, std::uint64_t s
 void validate(const NoiseParams& p, const std::string& path) {
   if (p.layer.empty()) throw Error(path + ".layer", "expected a layer name, got \"\"");
   if (p.periodic && p.basis == "simplex")
-    throw Error(path + ".periodic", "periodic noise needs basis perlin, value or cellular, got simplex");
+    throw Error(path + ".periodic", "periodic noise needs basis gradient, perlin, value or cellular, got simplex");
 }
 
 // A row stage (stage.hpp: RowKernel): Noise::row evaluates a whole row, then the blend folds it
@@ -145,7 +147,7 @@ std::unique_ptr<RowKernel> prepare(Terrain& t, const NoiseParams& p, const Conte
 }  // namespace
 
 StageDef noise() {
-  return make_row_stage<NoiseParams>("noise", "Fractal noise (Perlin, simplex, value, cellular) into a layer", table(),
+  return make_row_stage<NoiseParams>("noise", "Fractal noise (gradient, Perlin, simplex, value, cellular) into a layer", table(),
                                      prepare, validate);
 }
 

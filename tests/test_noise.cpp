@@ -61,8 +61,9 @@ Stats sample_stats(const NoiseSettings& s, int side = 400) {
   return st;
 }
 
-const NoiseBasis kAllBases[] = {NoiseBasis::Perlin, NoiseBasis::Simplex, NoiseBasis::Value, NoiseBasis::Cellular};
-const NoiseBasis kPeriodicBases[] = {NoiseBasis::Perlin, NoiseBasis::Value, NoiseBasis::Cellular};
+const NoiseBasis kAllBases[] = {NoiseBasis::Perlin, NoiseBasis::Simplex, NoiseBasis::Value, NoiseBasis::Cellular,
+                                 NoiseBasis::Gradient};
+const NoiseBasis kPeriodicBases[] = {NoiseBasis::Perlin, NoiseBasis::Value, NoiseBasis::Cellular, NoiseBasis::Gradient};
 const CellularReturn kAllReturns[] = {CellularReturn::F1, CellularReturn::F2, CellularReturn::F2MinusF1,
                                       CellularReturn::CellValue};
 
@@ -72,6 +73,7 @@ std::string name(NoiseBasis b) {
     case NoiseBasis::Simplex: return "simplex";
     case NoiseBasis::Value: return "value";
     case NoiseBasis::Cellular: return "cellular";
+    case NoiseBasis::Gradient: return "gradient";
   }
   return "?";
 }
@@ -221,7 +223,7 @@ TEST(SeededPermutation, LooksUniform) {
 // 160 000 samples of each basis over ~2 700 lattice cells: values within [−1, 1], mean within
 // ±0.05 of 0 (the sampling error of the mean is ~0.01), standard deviation above 0.15.
 TEST(Basis, RangeMeanAndSpread) {
-  for (NoiseBasis b : {NoiseBasis::Perlin, NoiseBasis::Simplex, NoiseBasis::Value}) {
+  for (NoiseBasis b : {NoiseBasis::Perlin, NoiseBasis::Simplex, NoiseBasis::Value, NoiseBasis::Gradient}) {
     const Stats st = sample_stats(single(b));
     EXPECT_GE(st.min, -1.0) << name(b);
     EXPECT_LE(st.max, 1.0) << name(b);
@@ -564,7 +566,7 @@ TEST(Determinism, GoldenHashes) {
   // only when the algorithm does; update them deliberately, and expect them to differ in the last
   // bits under FMA contraction (a SIMD port must state its tolerance instead).
   const std::uint64_t golden[] = {14078382463606979733ull, 8073379351779952972ull, 61294467917285867ull,
-                                  8949554707693066234ull};
+                                  8949554707693066234ull, 15382442068763458187ull};
   int k = 0;
   for (NoiseBasis b : kAllBases) {
     NoiseSettings s;

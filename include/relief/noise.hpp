@@ -8,6 +8,9 @@
 //   * OpenSimplex2 (K. Spencer, 2022), 2D "S" variant: simplex-lattice gradient noise without
 //     Perlin's patent-era skew artefacts.
 //   * Steven Worley, "A Cellular Texture Basis Function", SIGGRAPH 1996 (F1, F2, cell id).
+//   * Gradient: our arithmetic-hash gradient noise (Perlin's construction, with the permutation
+//     table replaced by an integer hash of the lattice coordinates as in FastNoise2 and
+//     FastNoise Lite, and eight evenly spaced gradients), evaluated in float, SIMD-friendly.
 //   * Fractals: fBm, ridged multifractal and billow (Musgrave, "Texturing and Modeling", ch. 16),
 //     normalised by the analytic sum of octave amplitudes, never by a map's own min/max.
 //
@@ -20,7 +23,7 @@
 
 namespace relief {
 
-enum class NoiseBasis { Perlin, Simplex, Value, Cellular };
+enum class NoiseBasis { Perlin, Simplex, Value, Cellular, Gradient };
 enum class Fractal { None, Fbm, Ridged, Billow };
 enum class CellularReturn { F1, F2, F2MinusF1, CellValue };
 
@@ -36,7 +39,7 @@ struct NoiseSettings {
   double jitter = 1.0;         // cellular feature point jitter, 0..1
   // Periodicity: when > 0 the noise repeats every period_x metres along x (likewise z).
   // Each octave's frequency is rounded so that a whole number of lattice cells fits the period.
-  // Supported for Perlin, Value and Cellular; Simplex with a period makes the constructor throw
+  // Supported for Perlin, Gradient, Value and Cellular; Simplex with a period makes the constructor throw
   // relief::Error("period_x_m" / "period_z_m"). Rounding: octave k has nominal frequency
   // fₖ = frequency·lacunarityᵏ·scale_x; it uses Nₖ/period_x_m with Nₖ = max(1, round(fₖ·period_x_m))
   // whole lattice cells per period, and lattice indices wrap modulo Nₖ (likewise z).
@@ -49,6 +52,22 @@ struct NoiseSettings {
   std::uint64_t seed = 0;
 };
 
+namespace detail {
+// Everything the row kernels need for one octave (or one warp noise), precomputed by Noise's
+// constructor. An implementation detail shared by the scalar and the SIMD kernels; not an API.
+struct NoiseOctave {
+  double freq_x = 0.0, freq_z = 0.0;        // lattice cells per metre (anisotropy, period rounding)
+  double offset_x = 0.0, offset_z = 0.0;    // seeded lattice offset in [0, 256) cells
+  std::int64_t period_x = 0, period_z = 0;  // lattice cells per period; 0 = not periodic
+  double inv_period_x = 0.0, inv_period_z = 0.0;  // 1 / period (0 when not periodic)
+  double amp = 1.0;                         // persistenceᵏ
+  std::uint64_t key = 0;                    // lattice hash key (Value, Simplex, Cellular)
+  std::uint32_t key32 = 0;                  // lattice hash key (Gradient)
+  std::array<std::uint8_t, 512> perm{};     // doubled permutation (Perlin)
+  std::array<std::int32_t, 512> perm32{};   // the same, widened for SIMD gathers (Perlin)
+};
+}  // namespace detail
+
 // A compiled noise generator. Construction validates the settings (throwing relief::Error naming
 // the field: "octaves", "frequency", "lacunarity", "persistence", "scale_x", "scale_z", "jitter",
 // "period_x_m", "period_z_m", "warp_m", "warp_frequency", "basis", "fractal", "cellular") and
@@ -58,6 +77,13 @@ struct NoiseSettings {
 // Evaluation is const and thread-safe.
 //
 // Bases (single octave, in lattice units of that octave):
+//   Gradient  2D gradient noise with quintic fade; the gradient of lattice point (X, Z) is one of
+//             8 directions at 22.5° + 45°·k picked by hash32((X·Pₓ) ⊕ (Z·P_z ⊕ keyₖ)), scaled so
+//             that its statistics match Perlin's (range, mean, spread, spectrum: see
+//             tests/test_noise_simd.cpp). Cell indices are taken modulo 2³² (exact while
+//             |lattice coordinate| < 2⁵¹), so one octave repeats every 2³² cells. The lattice split
+//             (floor, fraction) is done in double, everything after it in float, so its precision
+//             is float's (~6e-8 relative), independent of the distance from the origin.
 //   Perlin    improved Perlin 2D (exactly perlin2 with the octave's table); one octave repeats
 //             every 256 of its own cells (the table's period), the per-octave tables and offsets
 //             keep the octaves of a sum from repeating together.
@@ -70,9 +96,14 @@ struct NoiseSettings {
 //             they need lies outside the 3×3 block.
 // Value, Simplex and Cellular hash lattice points with mix64(keyₖ + X·Pₓ + Z·P_z): no period.
 //
-// Precision: positions are doubles, the lattice work is done in double and the result rounded to
-// float once. Coordinates must be finite (non-finite ones give unspecified values, never UB).
-// FMA contraction would change the last bits (see noise.cpp).
+// Precision: positions are doubles; Perlin, Simplex, Value and Cellular do the lattice work in
+// double and round the result to float once; Gradient works in float after the lattice split.
+// Lattice coordinates are clamped to ±2⁵¹ cells. Coordinates must be finite (non-finite ones give
+// unspecified values, never UB). No FMA anywhere (see noise.cpp).
+//
+// Evaluation is vectorised with Google Highway (src/noise_simd.cpp), dispatched at run time to the
+// best target this CPU supports (AVX-512, AVX2, SSE4 or a portable scalar emulation); every target
+// gives bit-identical results to row_reference(), the plain scalar implementation.
 class Noise {
  public:
   explicit Noise(const NoiseSettings& s);
@@ -85,28 +116,23 @@ class Noise {
   //   Cellular F1/F2 are mapped from distance d (in cells) as 2·min(d,1)−1 (F2: d/1.5, F2−F1: d),
   //   CellValue is a hash of the owning cell in [−1, 1).
   void row(double z_m, std::int64_t i0, double dx_m, int n, float* out) const;
+  // The same values as row(), bit for bit, computed by the scalar reference implementation (no
+  // SIMD, no dispatch): the definition the vector kernels are tested against. Several times slower.
+  void row_reference(double z_m, std::int64_t i0, double dx_m, int n, float* out) const;
   // One value; bit-identical to row() at the same (x_m, z_m).
   float at(double x_m, double z_m) const;
   const NoiseSettings& settings() const { return s_; }
 
  private:
-  // Everything the row kernels need for one octave (or one warp noise), precomputed.
-  struct Octave {
-    double freq_x = 0.0, freq_z = 0.0;        // lattice cells per metre (anisotropy, period rounding)
-    double offset_x = 0.0, offset_z = 0.0;    // seeded lattice offset in [0, 256) cells
-    std::int64_t period_x = 0, period_z = 0;  // lattice cells per period; 0 = not periodic
-    double amp = 1.0;                         // persistenceᵏ
-    std::uint64_t key = 0;                    // lattice hash key (Value, Simplex, Cellular)
-    std::array<std::uint8_t, 512> perm{};     // doubled permutation (Perlin)
-  };
-
   template <class XAt>
   void run(double z_m, XAt x_at, int n, float* out) const;
+  template <class XAt>
+  void run_gradient(double z_m, XAt x_at, int n, float* out) const;
 
   NoiseSettings s_;
-  std::vector<Octave> octaves_;   // 1 for Fractal::None, else s_.octaves
-  std::array<Octave, 2> warp_{};  // n1 (x displacement), n2 (z displacement); used if warp_m > 0
-  double inv_amp_sum_ = 1.0;      // 1 / Σ aₖ
+  std::vector<detail::NoiseOctave> octaves_;   // 1 for Fractal::None, else s_.octaves
+  std::array<detail::NoiseOctave, 2> warp_{};  // n1 (x displacement), n2 (z displacement); if warp_m > 0
+  double inv_amp_sum_ = 1.0;                   // 1 / Σ aₖ
 };
 
 // ---- single-octave bases (for tests and reference; values nominally in [−1, 1]) -------------

@@ -1,0 +1,770 @@
+// SIMD row kernels for every noise basis, with Google Highway and run-time dispatch.
+//
+// Sources:
+//   * The algorithms are those of noise.cpp (Perlin 2002, OpenSimplex2S, Worley 1996, Musgrave's
+//     fractals, Quilez's domain warp); see the top of that file.
+//   * Arithmetic lattice hashing in place of permutation tables, as FastNoise2 (Jordan Peck) and
+//     FastNoise Lite do: hash = (X·Pₓ ⊕ Z·P_z ⊕ seed)·M, gradient picked from its top bits.
+//   * Google Highway (github.com/google/highway), "foreach_target" multi-target compilation and
+//     HWY_DYNAMIC_DISPATCH.
+//
+// Structure. noise_row_simd() dispatches once per row to a kernel specialised for (basis, fractal,
+// warp, periodic x, periodic z, cellular return): no virtual calls and no branches on parameters in
+// the loop over samples. Per row, everything that depends only on z (lattice row, fade, row hash
+// keys) is computed once per octave into `rows[]`; then each vector of samples runs through all
+// octaves (and both warp noises) with the accumulator in a register: octaves are fused.
+//
+//   Perlin, Simplex, Value, Cellular  in double, Lanes(double) samples per step; Perlin's table
+//                                     lookups are gathers (int32 table), Simplex's and Perlin's
+//                                     gradient tables too; 64-bit hashing with 64-bit multiplies.
+//   Gradient                          lattice split in double, then float: 2·Lanes(double)
+//                                     samples per step (16 on AVX-512); the gradient components
+//                                     come from an in-register permute (vpermps), no gathers.
+//
+// Exactness. Every kernel performs the same IEEE operations in the same order as the scalar
+// reference (Noise::row_reference in noise.cpp): no FMA, no reassociation, no approximate
+// instructions; integer work is exact (floor via Floor on a value clamped to ±2⁵¹, int64 via the
+// 1.5·2⁵² mantissa trick, period wraps corrected to exact). So every target's output is
+// bit-identical to the scalar reference; tests/test_noise_simd.cpp checks this for each target.
+
+#include <cmath>
+#include <cstdint>
+#include <cstring>
+
+#include "noise_simd.hpp"
+
+// SSSE3 adds nothing over SSE4 for these kernels and would only cost compile time.
+#ifndef HWY_DISABLED_TARGETS
+#define HWY_DISABLED_TARGETS HWY_SSSE3
+#endif
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "noise_simd.cpp"
+#include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include <hwy/highway.h>
+
+#if defined(__clang__)
+#pragma STDC FP_CONTRACT OFF
+#elif defined(__GNUC__)
+#pragma GCC optimize("fp-contract=off")
+#endif
+
+HWY_BEFORE_NAMESPACE();
+namespace relief::detail {
+namespace HWY_NAMESPACE {
+namespace {
+
+namespace hn = hwy::HWY_NAMESPACE;
+
+using DD = hn::ScalableTag<double>;
+using DI = hn::RebindToSigned<DD>;    // int64, one per double lane
+using DU = hn::RebindToUnsigned<DD>;  // uint64
+using DFh = hn::Rebind<float, DD>;    // float, one per double lane (half a vector)
+using DI32h = hn::Rebind<std::int32_t, DD>;
+// The Gradient kernel works on full float vectors: two double vectors' worth of samples. HWY_SCALAR
+// (the fallback target; g++ < 12.3 builds no EMU128) has one-lane vectors only: one per step.
+#if HWY_TARGET == HWY_SCALAR
+constexpr int kHalves = 1;
+using DF = DFh;
+#else
+constexpr int kHalves = 2;
+using DF = hn::Twice<DFh>;  // float, two per double lane (a full vector)
+#endif
+using DU32 = hn::RebindToUnsigned<DF>;
+using DI32 = hn::RebindToSigned<DF>;
+using VD = hn::Vec<DD>;
+using VI = hn::Vec<DI>;
+using VU = hn::Vec<DU>;
+using VI32h = hn::Vec<DI32h>;
+using VF = hn::Vec<DF>;
+using VU32 = hn::Vec<DU32>;
+
+constexpr int kMaxOctaves = 16;
+
+// ---- shared double helpers (mirror noise.cpp's floor_i64, axis, wrap, fade, lerp, mix64) -------
+
+// floor_i64(u) as a double: u clamped to ±2⁵¹ (NaN → −2⁵¹), floored; + 0 turns −0 into +0 like
+// double(int64).
+HWY_INLINE VD FloorClamped(VD u) {
+  const DD d;
+  const VD k = hn::Set(d, 2251799813685248.0), nk = hn::Set(d, -2251799813685248.0);
+  VD c = hn::IfThenElse(u > nk, u, nk);
+  c = hn::IfThenElse(c < k, c, k);
+  return hn::Add(hn::Floor(c), hn::Zero(d));
+}
+// An integer-valued double with |x| ≤ 2⁵¹ as int64, exactly.
+HWY_INLINE VI ToInt(VD x) {
+  const DD d;
+  const DI di;
+  const VD m = hn::Set(d, kMagicInt);
+  return hn::Sub(hn::BitCast(di, hn::Add(x, m)), hn::BitCast(di, m));
+}
+// fl mod period in [0, period), exact for integer |fl| ≤ 2⁵¹ and period ≤ 2³¹ (the quotient from
+// the multiply by 1/period is off by at most one; the two selects correct it).
+HWY_INLINE VD WrapD(VD fl, VD period, VD inv_period) {
+  const DD d;
+  VD w = hn::Sub(fl, hn::Mul(hn::Floor(hn::Mul(fl, inv_period)), period));
+  w = hn::IfThenElse(w < hn::Zero(d), hn::Add(w, period), w);
+  return hn::IfThenElse(w >= period, hn::Sub(w, period), w);
+}
+template <class V>
+HWY_INLINE V Fade(V t) {
+  const hn::DFromV<V> d;
+  using T = hn::TFromD<decltype(d)>;
+  const V t3 = hn::Mul(hn::Mul(t, t), t);
+  return hn::Mul(t3, hn::Add(hn::Mul(t, hn::Sub(hn::Mul(t, hn::Set(d, T(6))), hn::Set(d, T(15)))), hn::Set(d, T(10))));
+}
+template <class V>
+HWY_INLINE V Lerp(V t, V a, V b) {
+  return hn::Add(a, hn::Mul(t, hn::Sub(b, a)));
+}
+HWY_INLINE VU Mix64(VU x) {
+  const DU du;
+  x = hn::Add(x, hn::Set(du, 0x9E3779B97F4A7C15ull));
+  x = hn::Mul(hn::Xor(x, hn::ShiftRight<30>(x)), hn::Set(du, 0xBF58476D1CE4E5B9ull));
+  x = hn::Mul(hn::Xor(x, hn::ShiftRight<27>(x)), hn::Set(du, 0x94D049BB133111EBull));
+  return hn::Xor(x, hn::ShiftRight<31>(x));
+}
+HWY_INLINE VD U64ToDouble(VU v) {  // v < 2⁵³
+  return hn::ConvertTo(DD(), hn::BitCast(DI(), v));
+}
+
+// axis(u, period): cell index, next cell index (wrapped) and fraction.
+struct VAxis {
+  VI i0, i1;
+  VD f;
+};
+template <bool kPeriodic>
+HWY_INLINE VAxis Axis(VD u, std::int64_t period, double inv_period) {
+  const DD d;
+  const DI di;
+  const VD fl = FloorClamped(u);
+  VAxis a;
+  a.f = hn::Sub(u, fl);
+  if constexpr (!kPeriodic) {
+    a.i0 = ToInt(fl);
+    a.i1 = hn::Add(a.i0, hn::Set(di, 1));
+  } else {
+    a.i0 = ToInt(WrapD(fl, hn::Set(d, double(period)), hn::Set(d, inv_period)));
+    const VI next = hn::Add(a.i0, hn::Set(di, 1));
+    a.i1 = hn::IfThenZeroElse(next == hn::Set(di, period), next);
+  }
+  return a;
+}
+// i ± 1 modulo the period, for an index already in [0, period).
+template <bool kPeriodic>
+HWY_INLINE VI Prev(VI i, std::int64_t period) {
+  const DI di;
+  const VI p = hn::Sub(i, hn::Set(di, 1));
+  if constexpr (!kPeriodic) return p;
+  return hn::IfThenElse(i == hn::Zero(di), hn::Set(di, period - 1), p);
+}
+template <bool kPeriodic>
+HWY_INLINE VI Next(VI i, std::int64_t period) {
+  const DI di;
+  const VI n = hn::Add(i, hn::Set(di, 1));
+  if constexpr (!kPeriodic) return n;
+  return hn::IfThenZeroElse(n == hn::Set(di, period), n);
+}
+
+// ---- fractal folding (double) --------------------------------------------------------------------
+
+enum { kFbm = 0, kRidged = 1, kBillow = 2 };
+
+template <int kFr>
+HWY_INLINE VD Fold(VD acc, VD amp, VD n) {
+  const DD d;
+  if constexpr (kFr == kFbm) {
+    return hn::Add(acc, hn::Mul(amp, n));
+  } else if constexpr (kFr == kRidged) {
+    const VD r = hn::Sub(hn::Set(d, 1.0), hn::Abs(n));
+    return hn::Add(acc, hn::Mul(amp, hn::Mul(r, r)));
+  } else {
+    return hn::Add(acc, hn::Mul(amp, hn::Sub(hn::Mul(hn::Set(d, 2.0), hn::Abs(n)), hn::Set(d, 1.0))));
+  }
+}
+template <int kFr>
+HWY_INLINE VD Finish(VD acc, VD inv) {
+  const DD d;
+  if constexpr (kFr == kRidged) return hn::Sub(hn::Mul(hn::Set(d, 2.0), hn::Mul(acc, inv)), hn::Set(d, 1.0));
+  return hn::Mul(acc, inv);
+}
+
+// ---- Perlin (seeded permutation, gathers) ----------------------------------------------------------
+
+// The low 32 bits of each int64 lane (here: values in 0..255).
+HWY_INLINE VI32h Low32(VI v) {
+  const hn::Rebind<std::uint32_t, DD> du32h;
+  return hn::BitCast(DI32h(), hn::TruncateTo(du32h, hn::BitCast(DU(), v)));
+}
+
+struct PerlinRow {
+  VI32h y0, y1;  // lattice rows & 255
+  VD fy, sy;
+};
+template <bool kPZ>
+HWY_INLINE PerlinRow PerlinMakeRow(const NoiseOctave& o, VD v) {
+  const DI di;
+  const VAxis az = Axis<kPZ>(v, o.period_z, o.inv_period_z);
+  const VI m = hn::Set(di, 255);
+  return {Low32(hn::And(az.i0, m)), Low32(hn::And(az.i1, m)), az.f, Fade(az.f)};
+}
+template <bool kPX, bool kPZ>
+struct Perlin {
+  using Row = PerlinRow;
+  static HWY_INLINE Row RowHoisted(const NoiseOctave& o, VD v) {
+    return o.period_z ? PerlinMakeRow<true>(o, v) : PerlinMakeRow<false>(o, v);
+  }
+  static HWY_INLINE Row MakeRow(const NoiseOctave& o, VD v) { return PerlinMakeRow<kPZ>(o, v); }
+  static HWY_INLINE VD Eval(const NoiseOctave& o, const Row& r, VD u) {
+    const DD d;
+    const DI di;
+    const DI32h di32;
+    const VAxis ax = Axis<kPX>(u, o.period_x, o.inv_period_x);
+    const std::int32_t* p = o.perm32.data();
+    const VI m = hn::Set(di, 255);
+    const VI32h A = hn::GatherIndex(di32, p, Low32(hn::And(ax.i0, m)));
+    const VI32h B = hn::GatherIndex(di32, p, Low32(hn::And(ax.i1, m)));
+    const VI32h m15 = hn::Set(di32, 15);
+    auto hash = [&](VI32h base, VI32h row) {
+      return hn::PromoteTo(di, hn::And(hn::GatherIndex(di32, p, hn::GatherIndex(di32, p, hn::Add(base, row))), m15));
+    };
+    const VI h00 = hash(A, r.y0), h10 = hash(B, r.y0), h01 = hash(A, r.y1), h11 = hash(B, r.y1);
+    const VD fx = ax.f, fx1 = hn::Sub(fx, hn::Set(d, 1.0)), fy1 = hn::Sub(r.fy, hn::Set(d, 1.0));
+    auto grad = [&](VI h, VD x, VD y) {
+      return hn::Add(hn::Mul(hn::GatherIndex(d, kPerlinGradX, h), x), hn::Mul(hn::GatherIndex(d, kPerlinGradY, h), y));
+    };
+    const VD g00 = grad(h00, fx, r.fy), g10 = grad(h10, fx1, r.fy);
+    const VD g01 = grad(h01, fx, fy1), g11 = grad(h11, fx1, fy1);
+    const VD sx = Fade(fx);
+    return Lerp(r.sy, Lerp(sx, g00, g10), Lerp(sx, g01, g11));
+  }
+};
+
+// ---- Value ------------------------------------------------------------------------------------------
+
+struct ValueRow {
+  VU k0, k1;  // row keys of lattice rows z0, z1
+  VD sy;
+};
+HWY_INLINE VD SignedUnit(VU h) {
+  const DD d;
+  return hn::Sub(hn::Mul(U64ToDouble(hn::ShiftRight<11>(h)), hn::Set(d, 1.0 / 4503599627370496.0)), hn::Set(d, 1.0));
+}
+template <bool kPZ>
+HWY_INLINE ValueRow ValueMakeRow(const NoiseOctave& o, VD v) {
+  const DU du;
+  const VAxis az = Axis<kPZ>(v, o.period_z, o.inv_period_z);
+  const VU key = hn::Set(du, o.key), pz = hn::Set(du, kLatticePz);
+  return {hn::Add(key, hn::Mul(hn::BitCast(du, az.i0), pz)), hn::Add(key, hn::Mul(hn::BitCast(du, az.i1), pz)),
+          Fade(az.f)};
+}
+template <bool kPX, bool kPZ>
+struct Value {
+  using Row = ValueRow;
+  static HWY_INLINE Row RowHoisted(const NoiseOctave& o, VD v) {
+    return o.period_z ? ValueMakeRow<true>(o, v) : ValueMakeRow<false>(o, v);
+  }
+  static HWY_INLINE Row MakeRow(const NoiseOctave& o, VD v) { return ValueMakeRow<kPZ>(o, v); }
+  static HWY_INLINE VD Eval(const NoiseOctave& o, const Row& r, VD u) {
+    const DU du;
+    const VAxis ax = Axis<kPX>(u, o.period_x, o.inv_period_x);
+    const VU px = hn::Set(du, kLatticePx);
+    const VU x0 = hn::Mul(hn::BitCast(du, ax.i0), px), x1 = hn::Mul(hn::BitCast(du, ax.i1), px);
+    const VD v00 = SignedUnit(Mix64(hn::Add(r.k0, x0))), v10 = SignedUnit(Mix64(hn::Add(r.k0, x1)));
+    const VD v01 = SignedUnit(Mix64(hn::Add(r.k1, x0))), v11 = SignedUnit(Mix64(hn::Add(r.k1, x1)));
+    const VD sx = Fade(ax.f);
+    return Lerp(r.sy, Lerp(sx, v00, v10), Lerp(sx, v01, v11));
+  }
+};
+
+// ---- Simplex (OpenSimplex2S-style) -------------------------------------------------------------------
+
+struct SimplexRow {
+  VD v;
+};
+template <bool kPX, bool kPZ>
+struct Simplex {
+  using Row = SimplexRow;
+  static HWY_INLINE Row RowHoisted(const NoiseOctave&, VD v) { return {v}; }
+  static HWY_INLINE Row MakeRow(const NoiseOctave&, VD v) { return {v}; }
+  template <int a, int b>
+  static HWY_INLINE VD Vertex(VU key, VI i, VI j, VD dx0, VD dy0) {
+    const DD d;
+    const DU du;
+    const DI di;
+    constexpr double back = double(a + b) * kSimplexUnskew;
+    const VD dx = hn::Add(hn::Sub(dx0, hn::Set(d, double(a))), hn::Set(d, back));
+    const VD dy = hn::Add(hn::Sub(dy0, hn::Set(d, double(b))), hn::Set(d, back));
+    VD att = hn::Sub(hn::Sub(hn::Set(d, kSimplexR2), hn::Mul(dx, dx)), hn::Mul(dy, dy));
+    att = hn::IfThenElse(att > hn::Zero(d), att, hn::Zero(d));
+    const VU rowkey = hn::Add(key, hn::Mul(hn::BitCast(du, hn::Add(j, hn::Set(di, b))), hn::Set(du, kLatticePz)));
+    const VU h = Mix64(hn::Add(rowkey, hn::Mul(hn::BitCast(du, hn::Add(i, hn::Set(di, a))), hn::Set(du, kLatticePx))));
+    const VI g = hn::BitCast(di, hn::ShiftRight<32>(hn::Mul(hn::ShiftRight<32>(h), hn::Set(du, 24))));
+    const VD att2 = hn::Mul(att, att);
+    const VD dot = hn::Add(hn::Mul(hn::GatherIndex(d, kSimplexGradX, g), dx), hn::Mul(hn::GatherIndex(d, kSimplexGradY, g), dy));
+    return hn::Mul(hn::Mul(att2, att2), dot);
+  }
+  static HWY_INLINE VD Eval(const NoiseOctave& o, const Row& r, VD u) {
+    const DD d;
+    const DU du;
+    const VD s = hn::Mul(hn::Add(u, r.v), hn::Set(d, kSimplexSkew));
+    const VD xs = hn::Add(u, s), ys = hn::Add(r.v, s);
+    const VD fi = FloorClamped(xs), fj = FloorClamped(ys);
+    const VI i = ToInt(fi), j = ToInt(fj);
+    const VD xi = hn::Sub(xs, fi), yi = hn::Sub(ys, fj);
+    const VD t = hn::Mul(hn::Add(xi, yi), hn::Set(d, kSimplexUnskew));
+    const VD dx0 = hn::Sub(xi, t), dy0 = hn::Sub(yi, t);
+    const VU key = hn::Set(du, o.key);
+    // The same vertex order as noise.cpp's kSimplexVerts, summed left to right from 0.
+    VD sum = hn::Add(hn::Zero(d), Vertex<0, 0>(key, i, j, dx0, dy0));
+    sum = hn::Add(sum, Vertex<1, 0>(key, i, j, dx0, dy0));
+    sum = hn::Add(sum, Vertex<0, 1>(key, i, j, dx0, dy0));
+    sum = hn::Add(sum, Vertex<1, 1>(key, i, j, dx0, dy0));
+    sum = hn::Add(sum, Vertex<-1, 0>(key, i, j, dx0, dy0));
+    sum = hn::Add(sum, Vertex<0, -1>(key, i, j, dx0, dy0));
+    sum = hn::Add(sum, Vertex<2, 1>(key, i, j, dx0, dy0));
+    sum = hn::Add(sum, Vertex<1, 2>(key, i, j, dx0, dy0));
+    return hn::Mul(sum, hn::Set(d, kSimplexScale));
+  }
+};
+
+// ---- Cellular (Worley, 3×3 search) -----------------------------------------------------------------
+
+struct CellRow {
+  VU k[3];  // row keys of lattice rows z−1, z, z+1 (wrapped)
+  VD fy;
+};
+template <bool kPZ>
+HWY_INLINE CellRow CellMakeRow(const NoiseOctave& o, VD v) {
+  const DD d;
+  const DU du;
+  const VD fl = FloorClamped(v);
+  VI j = ToInt(fl);
+  if constexpr (kPZ) j = ToInt(WrapD(fl, hn::Set(d, double(o.period_z)), hn::Set(d, o.inv_period_z)));
+  const VU key = hn::Set(du, o.key), pz = hn::Set(du, kLatticePz);
+  CellRow r;
+  r.k[0] = hn::Add(key, hn::Mul(hn::BitCast(du, Prev<kPZ>(j, o.period_z)), pz));
+  r.k[1] = hn::Add(key, hn::Mul(hn::BitCast(du, j), pz));
+  r.k[2] = hn::Add(key, hn::Mul(hn::BitCast(du, Next<kPZ>(j, o.period_z)), pz));
+  r.fy = hn::Sub(v, fl);
+  return r;
+}
+template <int kRet>
+struct CellularR {
+  template <bool kPX, bool kPZ>
+  struct B {
+    using Row = CellRow;
+    static HWY_INLINE Row RowHoisted(const NoiseOctave& o, VD v) {
+      return o.period_z ? CellMakeRow<true>(o, v) : CellMakeRow<false>(o, v);
+    }
+    static HWY_INLINE Row MakeRow(const NoiseOctave& o, VD v) { return CellMakeRow<kPZ>(o, v); }
+    static HWY_INLINE VD Eval(const NoiseOctave& o, const Row& r, VD u, VD jitter) {
+      const DD d;
+      const DU du;
+      const VD fl = FloorClamped(u);
+      const VD fx = hn::Sub(u, fl);
+      VI i = ToInt(fl);
+      if constexpr (kPX) i = ToInt(WrapD(fl, hn::Set(d, double(o.period_x)), hn::Set(d, o.inv_period_x)));
+      const VU px = hn::Set(du, kLatticePx);
+      const VU xk[3] = {hn::Mul(hn::BitCast(du, Prev<kPX>(i, o.period_x)), px), hn::Mul(hn::BitCast(du, i), px),
+                        hn::Mul(hn::BitCast(du, Next<kPX>(i, o.period_x)), px)};
+      const VD inf = hn::Set(d, HUGE_VAL), half = hn::Set(d, 0.5), k21 = hn::Set(d, kCell2m21);
+      VD d1 = inf, d2 = inf;
+      VU h1 = hn::Zero(du);
+      for (int b = 0; b < 3; ++b) {
+        const VD pyc = hn::Set(d, double(b - 1) + 0.5);
+        for (int a = 0; a < 3; ++a) {
+          const VU h = Mix64(hn::Add(r.k[b], xk[a]));
+          const VD ux = hn::Sub(hn::Mul(U64ToDouble(hn::ShiftRight<43>(h)), k21), half);
+          const VD uy = hn::Sub(hn::Mul(U64ToDouble(hn::And(hn::ShiftRight<22>(h), hn::Set(du, 0x1FFFFF))), k21), half);
+          const VD ppx = hn::Add(hn::Set(d, double(a - 1) + 0.5), hn::Mul(jitter, ux));
+          const VD ppy = hn::Add(pyc, hn::Mul(jitter, uy));
+          const VD ddx = hn::Sub(ppx, fx), ddy = hn::Sub(ppy, r.fy);
+          const VD dist = hn::Add(hn::Mul(ddx, ddx), hn::Mul(ddy, ddy));
+          const auto m1 = dist < d1;
+          const auto m2 = hn::AndNot(m1, dist < d2);
+          d2 = hn::IfThenElse(m1, d1, hn::IfThenElse(m2, dist, d2));
+          d1 = hn::IfThenElse(m1, dist, d1);
+          if constexpr (kRet == int(CellularReturn::CellValue)) h1 = hn::IfThenElse(hn::RebindMask(du, m1), h, h1);
+        }
+      }
+      const VD one = hn::Set(d, 1.0), two = hn::Set(d, 2.0);
+      auto min1 = [&](VD v) { return hn::IfThenElse(one < v, one, v); };  // std::min(v, 1.0)
+      if constexpr (kRet == int(CellularReturn::F1)) {
+        return hn::Sub(hn::Mul(two, min1(hn::Sqrt(d1))), one);
+      } else if constexpr (kRet == int(CellularReturn::F2)) {
+        return hn::Sub(hn::Mul(two, min1(hn::Mul(hn::Sqrt(d2), hn::Set(d, 1.0 / 1.5)))), one);
+      } else if constexpr (kRet == int(CellularReturn::F2MinusF1)) {
+        return hn::Sub(hn::Mul(two, min1(hn::Sub(hn::Sqrt(d2), hn::Sqrt(d1)))), one);
+      } else {
+        return hn::Sub(hn::Mul(U64ToDouble(hn::And(h1, hn::Set(du, 0x3FFFFF))), k21), one);
+      }
+    }
+  };
+};
+
+// Bases other than cellular ignore the jitter argument.
+template <class B>
+HWY_INLINE auto EvalWith(const NoiseOctave& o, const typename B::Row& r, VD u, VD jitter)
+    -> decltype(B::Eval(o, r, u, jitter)) {
+  return B::Eval(o, r, u, jitter);
+}
+template <class B, class... Unused>
+HWY_INLINE VD EvalWith(const NoiseOctave& o, const typename B::Row& r, VD u, VD, Unused...) {
+  return B::Eval(o, r, u);
+}
+
+// ---- the double-precision row driver ----------------------------------------------------------------
+
+HWY_INLINE void StoreTail(hn::Vec<DFh> v, float* out, int count) {
+  HWY_ALIGN float tmp[64];
+  hn::Store(v, DFh(), tmp);
+  std::memcpy(out, tmp, std::size_t(count) * sizeof(float));
+}
+
+template <class B, int kFr, bool kWarp>
+HWY_NOINLINE void RowDouble(const NoiseKernelArgs& a, double z, std::int64_t i0, double dx, int n, float* out) {
+  const DD d;
+  const DI di;
+  const DFh dfh;
+  const int N = int(hn::Lanes(d));
+  using Row = typename B::Row;
+  Row rows[kMaxOctaves];
+  Row wrows[2];
+  const VD vz = hn::Set(d, z);
+  auto lattice_v = [&](const NoiseOctave& o, VD zz) {
+    return hn::Add(hn::Mul(zz, hn::Set(d, o.freq_z)), hn::Set(d, o.offset_z));
+  };
+  if constexpr (kWarp) {
+    for (int w = 0; w < 2; ++w) wrows[w] = B::RowHoisted(a.warp_octaves[w], lattice_v(a.warp_octaves[w], vz));
+  } else {
+    for (int k = 0; k < a.count; ++k) rows[k] = B::RowHoisted(a.octaves[k], lattice_v(a.octaves[k], vz));
+  }
+  const VD vdx = hn::Set(d, dx), inv = hn::Set(d, a.inv_amp_sum), wm = hn::Set(d, a.warp_m);
+  const VD jitter = hn::Set(d, a.jitter);
+  const VI iota = hn::Iota(di, 0);
+  for (int start = 0; start < n; start += N) {
+    VD x = hn::Mul(hn::ConvertTo(d, hn::Add(iota, hn::Set(di, i0 + start))), vdx);
+    VD zl = vz;
+    if constexpr (kWarp) {
+      const NoiseOctave &w0 = a.warp_octaves[0], &w1 = a.warp_octaves[1];
+      const VD n1 = EvalWith<B>(w1, wrows[1], hn::Add(hn::Mul(x, hn::Set(d, w1.freq_x)), hn::Set(d, w1.offset_x)), jitter);
+      const VD n0 = EvalWith<B>(w0, wrows[0], hn::Add(hn::Mul(x, hn::Set(d, w0.freq_x)), hn::Set(d, w0.offset_x)), jitter);
+      zl = hn::Add(vz, hn::Mul(wm, n1));
+      x = hn::Add(x, hn::Mul(wm, n0));
+    }
+    VD acc = hn::Zero(d);
+    for (int k = 0; k < a.count; ++k) {
+      const NoiseOctave& o = a.octaves[k];
+      const VD u = hn::Add(hn::Mul(x, hn::Set(d, o.freq_x)), hn::Set(d, o.offset_x));
+      VD nb;
+      if constexpr (kWarp)
+        nb = EvalWith<B>(o, B::MakeRow(o, lattice_v(o, zl)), u, jitter);
+      else
+        nb = EvalWith<B>(o, rows[k], u, jitter);
+      acc = Fold<kFr>(acc, hn::Set(d, o.amp), nb);
+    }
+    const auto res = hn::DemoteTo(dfh, Finish<kFr>(acc, inv));
+    if (start + N <= n)
+      hn::StoreU(res, dfh, out + start);
+    else
+      StoreTail(res, out + start, n - start);
+  }
+}
+
+// ---- Gradient (arithmetic hash, float) ----------------------------------------------------------------
+
+// Float vector from kHalves double vectors (lanes of u[0] first), rounded to nearest.
+HWY_INLINE VF JoinDemote(const VD (&u)[kHalves]) {
+#if HWY_TARGET == HWY_SCALAR
+  return hn::DemoteTo(DF(), u[0]);
+#else
+  const DFh dfh;
+  return hn::Combine(DF(), hn::DemoteTo(dfh, u[1]), hn::DemoteTo(dfh, u[0]));
+#endif
+}
+// The low 32 bits of the int64 held by (integer-valued, |x| ≤ 2⁵¹) doubles x.
+HWY_INLINE VU32 JoinLow32(const VD (&x)[kHalves]) {
+  const DD d;
+  const VD m = hn::Set(d, kMagicInt);
+#if HWY_TARGET == HWY_SCALAR
+  return hn::TruncateTo(DU32(), hn::BitCast(DU(), hn::Add(x[0], m)));
+#else
+  const DU32 du32;
+  return hn::ConcatEven(du32, hn::BitCast(du32, hn::Add(x[1], m)), hn::BitCast(du32, hn::Add(x[0], m)));
+#endif
+}
+// Double vectors from the float vector's lanes (inverse of the join order).
+HWY_INLINE void SplitPromote(VF v, VD (&out)[kHalves]) {
+  const DD d;
+#if HWY_TARGET == HWY_SCALAR
+  out[0] = hn::PromoteTo(d, v);
+#else
+  const DFh dfh;
+  out[0] = hn::PromoteTo(d, hn::LowerHalf(dfh, v));
+  out[1] = hn::PromoteTo(d, hn::UpperHalf(dfh, v));
+#endif
+}
+
+// Lattice split of a float vector's worth of positions, as gaxis() in noise.cpp.
+struct GAxisV {
+  VU32 i0, i1;
+  VF f;
+};
+template <bool kPeriodic>
+HWY_INLINE GAxisV GAxis(const VD (&u)[kHalves], std::int64_t period, double inv_period) {
+  const DD d;
+  const DU32 du32;
+  VD fl[kHalves], fr[kHalves];
+  for (int h = 0; h < kHalves; ++h) {
+    fl[h] = hn::Floor(u[h]);
+    fr[h] = hn::Sub(u[h], fl[h]);
+  }
+  GAxisV a;
+  a.f = JoinDemote(fr);
+  if constexpr (kPeriodic) {
+    const VD p = hn::Set(d, double(period)), ip = hn::Set(d, inv_period);
+    for (int h = 0; h < kHalves; ++h) fl[h] = WrapD(fl[h], p, ip);
+  }
+  a.i0 = JoinLow32(fl);
+  const VU32 next = hn::Add(a.i0, hn::Set(du32, 1u));
+  if constexpr (kPeriodic)
+    a.i1 = hn::IfThenZeroElse(next == hn::Set(du32, std::uint32_t(period)), next);
+  else
+    a.i1 = next;
+  return a;
+}
+
+struct GradRow {
+  VU32 zp0, zp1;  // Z·P_z ⊕ key of the lattice rows below and above
+  VF fy, fy1, sy;
+};
+template <bool kPZ>
+HWY_INLINE GradRow GradMakeRow(const NoiseOctave& o, const VD (&v)[kHalves]) {
+  const DF df;
+  const DU32 du32;
+  const GAxisV az = GAxis<kPZ>(v, o.period_z, o.inv_period_z);
+  const VU32 pz = hn::Set(du32, kGradPz), key = hn::Set(du32, o.key32);
+  GradRow g;
+  g.zp0 = hn::Xor(hn::Mul(az.i0, pz), key);
+  g.zp1 = hn::Xor(hn::Mul(az.i1, pz), key);
+  g.fy = az.f;
+  g.fy1 = hn::Sub(az.f, hn::Set(df, 1.0f));
+  g.sy = Fade(az.f);
+  return g;
+}
+HWY_INLINE GradRow GradRowHoisted(const NoiseOctave& o, VD v) {
+  VD vv[kHalves];
+  for (int h = 0; h < kHalves; ++h) vv[h] = v;
+  return o.period_z ? GradMakeRow<true>(o, vv) : GradMakeRow<false>(o, vv);
+}
+
+// table[idx] for idx in 0..7 (16-entry tables: the 8 repeated). AVX2 and AVX-512 use one
+// in-register permute (vpermps); SSE4 and the scalar fallback read the table from memory.
+HWY_INLINE VF Lookup8(const float* table, VU32 idx) {
+  const DF df;
+  const DI32 di32;
+#if HWY_TARGET == HWY_SCALAR || HWY_TARGET == HWY_SSE4
+  return hn::GatherIndex(df, table, hn::BitCast(di32, idx));
+#else
+  return hn::TableLookupLanes(hn::Load(df, table), hn::IndicesFromVec(df, hn::BitCast(di32, idx)));
+#endif
+}
+
+// Dot product of corner (xp, zp)'s gradient with the offset (ax, ay) from it, as gcorner().
+HWY_INLINE VF GradCorner(VU32 xp, VU32 zp, VF ax, VF ay) {
+  const DU32 du32;
+  const VU32 k = hn::ShiftRight<29>(hn::Mul(hn::Xor(xp, zp), hn::Set(du32, kGradM)));
+  return hn::Add(hn::Mul(Lookup8(kGradDirX, k), ax), hn::Mul(Lookup8(kGradDirY, k), ay));
+}
+
+template <bool kPX>
+HWY_INLINE VF GradEval(const NoiseOctave& o, const GradRow& r, const VD (&u)[kHalves]) {
+  const DF df;
+  const DU32 du32;
+  const GAxisV ax = GAxis<kPX>(u, o.period_x, o.inv_period_x);
+  const VU32 px = hn::Set(du32, kGradPx);
+  const VU32 xp0 = hn::Mul(ax.i0, px);
+  // (i0 + 1)·Pₓ = i0·Pₓ + Pₓ modulo 2³²: the same bits as the scalar's multiply.
+  const VU32 xp1 = kPX ? hn::Mul(ax.i1, px) : hn::Add(xp0, px);
+  const VF fx = ax.f, fx1 = hn::Sub(fx, hn::Set(df, 1.0f));
+  const VF g00 = GradCorner(xp0, r.zp0, fx, r.fy);
+  const VF g10 = GradCorner(xp1, r.zp0, fx1, r.fy);
+  const VF g01 = GradCorner(xp0, r.zp1, fx, r.fy1);
+  const VF g11 = GradCorner(xp1, r.zp1, fx1, r.fy1);
+  const VF sx = Fade(fx);
+  return Lerp(r.sy, Lerp(sx, g00, g10), Lerp(sx, g01, g11));
+}
+
+template <int kFr>
+HWY_INLINE VF FoldF(VF acc, VF amp, VF n) {
+  const DF df;
+  if constexpr (kFr == kFbm) {
+    return hn::Add(acc, hn::Mul(amp, n));
+  } else if constexpr (kFr == kRidged) {
+    const VF r = hn::Sub(hn::Set(df, 1.0f), hn::Abs(n));
+    return hn::Add(acc, hn::Mul(amp, hn::Mul(r, r)));
+  } else {
+    return hn::Add(acc, hn::Mul(amp, hn::Sub(hn::Mul(hn::Set(df, 2.0f), hn::Abs(n)), hn::Set(df, 1.0f))));
+  }
+}
+
+template <int kFr, bool kWarp, bool kPX, bool kPZ>
+HWY_NOINLINE void RowGradient(const NoiseKernelArgs& a, double z, std::int64_t i0, double dx, int n, float* out) {
+  const DD d;
+  const DI di;
+  const DF df;
+  const int N = int(hn::Lanes(d)), NF = kHalves * N;
+  GradRow rows[kMaxOctaves];
+  GradRow wrows[2];
+  const VD vz = hn::Set(d, z);
+  auto lattice = [&](double f, double off, const VD (&p)[kHalves], VD (&out_)[kHalves]) {
+    for (int h = 0; h < kHalves; ++h) out_[h] = hn::Add(hn::Mul(p[h], hn::Set(d, f)), hn::Set(d, off));
+  };
+  auto lattice_v = [&](const NoiseOctave& o, VD zz) {
+    return hn::Add(hn::Mul(zz, hn::Set(d, o.freq_z)), hn::Set(d, o.offset_z));
+  };
+  if constexpr (kWarp) {
+    for (int w = 0; w < 2; ++w) wrows[w] = GradRowHoisted(a.warp_octaves[w], lattice_v(a.warp_octaves[w], vz));
+  } else {
+    for (int k = 0; k < a.count; ++k) rows[k] = GradRowHoisted(a.octaves[k], lattice_v(a.octaves[k], vz));
+  }
+  float amp[kMaxOctaves];
+  for (int k = 0; k < a.count; ++k) amp[k] = float(a.octaves[k].amp);
+  const VD vdx = hn::Set(d, dx), wm = hn::Set(d, a.warp_m);
+  const VF inv = hn::Set(df, float(a.inv_amp_sum)), one = hn::Set(df, 1.0f), mone = hn::Set(df, -1.0f);
+  const VI iota = hn::Iota(di, 0);
+  for (int start = 0; start < n; start += NF) {
+    VD x[kHalves], zl[kHalves];
+    for (int h = 0; h < kHalves; ++h) {
+      x[h] = hn::Mul(hn::ConvertTo(d, hn::Add(iota, hn::Set(di, i0 + start + h * N))), vdx);
+      zl[h] = vz;
+    }
+    if constexpr (kWarp) {
+      const NoiseOctave &w0 = a.warp_octaves[0], &w1 = a.warp_octaves[1];
+      VD u1[kHalves], u0[kHalves], n1d[kHalves], n0d[kHalves];
+      lattice(w1.freq_x, w1.offset_x, x, u1);
+      lattice(w0.freq_x, w0.offset_x, x, u0);
+      SplitPromote(GradEval<kPX>(w1, wrows[1], u1), n1d);
+      SplitPromote(GradEval<kPX>(w0, wrows[0], u0), n0d);
+      for (int h = 0; h < kHalves; ++h) {
+        zl[h] = hn::Add(vz, hn::Mul(wm, n1d[h]));
+        x[h] = hn::Add(x[h], hn::Mul(wm, n0d[h]));
+      }
+    }
+    VF acc = hn::Zero(df);
+    for (int k = 0; k < a.count; ++k) {
+      const NoiseOctave& o = a.octaves[k];
+      VD u[kHalves];
+      lattice(o.freq_x, o.offset_x, x, u);
+      VF nb;
+      if constexpr (kWarp) {
+        VD v[kHalves];
+        lattice(o.freq_z, o.offset_z, zl, v);
+        nb = GradEval<kPX>(o, GradMakeRow<kPZ>(o, v), u);
+      } else {
+        nb = GradEval<kPX>(o, rows[k], u);
+      }
+      acc = FoldF<kFr>(acc, hn::Set(df, amp[k]), nb);
+    }
+    VF v = kFr == kRidged ? hn::Sub(hn::Mul(hn::Set(df, 2.0f), hn::Mul(acc, inv)), one) : hn::Mul(acc, inv);
+    v = hn::IfThenElse(v > mone, v, mone);
+    v = hn::IfThenElse(v < one, v, one);
+    if (start + NF <= n) {
+      hn::StoreU(v, df, out + start);
+    } else {
+      HWY_ALIGN float tmp[64];
+      hn::Store(v, df, tmp);
+      std::memcpy(out + start, tmp, std::size_t(n - start) * sizeof(float));
+    }
+  }
+}
+
+// ---- dispatch on parameters, once per row ---------------------------------------------------------
+
+using Fn = void (*)(const NoiseKernelArgs&, double, std::int64_t, double, int, float*);
+
+template <template <bool, bool> class BT, int kFr>
+Fn PickPeriodic(bool warp, bool px, bool pz) {
+  if (!warp) return px ? &RowDouble<BT<true, false>, kFr, false> : &RowDouble<BT<false, false>, kFr, false>;
+  if (px) return pz ? &RowDouble<BT<true, true>, kFr, true> : &RowDouble<BT<true, false>, kFr, true>;
+  return pz ? &RowDouble<BT<false, true>, kFr, true> : &RowDouble<BT<false, false>, kFr, true>;
+}
+template <template <bool, bool> class BT>
+Fn PickDouble(int fr, bool warp, bool px, bool pz) {
+  switch (fr) {
+    case kRidged: return PickPeriodic<BT, kRidged>(warp, px, pz);
+    case kBillow: return PickPeriodic<BT, kBillow>(warp, px, pz);
+    default: return PickPeriodic<BT, kFbm>(warp, px, pz);
+  }
+}
+template <int kFr>
+Fn PickSimplex(bool warp) {
+  return warp ? &RowDouble<Simplex<false, false>, kFr, true> : &RowDouble<Simplex<false, false>, kFr, false>;
+}
+template <int kFr>
+Fn PickGradient(bool warp, bool px, bool pz) {
+  if (!warp) return px ? &RowGradient<kFr, false, true, false> : &RowGradient<kFr, false, false, false>;
+  if (px) return pz ? &RowGradient<kFr, true, true, true> : &RowGradient<kFr, true, true, false>;
+  return pz ? &RowGradient<kFr, true, false, true> : &RowGradient<kFr, true, false, false>;
+}
+
+}  // namespace
+
+void NoiseRow(const NoiseKernelArgs& a, double z, std::int64_t i0, double dx, int n, float* out) {
+  const int fr = a.fractal == Fractal::Ridged ? kRidged : a.fractal == Fractal::Billow ? kBillow : kFbm;
+  const NoiseOctave& o0 = a.warp ? a.warp_octaves[0] : a.octaves[0];
+  const bool px = a.periodic && o0.period_x != 0, pz = a.periodic && o0.period_z != 0;
+  Fn fn = nullptr;
+  switch (a.basis) {
+    case NoiseBasis::Perlin: fn = PickDouble<Perlin>(fr, a.warp, px, pz); break;
+    case NoiseBasis::Value: fn = PickDouble<Value>(fr, a.warp, px, pz); break;
+    case NoiseBasis::Simplex:
+      fn = fr == kRidged ? PickSimplex<kRidged>(a.warp) : fr == kBillow ? PickSimplex<kBillow>(a.warp) : PickSimplex<kFbm>(a.warp);
+      break;
+    case NoiseBasis::Cellular:
+      switch (a.cellular) {
+        case CellularReturn::F1: fn = PickDouble<CellularR<0>::B>(fr, a.warp, px, pz); break;
+        case CellularReturn::F2: fn = PickDouble<CellularR<1>::B>(fr, a.warp, px, pz); break;
+        case CellularReturn::F2MinusF1: fn = PickDouble<CellularR<2>::B>(fr, a.warp, px, pz); break;
+        case CellularReturn::CellValue: fn = PickDouble<CellularR<3>::B>(fr, a.warp, px, pz); break;
+      }
+      break;
+    case NoiseBasis::Gradient:
+      fn = fr == kRidged ? PickGradient<kRidged>(a.warp, px, pz)
+           : fr == kBillow ? PickGradient<kBillow>(a.warp, px, pz)
+                           : PickGradient<kFbm>(a.warp, px, pz);
+      break;
+  }
+  fn(a, z, i0, dx, n, out);
+}
+
+}  // namespace HWY_NAMESPACE
+}  // namespace relief::detail
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace relief::detail {
+
+HWY_EXPORT(NoiseRow);
+
+void noise_row_simd(const NoiseKernelArgs& a, double z_m, std::int64_t i0, double dx, int n, float* out) {
+  HWY_DYNAMIC_DISPATCH(NoiseRow)(a, z_m, i0, dx, n, out);
+}
+
+std::vector<SimdTarget> noise_simd_targets() {
+  std::vector<SimdTarget> out;
+  for (std::int64_t t : hwy::SupportedAndGeneratedTargets()) out.push_back({t, hwy::TargetName(t)});
+  return out;
+}
+
+void noise_simd_force_target(std::int64_t bits) { hwy::SetSupportedTargetsForTest(bits); }
+
+std::string noise_simd_current_target() {
+  // The best target of the current (possibly forced) supported set that was compiled in.
+  const std::vector<std::int64_t> t = hwy::SupportedAndGeneratedTargets();
+  return t.empty() ? "none" : hwy::TargetName(t.front());
+}
+
+}  // namespace relief::detail
+#endif  // HWY_ONCE

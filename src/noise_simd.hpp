@@ -1,0 +1,88 @@
+#pragma once
+// Internal: the Highway row kernels behind Noise::row (src/noise_simd.cpp) and the constants they
+// share with the scalar reference (src/noise.cpp). Not installed, not an API.
+#include <cstdint>
+#include <string>
+#include <vector>
+
+#include "relief/noise.hpp"
+
+namespace relief::detail {
+
+// 1.5·2⁵²: for an integer-valued double |x| ≤ 2⁵¹, the bits of x + kMagicInt minus the bits of
+// kMagicInt are x as a two's complement int64 (same exponent, mantissa linear in x).
+constexpr double kMagicInt = 6755399441055744.0;
+
+// Gradient basis: hash multipliers (odd 32-bit constants: 2³²/φ, murmur3's c2, xxHash's
+// PRIME32_3). The top 3 bits of the hash pick one of 8 gradients at 22.5° + 45°·k (the 8 evenly
+// spaced directions that avoid the axes and diagonals), all of length kGradLength = √1.375, the
+// RMS length of the Perlin basis's gradients (grad3(h, x, y, 0): E[gx²] = 10/16, E[gy²] = 12/16),
+// which gives both bases the same variance (tests/test_noise_simd.cpp checks it, the derivative
+// variance and the spectrum). Bound: |value| ≤ kGradLength·√½ < 0.83 (a point is at most √½
+// cells from the corners, whose weights sum to 1).
+constexpr std::uint32_t kGradPx = 0x9E3779B1u;
+constexpr std::uint32_t kGradPz = 0x85EBCA6Bu;
+constexpr std::uint32_t kGradM = 0x27D4EB2Fu;
+constexpr double kGradLength = 1.1726039399558574;  // √1.375
+constexpr double kCos22_5 = 0.92387953251128674, kSin22_5 = 0.38268343236508978;
+// Direction k (index = hash >> 29), x and y components, float. 16 entries: the 8 repeated, so
+// that a 16-lane table lookup needs no masking.
+alignas(64) constexpr float kGradDirX[16] = {
+    float(kGradLength * kCos22_5),  float(kGradLength * kSin22_5),  float(-kGradLength * kSin22_5),
+    float(-kGradLength * kCos22_5), float(-kGradLength * kCos22_5), float(-kGradLength * kSin22_5),
+    float(kGradLength * kSin22_5),  float(kGradLength * kCos22_5),  float(kGradLength * kCos22_5),
+    float(kGradLength * kSin22_5),  float(-kGradLength * kSin22_5), float(-kGradLength * kCos22_5),
+    float(-kGradLength * kCos22_5), float(-kGradLength * kSin22_5), float(kGradLength * kSin22_5),
+    float(kGradLength * kCos22_5)};
+alignas(64) constexpr float kGradDirY[16] = {
+    float(kGradLength * kSin22_5),  float(kGradLength * kCos22_5),  float(kGradLength * kCos22_5),
+    float(kGradLength * kSin22_5),  float(-kGradLength * kSin22_5), float(-kGradLength * kCos22_5),
+    float(-kGradLength * kCos22_5), float(-kGradLength * kSin22_5), float(kGradLength * kSin22_5),
+    float(kGradLength * kCos22_5),  float(kGradLength * kCos22_5),  float(kGradLength * kSin22_5),
+    float(-kGradLength * kSin22_5), float(-kGradLength * kCos22_5), float(-kGradLength * kCos22_5),
+    float(-kGradLength * kSin22_5)};
+
+// Shared with noise.cpp, which defines the tables from its constexpr generators.
+constexpr std::uint64_t kLatticePx = 0x9E3779B97F4A7C15ull;  // Value / Simplex / Cellular hashing
+constexpr std::uint64_t kLatticePz = 0xC2B2AE3D27D4EB4Full;
+constexpr double kSimplexSkew = 0.36602540378443864676;    // (√3 − 1)/2: input → lattice space
+constexpr double kSimplexUnskew = 0.21132486540518711775;  // (3 − √3)/6: lattice → input space
+constexpr double kSimplexR2 = 2.0 / 3.0;                   // kernel radius² = lattice edge length²
+constexpr double kSimplexScale = 18.24;                    // see noise.cpp
+constexpr double kCell2m21 = 1.0 / 2097152.0;              // 2⁻²¹
+extern const double kPerlinGradX[16], kPerlinGradY[16];    // grad3(h, x, y, 0) = X[h]·x + Y[h]·y
+extern const double kSimplexGradX[24], kSimplexGradY[24];  // 24 unit gradients
+
+// Everything a row kernel needs, gathered by Noise::row once per call.
+struct NoiseKernelArgs {
+  NoiseBasis basis = NoiseBasis::Gradient;
+  Fractal fractal = Fractal::Fbm;
+  CellularReturn cellular = CellularReturn::F1;
+  double jitter = 1.0;
+  bool periodic = false;  // any octave has period_x or period_z ≠ 0
+  bool warp = false;
+  double warp_m = 0.0;
+  double inv_amp_sum = 1.0;
+  const NoiseOctave* octaves = nullptr;  // count entries, 1..16
+  int count = 0;
+  const NoiseOctave* warp_octaves = nullptr;  // 2 entries, used when warp
+};
+
+// out[i] for i in [0, n), n ≥ 1, at x = double(i0 + i)·dx: the contract of Noise::row, evaluated by
+// the best Highway target this CPU supports (or the one forced below).
+void noise_row_simd(const NoiseKernelArgs& a, double z_m, std::int64_t i0, double dx, int n, float* out);
+
+// For tests and benchmarks: the Highway targets compiled into noise_simd.cpp that this CPU can run
+// (best first), with their names ("AVX3", "AVX2", "SSE4", "EMU128", …).
+struct SimdTarget {
+  std::int64_t bits;
+  std::string name;
+};
+std::vector<SimdTarget> noise_simd_targets();
+// Makes noise_row_simd use this target (one of noise_simd_targets()); 0 restores the automatic
+// choice. Global state: for single-threaded tests and benchmarks only.
+void noise_simd_force_target(std::int64_t bits);
+// The target noise_row_simd currently dispatches to.
+std::string noise_simd_current_target();
+
+}  // namespace relief::detail
