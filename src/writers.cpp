@@ -1,4 +1,5 @@
-// The writer registry: heightmap (PNG + r16 + JSON sidecar), colour/albedo PNGs, OBJ mesh, report.
+// The writer registry: heightmap (PNG + r16 + JSON sidecar), colour/albedo PNGs, OBJ mesh, report,
+// then the export writers of writers_export.cpp (glb, fbx, stl, engine, normalmap, splat, hillshade).
 //
 // OBJ: Wavefront OBJ as documented in "Object Files (.obj)", Alias|Wavefront Advanced Visualizer
 // manual, Appendix B1, and MTL in Appendix B2 (indices are 1-based; `vt` v = 0 is the bottom of the
@@ -15,6 +16,7 @@
 
 #include "relief/error.hpp"
 #include "relief/output.hpp"
+#include "writers_export.hpp"
 
 #ifndef RELIEF_VERSION
 #define RELIEF_VERSION "0.1.0"  // keep in step with project(VERSION) in CMakeLists.txt
@@ -146,6 +148,13 @@ void write_obj(const Terrain& t, const WriteContext& ctx, Output& out) {
       throw Error("height", "non-finite elevation at sample (" + std::to_string(k % nx) + ", " + std::to_string(k / nx) + ")");
     y[k] = f.y_m(h.data[k]);
   }
+  // Optional vertex jiggle: a two-channel layer "offset" (dx_m, dz_m per sample).
+  const Layer* off = find_layer(t, "offset");
+  if (off && (off->channels != 2 || off->data.size() != f.count() * 2))
+    throw Error("offset", "layer must have 2 channels (dx_m, dz_m) and " + std::to_string(f.count()) + " samples");
+  if (off)
+    for (float v : off->data)
+      if (!std::isfinite(v)) throw Error("offset", "non-finite vertex offset");
   const double dx = f.cell_m(), dz = f.cell_m();  // square cells
   auto Y = [&](int i, int j) { return y[std::size_t(j) * nx + i]; };
 
@@ -173,12 +182,13 @@ void write_obj(const Terrain& t, const WriteContext& ctx, Output& out) {
   for (int j = 0; j < nz; ++j) {
     for (int i = 0; i < nx; ++i) {
       b.reserve(160);
+      const std::size_t k = std::size_t(j) * nx + i;
       b.put("v ");
-      b.fixed(f.x_m(i), 4);
+      b.fixed(f.x_m(i) + (off ? double(off->data[2 * k]) : 0.0), 4);
       b.put(' ');
       b.fixed(Y(i, j), 4);
       b.put(' ');
-      b.fixed(f.z_m(j), 4);
+      b.fixed(f.z_m(j) + (off ? double(off->data[2 * k + 1]) : 0.0), 4);
       b.put('\n');
     }
     tick(0.3 * j / nz);
@@ -296,6 +306,7 @@ std::vector<WriterDef> make_registry() {
                {"terrain.obj", "terrain.mtl"}, true, write_obj});
   w.push_back({"report", "report.json: version, seed, resolved recipe, timings and peak memory", {"report.json"}, true,
                write_report});
+  for (WriterDef& d : export_writers()) w.push_back(std::move(d));
   return w;
 }
 

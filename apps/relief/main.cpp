@@ -5,15 +5,18 @@
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
 #include <iostream>
+#include <map>
 #include <sstream>
 
 #include "bench.hpp"
+#include "relief/export.hpp"
 #include "relief/output.hpp"
 #include "relief/pipeline.hpp"
 #include "relief/recipe.hpp"
@@ -34,7 +37,39 @@ struct GenerateSettings {
   bool seed_given = false;
   int threads = 0;
   bool quiet = false;
+  // Writer options as given on the command line (table name → text), parsed by the option table.
+  std::map<std::string, std::string> export_text;
+  std::map<std::string, bool> export_flags;
+  std::vector<std::string> export_given;  // table names of the options that were given
 };
+
+// CLI flag of a writer option: "stl_size_mm" → "--stl-size-mm".
+std::string option_flag(const std::string& name) {
+  std::string f = "--" + name;
+  std::replace(f.begin(), f.end(), '_', '-');
+  return f;
+}
+
+// Writer options from the command line, validated (errors name the flag).
+ExportOptions parse_export_options(const GenerateSettings& s) {
+  ExportOptions o;
+  for (const std::string& name : s.export_given) {
+    json v;
+    if (auto it = s.export_flags.find(name); it != s.export_flags.end()) {
+      v = it->second;
+    } else {
+      const std::string& text = s.export_text.at(name);
+      try {
+        v = json::parse(text);
+      } catch (const json::exception&) {
+        v = text;
+      }
+    }
+    set_export_option(o, name, v, option_flag(name));
+  }
+  validate_export_options(o, option_flag);
+  return o;
+}
 
 bool is_tty() { return isatty(fileno(stderr)) != 0; }
 
@@ -107,11 +142,27 @@ int cmd_generate(const GenerateSettings& s) {
     doc["seed"] = s.seed;
   }
   for (auto& a : s.sets) apply_override(doc, a);
+  const ExportOptions export_options = parse_export_options(s);
+  const bool engine = export_options.engine != "none";
+  if (engine && s.size.empty()) {
+    // Pick the engine's legal size nearest to the recipe's (square tiles, overlapping by one sample).
+    Recipe probe = parse_recipe(doc);
+    const int n = engine_legal_size(export_options.engine, probe.world.nx, export_options.split_x());
+    const int tile = (n - 1) / export_options.split_x() + 1;
+    const int nz = export_options.split_z() * (tile - 1) + 1;
+    if (n != probe.world.nx || nz != probe.world.nz) {
+      parse_size(std::to_string(n) + "x" + std::to_string(nz), doc);
+      if (!s.quiet) std::fprintf(stderr, "relief: %s: using --size %dx%d (legal for the engine)\n", export_options.engine.c_str(), n, nz);
+    }
+  }
   Recipe recipe = parse_recipe(doc);
 
   // Writers: validated before any work is done.
   std::vector<const WriterDef*> writers;
-  if (s.formats.empty()) {
+  if (s.formats == "all") {
+    for (auto& w : writer_registry())
+      if (w.name != "engine" || engine) writers.push_back(&w);
+  } else if (s.formats.empty()) {
     for (auto& w : writer_registry())
       if (w.in_default_set) writers.push_back(&w);
   } else {
@@ -132,15 +183,23 @@ int cmd_generate(const GenerateSettings& s) {
     }
     if (writers.empty()) throw Error("--formats", "expected at least one format, got \"" + s.formats + "\"");
   }
-  bool with_mesh = false, with_albedo = false;
-  for (auto* w : writers) with_mesh = with_mesh || w->name == "obj", with_albedo = with_albedo || w->name == "albedo";
-  // terrain.mtl references albedo.png: an OBJ is never written without its texture.
-  if (with_mesh && !with_albedo) writers.push_back(find_writer("albedo"));
+  bool with_mesh = false, with_albedo = false, with_engine = false, textured = false;
+  for (auto* w : writers) {
+    with_mesh = with_mesh || w->name == "obj" || w->name == "glb" || w->name == "fbx" || w->name == "stl";
+    textured = textured || w->name == "obj" || w->name == "fbx";
+    with_albedo = with_albedo || w->name == "albedo";
+    with_engine = with_engine || w->name == "engine";
+  }
+  // terrain.mtl and the FBX name albedo.png: those meshes are never written without the file.
+  if (textured && !with_albedo) writers.push_back(find_writer("albedo"));
+  // --engine asks for the engine files.
+  if (engine && !with_engine) writers.push_back(find_writer("engine")), with_engine = true;
+  if (with_engine) check_engine_size(export_options, recipe.world.nx, recipe.world.nz);
   const std::uint64_t need = estimate_memory_bytes(recipe, with_mesh), have = physical_memory_bytes();
   if (have && need > have * 8 / 10)
     throw Error("world.size", "a " + std::to_string(recipe.world.nx) + "x" + std::to_string(recipe.world.nz) +
                                   " terrain with these formats needs about " + human_bytes(need) + ", but this machine has " +
-                                  human_bytes(have) + "; choose a smaller --size" + (with_mesh ? " or drop obj from --formats" : ""));
+                                  human_bytes(have) + "; choose a smaller --size" + (with_mesh ? " or drop the meshes from --formats" : ""));
 
   // Check the output directory before spending time on generation.
   FileOutput files(s.out_dir);
@@ -157,6 +216,7 @@ int cmd_generate(const GenerateSettings& s) {
   WriteContext wc;
   wc.seed = res.seed;
   wc.recipe = recipe.to_json();
+  wc.options = export_options;
   wc.progress = [&](std::string_view what, double f) { prog(what, 0.7 + 0.3 * f); };
   MemoryOutput mem;
   json write_ms = json::object();
@@ -249,6 +309,13 @@ int cmd_explain(const std::string& stage, bool as_json) {
     for (auto& w : writer_registry())
       wr.push_back({{"name", w.name}, {"description", w.description}, {"files", w.files}, {"default", w.in_default_set}});
     o["formats"] = wr;
+    json eo = json::array();
+    for (auto& p : export_options_table().infos()) {
+      json j = p.to_json();
+      j["flag"] = option_flag(p.name);
+      eo.push_back(j);
+    }
+    o["writer_options"] = eo;
     std::printf("%s\n", o.dump(2).c_str());
     return 0;
   }
@@ -277,6 +344,10 @@ int cmd_explain(const std::string& stage, bool as_json) {
     for (auto& f : w.files) files += (files.empty() ? "" : ", ") + f;
     std::printf("  %-10s %s -> %s%s\n", w.name.c_str(), w.description.c_str(), files.c_str(), w.in_default_set ? "" : " (not default)");
   }
+  std::printf("\nwriter options (relief generate --NAME VALUE):\n");
+  auto infos = export_options_table().infos();
+  for (auto& p : infos) p.name = option_flag(p.name);
+  print_params(infos);
   return 0;
 }
 
@@ -294,12 +365,30 @@ int main(int argc, char** argv) {
   gen->add_option("-o,--out", gs.out_dir, "Output directory (created if missing)")->capture_default_str();
   gen->add_option("--seed,-s", gs.seed, "Seed, 0..2^53-1 (default: the recipe's, else random and printed)");
   gen->add_option("--size", gs.size, "Samples per axis: N or NxM (cells stay square; depth follows the aspect)");
-  gen->add_option("--formats,-f", gs.formats, "Comma-separated writers replacing the default set (see `relief explain`)");
+  gen->add_option("--formats,-f", gs.formats, "Comma-separated writers replacing the default set, or 'all' (see `relief explain`)");
   gen->add_option("--set", gs.sets, "Override a recipe field: PATH=VALUE, e.g. 'stages[1].octaves=8' (repeatable)");
   gen->add_option("--threads,-j", gs.threads, "Worker threads (0 = all cores); output is identical for any count")
       ->check(CLI::Range(0, 1024));
   gen->add_option("--save-recipe", gs.save_recipe, "Write the fully resolved recipe (defaults and seed) to FILE");
   gen->add_flag("--quiet,-q", gs.quiet, "Print nothing but errors");
+  // Writer options: one flag per entry of the option table (declared once, in export_options.cpp).
+  std::vector<std::pair<std::string, CLI::Option*>> export_cli;
+  for (const ParamInfo& p : export_options_table().infos()) {
+    std::string help = p.description + " [default " + p.default_value.dump();
+    if (p.type == ParamType::Int || p.type == ParamType::Float) {
+      std::ostringstream r;
+      r << "; " << p.min << ".." << p.max << (p.unit.empty() ? "" : " " + p.unit);
+      help += r.str();
+    } else if (p.type == ParamType::Choice) {
+      std::string c;
+      for (auto& x : p.choices) c += (c.empty() ? "" : "|") + x;
+      help += "; " + c;
+    }
+    help += "]";
+    CLI::Option* opt = p.type == ParamType::Bool ? gen->add_flag(option_flag(p.name), gs.export_flags[p.name], help)
+                                                 : gen->add_option(option_flag(p.name), gs.export_text[p.name], help);
+    export_cli.emplace_back(p.name, opt);
+  }
 
   bool presets_json = false;
   auto* pre = app.add_subcommand("presets", "List presets: built-in, then $RELIEF_PRESETS folders and ~/.config/relief/presets");
@@ -335,6 +424,8 @@ int main(int argc, char** argv) {
     return 2;
   }
   gs.seed_given = gen->count("--seed") > 0;
+  for (auto& [name, opt] : export_cli)
+    if (opt->count() > 0) gs.export_given.push_back(name);
   try {
     if (*gen) return cmd_generate(gs);
     if (*pre) return cmd_presets(presets_json);
