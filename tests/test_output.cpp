@@ -377,12 +377,14 @@ TEST(Writers, RegistryOrderAndFiles) {
   std::vector<std::string> names;
   for (auto& w : r) {
     names.push_back(w.name);
-    EXPECT_TRUE(w.in_default_set) << w.name;
+    // The foundation's writers form the default set; the export writers are asked for by name.
+    EXPECT_EQ(w.in_default_set, names.size() <= 5) << w.name;
     EXPECT_FALSE(w.files.empty()) << w.name;
     EXPECT_FALSE(w.description.empty()) << w.name;
     EXPECT_TRUE(bool(w.write)) << w.name;
   }
-  EXPECT_EQ(names, (std::vector<std::string>{"heightmap", "color", "albedo", "obj", "report"}));
+  EXPECT_EQ(names, (std::vector<std::string>{"heightmap", "color", "albedo", "obj", "report", "glb", "fbx", "stl", "engine",
+                                             "normalmap", "splat", "hillshade"}));
   EXPECT_EQ(find_writer("obj"), &r[3]);
   EXPECT_EQ(find_writer("png"), nullptr);
 }
@@ -392,6 +394,7 @@ TEST(Writers, EachWriterWritesExactlyItsDeclaredFiles) {
   t.layers["color"] = colour_layer(5, 3, 1);
   t.layers["albedo"] = colour_layer(5, 3, 2);
   for (auto& w : writer_registry()) {
+    if (!w.in_default_set) continue;  // export writers' files depend on options: see test_export.cpp
     MemoryOutput out;
     w.write(t, {}, out);
     std::vector<std::string> got;
