@@ -94,7 +94,15 @@ class GltfBuilder {
     p.attributes["POSITION"] = floats(m.positions, 3, true);
     p.attributes["NORMAL"] = floats(m.normals, 3, false);
     if (with_uv && !m.uvs.empty()) p.attributes["TEXCOORD_0"] = floats(m.uvs, 2, false);
-    if (!m.colors.empty()) p.attributes["COLOR_0"] = floats(m.colors, 3, false);
+    if (!m.colors.empty()) {
+      // glTF vertex colours are linear; ours are sRGB (IEC 61966-2-1 transfer function).
+      std::vector<float> lin(m.colors.size());
+      for (std::size_t k = 0; k < lin.size(); ++k) {
+        const double c = std::clamp(double(m.colors[k]), 0.0, 1.0);
+        lin[k] = float(c <= 0.04045 ? c / 12.92 : std::pow((c + 0.055) / 1.055, 2.4));
+      }
+      p.attributes["COLOR_0"] = floats(lin, 3, false);
+    }
     p.indices = indices(m.indices, m.vertex_count());
     p.material = material;
     tinygltf::Mesh me;
