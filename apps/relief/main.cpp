@@ -58,9 +58,12 @@ ExportOptions parse_export_options(const GenerateSettings& s) {
     if (auto it = s.export_flags.find(name); it != s.export_flags.end()) {
       v = it->second;
     } else {
+      // Text options take the text as given ("4x4"); others read it as JSON when it parses.
       const std::string& text = s.export_text.at(name);
+      bool is_text = false;
+      for (auto& f : export_options_table().fields) is_text = is_text || (f.info.name == name && f.info.type == ParamType::Text);
       try {
-        v = json::parse(text);
+        v = is_text ? json(text) : json::parse(text);
       } catch (const json::exception&) {
         v = text;
       }
