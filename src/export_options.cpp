@@ -42,6 +42,8 @@ Table<O> make_table() {
   f.push_back(choice(&O::splat_source, "splat_source", {"auto", "biome", "rules"},
                      "splat: weights from the biome layer or from height/slope rules (auto: biome if present)"));
   f.push_back(param(&O::splat_rock_slope_deg, "splat_rock_slope_deg", 1, 89, "deg", "splat rules: rock from this slope"));
+  f.push_back(param(&O::splat_rock_elevation, "splat_rock_elevation", 0, 1, "",
+                    "splat rules: rock from this normalised elevation (bare mountain tops)"));
   f.push_back(param(&O::splat_snow_elevation, "splat_snow_elevation", 0, 1, "",
                     "splat rules: snow from this normalised elevation"));
   f.push_back(param(&O::splat_beach_m, "splat_beach_m", 0, 1000, "m", "splat rules: sand up to this height above the sea"));

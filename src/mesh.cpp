@@ -255,6 +255,16 @@ struct FlatBuilder {
       }
     }
   }
+  // Axis-aligned box from lo to hi, closed.
+  void box(Vec3 lo, Vec3 hi, Vec3 rgb) {
+    const Vec3 c = (lo + hi) * 0.5;
+    auto P = [&](int k) { return Vec3{k & 1 ? hi.x : lo.x, k & 2 ? hi.y : lo.y, k & 4 ? hi.z : lo.z}; };
+    static const int quads[6][4] = {{0, 1, 3, 2}, {4, 5, 7, 6}, {0, 1, 5, 4}, {2, 3, 7, 6}, {0, 2, 6, 4}, {1, 3, 7, 5}};
+    for (auto& q : quads) {
+      tri(P(q[0]), P(q[1]), P(q[2]), c, rgb);
+      tri(P(q[0]), P(q[2]), P(q[3]), c, rgb);
+    }
+  }
   // Icosahedron of radius r (scaled by s per axis) at c; `jitter` moves vertices radially.
   void ico(Vec3 c, double r, Vec3 s, Vec3 rgb, double jitter = 0, std::uint64_t salt = 0) {
     const double p = (1 + std::sqrt(5.0)) / 2;
@@ -298,9 +308,10 @@ MeshData prop_mesh(const std::string& type) {
     b.ico({0, 0.35, 0}, 1.1, {1.2, 0.7, 0.9}, kStone, 0.3, 37);
   } else if (type == "cactus") {  // saguaro-like column with two arms, 4 m
     b.frustum({0, 0, 0}, 4.0, 0.32, 0.26, 8, kCactus);
-    b.frustum({0.3, 1.6, 0}, 0.25, 0.18, 0.18, 6, kCactus);  // arm stubs
-    b.frustum({0.65, 1.6, 0}, 1.4, 0.2, 0.16, 6, kCactus);
-    b.frustum({-0.6, 2.2, 0}, 1.1, 0.18, 0.14, 6, kCactus);
+    b.box({0.2, 1.45, -0.15}, {0.85, 1.75, 0.15}, kCactus);  // elbow joining the column to the right arm
+    b.frustum({0.7, 1.45, 0}, 1.5, 0.19, 0.15, 6, kCactus);
+    b.box({-0.8, 2.05, -0.13}, {-0.2, 2.3, 0.13}, kCactus);  // left elbow
+    b.frustum({-0.68, 2.05, 0}, 1.1, 0.17, 0.13, 6, kCactus);
   } else if (type == "mushroom") {  // 0.5 m
     b.frustum({0, 0, 0}, 0.32, 0.07, 0.06, 6, kStem);
     b.frustum({0, 0.28, 0}, 0.22, 0.28, 0, 8, kCap);

@@ -221,7 +221,8 @@ SplatMaps encode_splat(const Terrain& t, const ExportOptions& o) {
         double n[3];
         nm.at(i, j, n);
         const double slope = std::acos(std::clamp(n[1], -1.0, 1.0)) * 180 / M_PI;
-        const double rock = smoothstep(o.splat_rock_slope_deg - 5, o.splat_rock_slope_deg + 5, slope);
+        const double rock = std::max(smoothstep(o.splat_rock_slope_deg - 5, o.splat_rock_slope_deg + 5, slope),
+                                     smoothstep(o.splat_rock_elevation - 0.02, o.splat_rock_elevation + 0.02, e));
         const double snow = smoothstep(o.splat_snow_elevation - 0.02, o.splat_snow_elevation + 0.02, e);
         const double sand = 1 - smoothstep(o.splat_beach_m, o.splat_beach_m + std::max(2.0, 0.5 * o.splat_beach_m), y);
         // Priority rock > snow > sand > grass; the four weights sum to 1 by construction.
@@ -254,10 +255,11 @@ SplatMaps encode_splat(const Terrain& t, const ExportOptions& o) {
   if (!use_biome)
     out.description["rules"] = {{"sand", "up to splat_beach_m above the sea"},
                                 {"grass", "everything else"},
-                                {"rock", "slopes from splat_rock_slope_deg"},
+                                {"rock", "slopes from splat_rock_slope_deg, elevations from splat_rock_elevation"},
                                 {"snow", "normalised elevation from splat_snow_elevation"},
                                 {"splat_beach_m", o.splat_beach_m},
                                 {"splat_rock_slope_deg", o.splat_rock_slope_deg},
+                                {"splat_rock_elevation", o.splat_rock_elevation},
                                 {"splat_snow_elevation", o.splat_snow_elevation}};
   for (auto& p : px) out.images.push_back(encode_png_pixels(p.data(), p.size(), f.nx, f.nz, 8, 4));
   return out;

@@ -342,8 +342,9 @@ TEST_F(Clients, BlenderImportsGlbObjAndFbx) {
     // importer keeps 8-bit sRGB colours, hence the tolerance).
     for (auto& o : f["objects"])
       for (auto& g : rep[(dir / "terrain.glb").string()]["objects"])
-        if (o["name"] == g["name"] && o.contains("color_min"))
+        if (o["name"] == g["name"] && o.contains("color_min")) {
           for (int c = 0; c < 3; ++c) EXPECT_NEAR(o["color_min"][c].get<double>(), g["color_min"][c].get<double>(), 6e-3) << o["name"];
+        }
   }
   {
     const json& f = rep[(dir / "lowpoly.glb").string()];

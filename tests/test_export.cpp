@@ -1089,6 +1089,7 @@ TEST(Maps, SplatRulesWeightsSumTo255AndFollowHeightAndSlope) {
       h[std::size_t(j) * 33 + i] = float(std::min(e, 0.95));
     }
   ExportOptions o;
+  o.splat_rock_elevation = 1.0;  // rock from slope only here
   const SplatMaps s = encode_splat(t, o);
   ASSERT_EQ(s.images.size(), 1u);
   const Decoded d = decode_png(s.images[0]);
@@ -1101,6 +1102,11 @@ TEST(Maps, SplatRulesWeightsSumTo255AndFollowHeightAndSlope) {
   EXPECT_EQ(at(20, 2), 255);  // rock
   EXPECT_EQ(at(30, 3), 255);  // snow
   EXPECT_EQ(s.description["channels"][2]["layer"], "rock");
+  // High flat ground below the snow line is rock by elevation.
+  o.splat_rock_elevation = 0.9;
+  o.splat_snow_elevation = 0.99;
+  const Decoded high = decode_png(encode_splat(t, o).images[0]);
+  EXPECT_EQ(high.bytes[(std::size_t(16) * 33 + 30) * 4 + 2], 255);
 }
 
 TEST(Maps, SplatFromTheBiomeLayerSpansSeveralImages) {

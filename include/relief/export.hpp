@@ -51,6 +51,7 @@ struct ExportOptions {
   std::string normal_convention = "auto";  // auto | opengl | directx
   std::string splat_source = "auto";       // auto | biome | rules
   double splat_rock_slope_deg = 35;
+  double splat_rock_elevation = 0.7;
   double splat_snow_elevation = 0.85;
   double splat_beach_m = 4;
   double hillshade_azimuth_deg = 315;
