@@ -1,6 +1,9 @@
 // Terrain meshes (chunked grid, vertex jiggle, simplification, LOD, low-poly style) and the
 // low-poly prop models.
 //
+// LOD level k (1…) is simplified from level k − 1 with an error bound of lod_error_m·2^(k−1) and
+// a floor of 1/4^k of the grid's triangles; errors of successive levels add up (at most
+// lod_error_m·(2^k − 1) from the grid).
 // Simplification and LOD use meshoptimizer's edge-collapse simplifier (Garland & Heckbert,
 // "Surface Simplification Using Quadric Error Metrics", SIGGRAPH 1997, as implemented by
 // meshopt_simplify) with meshopt_SimplifyLockBorder so that chunk borders stay identical on both
@@ -121,82 +124,124 @@ void unweld_flat(MeshData& m, const Terrain& t, const Layer* colour) {
 
 }  // namespace
 
+namespace {
+
+// The grid mesh of one chunk: samples [i0, i1] × [j0, j1].
+MeshData grid_chunk(const Terrain& t, const Layer& h, const Layer* off, int i0, int j0, int i1, int j1) {
+  const Frame& f = t.frame;
+  const int nx = f.nx, nz = f.nz;
+  const double cell = f.cell_m();
+  auto Y = [&](int i, int j) { return f.y_m(h.data[std::size_t(j) * nx + i]); };
+  const int w = i1 - i0 + 1, d = j1 - j0 + 1;
+  MeshData m;
+  m.positions.resize(std::size_t(w) * d * 3);
+  m.normals.resize(std::size_t(w) * d * 3);
+  m.uvs.resize(std::size_t(w) * d * 2);
+  for (int j = j0; j <= j1; ++j) {
+    const int ja = j > 0 ? j - 1 : j, jb = j + 1 < nz ? j + 1 : j;
+    for (int i = i0; i <= i1; ++i) {
+      const std::size_t v = std::size_t(j - j0) * w + (i - i0);
+      const std::size_t s = std::size_t(j) * nx + i;
+      const double dx = off ? off->data[2 * s] : 0.0, dz = off ? off->data[2 * s + 1] : 0.0;
+      m.positions[3 * v] = float(f.x_m(i) + dx);
+      m.positions[3 * v + 1] = float(Y(i, j));
+      m.positions[3 * v + 2] = float(f.z_m(j) + dz);
+      const int ia = i > 0 ? i - 1 : i, ib = i + 1 < nx ? i + 1 : i;
+      // Surface y = h(x, z) ⇒ normal ∝ (−h_x, 1, −h_z); central differences.
+      const double hx = (Y(ib, j) - Y(ia, j)) / ((ib - ia) * cell);
+      const double hz = (Y(i, jb) - Y(i, ja)) / ((jb - ja) * cell);
+      const double inv = 1.0 / std::sqrt(hx * hx + 1.0 + hz * hz);
+      m.normals[3 * v] = float(-hx * inv);
+      m.normals[3 * v + 1] = float(inv);
+      m.normals[3 * v + 2] = float(-hz * inv);
+      m.uvs[2 * v] = float(double(i) / (nx - 1));
+      m.uvs[2 * v + 1] = float(double(j) / (nz - 1));
+    }
+  }
+  m.indices.reserve(std::size_t(w - 1) * (d - 1) * 6);
+  for (int j = 0; j + 1 < d; ++j)
+    for (int i = 0; i + 1 < w; ++i) {
+      const std::uint32_t a = std::uint32_t(j * w + i), b = a + 1, cc = a + std::uint32_t(w), e = cc + 1;
+      // (i,j) → (i,j+1) → (i+1,j) is counter-clockwise seen from +Y (x east, z south).
+      m.indices.insert(m.indices.end(), {a, cc, b, b, cc, e});
+    }
+  return m;
+}
+
+// Simplifies with locked borders: stops at `target_tris` triangles (0 = no count target) or when
+// the next collapse would exceed `error_m` metres (0 = no error limit); then compacts.
+void simplify_mesh(MeshData& m, double error_m, std::size_t target_tris) {
+  const std::size_t nv = m.vertex_count();
+  const float scale = meshopt_simplifyScale(m.positions.data(), nv, 12);
+  const float rel = error_m > 0 ? float(error_m / std::max(scale, 1e-30f)) : 1e10f;
+  std::vector<std::uint32_t> out(m.indices.size());
+  const std::size_t n = meshopt_simplify(out.data(), m.indices.data(), m.indices.size(), m.positions.data(), nv, 12,
+                                         std::min(target_tris * 3, m.indices.size()), rel, meshopt_SimplifyLockBorder, nullptr);
+  out.resize(n);
+  m.indices = std::move(out);
+  compact(m);
+}
+
+struct ChunkGrid {
+  int q, ncx, ncz;
+  std::size_t count() const { return std::size_t(ncx) * std::size_t(ncz); }
+};
+ChunkGrid chunk_grid(const Frame& f, const ExportOptions& o) {
+  const int q = o.chunk_quads;
+  if (q < 1) throw Error("chunk_quads", "expected at least 1");
+  return {q, (f.nx - 1 + q - 1) / q, (f.nz - 1 + q - 1) / q};
+}
+
+}  // namespace
+
 std::vector<TerrainChunk> build_terrain_chunks(const Terrain& t, const ExportOptions& o, int lod) {
+  if (lod > 0) return build_terrain_lod_chain(t, o, lod).back();
   const Layer& h = checked_height(t);
   const Layer* off = checked_offset(t);
   const Frame& f = t.frame;
-  const int nx = f.nx, nz = f.nz, q = o.chunk_quads;
-  if (q < 1) throw Error("chunk_quads", "expected at least 1");
-  const int ncx = (nx - 1 + q - 1) / q, ncz = (nz - 1 + q - 1) / q;
-  const double cell = f.cell_m();
-  auto Y = [&](int i, int j) { return f.y_m(h.data[std::size_t(j) * nx + i]); };
-
-  const bool simplify = lod > 0 || o.simplify_error_m > 0 || o.triangle_budget > 0;
-  const double total_tris = 2.0 * double(nx - 1) * double(nz - 1);
-
-  std::vector<TerrainChunk> chunks(std::size_t(ncx) * ncz);
+  const ChunkGrid g = chunk_grid(f, o);
+  const Layer* colour = colour_source(t);
+  const double total_tris = 2.0 * double(f.nx - 1) * double(f.nz - 1);
+  std::vector<TerrainChunk> chunks(g.count());
   tbb::parallel_for(std::size_t(0), chunks.size(), [&](std::size_t k) {
     TerrainChunk& c = chunks[k];
-    c.cx = int(k % ncx);
-    c.cz = int(k / ncx);
-    const int i0 = c.cx * q, j0 = c.cz * q;
-    const int i1 = std::min(i0 + q, nx - 1), j1 = std::min(j0 + q, nz - 1);
-    const int w = i1 - i0 + 1, d = j1 - j0 + 1;
-    MeshData& m = c.mesh;
-    m.positions.resize(std::size_t(w) * d * 3);
-    m.normals.resize(std::size_t(w) * d * 3);
-    m.uvs.resize(std::size_t(w) * d * 2);
-    for (int j = j0; j <= j1; ++j) {
-      const int ja = j > 0 ? j - 1 : j, jb = j + 1 < nz ? j + 1 : j;
-      for (int i = i0; i <= i1; ++i) {
-        const std::size_t v = std::size_t(j - j0) * w + (i - i0);
-        const std::size_t s = std::size_t(j) * nx + i;
-        const double dx = off ? off->data[2 * s] : 0.0, dz = off ? off->data[2 * s + 1] : 0.0;
-        m.positions[3 * v] = float(f.x_m(i) + dx);
-        m.positions[3 * v + 1] = float(Y(i, j));
-        m.positions[3 * v + 2] = float(f.z_m(j) + dz);
-        const int ia = i > 0 ? i - 1 : i, ib = i + 1 < nx ? i + 1 : i;
-        // Surface y = h(x, z) ⇒ normal ∝ (−h_x, 1, −h_z); central differences.
-        const double hx = (Y(ib, j) - Y(ia, j)) / ((ib - ia) * cell);
-        const double hz = (Y(i, jb) - Y(i, ja)) / ((jb - ja) * cell);
-        const double inv = 1.0 / std::sqrt(hx * hx + 1.0 + hz * hz);
-        m.normals[3 * v] = float(-hx * inv);
-        m.normals[3 * v + 1] = float(inv);
-        m.normals[3 * v + 2] = float(-hz * inv);
-        m.uvs[2 * v] = float(double(i) / (nx - 1));
-        m.uvs[2 * v + 1] = float(double(j) / (nz - 1));
-      }
+    c.cx = int(k % std::size_t(g.ncx));
+    c.cz = int(k / std::size_t(g.ncx));
+    const int i0 = c.cx * g.q, j0 = c.cz * g.q;
+    c.mesh = grid_chunk(t, h, off, i0, j0, std::min(i0 + g.q, f.nx - 1), std::min(j0 + g.q, f.nz - 1));
+    if (o.simplify_error_m > 0 || o.triangle_budget > 0) {
+      const std::size_t target =
+          o.triangle_budget > 0 ? std::size_t(std::llround(double(o.triangle_budget) * double(c.mesh.triangle_count()) / total_tris)) : 0;
+      simplify_mesh(c.mesh, o.simplify_error_m, target);
     }
-    m.indices.reserve(std::size_t(w - 1) * (d - 1) * 6);
-    for (int j = 0; j + 1 < d; ++j)
-      for (int i = 0; i + 1 < w; ++i) {
-        const std::uint32_t a = std::uint32_t(j * w + i), b = a + 1, cc = a + std::uint32_t(w), e = cc + 1;
-        // (i,j) → (i,j+1) → (i+1,j) is counter-clockwise seen from +Y (x east, z south).
-        m.indices.insert(m.indices.end(), {a, cc, b, b, cc, e});
-      }
-    if (simplify) {
-      const std::size_t nv = m.vertex_count();
-      const float scale = meshopt_simplifyScale(m.positions.data(), nv, 12);
-      double err_m = lod > 0 ? o.lod_error_m * std::ldexp(1.0, lod - 1) : o.simplify_error_m;
-      std::size_t target = 0;
-      if (lod > 0) {
-        target = (m.indices.size() / 3) >> (2 * std::min(lod, 15));
-      } else if (o.triangle_budget > 0) {
-        target = std::size_t(std::llround(double(o.triangle_budget) * double(m.indices.size() / 3) / total_tris));
-      }
-      if (lod == 0 && o.triangle_budget > 0 && o.simplify_error_m <= 0) err_m = 0;  // budget alone
-      const float rel = err_m > 0 ? float(err_m / std::max(scale, 1e-30f))
-                                  : (o.triangle_budget > 0 || lod > 0 ? std::numeric_limits<float>::max() : 0.0f);
-      std::vector<std::uint32_t> out(m.indices.size());
-      const std::size_t n = meshopt_simplify(out.data(), m.indices.data(), m.indices.size(), m.positions.data(), nv, 12,
-                                             std::min(target * 3, m.indices.size()), rel, meshopt_SimplifyLockBorder, nullptr);
-      out.resize(n);
-      m.indices = std::move(out);
-      compact(m);
-    }
-    if (o.style == "lowpoly") unweld_flat(m, t, colour_source(t));
+    if (o.style == "lowpoly") unweld_flat(c.mesh, t, colour);
   });
   return chunks;
+}
+
+std::vector<std::vector<TerrainChunk>> build_terrain_lod_chain(const Terrain& t, const ExportOptions& o, int levels) {
+  const Layer& h = checked_height(t);
+  const Layer* off = checked_offset(t);
+  const Frame& f = t.frame;
+  const ChunkGrid g = chunk_grid(f, o);
+  const Layer* colour = colour_source(t);
+  std::vector<std::vector<TerrainChunk>> chain(std::size_t(std::max(levels, 0)), std::vector<TerrainChunk>(g.count()));
+  tbb::parallel_for(std::size_t(0), g.count(), [&](std::size_t k) {
+    const int cx = int(k % std::size_t(g.ncx)), cz = int(k / std::size_t(g.ncx));
+    const int i0 = cx * g.q, j0 = cz * g.q;
+    MeshData m = grid_chunk(t, h, off, i0, j0, std::min(i0 + g.q, f.nx - 1), std::min(j0 + g.q, f.nz - 1));
+    const std::size_t full = m.triangle_count();
+    for (int lod = 1; lod <= levels; ++lod) {
+      // Each level starts from the previous one (cheaper than from the full grid each time).
+      simplify_mesh(m, o.lod_error_m * std::ldexp(1.0, lod - 1), full >> (2 * std::min(lod, 15)));
+      TerrainChunk& c = chain[std::size_t(lod - 1)][k];
+      c.cx = cx;
+      c.cz = cz;
+      c.mesh = m;
+      if (o.style == "lowpoly") unweld_flat(c.mesh, t, colour);
+    }
+  });
+  return chain;
 }
 
 // ---- props ---------------------------------------------------------------------------------------

@@ -257,8 +257,7 @@ std::string finish(GltfBuilder& g, const std::vector<int>& scene_nodes) {
 
 GlbFiles encode_glb(const Terrain& t, const ExportOptions& o) {
   GlbFiles out;
-  std::vector<std::vector<TerrainChunk>> lods;
-  for (int k = 1; k <= o.lod_levels; ++k) lods.push_back(build_terrain_chunks(t, o, k));
+  const std::vector<std::vector<TerrainChunk>> lods = build_terrain_lod_chain(t, o, o.lod_levels);
 
   {
     GltfBuilder g;

@@ -10,7 +10,7 @@ struct BenchSettings {
   int peer_size = 1024;               // libnoise cases (slower): size², compared per sample
   std::vector<int> threads = {1, 2};  // thread counts to measure
   std::vector<int> preset_sizes = {1025, 4097};
-  std::vector<std::string> cases;     // "noise", "presets"; empty = all
+  std::vector<std::string> cases;     // "noise", "presets", "export"; empty = all
   std::string json_path;
 };
 

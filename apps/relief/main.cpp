@@ -411,7 +411,7 @@ int main(int argc, char** argv) {
   ben->add_option("--peer-size", bs.peer_size, "libnoise cases evaluate size² samples (compared per sample)")->check(CLI::Range(16, 16384))->capture_default_str();
   ben->add_option("--threads", bench_threads, "Comma-separated thread counts")->capture_default_str();
   ben->add_option("--preset-sizes", bench_sizes, "Comma-separated preset sizes")->capture_default_str();
-  ben->add_option("--cases", bench_cases, "Comma-separated groups: noise, presets (default: all)");
+  ben->add_option("--cases", bench_cases, "Comma-separated groups: noise, presets, export (default: all)");
   ben->add_option("--json", bs.json_path, "Also write the results as JSON to FILE");
 
   try {
@@ -453,7 +453,8 @@ int main(int argc, char** argv) {
       std::stringstream ss(bench_cases);
       std::string c;
       while (std::getline(ss, c, ',')) {
-        if (c != "noise" && c != "presets") throw Error("--cases", "expected noise or presets, got \"" + c + "\"");
+        if (c != "noise" && c != "presets" && c != "export")
+          throw Error("--cases", "expected noise, presets or export, got \"" + c + "\"");
         bs.cases.push_back(c);
       }
       return cli::run_bench(bs);

@@ -103,6 +103,8 @@ struct TerrainChunk {
 // centre ("albedo", else "color"; none = no colours). Throws Error on a missing or malformed height
 // layer. Deterministic for any thread count.
 std::vector<TerrainChunk> build_terrain_chunks(const Terrain& t, const ExportOptions& o, int lod = 0);
+// LOD levels 1..levels at once (each simplified from the previous one): element k − 1 is level k.
+std::vector<std::vector<TerrainChunk>> build_terrain_lod_chain(const Terrain& t, const ExportOptions& o, int levels);
 
 // Prop models: low-poly, flat-shaded, vertex-coloured, base at y = 0, metres at scale 1.
 const std::vector<std::string>& prop_types();  // tree, pine, bush, rock, cactus, mushroom
