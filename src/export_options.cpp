@@ -16,7 +16,7 @@ Table<O> make_table() {
   Table<O> t;
   auto& f = t.fields;
   f.push_back(param(&O::chunk_quads, "chunk_quads", 8, 4096, "cells",
-                    "glb/fbx: terrain chunk size in cells per side (one mesh per chunk; uint32 indices above 65534 vertices)"));
+                    "glb/fbx: terrain chunk size in cells per side (one mesh per chunk; uint32 indices above 65535 vertices)"));
   f.push_back(param(&O::simplify_error_m, "simplify_error_m", 0, 10000, "m",
                     "glb/fbx: simplify the terrain mesh up to this geometric error (0 = full grid)"));
   f.push_back(param(&O::triangle_budget, "triangle_budget", 0, 2e9, "triangles",
