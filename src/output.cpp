@@ -216,6 +216,17 @@ std::string encode_png_gray8(const Layer& l, int nx, int nz) {
   return encode_png(px.data(), px.size(), nx, nz, 8, SPNG_COLOR_TYPE_GRAYSCALE);
 }
 
+std::string encode_png_pixels(const void* pixels, std::size_t bytes, int width, int height, int bit_depth, int channels) {
+  if (width < 1 || height < 1 || (bit_depth != 8 && bit_depth != 16) || channels < 1 || channels > 4 ||
+      bytes != std::size_t(width) * std::size_t(height) * std::size_t(channels) * std::size_t(bit_depth / 8))
+    throw Error("output", "PNG: " + std::to_string(bytes) + " bytes do not make a " + std::to_string(width) + "x" +
+                              std::to_string(height) + " image of " + std::to_string(channels) + " channel(s) at " +
+                              std::to_string(bit_depth) + " bits");
+  static const int types[] = {SPNG_COLOR_TYPE_GRAYSCALE, SPNG_COLOR_TYPE_GRAYSCALE_ALPHA, SPNG_COLOR_TYPE_TRUECOLOR,
+                              SPNG_COLOR_TYPE_TRUECOLOR_ALPHA};
+  return encode_png(pixels, bytes, width, height, bit_depth, types[channels - 1]);
+}
+
 std::string encode_r16(const Layer& l) {
   if (l.channels != 1)
     throw Error("layer", "r16: layer has " + std::to_string(l.channels) + " channel(s), expected 1");

@@ -251,12 +251,14 @@ void write_tilemap(const Terrain& t, const WriteContext& ctx, Output& out) {
 }  // namespace
 
 WriterDef tilemap() {
-  return {"tilemap",
+  WriterDef w{"tilemap",
           "Tiles from the tilemap stage: generated tileset atlas + Tiled TSX (corner Wang set), TMX and TMJ maps, CSV of "
           "tile indices, a PNG render and a JSON sidecar",
           {kTilesetPng, kTilesetTsx, "tilemap.tmx", "tilemap.tmj", "tilemap.csv", "tilemap.png", "tilemap.json"},
           false,
           write_tilemap};
+  w.applies = [](const Terrain& t) { return t.tilemap != nullptr; };
+  return w;
 }
 
 }  // namespace writers

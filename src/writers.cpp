@@ -1,4 +1,5 @@
-// The writer registry: heightmap (PNG + r16 + JSON sidecar), colour/albedo PNGs, OBJ mesh, report.
+// The writer registry: heightmap (PNG + r16 + JSON sidecar), colour/albedo PNGs, OBJ mesh, report,
+// then the export writers of writers_export.cpp (glb, fbx, stl, engine, normalmap, splat, hillshade).
 //
 // OBJ: Wavefront OBJ as documented in "Object Files (.obj)", Alias|Wavefront Advanced Visualizer
 // manual, Appendix B1, and MTL in Appendix B2 (indices are 1-based; `vt` v = 0 is the bottom of the
@@ -18,6 +19,7 @@
 #include "writer_defs.hpp"
 #include "writers_water.hpp"
 #include "writers_islands.hpp"
+#include "writers_export.hpp"
 
 #ifndef RELIEF_VERSION
 #define RELIEF_VERSION "0.1.0"  // keep in step with project(VERSION) in CMakeLists.txt
@@ -149,13 +151,13 @@ void write_obj(const Terrain& t, const WriteContext& ctx, Output& out) {
       throw Error("height", "non-finite elevation at sample (" + std::to_string(k % nx) + ", " + std::to_string(k / nx) + ")");
     y[k] = f.y_m(h.data[k]);
   }
-  // Vertex jiggle (seed 003): an optional 2-channel layer "offset" = (dx_m, dz_m) moves each vertex
-  // in x/z; heights, normals and UVs stay those of the grid sample.
-  const Layer* offset = find_layer(t, "offset");
-  if (offset && (offset->channels != 2 || offset->data.size() != 2 * f.count()))
-    throw Error("offset", "layer has " + std::to_string(offset->data.size()) + " values in " +
-                              std::to_string(offset->channels) + " channel(s), expected " + std::to_string(f.count()) +
-                              " in 2");
+  // Optional vertex jiggle: a two-channel layer "offset" (dx_m, dz_m per sample).
+  const Layer* off = find_layer(t, "offset");
+  if (off && (off->channels != 2 || off->data.size() != f.count() * 2))
+    throw Error("offset", "layer must have 2 channels (dx_m, dz_m) and " + std::to_string(f.count()) + " samples");
+  if (off)
+    for (float v : off->data)
+      if (!std::isfinite(v)) throw Error("offset", "non-finite vertex offset");
   const double dx = f.cell_m(), dz = f.cell_m();  // square cells
   auto Y = [&](int i, int j) { return y[std::size_t(j) * nx + i]; };
 
@@ -185,11 +187,11 @@ void write_obj(const Terrain& t, const WriteContext& ctx, Output& out) {
       b.reserve(160);
       const std::size_t k = std::size_t(j) * nx + i;
       b.put("v ");
-      b.fixed(offset ? f.x_m(i) + double(offset->data[2 * k]) : f.x_m(i), 4);
+      b.fixed(f.x_m(i) + (off ? double(off->data[2 * k]) : 0.0), 4);
       b.put(' ');
       b.fixed(Y(i, j), 4);
       b.put(' ');
-      b.fixed(offset ? f.z_m(j) + double(offset->data[2 * k + 1]) : f.z_m(j), 4);
+      b.fixed(f.z_m(j) + (off ? double(off->data[2 * k + 1]) : 0.0), 4);
       b.put('\n');
     }
     tick(0.3 * j / nz);
@@ -312,6 +314,7 @@ std::vector<WriterDef> make_registry() {
   w.push_back({"report", "report.json: version, seed, resolved recipe, timings and peak memory", {"report.json"}, true,
                write_report});
   w.push_back(writers::tilemap());
+  for (WriterDef& d : export_writers()) w.push_back(std::move(d));
   return w;
 }
 

@@ -14,12 +14,14 @@
 #include <memory>
 #include <iostream>
 #include <mutex>
+#include <map>
 #include <sstream>
 
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
 #include "bench.hpp"
+#include "relief/export.hpp"
 #include "relief/output.hpp"
 #include "relief/pipeline.hpp"
 #include "relief/recipe.hpp"
@@ -45,7 +47,42 @@ struct GenerateSettings {
   // Tilemap shortcuts: they set parameters of the recipe's "tilemap" stage (added when missing).
   std::string tile_size;  // --tile-size N
   std::string map_tiles;  // --map-tiles N or NxM
+  // Writer options as given on the command line (table name → text), parsed by the option table.
+  std::map<std::string, std::string> export_text;
+  std::map<std::string, bool> export_flags;
+  std::vector<std::string> export_given;  // table names of the options that were given
 };
+
+// CLI flag of a writer option: "stl_size_mm" → "--stl-size-mm".
+std::string option_flag(const std::string& name) {
+  std::string f = "--" + name;
+  std::replace(f.begin(), f.end(), '_', '-');
+  return f;
+}
+
+// Writer options from the command line, validated (errors name the flag).
+ExportOptions parse_export_options(const GenerateSettings& s) {
+  ExportOptions o;
+  for (const std::string& name : s.export_given) {
+    json v;
+    if (auto it = s.export_flags.find(name); it != s.export_flags.end()) {
+      v = it->second;
+    } else {
+      // Text options take the text as given ("4x4"); others read it as JSON when it parses.
+      const std::string& text = s.export_text.at(name);
+      bool is_text = false;
+      for (auto& f : export_options_table().fields) is_text = is_text || (f.info.name == name && f.info.type == ParamType::Text);
+      try {
+        v = is_text ? json(text) : json::parse(text);
+      } catch (const json::exception&) {
+        v = text;
+      }
+    }
+    set_export_option(o, name, v, option_flag(name));
+  }
+  validate_export_options(o, option_flag);
+  return o;
+}
 
 bool is_tty() { return isatty(fileno(stderr)) != 0; }
 
@@ -157,6 +194,19 @@ int cmd_generate(const GenerateSettings& s) {
   }
   const std::string tilemap_stage = apply_tilemap_shortcuts(s, doc);
   for (auto& a : s.sets) apply_override(doc, a);
+  const ExportOptions export_options = parse_export_options(s);
+  const bool engine = export_options.engine != "none";
+  if (engine && s.size.empty()) {
+    // Pick the engine's legal size nearest to the recipe's (square tiles, overlapping by one sample).
+    Recipe probe = parse_recipe(doc);
+    const int n = engine_legal_size(export_options.engine, probe.world.nx, export_options.split_x());
+    const int tile = (n - 1) / export_options.split_x() + 1;
+    const int nz = export_options.split_z() * (tile - 1) + 1;
+    if (n != probe.world.nx || nz != probe.world.nz) {
+      parse_size(std::to_string(n) + "x" + std::to_string(nz), doc);
+      if (!s.quiet) std::fprintf(stderr, "relief: %s: using --size %dx%d (legal for the engine)\n", export_options.engine.c_str(), n, nz);
+    }
+  }
   Recipe recipe;
   try {
     recipe = parse_recipe(doc);
@@ -174,7 +224,10 @@ int cmd_generate(const GenerateSettings& s) {
   // Writers: validated before any work is done.
   std::vector<const WriterDef*> writers;
   const bool default_set = s.formats.empty();
-  if (default_set) {
+  if (s.formats == "all") {
+    for (auto& w : writer_registry())
+      if (w.name != "engine" || engine) writers.push_back(&w);
+  } else if (default_set) {
     for (auto& w : writer_registry())
       if (w.in_default_set) writers.push_back(&w);
   } else {
@@ -198,15 +251,23 @@ int cmd_generate(const GenerateSettings& s) {
   // The tilemap flags imply the tilemap writer.
   if (!tilemap_stage.empty() && std::find_if(writers.begin(), writers.end(), [](auto* w) { return w->name == "tilemap"; }) == writers.end())
     writers.push_back(find_writer("tilemap"));
-  bool with_mesh = false, with_albedo = false;
-  for (auto* w : writers) with_mesh = with_mesh || w->name == "obj", with_albedo = with_albedo || w->name == "albedo";
-  // terrain.mtl references albedo.png: an OBJ is never written without its texture.
-  if (with_mesh && !with_albedo) writers.push_back(find_writer("albedo"));
+  bool with_mesh = false, with_albedo = false, with_engine = false, textured = false;
+  for (auto* w : writers) {
+    with_mesh = with_mesh || w->name == "obj" || w->name == "glb" || w->name == "fbx" || w->name == "stl";
+    textured = textured || w->name == "obj" || w->name == "fbx";
+    with_albedo = with_albedo || w->name == "albedo";
+    with_engine = with_engine || w->name == "engine";
+  }
+  // terrain.mtl and the FBX name albedo.png: those meshes are never written without the file.
+  if (textured && !with_albedo) writers.push_back(find_writer("albedo"));
+  // --engine asks for the engine files.
+  if (engine && !with_engine) writers.push_back(find_writer("engine")), with_engine = true;
+  if (with_engine) check_engine_size(export_options, recipe.world.nx, recipe.world.nz);
   const std::uint64_t need = estimate_memory_bytes(recipe, with_mesh), have = physical_memory_bytes();
   if (have && need > have * 8 / 10)
     throw Error("world.size", "a " + std::to_string(recipe.world.nx) + "x" + std::to_string(recipe.world.nz) +
                                   " terrain with these formats needs about " + human_bytes(need) + ", but this machine has " +
-                                  human_bytes(have) + "; choose a smaller --size" + (with_mesh ? " or drop obj from --formats" : ""));
+                                  human_bytes(have) + "; choose a smaller --size" + (with_mesh ? " or drop the meshes from --formats" : ""));
 
   // Check the output directories before spending time on generation.
   FileOutput files(s.out_dir);
@@ -233,6 +294,7 @@ int cmd_generate(const GenerateSettings& s) {
   WriteContext wc;
   wc.seed = res.seed;
   wc.recipe = recipe.to_json();
+  wc.options = export_options;
   wc.progress = [&](std::string_view what, double f) { prog(what, 0.7 + 0.3 * f); };
   // Writers encode in parallel (each into its own memory output), then their files are merged
   // in a fixed order, so the bytes never depend on scheduling.
@@ -242,7 +304,7 @@ int cmd_generate(const GenerateSettings& s) {
   std::vector<const WriterDef*> encoders;
   for (auto* w : writers) {
     if (w->name == "report") report = w;
-    else if (default_set && w->applies && !w->applies(res.terrain)) continue;  // e.g. no props in this recipe
+    else if ((default_set || s.formats == "all") && w->applies && !w->applies(res.terrain)) continue;  // e.g. no props here
     else encoders.push_back(w);
   }
   {
@@ -360,6 +422,13 @@ int cmd_explain(const std::string& stage, bool as_json) {
     for (auto& w : writer_registry())
       wr.push_back({{"name", w.name}, {"description", w.description}, {"files", w.files}, {"default", w.in_default_set}});
     o["formats"] = wr;
+    json eo = json::array();
+    for (auto& p : export_options_table().infos()) {
+      json j = p.to_json();
+      j["flag"] = option_flag(p.name);
+      eo.push_back(j);
+    }
+    o["writer_options"] = eo;
     std::printf("%s\n", o.dump(2).c_str());
     return 0;
   }
@@ -388,6 +457,10 @@ int cmd_explain(const std::string& stage, bool as_json) {
     for (auto& f : w.files) files += (files.empty() ? "" : ", ") + f;
     std::printf("  %-10s %s -> %s%s\n", w.name.c_str(), w.description.c_str(), files.c_str(), w.in_default_set ? "" : " (not default)");
   }
+  std::printf("\nwriter options (relief generate --NAME VALUE):\n");
+  auto infos = export_options_table().infos();
+  for (auto& p : infos) p.name = option_flag(p.name);
+  print_params(infos);
   return 0;
 }
 
@@ -405,7 +478,7 @@ int main(int argc, char** argv) {
   gen->add_option("-o,--out", gs.out_dir, "Output directory (created if missing)")->capture_default_str();
   gen->add_option("--seed,-s", gs.seed, "Seed, 0..2^53-1 (default: the recipe's, else random and printed)");
   gen->add_option("--size", gs.size, "Samples per axis: N or NxM (cells stay square; depth follows the aspect)");
-  gen->add_option("--formats,-f", gs.formats, "Comma-separated writers replacing the default set (see `relief explain`)");
+  gen->add_option("--formats,-f", gs.formats, "Comma-separated writers replacing the default set, or 'all' (see `relief explain`)");
   gen->add_option("--set", gs.sets, "Override a recipe field: PATH=VALUE, e.g. 'stages[1].octaves=8' (repeatable)");
   gen->add_option("--threads,-j", gs.threads, "Worker threads (0 = all cores); output is identical for any count")
       ->check(CLI::Range(0, 1024));
@@ -417,6 +490,24 @@ int main(int argc, char** argv) {
                   "Tilemap: tile size in pixels (16, 32, 64 …); sets the tilemap stage's tile_size and implies --formats tilemap");
   gen->add_option("--map-tiles", gs.map_tiles,
                   "Tilemap: tiles across and down, N or NxM (e.g. 128x128); sets tiles_x/tiles_z of the tilemap stage");
+  // Writer options: one flag per entry of the option table (declared once, in export_options.cpp).
+  std::vector<std::pair<std::string, CLI::Option*>> export_cli;
+  for (const ParamInfo& p : export_options_table().infos()) {
+    std::string help = p.description + " [default " + p.default_value.dump();
+    if (p.type == ParamType::Int || p.type == ParamType::Float) {
+      std::ostringstream r;
+      r << "; " << p.min << ".." << p.max << (p.unit.empty() ? "" : " " + p.unit);
+      help += r.str();
+    } else if (p.type == ParamType::Choice) {
+      std::string c;
+      for (auto& x : p.choices) c += (c.empty() ? "" : "|") + x;
+      help += "; " + c;
+    }
+    help += "]";
+    CLI::Option* opt = p.type == ParamType::Bool ? gen->add_flag(option_flag(p.name), gs.export_flags[p.name], help)
+                                                 : gen->add_option(option_flag(p.name), gs.export_text[p.name], help);
+    export_cli.emplace_back(p.name, opt);
+  }
 
   bool presets_json = false;
   auto* pre = app.add_subcommand("presets", "List presets: built-in, then $RELIEF_PRESETS folders and ~/.config/relief/presets");
@@ -456,6 +547,8 @@ int main(int argc, char** argv) {
     return 2;
   }
   gs.seed_given = gen->count("--seed") > 0;
+  for (auto& [name, opt] : export_cli)
+    if (opt->count() > 0) gs.export_given.push_back(name);
   try {
     if (*gen) return cmd_generate(gs);
     if (*pre) return cmd_presets(presets_json);

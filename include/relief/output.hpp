@@ -11,6 +11,7 @@
 #include <string_view>
 #include <vector>
 
+#include "relief/export.hpp"
 #include "relief/params.hpp"
 #include "relief/terrain.hpp"
 
@@ -48,6 +49,7 @@ void write_file_atomic(const std::string& path, std::string_view bytes);
 
 struct WriteContext {
   std::uint64_t seed = 0;
+  ExportOptions options;  // writer options (relief/export.hpp), validated by the caller
   json recipe;  // resolved recipe (for report.json)
   json report;  // timings etc. (for report.json)
   std::function<void(std::string_view what, double fraction)> progress;
@@ -79,5 +81,8 @@ std::string encode_png_rgb8(const std::uint8_t* rgb, int width, int height);
 std::string encode_png_gray8(const Layer& l, int nx, int nz);
 // Little-endian unsigned 16-bit raw, same mapping as the PNG.
 std::string encode_r16(const Layer& l);
+// PNG of ready pixels: `channels` 1 (grey), 2 (grey+alpha), 3 (RGB) or 4 (RGBA) samples of
+// `bit_depth` 8 or 16 bits (16-bit samples in host byte order), rows top to bottom.
+std::string encode_png_pixels(const void* pixels, std::size_t bytes, int width, int height, int bit_depth, int channels);
 
 }  // namespace relief

@@ -1,0 +1,143 @@
+// Writer options: the one table (name, type, default, range, unit, description), validation, and
+// the engine profiles' legal sizes.
+#include <algorithm>
+#include <cstdlib>
+#include <string>
+
+#include "relief/error.hpp"
+#include "relief/export.hpp"
+
+namespace relief {
+namespace {
+
+using O = ExportOptions;
+
+Table<O> make_table() {
+  Table<O> t;
+  auto& f = t.fields;
+  f.push_back(param(&O::chunk_quads, "chunk_quads", 8, 4096, "cells",
+                    "glb/fbx: terrain chunk size in cells per side (one mesh per chunk; uint32 indices above 65535 vertices)"));
+  f.push_back(param(&O::simplify_error_m, "simplify_error_m", 0, 10000, "m",
+                    "glb/fbx: simplify the terrain mesh up to this geometric error (0 = full grid)"));
+  f.push_back(param(&O::triangle_budget, "triangle_budget", 0, 2e9, "triangles",
+                    "glb/fbx: simplify the terrain mesh to about this many triangles (0 = no budget)"));
+  f.push_back(param(&O::lod_levels, "lod_levels", 0, 6, "", "glb: extra LOD levels written as terrain_lod1.glb …"));
+  f.push_back(param(&O::lod_error_m, "lod_error_m", 0.001, 10000, "m",
+                    "glb: LOD k allows an error of lod_error_m·2^(k-1) and keeps at least 1/4^k of the triangles"));
+  f.push_back(param(&O::lod_msft, "lod_msft", 0, 1, "", "glb: also put the LOD chain into terrain.glb through MSFT_lod"));
+  f.push_back(choice(&O::style, "style", {"smooth", "lowpoly"},
+                     "glb/fbx: smooth (textured) or lowpoly (flat-shaded faces coloured from the albedo)"));
+  f.push_back(choice(&O::instancing, "instancing", {"nodes", "gpu"},
+                     "glb: props as nodes sharing one mesh per type, or EXT_mesh_gpu_instancing (used, not required)"));
+  f.push_back(param(&O::stl_size_mm, "stl_size_mm", 10, 2000, "mm", "stl: print size of the longer horizontal side"));
+  f.push_back(param(&O::stl_exaggeration, "stl_exaggeration", 0.1, 50, "x", "stl: vertical exaggeration"));
+  f.push_back(param(&O::stl_base_mm, "stl_base_mm", 0.5, 100, "mm", "stl: base thickness under the lowest point"));
+  f.push_back(choice(&O::engine, "engine", {"none", "unity", "unreal", "godot"},
+                     "engine heightmap profile: legal size, format, orientation, sidecar and import settings"));
+  f.push_back(text(&O::split, "split", "engine: tiles along x and z, NxM (overlapping by one sample, named _x0_y0)"));
+  f.push_back(choice(&O::godot_format, "godot_format", {"exr", "r16"}, "engine godot: 32-bit float EXR (metres) or r16"));
+  f.push_back(param(&O::normal_bits, "normal_bits", 8, 16, "bits", "normalmap: 8 or 16 bits per channel"));
+  f.push_back(choice(&O::normal_convention, "normal_convention", {"auto", "opengl", "directx"},
+                     "normalmap: green channel +Y up (opengl) or down (directx); auto = directx for unreal"));
+  f.push_back(choice(&O::splat_source, "splat_source", {"auto", "biome", "rules"},
+                     "splat: weights from the biome layer or from height/slope rules (auto: biome if present)"));
+  f.push_back(param(&O::splat_rock_slope_deg, "splat_rock_slope_deg", 1, 89, "deg", "splat rules: rock from this slope"));
+  f.push_back(param(&O::splat_rock_elevation, "splat_rock_elevation", 0, 1, "",
+                    "splat rules: rock from this normalised elevation (bare mountain tops)"));
+  f.push_back(param(&O::splat_snow_elevation, "splat_snow_elevation", 0, 1, "",
+                    "splat rules: snow from this normalised elevation"));
+  f.push_back(param(&O::splat_beach_m, "splat_beach_m", 0, 1000, "m", "splat rules: sand up to this height above the sea"));
+  f.push_back(param(&O::hillshade_azimuth_deg, "hillshade_azimuth_deg", 0, 360, "deg",
+                    "hillshade: light direction, clockwise from north (the z-min edge)"));
+  f.push_back(param(&O::hillshade_altitude_deg, "hillshade_altitude_deg", 1, 90, "deg", "hillshade: light altitude"));
+  return t;
+}
+
+// "NxM" → (N, M), or (0, 0) when malformed.
+std::pair<int, int> parse_split(const std::string& s) {
+  auto x = s.find_first_of("xX");
+  if (x == std::string::npos || x == 0 || x + 1 >= s.size() || s.size() > 9) return {0, 0};
+  auto num = [](const std::string& t) {
+    if (t.find_first_not_of("0123456789") != std::string::npos) return 0;
+    return std::atoi(t.c_str());
+  };
+  return {num(s.substr(0, x)), num(s.substr(x + 1))};
+}
+
+}  // namespace
+
+int ExportOptions::split_x() const { return std::max(1, parse_split(split).first); }
+int ExportOptions::split_z() const { return std::max(1, parse_split(split).second); }
+bool ExportOptions::directx_normals() const {
+  return normal_convention == "directx" || (normal_convention == "auto" && engine == "unreal");
+}
+
+const Table<ExportOptions>& export_options_table() {
+  static const Table<ExportOptions> t = make_table();
+  return t;
+}
+
+void set_export_option(ExportOptions& o, const std::string& name, const json& value, const std::string& path) {
+  const auto& t = export_options_table();
+  std::vector<std::string> names;
+  for (auto& f : t.fields) {
+    if (f.info.name == name) {
+      f.read(o, value, path);
+      return;
+    }
+    names.push_back(f.info.name);
+  }
+  std::string near = nearest_name(name, names);
+  throw Error(path, "unknown writer option" + (near.empty() ? std::string() : " (did you mean '" + near + "'?)"));
+}
+
+void validate_export_options(const ExportOptions& o, const std::function<std::string(const std::string&)>& path_of) {
+  auto [sx, sz] = parse_split(o.split);
+  if (sx < 1 || sz < 1 || sx > 64 || sz > 64)
+    throw Error(path_of("split"), "expected NxM with 1..64 tiles per axis, e.g. 4x4, got \"" + o.split + "\"");
+  if ((sx > 1 || sz > 1) && o.engine == "none")
+    throw Error(path_of("split"), "splitting writes engine tiles: choose an engine (unity, unreal or godot)");
+  if (o.normal_bits != 8 && o.normal_bits != 16)
+    throw Error(path_of("normal_bits"), "expected 8 or 16, got " + std::to_string(o.normal_bits));
+  if (o.lod_msft && o.lod_levels == 0)
+    throw Error(path_of("lod_msft"), "MSFT_lod needs a chain: set lod_levels to 1 or more");
+}
+
+std::vector<int> engine_tile_sizes(const std::string& engine) {
+  std::vector<int> v;
+  if (engine == "unity") {
+    for (int n = 32; n <= 4096; n *= 2) v.push_back(n + 1);
+  } else if (engine == "unreal") {
+    v = {127, 253, 505, 1009, 2017, 4033, 8129};
+  } else if (engine == "godot") {
+    for (int n = 32; n <= 16384; n *= 2) v.push_back(n + 1);
+  }
+  return v;
+}
+
+int engine_legal_size(const std::string& engine, int wanted, int tiles) {
+  int best = 0;
+  for (int t : engine_tile_sizes(engine)) {
+    const int n = tiles * (t - 1) + 1;
+    if (best == 0 || std::abs(n - wanted) < std::abs(best - wanted) ||
+        (std::abs(n - wanted) == std::abs(best - wanted) && n > best))
+      best = n;
+  }
+  return best;
+}
+
+void check_engine_size(const ExportOptions& o, int nx, int nz) {
+  const auto sizes = engine_tile_sizes(o.engine);
+  if (sizes.empty()) throw Error("--engine", "the engine writer needs an engine: unity, unreal or godot");
+  const int kx = o.split_x(), kz = o.split_z();
+  auto tile = [&](int n, int k) { return (n - 1) % k == 0 ? (n - 1) / k + 1 : 0; };
+  const int tx = tile(nx, kx), tz = tile(nz, kz);
+  const bool ok = tx != 0 && tx == tz && std::find(sizes.begin(), sizes.end(), tx) != sizes.end();
+  if (ok) return;
+  std::string list;
+  for (int t : sizes) list += (list.empty() ? "" : ", ") + std::to_string(kx * (t - 1) + 1) + "x" + std::to_string(kz * (t - 1) + 1);
+  throw Error("--engine", o.engine + " needs " + (kx * kz > 1 ? "tiles of a legal square size; with --split " + o.split + " that is " : "one of ") +
+                              list + "; got " + std::to_string(nx) + "x" + std::to_string(nz) + " (use --size)");
+}
+
+}  // namespace relief

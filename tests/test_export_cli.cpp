@@ -1,0 +1,131 @@
+// `relief generate` with the export writers and writer options: flags generated from the option
+// table, bad values exit 2 naming the flag, --engine picks a legal size and adds the engine files,
+// --formats all, byte-identical output for any thread count, `relief explain` lists the options.
+#include <gtest/gtest.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <array>
+#include <cstdio>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include <nlohmann/json.hpp>
+
+namespace fs = std::filesystem;
+
+namespace {
+
+struct Result {
+  int code = -1;
+  std::string out;
+};
+Result relief(const std::string& args) {
+  Result r;
+  FILE* p = popen((std::string(RELIEF_BINARY) + " " + args + " 2>&1").c_str(), "r");
+  if (!p) return r;
+  std::array<char, 4096> buf;
+  std::size_t n;
+  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
+  const int st = pclose(p);
+  r.code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
+  return r;
+}
+std::string slurp(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  std::stringstream ss;
+  ss << in.rdbuf();
+  return ss.str();
+}
+struct TempDir {
+  fs::path path;
+  TempDir() {
+    static int c = 0;
+    path = fs::temp_directory_path() / ("relief-export-cli-" + std::to_string(::getpid()) + "-" + std::to_string(c++));
+    fs::remove_all(path);
+    fs::create_directories(path);
+  }
+  ~TempDir() { fs::remove_all(path); }
+};
+void expect_bad(const std::string& args, const std::string& prefix) {
+  const Result r = relief(args);
+  EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
+  EXPECT_NE(r.out.find("relief: error: " + prefix), std::string::npos) << args << "\n" << r.out;
+}
+
+}  // namespace
+
+TEST(ExportCli, BadOptionValuesExit2NamingTheFlag) {
+  TempDir d;
+  const std::string base = "generate island --seed 1 --size 33 -q -o " + d.path.string() + " ";
+  expect_bad(base + "--formats stl --stl-size-mm 5", "--stl-size-mm: expected a number in 10..2000, got 5");
+  expect_bad(base + "--formats stl --stl-exaggeration lots", "--stl-exaggeration: ");
+  expect_bad(base + "--engine cryengine", "--engine: ");
+  expect_bad(base + "--engine unreal --split 4", "--split: expected NxM");
+  expect_bad(base + "--split 2x2", "--split: splitting writes engine tiles");
+  expect_bad(base + "--formats normalmap --normal-bits 12", "--normal-bits: expected 8 or 16");
+  expect_bad(base + "--formats glb --lod-msft", "--lod-msft: MSFT_lod needs a chain");
+  expect_bad("generate island --seed 1 --size 100 -q -o " + d.path.string() + " --engine unity", "--engine: unity needs one of");
+  expect_bad(base + "--formats engine", "--engine: the engine writer needs an engine");
+  // Nothing was written by any of the failed runs.
+  EXPECT_TRUE(fs::is_empty(d.path));
+}
+
+TEST(ExportCli, EnginePicksALegalSizeAndWritesItsFiles) {
+  TempDir d;
+  // The island recipe is 513²: Unreal's nearest legal size is 505.
+  const Result r = relief("generate island --seed 2 --engine unreal --formats heightmap -o " + d.path.string());
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("unreal: using --size 505x505"), std::string::npos) << r.out;
+  for (const char* f : {"unreal_height.png", "unreal_height.json", "unreal_import.txt", "height.png"})
+    EXPECT_TRUE(fs::exists(d.path / f)) << f;
+  const auto s = nlohmann::json::parse(slurp(d.path / "unreal_height.json"));
+  EXPECT_EQ(s["samples_per_tile"], 505);
+  EXPECT_EQ(fs::file_size(d.path / "height.r16"), 505u * 505u * 2u);
+
+  TempDir t;
+  const Result tiles = relief("generate island --seed 2 --size 65 --engine unity --split 2x2 -q --formats heightmap -o " + t.path.string());
+  ASSERT_EQ(tiles.code, 0) << tiles.out;
+  for (const char* f : {"unity_height_x0_y0.raw", "unity_height_x1_y0.raw", "unity_height_x0_y1.raw", "unity_height_x1_y1.raw"})
+    EXPECT_EQ(fs::file_size(t.path / f), 33u * 33u * 2u) << f;
+}
+
+TEST(ExportCli, FormatsAllWritesEveryFileIdenticallyForAnyThreadCount) {
+  TempDir a, b;
+  const std::string args = "generate island --seed 9 --size 65 --formats all --engine godot --lod-levels 1 --chunk-quads 32 -q -o ";
+  ASSERT_EQ(relief(args + a.path.string() + " --threads 1").code, 0);
+  const Result r = relief(args + b.path.string() + " --threads 3");
+  ASSERT_EQ(r.code, 0) << r.out;
+  for (const char* f : {"terrain.glb", "terrain_lod1.glb", "terrain.fbx", "terrain.stl", "terrain.obj", "normal.png", "splat0.png",
+                        "splat.json", "hillshade.png", "godot_height.exr", "godot_height.json", "godot_import.txt", "albedo.png"})
+    EXPECT_TRUE(fs::exists(a.path / f)) << f;
+  std::size_t compared = 0;
+  for (auto& e : fs::directory_iterator(a.path)) {
+    const std::string name = e.path().filename().string();
+    if (name == "report.json") continue;
+    EXPECT_EQ(slurp(e.path()), slurp(b.path / name)) << name;
+    ++compared;
+  }
+  EXPECT_GE(compared, 18u);
+}
+
+TEST(ExportCli, ExplainAndHelpListTheWriterOptions) {
+  const Result e = relief("explain");
+  ASSERT_EQ(e.code, 0);
+  for (const char* s : {"writer options", "--stl-size-mm", "--engine", "unity|unreal|godot", "--split", "--instancing"})
+    EXPECT_NE(e.out.find(s), std::string::npos) << s;
+  const auto j = nlohmann::json::parse(relief("explain --json").out);
+  bool found = false;
+  for (auto& o : j["writer_options"])
+    if (o["name"] == "stl_base_mm") {
+      found = true;
+      EXPECT_EQ(o["flag"], "--stl-base-mm");
+      EXPECT_EQ(o["unit"], "mm");
+      EXPECT_EQ(o["default"], 3.0);
+    }
+  EXPECT_TRUE(found);
+  const Result h = relief("generate --help");
+  EXPECT_NE(h.out.find("--lod-levels"), std::string::npos);
+  EXPECT_NE(h.out.find("--stl-exaggeration"), std::string::npos);
+}
