@@ -32,10 +32,32 @@ std::uint64_t random_seed() {
   return s & kMaxSeed;
 }
 
+namespace {
+bool same_frame(const Frame& a, const Frame& b) {
+  return a.world_width_m == b.world_width_m && a.world_depth_m == b.world_depth_m && a.spacing_m == b.spacing_m &&
+         a.nx == b.nx && a.nz == b.nz && a.ix0 == b.ix0 && a.iz0 == b.iz0 && a.height_m == b.height_m &&
+         a.sea_level == b.sea_level;
+}
+}  // namespace
+
 RunResult run(const Recipe& r, const RunOptions& opt) {
   RunResult res;
   res.seed = r.seed ? *r.seed : random_seed();
-  res.terrain.frame = opt.window ? *opt.window : r.world.frame();
+  const Frame frame = opt.window ? *opt.window : r.world.frame();
+  std::size_t first = 0;
+  if (opt.resume) {
+    const Resume& rs = *opt.resume;
+    if (!r.seed) throw Error("seed", "resuming a run needs the recipe's seed (the snapshot was made with one)");
+    if (!rs.terrain) throw Error("resume", "no snapshot given");
+    if (rs.first_stage < 0 || std::size_t(rs.first_stage) > r.stages.size())
+      throw Error("resume", "expected a first stage in 0.." + std::to_string(r.stages.size()) + ", got " +
+                                std::to_string(rs.first_stage));
+    if (!same_frame(rs.terrain->frame, frame)) throw Error("resume", "the snapshot's frame differs from the run's");
+    res.terrain = *rs.terrain;
+    first = std::size_t(rs.first_stage);
+  } else {
+    res.terrain.frame = frame;
+  }
   const Frame& f = res.terrain.frame;
   if (f.nx < 2 || f.nz < 2) throw Error("world.size", "expected at least 2 samples per axis, got " +
                                                           std::to_string(f.nx) + "x" + std::to_string(f.nz));
@@ -43,7 +65,8 @@ RunResult run(const Recipe& r, const RunOptions& opt) {
   tbb::task_arena arena(threads);
   const auto t_all = std::chrono::steady_clock::now();
   arena.execute([&] {
-    for (std::size_t i = 0; i < r.stages.size(); ++i) {
+    for (std::size_t i = first; i < r.stages.size(); ++i) {
+      if (opt.cancelled && opt.cancelled()) throw Cancelled();
       const RecipeStage& s = r.stages[i];
       Context ctx;
       ctx.seed = res.seed;

@@ -14,6 +14,7 @@
 #include <sstream>
 
 #include "bench.hpp"
+#include "relief/explain.hpp"
 #include "relief/output.hpp"
 #include "relief/pipeline.hpp"
 #include "relief/recipe.hpp"
@@ -236,20 +237,7 @@ void print_params(const std::vector<ParamInfo>& ps) {
 
 int cmd_explain(const std::string& stage, bool as_json) {
   if (as_json) {
-    json o;
-    json ws = json::array();
-    for (auto& p : world_params()) ws.push_back(p.to_json());
-    o["world"] = ws;
-    json st = json::array();
-    for (auto& d : stage_registry())
-      if (stage.empty() || d.name == stage) st.push_back(d.to_json());
-    if (!stage.empty() && st.empty()) throw Error("stage", "unknown stage \"" + stage + "\"");
-    o["stages"] = st;
-    json wr = json::array();
-    for (auto& w : writer_registry())
-      wr.push_back({{"name", w.name}, {"description", w.description}, {"files", w.files}, {"default", w.in_default_set}});
-    o["formats"] = wr;
-    std::printf("%s\n", o.dump(2).c_str());
+    std::printf("%s\n", parameter_table_json(stage).dump(2).c_str());
     return 0;
   }
   if (!stage.empty()) {
