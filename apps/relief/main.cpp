@@ -14,6 +14,7 @@
 #include <sstream>
 
 #include "bench.hpp"
+#include "studio.hpp"
 #include "relief/explain.hpp"
 #include "relief/output.hpp"
 #include "relief/pipeline.hpp"
@@ -310,6 +311,18 @@ int main(int argc, char** argv) {
   ben->add_option("--cases", bench_cases, "Comma-separated groups: noise, stages, presets (default: all)");
   ben->add_option("--json", bs.json_path, "Also write the results as JSON to FILE");
 
+  cli::StudioSettings ss;
+  auto* stu = app.add_subcommand("studio", "Serve Relief Studio: a live 3D preview with sliders, stage playback, walk mode and exports");
+  stu->add_option("--port", ss.port, "TCP port (0 = any free port, printed)")->check(CLI::Range(0, 65535))->capture_default_str();
+  stu->add_option("--host", ss.host, "Address to listen on (loopback unless you say otherwise)")->capture_default_str();
+  stu->add_flag("--open", ss.open, "Open the page in the default browser (xdg-open)");
+  stu->add_option("--max-preview", ss.max_preview, "Largest preview size accepted (samples per axis)")
+      ->check(CLI::Range(2, 8193))->capture_default_str();
+  stu->add_option("--max-export", ss.max_export, "Largest export size accepted (samples per axis)")
+      ->check(CLI::Range(2, 32769))->capture_default_str();
+  stu->add_option("--cache-mib", ss.cache_mib, "Memory for cached stage outputs, MiB")->check(CLI::Range(16, 1 << 20))->capture_default_str();
+  stu->add_option("--threads,-j", ss.threads, "Generation threads (0 = all cores)")->check(CLI::Range(0, 1024));
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -327,6 +340,13 @@ int main(int argc, char** argv) {
     if (*gen) return cmd_generate(gs);
     if (*pre) return cmd_presets(presets_json);
     if (*exp) return cmd_explain(explain_stage, explain_json);
+    if (*stu) {
+#ifdef RELIEF_HAVE_STUDIO
+      return cli::run_studio(ss);
+#else
+      throw Error("studio", "this relief was built without the studio: run scripts/setup.sh, then rebuild");
+#endif
+    }
     if (*ben) {
       auto ints = [](const std::string& text, const char* field, int lo, int hi) {
         std::vector<int> v;
