@@ -20,6 +20,7 @@ const state = {
   result: null,       // the last decoded generate frame
   latencies: [],      // end-to-end update times (ms): change → new picture on screen
   generations: 0,     // results applied
+  runs: [],           // per applied result: which stages came from the server's cache
   error: null,
   ready: false,
 };
@@ -123,6 +124,9 @@ class Generator {
     this.pendingSince = null;
   }
   request(kind) {
+    // Nothing to do when the recipe is the one already shown or on its way (lil-gui reports the
+    // end of a drag as a change too).
+    if (!this.controller && !this.pending && this.lastSent === JSON.stringify(requestRecipe()) && state.result) return;
     const now = performance.now();
     if (this.pendingSince === null) this.pendingSince = now;
     if (this.controller && kind !== 'now') {
@@ -145,8 +149,10 @@ class Generator {
     this.pendingSince = null;
     $('busy').hidden = false;
     const t0 = performance.now();
+    const recipe = requestRecipe();
+    this.lastSent = JSON.stringify(recipe);
     try {
-      const result = await api.generate(requestRecipe(), { layers: this.wantedLayers(), signal: ctrl.signal });
+      const result = await api.generate(recipe, { layers: this.wantedLayers(), signal: ctrl.signal });
       if (ctrl.signal.aborted) return;
       const t1 = performance.now();
       applyResult(result);
@@ -158,13 +164,17 @@ class Generator {
       });
       if (state.error) state.error = null;
     } catch (e) {
+      this.lastSent = null;
       if (e.name === 'AbortError' || (e instanceof api.ApiError && e.status === 409)) return;
       toast(e instanceof api.ApiError ? e.message : `Generation failed: ${e.message}`);
     } finally {
       if (this.controller === ctrl) {
         this.controller = null;
         $('busy').hidden = true;
-        if (this.pending) this.start();
+        if (this.pending) {
+          if (this.lastSent !== JSON.stringify(requestRecipe())) this.start();
+          else (this.pending = false), (this.pendingSince = null);
+        }
       }
     }
   }
@@ -177,6 +187,8 @@ const generator = new Generator();
 function applyResult(result) {
   state.result = result;
   state.generations++;
+  state.runs.push({ first_stage: result.header.first_stage, cached: result.header.timings.map((t) => t.cached) });
+  if (state.runs.length > 50) state.runs.shift();
   const { header, layers } = result;
   renderTerrain(header.frame, layers);
   view3d.setPoints(result.points);
@@ -699,7 +711,7 @@ window.studio = {
   sampleToScreen(i, j) {
     const p = groundDisplay(i, j).project(view3d.camera);
     const r = view3d.renderer.domElement.getBoundingClientRect();
-    return { x: r.left + ((p.x + 1) / 2) * r.width, y: r.top + ((1 - p.y) / 2) * r.height, visible: Math.abs(p.x) < 1 && Math.abs(p.y) < 1 && p.z < 1 };
+    return { x: r.left + ((p.x + 1) / 2) * r.width, y: r.top + ((1 - p.y) / 2) * r.height, visible: Math.abs(p.x) < 0.95 && Math.abs(p.y) < 0.95 && p.z > -1 && p.z < 1 };
   },
   canReach(i, j) {
     if (!walk.grid || !walk.pos) return false;
