@@ -10,6 +10,7 @@ import { View2D } from './view2d.js';
 import { makeGrid, findPath, simplifyPath, nearestStandable, sampleAt, Walker } from './walk.js';
 
 const $ = (id) => document.getElementById(id);
+const DRAG_BUDGET_MS = 70;  // server time above which drags preview at half resolution (auto)
 
 const state = {
   table: null,
@@ -30,7 +31,7 @@ const view2d = new View2D($('box2d'));
 const afterRender = [];
 
 // Display settings of the 3D view (not part of the recipe).
-const viewSettings = { relief: view3d.vscale, texture: 'lit colours', sea: true, props: true };
+const viewSettings = { relief: view3d.vscale, texture: 'lit colours', sea: true, props: true, dragPreview: 'auto' };
 state.shading = 'lit';
 const viewGui = new GUI({ container: $('box3d'), title: 'View', width: 230 });
 viewGui.domElement.id = 'view-gui';
@@ -47,6 +48,8 @@ viewGui.add(viewSettings, 'props').name('props & points').onChange((v) => {
   view3d.props.visible = view3d.pins.visible = v;
   view3d.dirty = true;
 });
+viewGui.add(viewSettings, 'dragPreview', ['auto', 'full', 'half']).name('while dragging')
+  .domElement.title = 'auto: half resolution while dragging when a full update takes longer than ' + DRAG_BUDGET_MS + ' ms on the server';
 viewGui.close();
 
 // ---------------------------------------------------------------------------------- messages
@@ -78,9 +81,20 @@ function previewSizeOf(recipe, n) {
   return [Math.max(2, Math.round(((n - 1) * (nx - 1)) / (nz - 1)) + 1), n];
 }
 
-function requestRecipe({ fullSize = false } = {}) {
+// While a slider is dragged, the preview may run at half resolution (every other sample of the
+// full preview: pointwise stages agree exactly there) when full updates are slower than the
+// budget; letting go of the slider brings the full resolution back.
+function dragSize() {
+  const n = state.previewSize;
+  const mode = viewSettings.dragPreview;
+  if (mode === 'full' || n <= 129) return n;
+  if (mode === 'half' || (state.fullServerMs !== null && state.fullServerMs > DRAG_BUDGET_MS)) return (n - 1) / 2 + 1;
+  return n;
+}
+
+function requestRecipe({ fullSize = false, dragging = false } = {}) {
   const r = structuredClone(state.recipe);
-  if (!fullSize) r.world.size = previewSizeOf(state.recipe, state.previewSize);
+  if (!fullSize) r.world.size = previewSizeOf(state.recipe, dragging ? dragSize() : state.previewSize);
   return r;
 }
 
@@ -124,9 +138,10 @@ class Generator {
     this.pendingSince = null;
   }
   request(kind) {
+    this.dragging = kind === 'drag';
     // Nothing to do when the recipe is the one already shown or on its way (lil-gui reports the
     // end of a drag as a change too).
-    if (!this.controller && !this.pending && this.lastSent === JSON.stringify(requestRecipe()) && state.result) return;
+    if (!this.controller && !this.pending && this.lastSent === this.key(this.recipe()) && state.result) return;
     const now = performance.now();
     if (this.pendingSince === null) this.pendingSince = now;
     if (this.controller && kind !== 'now') {
@@ -135,6 +150,12 @@ class Generator {
     }
     if (this.controller) this.controller.abort();
     this.start();
+  }
+  recipe() {
+    return requestRecipe({ dragging: this.dragging });
+  }
+  key(recipe) {
+    return JSON.stringify([recipe, this.wantedLayers()]);
   }
   wantedLayers() {
     const want = new Set(['height', 'albedo', 'color']);
@@ -149,12 +170,14 @@ class Generator {
     this.pendingSince = null;
     $('busy').hidden = false;
     const t0 = performance.now();
-    const recipe = requestRecipe();
-    this.lastSent = JSON.stringify(recipe);
+    const recipe = this.recipe();
+    this.lastSent = this.key(recipe);
+    const full = recipe.world.size[0] === previewSizeOf(state.recipe, state.previewSize)[0];
     try {
       const result = await api.generate(recipe, { layers: this.wantedLayers(), signal: ctrl.signal });
       if (ctrl.signal.aborted) return;
       const t1 = performance.now();
+      if (full) state.fullServerMs = result.header.server_ms;
       applyResult(result);
       afterRender.push(() => {
         const t2 = performance.now();
@@ -172,7 +195,7 @@ class Generator {
         this.controller = null;
         $('busy').hidden = true;
         if (this.pending) {
-          if (this.lastSent !== JSON.stringify(requestRecipe())) this.start();
+          if (this.lastSent !== this.key(this.recipe())) this.start();
           else (this.pending = false), (this.pendingSince = null);
         }
       }
@@ -352,10 +375,25 @@ const walk = {
   target: null,
   follow: true,
   message: '',
-  onTerrain() {
+  onTerrain(frame, heights) {
     const r = state.result;
-    if (!r || !r.layers.height) return;
-    this.grid = makeGrid(r.layers.height.data, r.header.frame);
+    if (!frame) {
+      if (!r || !r.layers.height) return;
+      (frame = r.header.frame), (heights = r.layers.height.data);
+    }
+    const old = this.grid;
+    this.grid = makeGrid(heights, frame);
+    // Another resolution (drag previews): keep the walker where it is in metres.
+    if (old && old.cell !== this.grid.cell) {
+      const k = old.cell / this.grid.cell;
+      const scale = (p) => [p[0] * k, p[1] * k];
+      if (this.pos) this.pos = scale(this.pos);
+      if (this.target) this.target = scale(this.target).map(Math.round);
+      if (this.walker) {
+        this.walker.path = this.walker.path.map(scale);
+        this.walker.pos = scale(this.walker.pos);
+      }
+    }
     if (this.pos) this.place();
   },
 };

@@ -135,6 +135,7 @@ export class View3D {
   setTerrain(frame, heights, rgb, lit) {
     const { nx, nz } = frame;
     const sizeChanged = !this.frame || this.frame.nx !== nx || this.frame.nz !== nz || this.frame.cell_m !== frame.cell_m;
+    const extentChanged = !this.frame || this.frame.width_m !== frame.width_m || this.frame.depth_m !== frame.depth_m;
     const first = !this.frame;
     this.frame = frame;
     this.heights = heights;
@@ -156,9 +157,9 @@ export class View3D {
     this.sea.scale.set(span * 60, 1, span * 60);
     this.floor.scale.set(span * 60, 1, span * 60);
     this.floor.position.y = (0 - frame.sea_level) * frame.height_m * this.vscale - 0.5;
-    this.scene.fog.near = span * 1.2;
-    this.scene.fog.far = span * 9;
-    if (first || sizeChanged) this.frameCamera(first);
+    this.scene.fog.near = span * 1.5;
+    this.scene.fog.far = span * 6;
+    if (first || extentChanged) this.frameCamera();
     this.dirty = true;
   }
 
@@ -254,7 +255,7 @@ export class View3D {
   frameCamera() {
     const f = this.frame;
     const span = Math.max(f.width_m, f.depth_m);
-    this.camera.position.set(span * 0.55, span * 0.6, span * 0.8);
+    this.camera.position.set(span * 0.58, span * 0.4, span * 0.82);
     this.controls.target.set(0, 0, 0);
     this.controls.minDistance = span * 0.02;
     this.controls.maxDistance = span * 4;

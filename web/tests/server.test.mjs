@@ -66,6 +66,19 @@ async function goodGenerate(headers = {}) {
   return decodeFrame(await res.arrayBuffer());
 }
 
+test('a port or host it cannot use is a clear error with exit code 2', async () => {
+  for (const args of [['--host', '203.0.113.77', '--port', '0'], ['--port', '70000']]) {
+    let code = 0, stderr = '';
+    try {
+      execFileSync(RELIEF, ['studio', ...args], { encoding: 'utf8', stdio: ['ignore', 'pipe', 'pipe'], timeout: 10000 });
+    } catch (e) {
+      (code = e.status), (stderr = String(e.stderr));
+    }
+    assert.equal(code, 2, `${args}: ${stderr}`);
+    assert.match(stderr, /--host|--port/);
+  }
+});
+
 test('serves the page and its bundle', async () => {
   const html = await (await fetch(server.url + '/')).text();
   assert.match(html, /<script type="module" src="app.js">/);
