@@ -225,7 +225,9 @@ test('walk mode: the walker reaches a clicked point on land along a dry, climbab
         if (i < 1 || j < 1 || i >= w.grid.nx - 1 || j >= w.grid.nz - 1) continue;
         if (w.grid.h[j * w.grid.nx + i] < w.grid.sea + 0.01) continue;
         const p = s.sampleToScreen(i, j);
-        if (!p.visible || !s.canReach(i, j)) continue;
+        if (!p.visible || document.elementFromPoint(p.x, p.y) !== s.view3d.renderer.domElement) continue;
+        const hit = s.view3d.pick(p.x, p.y);  // not hidden behind a hill
+        if (!hit || Math.hypot(hit.fi - i, hit.fj - j) > 0.7 || !s.canReach(i, j)) continue;
         return { i, j, x: p.x, y: p.y };
       }
     return null;
@@ -254,7 +256,9 @@ test('walk mode: the walker reaches a clicked point on land along a dry, climbab
       for (let i = 2; i < g.nx; i += 5)
         if (g.h[j * g.nx + i] < g.sea - 0.02) {
           const p = s.sampleToScreen(i, j);
-          if (p.visible && document.elementFromPoint(p.x, p.y) === canvas) return p;
+          if (!p.visible || document.elementFromPoint(p.x, p.y) !== canvas) continue;
+          const hit = s.view3d.pick(p.x, p.y);  // not hidden behind land
+          if (hit && Math.hypot(hit.fi - i, hit.fj - j) < 2) return p;
         }
     return null;
   });
