@@ -20,6 +20,8 @@
 #include <archive.h>
 #include <archive_entry.h>
 #include <httplib.h>
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
 #include <signal.h>
 #include <spawn.h>
 #include <sys/wait.h>
@@ -173,14 +175,20 @@ struct Session {
 
 class FrameWriter {
  public:
-  // Adds a blob; returns its descriptor fields {offset, bytes} relative to the blob area (fixed
-  // up to absolute offsets in finish()).
-  json add(std::string bytes) {
+  void expect(std::size_t bytes) { blobs_.reserve(bytes); }
+  // Reserves a blob of `bytes` bytes and returns {offset, bytes} (offset relative to the blob
+  // area, fixed up to an absolute offset in finish()) and where to write it.
+  std::pair<json, char*> reserve(std::size_t bytes) {
     json d;
     d["offset"] = blobs_.size();
-    d["bytes"] = bytes.size();
-    blobs_ += bytes;
-    blobs_.append((8 - blobs_.size() % 8) % 8, '\0');
+    d["bytes"] = bytes;
+    const std::size_t at = blobs_.size();
+    blobs_.resize(at + bytes + (8 - bytes % 8) % 8, '\0');
+    return {d, blobs_.data() + at};
+  }
+  json add(const void* data, std::size_t bytes) {
+    auto [d, at] = reserve(bytes);
+    if (bytes) std::memcpy(at, data, bytes);
     return d;
   }
   std::string finish(json header) {
@@ -196,7 +204,9 @@ class FrameWriter {
       if (padded == base) break;
       base = padded;
     }
-    std::string out = "RLF1";
+    std::string out;
+    out.reserve(base + blobs_.size());
+    out = "RLF1";
     const std::uint32_t n = std::uint32_t(text.size());
     for (int k = 0; k < 4; ++k) out.push_back(char((n >> (8 * k)) & 255));
     out += text;
@@ -219,24 +229,24 @@ class FrameWriter {
   std::string blobs_;
 };
 
-std::string layer_f32(const Layer& l, std::size_t count) {
-  std::string s(count * 4, '\0');
+// Channel 0 of every sample as Float32.
+void write_f32(const Layer& l, std::size_t count, char* out) {
   if (l.channels == 1) {
-    std::memcpy(s.data(), l.data.data(), count * 4);
+    std::memcpy(out, l.data.data(), count * 4);
   } else {
-    for (std::size_t k = 0; k < count; ++k) std::memcpy(&s[4 * k], &l.data[k * l.channels], 4);
+    for (std::size_t k = 0; k < count; ++k) std::memcpy(out + 4 * k, &l.data[k * l.channels], 4);
   }
-  return s;
 }
 
-std::string layer_rgb8(const Layer& l, std::size_t count) {
-  std::string s(count * 3, '\0');
-  for (std::size_t k = 0; k < count * 3; ++k) {
-    const float v = l.data[k];
-    const float c = v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f;  // NaN → 0
-    s[k] = char(std::uint8_t(c * 255.0f + 0.5f));                 // c ≥ 0: truncation rounds
-  }
-  return s;
+// RGB8: round(clamp(v, 0, 1)·255), NaN → 0; rows in parallel (each byte depends on one value).
+void write_rgb8(const Layer& l, std::size_t count, char* out) {
+  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count * 3, 1 << 16), [&](const tbb::blocked_range<std::size_t>& r) {
+    for (std::size_t k = r.begin(); k < r.end(); ++k) {
+      const float v = l.data[k];
+      const float c = v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f;
+      out[k] = char(std::uint8_t(c * 255.0f + 0.5f));  // c ≥ 0: truncation rounds
+    }
+  });
 }
 
 json frame_json(const Frame& f) {
@@ -248,12 +258,17 @@ json frame_json(const Frame& f) {
 // Adds `name` to the frame: RGB8 for three-channel layers, Float32 (first channel) otherwise.
 json encode_layer(FrameWriter& w, const Terrain& t, const std::string& name) {
   const Layer& l = t.layers.at(name);
+  const std::size_t n = t.frame.count();
   json d;
   if (l.channels == 3) {
-    d = w.add(layer_rgb8(l, t.frame.count()));
+    auto [desc, at] = w.reserve(n * 3);
+    write_rgb8(l, n, at);
+    d = std::move(desc);
     d["type"] = "rgb8";
   } else {
-    d = w.add(layer_f32(l, t.frame.count()));
+    auto [desc, at] = w.reserve(n * 4);
+    write_f32(l, n, at);
+    d = std::move(desc);
     d["type"] = "f32";
   }
   d["channels"] = l.channels;
@@ -275,7 +290,7 @@ json encode_points(FrameWriter& w, const Terrain& t) {
     data.push_back(index_of(kinds, p.kind));
     data.push_back(index_of(types, p.type));
   }
-  json d = w.add(std::string(reinterpret_cast<const char*>(data.data()), data.size() * sizeof(float)));
+  json d = w.add(data.data(), data.size() * sizeof(float));
   d["count"] = t.points.size();
   d["stride"] = 7;
   d["fields"] = {"x_m", "y_m", "z_m", "rotation_deg", "scale", "kind", "type"};
@@ -476,15 +491,23 @@ Studio::Generated Studio::generate(const Recipe& r, const Frame& f, const std::f
   auto stage_t0 = Clock::now();
   opt.after_stage = [&](const Terrain& t, const RecipeStage&, int i) {
     ms[std::size_t(i)] = ms_since(stage_t0);
-    Snapshot s{std::make_shared<const Terrain>(t), ms[std::size_t(i)]};
-    cache_.put(keys[std::size_t(i)], s);
-    if (keep || i == n - 1) g.snaps[std::size_t(i)] = std::move(s);
+    if (i < n - 1) {  // the last stage's terrain is the run's result: moved, not copied, below
+      Snapshot s{std::make_shared<const Terrain>(t), ms[std::size_t(i)]};
+      cache_.put(keys[std::size_t(i)], s);
+      if (keep) g.snaps[std::size_t(i)] = std::move(s);
+    }
     stage_t0 = Clock::now();
   };
   if (first < n || n == 0) {
     stage_t0 = Clock::now();
     RunResult res = run(r, opt);
-    if (n == 0) g.snaps.push_back(Snapshot{std::make_shared<const Terrain>(std::move(res.terrain)), 0});
+    Snapshot last{std::make_shared<const Terrain>(std::move(res.terrain)), n ? ms[std::size_t(n - 1)] : 0.0};
+    if (n == 0) {
+      g.snaps.push_back(std::move(last));
+    } else {
+      cache_.put(keys[std::size_t(n - 1)], last);
+      g.snaps[std::size_t(n - 1)] = std::move(last);
+    }
   }
   g.terrain = g.snaps.back().terrain;
   for (int i = 0; i < n; ++i) {
@@ -546,6 +569,10 @@ void Studio::api_generate(const httplib::Request& req, httplib::Response& res) {
     const Terrain& t = *g.terrain;
     const auto te = Clock::now();
     FrameWriter w;
+    std::size_t expect = t.points.size() * 28 + 64;
+    for (auto& [name, l] : t.layers)
+      if (all || std::find(want.begin(), want.end(), name) != want.end()) expect += t.frame.count() * (l.channels == 3 ? 3 : 4) + 8;
+    w.expect(expect);
     json h;
     h["seed"] = *r.recipe.seed;
     h["frame"] = frame_json(t.frame);

@@ -36,7 +36,8 @@ state.shading = 'lit';
 const viewGui = new GUI({ container: $('box3d'), title: 'View', width: 230 });
 viewGui.domElement.id = 'view-gui';
 viewGui.add(viewSettings, 'relief', 0.5, 6, 0.1).name('relief ×').onChange((v) => {
-  view3d.setVerticalScale(v);
+  if (view3d.mode === 'follow') view3d.userScale = v;  // the walk view stays at true scale
+  else view3d.setVerticalScale(v);
   if (walk.active && walk.pos) walk.place();
 });
 viewGui.add(viewSettings, 'texture', ['lit colours', 'hillshaded']).onChange((v) => {
@@ -179,9 +180,17 @@ class Generator {
       const t1 = performance.now();
       if (full) state.fullServerMs = result.header.server_ms;
       applyResult(result);
+      const tApplied = performance.now();
       afterRender.push(() => {
         const t2 = performance.now();
-        state.latencies.push({ total: t2 - since, request: t1 - t0, apply: t2 - t1, server: result.header.server_ms });
+        state.latencies.push({
+          total: t2 - since,                    // the change → its picture on screen
+          request: t1 - t0,                     // fetch + transfer + decode
+          apply: tApplied - t1,                 // mesh, normals, texture, tabs (JavaScript)
+          render: t2 - tApplied,                // until the frame is drawn (GPU / SwiftShader)
+          server: result.header.server_ms,
+          size: result.header.frame.nx,
+        });
         if (state.latencies.length > 200) state.latencies.shift();
         showTimings(result.header, t2 - since);
       });
@@ -285,6 +294,7 @@ function setView(v) {
   state.view = v;
   $('box3d').hidden = v !== '3d';
   $('box2d').hidden = v === '3d';
+  $('walk-bar').hidden = !(walk.active && v === '3d');
   for (const b of $('views').children) b.classList.toggle('active', b.dataset.view === v);
   if (v === '3d') {
     view3d.resize();
@@ -414,7 +424,7 @@ function groundDisplay(fi, fj) {
 walk.place = function () {
   const p = groundDisplay(walk.pos[0], walk.pos[1]);
   view3d.placeWalker(p, walk.heading);
-  if (walk.follow && walk.state !== 'idle') {
+  if (view3d.mode === 'follow') {
     const f = state.result.header.frame;
     view3d.followWalker(p, walk.heading, (x, z) => groundDisplay((x + f.width_m / 2) / f.cell_m, (z + f.depth_m / 2) / f.cell_m).y);
   }
@@ -447,6 +457,7 @@ function enterWalk() {
 
 function exitWalk() {
   walk.active = false;
+  walk.path = null;
   walk.state = 'off';
   view3d.walker.visible = false;
   view3d.pathLine.visible = false;
@@ -474,12 +485,17 @@ function walkTo(fi, fj) {
   walk.walker = new Walker(simple);
   walk.target = goal;
   walk.state = 'walking';
-  const lift = 0.6;
-  view3d.showPath(simple.map(([a, b]) => groundDisplay(a, b).add({ x: 0, y: lift, z: 0 })));
+  walk.path = simple;
+  if (walk.follow) view3d.setMode('follow');
+  showWalkPath();
   const metres = path.length > 1 ? pathLength(simple) * g.cell : 0;
   walkText(`Walking ${metres.toFixed(0)} m (path found in ${(performance.now() - t0).toFixed(0)} ms)…`);
-  if (walk.follow) view3d.setMode('follow');
   return true;
+}
+
+// The path line, 0.6 m above the ground at the current vertical scale.
+function showWalkPath() {
+  if (walk.path) view3d.showPath(walk.path.map(([a, b]) => groundDisplay(a, b).add({ x: 0, y: 0.6, z: 0 })));
 }
 
 function pathLength(p) {
@@ -505,12 +521,10 @@ $('walk-exit').onclick = exitWalk;
 $('walk-view').onclick = () => {
   walk.follow = !walk.follow;
   $('walk-view').textContent = walk.follow ? 'Overview' : 'Eye height';
-  if (walk.follow && walk.state === 'walking') view3d.setMode('follow');
-  else {
-    view3d.setMode('orbit');
-    if (!walk.follow) view3d.frameCamera();
-  }
-  if (walk.follow) walk.place();
+  view3d.setMode(walk.follow ? 'follow' : 'orbit');
+  if (!walk.follow) view3d.frameCamera();
+  walk.place();
+  showWalkPath();
 };
 
 // Clicks (not drags) on the 3D view pick walk targets.

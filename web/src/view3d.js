@@ -25,9 +25,10 @@ function shapeFor(type) {
 export function elevationTint(heights, sea) {
   const n = heights.length;
   const out = new Uint8Array(n * 3);
+  const land = (f) => sea + (1 - sea) * f;
   const ramp = [
-    [0.0, [24, 52, 96]], [sea, [70, 130, 180]], [sea + 0.0001, [200, 190, 140]],
-    [sea + (1 - sea) * 0.25, [110, 150, 80]], [sea + (1 - sea) * 0.6, [120, 105, 90]], [1.0, [240, 240, 240]],
+    [0.0, [24, 52, 96]], [sea, [78, 138, 186]], [sea + 0.0001, [214, 200, 150]], [land(0.03), [150, 180, 100]],
+    [land(0.3), [80, 130, 64]], [land(0.55), [130, 112, 92]], [land(0.8), [170, 160, 150]], [1.0, [245, 245, 245]],
   ];
   for (let k = 0; k < n; k++) {
     const e = Math.max(0, Math.min(1, heights[k]));
@@ -331,21 +332,35 @@ export class View3D {
     this.dirty = true;
   }
 
-  // Walk camera: at eye height (1.7 m) a few metres behind the walker, looking ahead.
+  // Walk camera: at eye height (1.7 m above the ground) a few metres behind the walker, looking
+  // along the ground ahead.
   followWalker(p, heading, groundAt) {
-    const back = 4, eye = 1.7;
+    const back = 6, eye = 1.7, ahead = 80;
     const cx = p.x - Math.cos(heading) * back, cz = p.z - Math.sin(heading) * back;
     const cy = Math.max(groundAt(cx, cz), p.y) + eye;
+    const lx = p.x + Math.cos(heading) * ahead, lz = p.z + Math.sin(heading) * ahead;
+    const ly = Math.max(groundAt(lx, lz), 0) + eye;
     this.camera.position.set(cx, cy, cz);
-    this.camera.lookAt(p.x + Math.cos(heading) * 30, p.y + eye * 0.8, p.z + Math.sin(heading) * 30);
+    this.camera.lookAt(lx, Math.min(ly, cy + ahead * 0.2), lz);
     this.dirty = true;
   }
 
+  // orbit: the orbit controls; follow: the walk camera, at true vertical scale (a person next to
+  // exaggerated hills would give a false sense of scale) and a wider field of view.
   setMode(mode) {
+    if (mode === this.mode) return;
     this.mode = mode;
     this.controls.enabled = mode === 'orbit';
     this.beacon.visible = mode !== 'follow';
     this.camera.near = mode === 'follow' ? 0.1 : 1;
+    this.camera.fov = mode === 'follow' ? 60 : 42;
+    if (mode === 'follow') {
+      this.userScale = this.vscale;
+      this.setVerticalScale(1);
+    } else if (this.userScale !== undefined) {
+      this.setVerticalScale(this.userScale);
+      this.userScale = undefined;
+    }
     this.camera.updateProjectionMatrix();
     if (mode === 'orbit') {
       this.controls.update();

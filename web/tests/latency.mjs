@@ -76,9 +76,10 @@ try {
     const per = await measure('stages[0].persistence', Array.from({ length: runs }, (_, k) => 0.4 + 0.01 * k));
     await page.click(`#panel-box .lil-title:text-is("${colour + 1} · ${doc.stages[colour].label}")`);
     const rock = await measure(`stages[${colour}].rock_slope_deg`, Array.from({ length: runs }, (_, k) => 40 + k));
+    const m = (xs, k) => median(xs.map((x) => x[k])).toFixed(1);
     const show = (name, xs) =>
-      console.log(`  page, ${name}: change → picture ${fmt(xs.map((x) => x.total))}; request ${median(xs.map((x) => x.request)).toFixed(1)} ms, ` +
-        `apply+render ${median(xs.map((x) => x.apply)).toFixed(1)} ms`);
+      console.log(`  page, ${name}: change → picture ${fmt(xs.map((x) => x.total))}\n` +
+        `      medians: server ${m(xs, 'server')} ms, request ${m(xs, 'request')} ms, apply (JS) ${m(xs, 'apply')} ms, render ${m(xs, 'render')} ms`);
     show('octaves (noise on)      ', oct);
     show('persistence (noise on)  ', per);
     show('rock_slope_deg (colour) ', rock);

@@ -11,6 +11,9 @@ try {
   await page.goto(server.url);
   await waitIdle(page);
   if (process.env.SHOT_VIEW) await page.click(`#views button[data-view="${process.env.SHOT_VIEW}"]`);
+  await page.hover('[data-param="stages[0].octaves"] .lil-name');  // the help box explains it
+  await page.mouse.move(500, 300);
+  await page.hover('[data-param="stages[0].octaves"] .lil-name');
   await page.waitForTimeout(600);
   await page.screenshot({ path: out });
   console.log(`wrote ${out}`);
