@@ -831,8 +831,18 @@ int run_studio(const StudioSettings& s) {
     std::fprintf(stderr, "relief studio: %s\n", what.c_str());
     send_json(res, 500, {{"error", what}});
   });
-  // A page on another origin must not drive the studio (a local server is reachable from any tab).
-  svr.set_pre_routing_handler([](const httplib::Request& req, httplib::Response& res) {
+  // A page on another origin must not drive the studio (a local server is reachable from any
+  // tab), and on loopback only loopback names are served (no DNS rebinding to a foreign name).
+  const bool loopback = s.host == "127.0.0.1" || s.host == "localhost" || s.host == "::1";
+  svr.set_pre_routing_handler([loopback](const httplib::Request& req, httplib::Response& res) {
+    if (loopback) {
+      const std::string host = req.get_header_value("Host");
+      const std::string name = host.starts_with("[") ? host.substr(0, host.find(']') + 1) : host.substr(0, host.find(':'));
+      if (name != "127.0.0.1" && name != "localhost" && name != "[::1]") {
+        send_error(res, ApiError{403, "Host", "this studio serves only 127.0.0.1, localhost and [::1], not " + name.substr(0, 100)});
+        return httplib::Server::HandlerResponse::Handled;
+      }
+    }
     if (req.has_header("Origin")) {
       const std::string origin = req.get_header_value("Origin"), host = req.get_header_value("Host");
       if (origin != "http://" + host) {

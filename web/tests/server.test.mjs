@@ -47,11 +47,11 @@ async function expectError(res, status, { path: field, match } = {}) {
 }
 
 // A raw request line, so that nothing normalises the path before the server sees it.
-function rawGet(target) {
+function rawGet(target, host) {
   return new Promise((resolve, reject) => {
     const { hostname, port } = new URL(server.url);
     const sock = net.connect(Number(port), hostname, () => {
-      sock.write(`GET ${target} HTTP/1.1\r\nHost: ${hostname}:${port}\r\nConnection: close\r\n\r\n`);
+      sock.write(`GET ${target} HTTP/1.1\r\nHost: ${host || hostname + ':' + port}\r\nConnection: close\r\n\r\n`);
     });
     let data = '';
     sock.on('data', (d) => (data += d));
@@ -154,6 +154,10 @@ test('wrong methods and foreign origins are refused', async () => {
   await expectError(res, 405, { match: /use POST/ });
   assert.equal(res.headers.get('allow'), 'POST');
   await expectError(await post('/api/generate', { recipe: await preset() }, { Origin: 'http://evil.example' }), 403, { path: 'Origin' });
+  const rebound = await rawGet('/api/params', 'evil.example:8080');
+  assert.equal(rebound.status, 403);
+  assert.match(rebound.text, /serves only 127\.0\.0\.1, localhost and \[::1\]/);
+  assert.equal((await rawGet('/api/params', `localhost:${new URL(server.url).port}`)).status, 200);
 });
 
 test('generate returns every layer and per-stage timings as a binary frame', async () => {
