@@ -753,6 +753,7 @@ init();
 window.studio = {
   state,
   view3d,
+  viewSettings,
   playback,
   walk,
   get idle() {

@@ -58,6 +58,8 @@ try {
     const { page } = browser;
     await page.goto(`${server.url}/?size=${size}`);
     await waitIdle(page);
+    // One update per change, at the preview size (no half-resolution drag preview).
+    await page.evaluate(() => (window.studio.viewSettings.dragPreview = 'full'));
     const measure = async (param, values) => {
       const out = [];
       for (const v of values) {
@@ -78,7 +80,8 @@ try {
     const rock = await measure(`stages[${colour}].rock_slope_deg`, Array.from({ length: runs }, (_, k) => 40 + k));
     const m = (xs, k) => median(xs.map((x) => x[k])).toFixed(1);
     const show = (name, xs) =>
-      console.log(`  page, ${name}: change → picture ${fmt(xs.map((x) => x.total))}\n` +
+      console.log(`  page, ${name}: one update, change → picture ${fmt(xs.map((x) => x.request + x.apply + x.render))}\n` +
+        `      without the frame's rendering ${fmt(xs.map((x) => x.request + x.apply))}\n` +
         `      medians: server ${m(xs, 'server')} ms, request ${m(xs, 'request')} ms, apply (JS) ${m(xs, 'apply')} ms, render ${m(xs, 'render')} ms`);
     show('octaves (noise on)      ', oct);
     show('persistence (noise on)  ', per);
