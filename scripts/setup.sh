@@ -1,17 +1,24 @@
 #!/usr/bin/env bash
-# Installs what Relief needs on Debian 12: apt-get only what is missing (idempotent), then the npm
-# tools the tests run (tools/package-lock.json, `npm ci`, only when tools/node_modules is stale).
-# The client tools the test suite drives (Blender about 600 MB, assimp, node) are part of the set.
+# Installs what Relief needs on Debian 12: apt-get only what is missing (idempotent), then the
+# npm packages from the committed lock files with `npm ci` (tools/: the Khronos glTF validator;
+# web/: the studio's front end and its browser tests), each skipped when already in place.
+# The client tools the test suite drives (Blender about 600 MB, assimp, Tiled, Chromium) are part
+# of the set.
 set -euo pipefail
+root="$(cd "$(dirname "$0")/.." && pwd)"
 packages=(
   g++ cmake ninja-build pkg-config git
   libhwy-dev libtbb-dev nlohmann-json3-dev libcli11-dev libspng-dev
   libgtest-dev libgmock-dev libbenchmark-dev libnoise-dev
   libfreetype-dev fonts-dejavu-core
   python3-pil python3-numpy
-  tiled  # tmxrasterizer and `tiled --export-tileset`: the tilemap tests load our TMX/TMJ/TSX in Tiled
+  # exports: glTF, meshes, EXR, FBX compression, and the real clients that load our files
   libtinygltf-dev libstb-dev libmeshoptimizer-dev libopenexr-dev zlib1g-dev
   assimp-utils blender
+  # tilemaps: tmxrasterizer and `tiled --export-tileset` load our TMX/TMJ/TSX
+  tiled
+  # relief studio: HTTP server, zip archives for exports, the browser its tests drive
+  libcpp-httplib-dev libarchive-dev chromium
 )
 # Node and npm: any install that provides the commands will do (Debian's nodejs + npm by default).
 command -v node >/dev/null 2>&1 || packages+=(nodejs)
@@ -30,10 +37,12 @@ else
   echo "setup: all packages present"
 fi
 
-# npm tools for the tests (Khronos glTF validator), pinned by tools/package-lock.json.
-cd "$(dirname "$0")/../tools"
-if [ ! -f node_modules/.package-lock.json ] || ! cmp -s package-lock.json .installed-lock.json; then
-  echo "setup: npm ci in tools/"
-  npm ci --no-audit --no-fund --loglevel=error
-  cp package-lock.json .installed-lock.json
-fi
+# npm packages, exactly as locked; re-installed only when the lock file changed since the last install.
+for dir in tools web; do
+  if [ ! -f "$root/$dir/node_modules/.package-lock.json" ] || ! cmp -s "$root/$dir/package-lock.json" "$root/$dir/node_modules/.relief-installed-lock.json"; then
+    echo "setup: npm ci in $dir/"
+    (cd "$root/$dir" && npm ci --no-audit --no-fund --loglevel=error && cp package-lock.json node_modules/.relief-installed-lock.json)
+  else
+    echo "setup: $dir/node_modules up to date"
+  fi
+done

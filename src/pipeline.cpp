@@ -35,10 +35,32 @@ std::uint64_t random_seed() {
   return s & kMaxSeed;
 }
 
+namespace {
+bool same_frame(const Frame& a, const Frame& b) {
+  return a.world_width_m == b.world_width_m && a.world_depth_m == b.world_depth_m && a.spacing_m == b.spacing_m &&
+         a.nx == b.nx && a.nz == b.nz && a.ix0 == b.ix0 && a.iz0 == b.iz0 && a.height_m == b.height_m &&
+         a.sea_level == b.sea_level;
+}
+}  // namespace
+
 RunResult run(const Recipe& r, const RunOptions& opt) {
   RunResult res;
   res.seed = r.seed ? *r.seed : random_seed();
-  res.terrain.frame = opt.window ? *opt.window : r.world.frame();
+  const Frame frame = opt.window ? *opt.window : r.world.frame();
+  std::size_t first = 0;
+  if (opt.resume) {
+    const Resume& rs = *opt.resume;
+    if (!r.seed) throw Error("seed", "resuming a run needs the recipe's seed (the snapshot was made with one)");
+    if (!rs.terrain) throw Error("resume", "no snapshot given");
+    if (rs.first_stage < 0 || std::size_t(rs.first_stage) > r.stages.size())
+      throw Error("resume", "expected a first stage in 0.." + std::to_string(r.stages.size()) + ", got " +
+                                std::to_string(rs.first_stage));
+    if (!same_frame(rs.terrain->frame, frame)) throw Error("resume", "the snapshot's frame differs from the run's");
+    res.terrain = *rs.terrain;
+    first = std::size_t(rs.first_stage);
+  } else {
+    res.terrain.frame = frame;
+  }
   if (opt.recycle && opt.recycle != &res.terrain) {
     for (auto& [name, l] : opt.recycle->layers) res.terrain.spare.push_back(std::move(l.data));
     for (auto& b : opt.recycle->spare) res.terrain.spare.push_back(std::move(b));
@@ -71,7 +93,8 @@ RunResult run(const Recipe& r, const RunOptions& opt) {
   using clock = std::chrono::steady_clock;
   auto ms_since = [](clock::time_point t0) { return std::chrono::duration<double, std::milli>(clock::now() - t0).count(); };
   arena.execute([&] {
-    for (std::size_t i = 0; i < r.stages.size();) {
+    for (std::size_t i = first; i < r.stages.size();) {
+      if (opt.cancelled && opt.cancelled()) throw Cancelled();
       // A chain of consecutive fusable stages [i, end): one pass over the rows.
       std::size_t end = i + 1;
       if (fuse && r.stages[i].stage->fusable())
@@ -90,6 +113,7 @@ RunResult run(const Recipe& r, const RunOptions& opt) {
       std::vector<std::unique_ptr<RowKernel>> kernels;
       for (std::size_t k = i; k < end; ++k) {
         const RecipeStage& s = r.stages[k];
+        if (k > i && opt.cancelled && opt.cancelled()) throw Cancelled();  // checked once per stage
         if (opt.progress) opt.progress(s.def->name, double(k) / double(r.stages.size()));
         named(k, [&] { kernels.push_back(s.stage->prepare_rows(res.terrain, context(k))); });
       }

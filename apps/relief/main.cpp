@@ -22,6 +22,8 @@
 
 #include "bench.hpp"
 #include "relief/export.hpp"
+#include "studio.hpp"
+#include "relief/explain.hpp"
 #include "relief/output.hpp"
 #include "relief/pipeline.hpp"
 #include "relief/recipe.hpp"
@@ -409,27 +411,7 @@ void print_params(const std::vector<ParamInfo>& ps, int indent = 4) {
 
 int cmd_explain(const std::string& stage, bool as_json) {
   if (as_json) {
-    json o;
-    json ws = json::array();
-    for (auto& p : world_params()) ws.push_back(p.to_json());
-    o["world"] = ws;
-    json st = json::array();
-    for (auto& d : stage_registry())
-      if (stage.empty() || d.name == stage) st.push_back(d.to_json());
-    if (!stage.empty() && st.empty()) throw Error("stage", "unknown stage \"" + stage + "\"");
-    o["stages"] = st;
-    json wr = json::array();
-    for (auto& w : writer_registry())
-      wr.push_back({{"name", w.name}, {"description", w.description}, {"files", w.files}, {"default", w.in_default_set}});
-    o["formats"] = wr;
-    json eo = json::array();
-    for (auto& p : export_options_table().infos()) {
-      json j = p.to_json();
-      j["flag"] = option_flag(p.name);
-      eo.push_back(j);
-    }
-    o["writer_options"] = eo;
-    std::printf("%s\n", o.dump(2).c_str());
+    std::printf("%s\n", parameter_table_json(stage).dump(2).c_str());
     return 0;
   }
   if (!stage.empty()) {
@@ -534,6 +516,18 @@ int main(int argc, char** argv) {
   ben->add_option("--cases", bench_cases, "Comma-separated groups: " + cli::bench_group_list() + " (default: all)");
   ben->add_option("--json", bs.json_path, "Also write the results as JSON to FILE");
 
+  cli::StudioSettings ss;
+  auto* stu = app.add_subcommand("studio", "Serve Relief Studio: a live 3D preview with sliders, stage playback, walk mode and exports");
+  stu->add_option("--port", ss.port, "TCP port (0 = any free port, printed)")->check(CLI::Range(0, 65535))->capture_default_str();
+  stu->add_option("--host", ss.host, "Address to listen on (loopback unless you say otherwise)")->capture_default_str();
+  stu->add_flag("--open", ss.open, "Open the page in the default browser (xdg-open)");
+  stu->add_option("--max-preview", ss.max_preview, "Largest preview size accepted (samples per axis)")
+      ->check(CLI::Range(2, 8193))->capture_default_str();
+  stu->add_option("--max-export", ss.max_export, "Largest export size accepted (samples per axis)")
+      ->check(CLI::Range(2, 32769))->capture_default_str();
+  stu->add_option("--cache-mib", ss.cache_mib, "Memory for cached stage outputs, MiB")->check(CLI::Range(16, 1 << 20))->capture_default_str();
+  stu->add_option("--threads,-j", ss.threads, "Generation threads (0 = all cores)")->check(CLI::Range(0, 1024));
+
   try {
     app.parse(argc, argv);
   } catch (const CLI::CallForHelp& e) {
@@ -553,6 +547,13 @@ int main(int argc, char** argv) {
     if (*gen) return cmd_generate(gs);
     if (*pre) return cmd_presets(presets_json);
     if (*exp) return cmd_explain(explain_stage, explain_json);
+    if (*stu) {
+#ifdef RELIEF_HAVE_STUDIO
+      return cli::run_studio(ss);
+#else
+      throw Error("studio", "this relief was built without the studio: run scripts/setup.sh, then rebuild");
+#endif
+    }
     if (*ben) {
       auto ints = [](const std::string& text, const char* field, int lo, int hi) {
         std::vector<int> v;

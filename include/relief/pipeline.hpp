@@ -1,6 +1,7 @@
 #pragma once
 // Running a recipe: the one function behind the CLI, the studio and the tests.
 #include <cstdint>
+#include <exception>
 #include <functional>
 #include <optional>
 #include <string>
@@ -21,6 +22,22 @@ struct StageTiming {
   bool fused = false;
 };
 
+// Thrown by run() when RunOptions::cancelled returned true (not an Error: nothing was wrong with
+// the input; the caller asked to stop, e.g. the studio superseding a generation by a newer one).
+class Cancelled : public std::exception {
+ public:
+  const char* what() const noexcept override { return "cancelled"; }
+};
+
+// Where a resumed run starts: `terrain` is the state after stages [0, first_stage) of the same
+// recipe, seed and window (e.g. a snapshot taken in after_stage by an earlier run). It is copied,
+// never modified, and must stay alive for the duration of run(). Because stages depend only on
+// their input terrain, params, seed and index, the result is byte-identical to a full run.
+struct Resume {
+  const Terrain* terrain = nullptr;
+  int first_stage = 0;  // 0..stages.size(); stages.size() returns the snapshot itself
+};
+
 struct RunOptions {
   int threads = 0;  // 0 = all hardware threads; results are identical for any count
   // Optional window of the world (default: the whole world of the recipe). Pointwise stages
@@ -38,12 +55,17 @@ struct RunOptions {
   // into the new terrain's spare buffers; it is left without layers). Saves the page faults of
   // fresh allocations when regenerating, as the studio does on every change. Results are the same.
   Terrain* recycle = nullptr;
+  // Start from a snapshot instead of an empty terrain (the studio's stage cache). The recipe
+  // must have a seed (the snapshot was made with one); its frame must equal the run's frame.
+  std::optional<Resume> resume;
+  // Checked before each stage; returning true stops the run by throwing relief::Cancelled.
+  std::function<bool()> cancelled;
 };
 
 struct RunResult {
   Terrain terrain;
   std::uint64_t seed = 0;  // the seed used (drawn at random if the recipe had none)
-  std::vector<StageTiming> timings;
+  std::vector<StageTiming> timings;  // the stages that ran (from resume->first_stage on)
   double total_ms = 0;
 };
 
@@ -54,8 +76,10 @@ std::uint64_t physical_memory_bytes();
 // A fresh random seed in 0..2^53−1 (from std::random_device; printed by the CLI).
 std::uint64_t random_seed();
 
-// Runs every stage in order. If the recipe has no seed, one is drawn and returned in the result.
-// Throws relief::Error on bad input; never prints, never exits.
+// Runs every stage in order (or from opt.resume->first_stage). If the recipe has no seed, one is
+// drawn and returned in the result. Throws relief::Error on bad input (a resume with a different
+// frame, an out-of-range first_stage or no seed names `resume` / `seed`) and relief::Cancelled
+// when opt.cancelled says so; never prints, never exits.
 RunResult run(const Recipe& r, const RunOptions& opt = {});
 
 }  // namespace relief

@@ -1,0 +1,298 @@
+// Server tests for `relief studio`: status codes and messages for bad requests, path traversal,
+// size limits, the stage cache, superseding, exports, and concurrent requests — the server must
+// answer each correctly, never crash, and serve the next good request. Run by CTest (label
+// studio; RELIEF_BINARY names the binary).
+import { test, before, after } from 'node:test';
+import assert from 'node:assert/strict';
+import net from 'node:net';
+import { execFileSync } from 'node:child_process';
+import fs from 'node:fs';
+import os from 'node:os';
+import path from 'node:path';
+import { startStudio, RELIEF } from './harness.mjs';
+import { decodeFrame } from '../src/api.js';
+
+let server;
+before(async () => {
+  server = await startStudio(['--threads', '2']);
+});
+after(async () => {
+  const code = await server.stop();
+  // A clean exit on SIGTERM (and, in the sanitizer build, no leak or error report).
+  assert.equal(code, 0, `relief studio exited with ${code}: ${server.stderr()}`);
+});
+
+const post = (p, body, headers = {}) =>
+  fetch(server.url + p, {
+    method: 'POST',
+    headers: { 'Content-Type': 'application/json', ...headers },
+    body: typeof body === 'string' ? body : JSON.stringify(body),
+  });
+
+async function preset(name = 'island', size = 65, seed = 7) {
+  const doc = await (await fetch(`${server.url}/api/presets/${name}`)).json();
+  doc.world.size = size;
+  doc.seed = seed;
+  return doc;
+}
+
+async function expectError(res, status, { path: field, match } = {}) {
+  assert.equal(res.status, status, `expected ${status}, got ${res.status}`);
+  assert.match(res.headers.get('content-type') || '', /application\/json/);
+  const body = await res.json();
+  assert.equal(typeof body.error, 'string');
+  if (field !== undefined) assert.equal(body.path, field, `path of: ${body.error}`);
+  if (match) assert.match(body.error, match);
+  return body;
+}
+
+// A raw request line, so that nothing normalises the path before the server sees it.
+function rawGet(target, host) {
+  return new Promise((resolve, reject) => {
+    const { hostname, port } = new URL(server.url);
+    const sock = net.connect(Number(port), hostname, () => {
+      sock.write(`GET ${target} HTTP/1.1\r\nHost: ${host || hostname + ':' + port}\r\nConnection: close\r\n\r\n`);
+    });
+    let data = '';
+    sock.on('data', (d) => (data += d));
+    sock.on('end', () => resolve({ status: Number(data.split(' ')[1]), text: data }));
+    sock.on('error', reject);
+  });
+}
+
+async function goodGenerate(headers = {}) {
+  const res = await post('/api/generate', { recipe: await preset() }, headers);
+  assert.equal(res.status, 200);
+  return decodeFrame(await res.arrayBuffer());
+}
+
+test('a port or host it cannot use is a clear error with exit code 2', async () => {
+  for (const args of [['--host', '203.0.113.77', '--port', '0'], ['--port', '70000']]) {
+    let code = 0, stderr = '';
+    try {
+      execFileSync(RELIEF, ['studio', ...args], { encoding: 'utf8', stdio: ['ignore', 'pipe', 'pipe'], timeout: 10000 });
+    } catch (e) {
+      (code = e.status), (stderr = String(e.stderr));
+    }
+    assert.equal(code, 2, `${args}: ${stderr}`);
+    assert.match(stderr, /--host|--port/);
+  }
+});
+
+test('serves the page and its bundle', async () => {
+  const html = await (await fetch(server.url + '/')).text();
+  assert.match(html, /<script type="module" src="app.js">/);
+  const js = await fetch(server.url + '/app.js');
+  assert.equal(js.status, 200);
+  assert.match(js.headers.get('content-type'), /javascript/);
+  assert.ok((await js.text()).length > 100000, 'the bundle includes three.js');
+});
+
+test('presets and the parameter table come from the registries', async () => {
+  const presets = await (await fetch(server.url + '/api/presets')).json();
+  assert.ok(presets.some((p) => p.name === 'island' && p.origin === 'built-in'));
+  const table = await (await fetch(server.url + '/api/params')).json();
+  const cli = JSON.parse(execFileSync(RELIEF, ['explain', '--json'], { encoding: 'utf8' }));
+  assert.deepEqual(table, cli, 'the studio serves exactly `relief explain --json`');
+  await expectError(await fetch(server.url + '/api/presets/islnd'), 404, { path: 'preset', match: /did you mean 'island'/ });
+});
+
+test('malformed JSON is a 400 that says so', async () => {
+  await expectError(await post('/api/generate', '{"recipe": {'), 400, { match: /not valid JSON/ });
+  await expectError(await post('/api/generate', ''), 400, { match: /not valid JSON/ });
+  await expectError(await post('/api/generate', '[1, 2]'), 400, { match: /expected a JSON object, got/ });
+  await expectError(await post('/api/generate', '{}'), 400, { path: 'recipe' });
+  await expectError(await post('/api/generate', '{"recipe": 5}'), 400, { path: 'recipe', match: /must be a JSON object/ });
+});
+
+test('wrong types name the field', async () => {
+  const r = await preset();
+  await expectError(await post('/api/generate', { recipe: { ...r, seed: 'abc' } }), 400, { path: 'seed' });
+  const bad = structuredClone(r);
+  bad.stages[0].octaves = 'many';
+  await expectError(await post('/api/generate', { recipe: bad }), 400, { path: 'stages[0].octaves', match: /expected an integer/ });
+  const range = structuredClone(r);
+  range.stages[0].octaves = 40;
+  await expectError(await post('/api/generate', { recipe: range }), 400, { path: 'stages[0].octaves', match: /1\.\.16, got 40/ });
+  await expectError(await post('/api/generate', { recipe: r, layers: 5 }), 400, { path: 'layers' });
+  await expectError(await post('/api/generate', { recipe: r, layers: ['height', 3] }), 400, { path: 'layers[1]' });
+  await expectError(await post('/api/generate', { recipe: r, colour: true }), 400, { path: 'colour', match: /unknown request field/ });
+  await expectError(await post('/api/export', { recipe: r, format: 3 }), 400, { path: 'format' });
+  await expectError(await post('/api/generate', { recipe: r }, { 'X-Relief-Client': 'no spaces allowed' }), 400, { path: 'X-Relief-Client' });
+});
+
+test('huge sizes and bodies are refused', async () => {
+  const r = await preset();
+  await expectError(await post('/api/generate', { recipe: { ...r, world: { ...r.world, size: 100000 } } }), 400, { path: 'world.size' });
+  await expectError(await post('/api/generate', { recipe: { ...r, world: { ...r.world, size: 4097 } } }), 400, {
+    path: 'world.size',
+    match: /at most 1025 samples per axis here, got 4097x4097/,
+  });
+  await expectError(await post('/api/steps', { recipe: { ...r, world: { ...r.world, size: [2000, 65] } } }), 400, { path: 'world.size' });
+  await expectError(await post('/api/export', { recipe: { ...r, world: { ...r.world, size: 4097 } }, format: 'heightmap' }), 400, {
+    path: 'world.size',
+    match: /at most 2049/,
+  });
+  const big = JSON.stringify({ recipe: r, pad: 'x'.repeat(2 << 20) });
+  await expectError(await post('/api/generate', big), 413);
+});
+
+test('static paths cannot escape the web root', async () => {
+  for (const target of [
+    '/../../../../etc/passwd', '/%2e%2e/%2e%2e/%2e%2e/etc/passwd', '/..%2f..%2f..%2fetc%2fpasswd', '//etc/passwd',
+    '/app.js/../../../etc/passwd', '/..\\..\\..\\etc\\passwd', '/%00', '/index.html%00.png', '/.git/config',
+  ]) {
+    const r = await rawGet(target);
+    assert.ok(r.status === 400 || r.status === 404, `${target}: status ${r.status}`);
+    assert.doesNotMatch(r.text, /root:|\[core\]/, target);
+  }
+  await expectError(await fetch(server.url + '/no/such/page'), 404, { match: /no such page/ });
+});
+
+test('wrong methods and foreign origins are refused', async () => {
+  const res = await fetch(server.url + '/api/generate');
+  await expectError(res, 405, { match: /use POST/ });
+  assert.equal(res.headers.get('allow'), 'POST');
+  await expectError(await post('/api/generate', { recipe: await preset() }, { Origin: 'http://evil.example' }), 403, { path: 'Origin' });
+  const rebound = await rawGet('/api/params', 'evil.example:8080');
+  assert.equal(rebound.status, 403);
+  assert.match(rebound.text, /serves only 127\.0\.0\.1, localhost and \[::1\]/);
+  assert.equal((await rawGet('/api/params', `localhost:${new URL(server.url).port}`)).status, 200);
+});
+
+test('generate returns every layer and per-stage timings as a binary frame', async () => {
+  const r = await preset('island', 65, 11);
+  const f = await goodGenerate();
+  const { header, layers } = f;
+  assert.equal(header.frame.nx, 65);
+  assert.equal(header.timings.length, r.stages.length);
+  assert.deepEqual(header.timings.map((t) => t.label), r.stages.map((s) => s.label));
+  assert.equal(layers.height.type, 'f32');
+  assert.equal(layers.height.data.length, 65 * 65);
+  assert.ok(layers.height.data.every((v) => v >= 0 && v <= 1));
+  assert.equal(layers.color.type, 'rgb8');
+  assert.equal(layers.color.data.length, 65 * 65 * 3);
+  assert.deepEqual(Object.keys(header.available).sort(), Object.keys(layers).sort());
+  // Only the layers asked for.
+  const res = await post('/api/generate', { recipe: r, layers: ['height'] });
+  const only = decodeFrame(await res.arrayBuffer());
+  assert.deepEqual(Object.keys(only.layers), ['height']);
+});
+
+test('the same frame comes back for the same recipe and seed', async () => {
+  const r = await preset('hills', 65, 123);
+  const a = decodeFrame(await (await post('/api/generate', { recipe: r })).arrayBuffer());
+  const b = decodeFrame(await (await post('/api/generate', { recipe: r })).arrayBuffer());
+  assert.deepEqual(Buffer.from(a.layers.height.data.buffer, a.layers.height.offset, a.layers.height.bytes),
+    Buffer.from(b.layers.height.data.buffer, b.layers.height.offset, b.layers.height.bytes));
+});
+
+test('stage outputs are cached: a colour change re-runs only the colour stages', async () => {
+  const r = await preset('island', 129, 4242);
+  const first = decodeFrame(await (await post('/api/generate', { recipe: r })).arrayBuffer());
+  assert.equal(first.header.first_stage, 0);
+  assert.ok(first.header.timings.every((t) => !t.cached));
+  const again = decodeFrame(await (await post('/api/generate', { recipe: r })).arrayBuffer());
+  assert.equal(again.header.first_stage, r.stages.length, 'nothing re-runs for an identical request');
+  const colourIndex = r.stages.findIndex((s) => s.stage === 'color');
+  assert.ok(colourIndex > 0);
+  const recoloured = structuredClone(r);
+  recoloured.stages[colourIndex].rock_slope_deg = 10;
+  const third = decodeFrame(await (await post('/api/generate', { recipe: recoloured })).arrayBuffer());
+  assert.equal(third.header.first_stage, colourIndex);
+  assert.deepEqual(third.header.timings.map((t) => t.cached), r.stages.map((_, i) => i < colourIndex));
+  assert.notDeepEqual([...third.layers.albedo.data], [...first.layers.albedo.data], 'the colours did change');
+  assert.deepEqual([...third.layers.height.data], [...first.layers.height.data]);
+  // A different seed shares nothing.
+  const reseeded = decodeFrame(await (await post('/api/generate', { recipe: { ...r, seed: 4243 } })).arrayBuffer());
+  assert.equal(reseeded.header.first_stage, 0);
+});
+
+test('steps returns each stage with its height and colour', async () => {
+  const r = await preset('island', 65, 5);
+  const res = await post('/api/steps', { recipe: r });
+  assert.equal(res.status, 200);
+  const f = decodeFrame(await res.arrayBuffer());
+  assert.equal(f.steps.length, r.stages.length);
+  f.steps.forEach((s, i) => {
+    assert.equal(s.index, i);
+    assert.equal(s.stage, r.stages[i].stage);
+    assert.ok(s.summary.length > 0);
+    assert.equal(s.layers.height.data.length, 65 * 65);
+  });
+  assert.ok(!f.steps[0].layers.color && !f.steps[0].layers.albedo, 'no colour before the colour stage');
+  assert.ok(f.steps.at(-1).layers.color, 'the shaded colour at the end');
+  assert.notDeepEqual([...f.steps[0].layers.height.data], [...f.steps[1].layers.height.data], 'the island stage changes the heights');
+});
+
+test('a newer request from the same client supersedes an older one (409)', async () => {
+  const slow = await preset('eroded-mountains', 1025, 777001);  // erosion: several slow stages
+  const headers = { 'X-Relief-Client': 'supersede-test' };
+  const older = post('/api/generate', { recipe: slow }, headers);
+  await new Promise((r) => setTimeout(r, 150));
+  const newer = post('/api/generate', { recipe: await preset('island', 65, 777002) }, headers);
+  const [a, b] = await Promise.all([older, newer]);
+  await expectError(a, 409, { match: /superseded/ });
+  assert.equal(b.status, 200);
+  // Other clients are not affected.
+  const other = await post('/api/generate', { recipe: await preset() }, { 'X-Relief-Client': 'someone-else' });
+  assert.equal(other.status, 200);
+});
+
+test('exports go through the writers: one file, or a zip with companions', async () => {
+  const r = await preset('island', 65, 9);
+  const png = await post('/api/export', { recipe: r, format: 'heightmap', file: 'height.png' });
+  assert.equal(png.status, 200);
+  assert.equal(png.headers.get('content-type'), 'image/png');
+  const bytes = Buffer.from(await png.arrayBuffer());
+  assert.equal(bytes.subarray(1, 4).toString(), 'PNG');
+  assert.equal(bytes.readUInt32BE(16), 65, 'width');
+  assert.equal(bytes.readUInt32BE(20), 65, 'height');
+  assert.equal(bytes[24], 16, '16-bit');
+
+  const obj = await post('/api/export', { recipe: r, format: 'obj' });
+  assert.equal(obj.status, 200);
+  assert.equal(obj.headers.get('content-type'), 'application/zip');
+  assert.match(obj.headers.get('content-disposition'), /attachment; filename="island-9-65-obj\.zip"/);
+  const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'relief-export-'));
+  const zip = path.join(dir, 'obj.zip');
+  fs.writeFileSync(zip, Buffer.from(await obj.arrayBuffer()));
+  // Python's zipfile is the independent reader; it checks every CRC.
+  const listing = JSON.parse(execFileSync('/usr/bin/python3', ['-c', `
+import json, sys, zipfile
+z = zipfile.ZipFile(sys.argv[1])
+assert z.testzip() is None
+obj = z.read('terrain.obj').decode()
+print(json.dumps({'names': sorted(z.namelist()), 'v': sum(1 for l in obj.splitlines() if l.startswith('v '))}))
+`, zip], { encoding: 'utf8' }));
+  fs.rmSync(dir, { recursive: true, force: true });
+  assert.deepEqual(listing.names, ['albedo.png', 'terrain.mtl', 'terrain.obj'], 'the MTL names albedo.png, so it comes along');
+  assert.equal(listing.v, 65 * 65);
+
+  await expectError(await post('/api/export', { recipe: r, format: 'heigthmap' }), 400, { path: 'format', match: /did you mean 'heightmap'/ });
+  await expectError(await post('/api/export', { recipe: r, format: 'color', file: 'nope.png' }), 400, { path: 'file', match: /wrote color\.png/ });
+});
+
+test('many concurrent requests get the right answers and the server keeps serving', async () => {
+  const r = await preset('island', 65, 31337);
+  const kinds = [
+    async () => [await post('/api/generate', { recipe: r }), 200],
+    async () => [await post('/api/generate', '{"recipe": [}'), 400],
+    async () => [await post('/api/generate', { recipe: { ...r, seed: -1 } }), 400],
+    async () => [await fetch(server.url + '/api/params'), 200],
+    async () => [await fetch(server.url + '/api/presets/hills'), 200],
+    async () => [await fetch(server.url + '/%2e%2e/etc/passwd'), 404],
+    async () => [await post('/api/export', { recipe: r, format: 'heightmap' }), 200],
+    async () => [await post('/api/steps', { recipe: { ...r, world: { ...r.world, size: 33 } } }), 200],
+  ];
+  const jobs = [];
+  for (let k = 0; k < 48; k++) jobs.push(kinds[k % kinds.length]());
+  const results = await Promise.all(jobs);
+  for (const [res, want] of results) {
+    assert.equal(res.status, want, `${res.url}: ${res.status}`);
+    await res.arrayBuffer();
+  }
+  assert.equal(server.proc.exitCode, null, 'still running');
+  const f = await goodGenerate();
+  assert.equal(f.layers.height.data.length, 65 * 65);
+});
