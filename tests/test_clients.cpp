@@ -22,6 +22,7 @@
 #include <sstream>
 
 #include "relief/export.hpp"
+#include "support.hpp"
 #include "relief/output.hpp"
 #include "relief/pipeline.hpp"
 #include "relief/random.hpp"
@@ -37,27 +38,9 @@ using namespace relief;
 
 namespace {
 
-struct Shell {
-  int code = -1;
-  std::string out;
-};
-Shell sh(const std::string& cmd) {
-  Shell r;
-  FILE* p = ::popen((cmd + " 2>&1").c_str(), "r");
-  if (!p) return r;
-  char buf[4096];
-  std::size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
-  const int st = ::pclose(p);
-  r.code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
-}
-std::string slurp(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
+using relief::test::Shell;
+using relief::test::sh;
+using relief::test::slurp;
 
 constexpr int kSize = 65, kChunk = 32;
 

@@ -26,6 +26,7 @@
 #include "relief/recipe.hpp"
 #include "relief/stage.hpp"
 #include "relief/tilemap.hpp"
+#include "support.hpp"
 
 namespace fs = std::filesystem;
 using namespace relief;
@@ -46,28 +47,9 @@ struct TempDir {
   std::string operator/(const std::string& s) const { return (path / s).string(); }
 };
 
-std::string slurp(const std::string& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-
-struct Proc {
-  int code = -1;
-  std::string out;
-};
-Proc shell(const std::string& cmd) {
-  Proc r;
-  FILE* p = ::popen((cmd + " 2>&1").c_str(), "r");
-  if (!p) return r;
-  char buf[4096];
-  std::size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
-  const int st = ::pclose(p);
-  r.code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
-}
+using relief::test::slurp;
+using Proc = relief::test::Shell;
+inline Proc shell(const std::string& cmd) { return relief::test::sh(cmd); }
 Proc relief_cli(const std::string& args) { return shell(std::string(RELIEF_BINARY) + " " + args); }
 
 // Qt tools headless: offscreen platform and a private runtime directory (mode 0700).

@@ -13,35 +13,19 @@
 #include <set>
 #include <sstream>
 
+#include "support.hpp"
+
 namespace fs = std::filesystem;
 using json = nlohmann::json;
+using relief::test::Shell;
+using relief::test::sh;
+using relief::test::slurp;
 
 namespace {
 
 constexpr int kSize = 1025;
 constexpr long kGridTriangles = 2L * (kSize - 1) * (kSize - 1);
 
-struct Shell {
-  int code = -1;
-  std::string out;
-};
-Shell sh(const std::string& cmd) {
-  Shell r;
-  FILE* p = ::popen((cmd + " 2>&1").c_str(), "r");
-  if (!p) return r;
-  char buf[4096];
-  std::size_t n;
-  while ((n = std::fread(buf, 1, sizeof buf, p)) > 0) r.out.append(buf, n);
-  const int st = ::pclose(p);
-  r.code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
-}
-std::string slurp(const fs::path& p) {
-  std::ifstream f(p, std::ios::binary);
-  std::stringstream s;
-  s << f.rdbuf();
-  return s.str();
-}
 long assimp_count(const std::string& out, const char* label) {
   std::smatch m;
   if (std::regex_search(out, m, std::regex(std::string(label) + R"(\s+(\d+))"))) return std::stol(m[1]);
