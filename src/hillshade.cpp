@@ -1,3 +1,5 @@
+// Lambertian hillshade (hillshade.hpp): Burrough & McDonnell 1998, GDAL gdaldem hillshade. The
+// per-sample work is the vectorised row kernel of pointwise.cpp.
 #include "hillshade.hpp"
 
 #include <numbers>
@@ -11,24 +13,25 @@ void hillshade(const Frame& fr, const Layer& h, const Layer* albedo, const Light
   const double az = p.azimuth_deg * kRad, alt = p.altitude_deg * kRad;
   // World axes: x east, y up, z south. Azimuth is clockwise from north (−z).
   const double lx = std::cos(alt) * std::sin(az), ly = std::sin(alt), lz = -std::cos(alt) * std::cos(az);
-  const double flat = p.ambient + (1.0 - p.ambient) * ly;
-  if (shade) {
-    shade->channels = 1;
-    shade->data.assign(fr.count(), 0.0f);
-  }
-  color.channels = 3;
-  color.data.assign(fr.count() * 3, 0.0f);
+  HillshadeRow k;
+  k.lx = float(lx), k.ly = float(ly), k.lz = float(lz);
+  k.ambient = float(p.ambient);
+  k.diffuse = float(1.0 - p.ambient);
+  k.flat = float(p.ambient + (1.0 - p.ambient) * ly);
+  k.water_relief = float(p.water_relief);
+  k.sea_below = float_at_least(fr.sea_level);
+  const std::size_t count = fr.count();
+  // Every sample is written below: size the outputs without clearing them.
+  auto size = [&](Layer& l, int channels) {
+    l.channels = channels;
+    l.data.resize(count * std::size_t(channels));
+  };
+  if (shade) size(*shade, 1);
+  size(color, 3);
+  if (albedo && (albedo->channels != 3 || albedo->data.size() != 3 * count)) albedo = nullptr;
   parallel_rows(fr.nz, [&](int j) {
-    for (int i = 0; i < fr.nx; ++i) {
-      const std::size_t k = std::size_t(j) * fr.nx + i;
-      const Gradient g = gradient_at(fr, h, i, j);
-      const double fx = p.z_factor * g.dx, fz = p.z_factor * g.dz;
-      const double ndotl = (-fx * lx + ly - fz * lz) / std::sqrt(1.0 + fx * fx + fz * fz);
-      double s = p.ambient + (1.0 - p.ambient) * std::max(0.0, ndotl);
-      if (double(h.data[k * h.channels]) < fr.sea_level) s = flat + p.water_relief * (s - flat);
-      if (shade) shade->data[k] = float(s);
-      for (int c = 0; c < 3; ++c) color.data[3 * k + c] = float((albedo ? double(albedo->data[3 * k + c]) : 1.0) * s);
-    }
+    hillshade_row(k, gradient_rows(fr, h, j, p.z_factor), albedo ? albedo->row(j, fr.nx) : nullptr,
+                  shade ? shade->row(j, fr.nx) : nullptr, color.row(j, fr.nx), fr.nx);
   });
 }
 

@@ -8,6 +8,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "pointwise.hpp"
 #include "relief/terrain.hpp"
 
 namespace relief::detail {
@@ -34,11 +35,29 @@ struct Light {
   double water_relief = 0.3;
 };
 
+// The rows and factors of the single-precision gradient of row j of a one-channel layer h
+// (pointwise.hpp: GradientRows), in metres per metre times `scale`: the same differences as
+// gradient_at, rounded to float.
+inline GradientRows gradient_rows(const Frame& fr, const Layer& h, int j, double scale) {
+  GradientRows r;
+  r.mid = h.row(j, fr.nx);
+  r.up = h.row(std::max(j - 1, 0), fr.nx);
+  r.down = h.row(std::min(j + 1, fr.nz - 1), fr.nx);
+  const double per_m = scale * fr.height_m / fr.cell_m();
+  r.central = float(per_m / 2.0);
+  r.edge = float(per_m);
+  r.kz = (j > 0 && j < fr.nz - 1) ? r.central : r.edge;
+  return r;
+}
+
 // shade = ambient + (1 − ambient) · max(0, n · l), n the unit surface normal of z_factor · y_m,
 // l the unit vector towards the light. Under the sea (e < sea_level):
 // shade = flat + water_relief · (shade − flat), flat = ambient + (1 − ambient) · sin(altitude).
 // Writes `shade` (1 channel, if not null) and `color` = albedo × shade (3 channels; white when
-// `albedo` is null), both sized to the frame. Row-parallel, deterministic.
+// `albedo` is null), both sized to the frame (existing buffers are reused). Single precision, the
+// vectorised kernel of pointwise.hpp (hillshade_row): one pass over rows with a one-row halo, the
+// same bits on every SIMD target. Row-parallel, deterministic. `height` has one channel.
+// Used by the hillshade stage and by the stage-by-stage pictures (relief/steps.hpp).
 void hillshade(const Frame& fr, const Layer& height, const Layer* albedo, const Light& light, Layer* shade,
                Layer& color);
 

@@ -3,7 +3,7 @@
 // Google Highway (https://github.com/google/highway), runtime dispatch: this file is compiled once
 // per target by foreach_target.h and each entry point dispatches through HWY_DYNAMIC_DISPATCH.
 // The formulas are the stages' own (stage_shape.cpp and stage_color.cpp name their sources);
-// pow is exp(y·log x) with Highway's Exp and Log (contrib/math).
+// pow is our own exp2(y·log2 x) (Pow01 below); the colour stage's atan is Highway's (contrib/math).
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "pointwise.cpp"
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
@@ -26,6 +26,13 @@ namespace hn = hwy::HWY_NAMESPACE;
 using D = hn::ScalableTag<float>;
 using V = hn::Vec<D>;
 using DI = hn::RebindToSigned<D>;
+
+// Minimax coefficients of Pow01 (fitted with a Remez exchange in double, rounded to float):
+// log2 m = t·(kLog2[0] + s·(kLog2[1] + s·(kLog2[2] + s·kLog2[3]))), s = t², |t| ≤ 3 − 2√2;
+// 2^g = 1 + g·(kExp2[0] + g·(… + g·kExp2[4])), |g| ≤ ½.
+constexpr float kLog2[4] = {2.8853900797889254f, 0.9617988476418026f, 0.5767143839736395f, 0.4317358787542477f};
+constexpr float kExp2[5] = {0.6931469775991949f, 0.24022242085377893f, 0.055507337431893136f, 0.009671512639580928f,
+                            0.0013264727217737718f};
 
 HWY_INLINE V Clamp01(D d, V v) { return hn::Min(hn::Max(v, hn::Zero(d)), hn::Set(d, 1.0f)); }
 
@@ -54,21 +61,55 @@ HWY_INLINE V WithLand(D d, const LandOnly& land, V e, G&& g) {
   return hn::IfThenElse(hn::Le(e, hn::Set(d, land.sea_floor_max)), e, mapped);
 }
 
+// x^y for x ∈ [0, 1] and a positive exponent, as exp2(y·log2 x) with our own polynomials, in
+// exactly rounded operations only (no MulAdd, no target-specific rounding), so every target gives
+// the same bits:
+//   x = 2^k·m, m ∈ [√½, √2) from the float's bits (subnormal x scaled by 2^24 first);
+//   log2 m = t·P(t²), t = (m − 1)/(m + 1), P a degree-3 minimax fit (relative error 7e-10);
+//   y·log2 x = y_hi·k + (y_lo·k + y·log2 m), y_hi = y with 12 significant bits, so y_hi·k is exact
+//   and the float error is that of a number below ~5 in magnitude — the result's relative error
+//   does not grow for small x;
+//   2^f = 2^n·2^g, n = round(f), g ∈ [−½, ½], 2^g = 1 + g·Q(g), Q a degree-4 minimax fit
+//   (relative error 9e-8); 2^n is built in the exponent bits.
+// x = 0 gives 0, x = 1 gives exactly 1 (t = 0, f = 0, 2^0 = 1). Results below 2^−125 (1e-38)
+// flush to 0. Rounding to an integer uses the 1.5·2^23 trick (valid for |f| < 2^22), which every
+// target evaluates with the same two IEEE additions.
+HWY_INLINE V Pow01(D d, const RedistributeRow& k, V x) {
+  const DI di;
+  const V one = hn::Set(d, 1.0f);
+  const V magic = hn::Set(d, 12582912.0f);  // 1.5·2^23
+  const auto round = [&](V v) { return hn::Sub(hn::Add(v, magic), magic); };
+  const auto subnormal = hn::Lt(x, hn::Set(d, 1.17549435e-38f));
+  const V xs = hn::IfThenElse(subnormal, hn::Mul(x, hn::Set(d, 16777216.0f)), x);
+  // Offsetting the bits by 1 − √½ (in the mantissa) moves the split point from 2 to √2.
+  const auto bits = hn::Add(hn::BitCast(di, xs), hn::Set(di, 0x004afb0d));
+  const V kf = hn::Add(hn::ConvertTo(d, hn::Sub(hn::ShiftRight<23>(bits), hn::Set(di, 127))),
+                       hn::IfThenElseZero(subnormal, hn::Set(d, -24.0f)));
+  const V m = hn::BitCast(d, hn::Add(hn::And(bits, hn::Set(di, 0x007fffff)), hn::Set(di, 0x3f3504f3)));
+  const V t = hn::Div(hn::Sub(m, one), hn::Add(m, one));
+  const V s = hn::Mul(t, t);
+  V p = hn::Set(d, kLog2[3]);
+  for (int c = 2; c >= 0; --c) p = hn::Add(hn::Set(d, kLog2[c]), hn::Mul(s, p));
+  const V log2m = hn::Mul(t, p);
+  const V hi = hn::Mul(hn::Set(d, k.exponent_hi), kf);  // exact
+  const V lo = hn::Add(hn::Mul(hn::Set(d, k.exponent_lo), kf), hn::Mul(hn::Set(d, k.exponent), log2m));
+  const V n1 = round(hi);
+  const V f = hn::Add(hn::Sub(hi, n1), lo);  // hi − n1 is exact
+  const V n2 = round(f);
+  const V g = hn::Sub(f, n2);  // exact, |g| ≤ ½
+  V q = hn::Set(d, kExp2[4]);
+  for (int c = 3; c >= 0; --c) q = hn::Add(hn::Set(d, kExp2[c]), hn::Mul(g, q));
+  const V frac = hn::Add(one, hn::Mul(g, q));
+  const V n = hn::Add(n1, n2);
+  const V scale = hn::BitCast(d, hn::ShiftLeft<23>(hn::Add(hn::ConvertTo(di, hn::Max(n, hn::Set(d, -126.0f))), hn::Set(di, 127))));
+  const auto keep = hn::And(hn::Gt(x, hn::Zero(d)), hn::Ge(n, hn::Set(d, -125.0f)));
+  return hn::IfThenElseZero(keep, hn::Mul(frac, scale));
+}
+
 void RedistributeRowImpl(const RedistributeRow& k, float* HWY_RESTRICT row, int n) {
   const D d;
-  const V y = hn::Set(d, k.exponent), mod = hn::Set(d, k.modifier), one = hn::Set(d, 1.0f);
-  // Below e^−87 (1.6e-38, the smallest normal floats) pow flushes to 0: denormal results would
-  // cost a microcode assist per vector and change nothing visible.
-  const V min_arg = hn::Set(d, -87.0f);
-  auto g = [&](V u) {
-    V p = u;
-    if (k.power) {
-      const auto pos = hn::Gt(u, hn::Zero(d));
-      const V arg = hn::Mul(y, hn::Log(d, hn::IfThenElse(pos, u, one)));
-      p = hn::IfThenElseZero(hn::And(pos, hn::Gt(arg, min_arg)), hn::Exp(d, hn::Max(arg, min_arg)));
-    }
-    return Clamp01(d, hn::Mul(mod, p));
-  };
+  const V mod = hn::Set(d, k.modifier);
+  auto g = [&](V u) { return Clamp01(d, hn::Mul(mod, k.power ? Pow01(d, k, u) : u)); };
   InPlace(d, row, n, [&](V v, int) { return Clamp01(d, WithLand(d, k.land, Clamp01(d, v), g)); });
 }
 
@@ -162,14 +203,51 @@ void CurveRowImpl(const CurveRow& k, float* HWY_RESTRICT row, int n) {
   });
 }
 
-// One vector of the colour stage: e, slope (degrees or |∇y|²), a0, a1 at this vector's columns.
-HWY_INLINE void ColorVec(D d, const ColorRow& k, const float* HWY_RESTRICT e_in, const float* HWY_RESTRICT slope_in,
-                         const float* HWY_RESTRICT a0_in, const float* HWY_RESTRICT a1_in, float tz,
-                         float* HWY_RESTRICT rgb) {
-  V e = hn::LoadU(d, e_in);
-  if (k.relative) e = hn::Div(e, hn::Set(d, k.max_height));
-  V r, g, b;
-  if (!k.gradient) {
+// ---- rows with a halo: the first vector and the last (partial) one need the one-sided border
+// differences, so they go through padded buffers with the gradient computed one column at a time
+// by the same exactly rounded operations a vector lane uses; the vectors in between read the
+// neighbouring columns directly. Either way a sample's result is the same.
+
+HWY_INLINE float GradX(const GradientRows& r, int i, int n) {
+  if (n < 2) return 0.0f;
+  if (i == 0) return (r.mid[1] - r.mid[0]) * r.edge;
+  if (i == n - 1) return (r.mid[n - 1] - r.mid[n - 2]) * r.edge;
+  return (r.mid[i + 1] - r.mid[i - 1]) * r.central;
+}
+HWY_INLINE float GradZ(const GradientRows& r, int i) { return (r.down[i] - r.up[i]) * r.kz; }
+
+// Calls padded(i, m) for the blocks of m ≤ N columns that touch a border column and inner(i) for
+// the full vectors [i, i + N) with 1 ≤ i and i + N ≤ n − 1.
+template <class Inner, class Padded>
+HWY_INLINE void HaloBlocks(int N, int n, Inner&& inner, Padded&& padded) {
+  if (n <= 0) return;
+  padded(0, std::min(N, n));
+  int i = N;
+  for (; i + N < n; i += N) inner(i);
+  for (; i < n; i += N) padded(i, std::min(N, n - i));
+}
+
+// The colour of one vector of heights e (relative scaling done) before rock, speckle and water.
+HWY_INLINE void LevelColor(D d, const ColorRow& k, V e, V& r, V& g, V& b) {
+  const int N = int(hn::Lanes(d));
+  if (k.tables && k.levels <= N) {
+    // Branch-free lookup: c = number of levels below e (sorted levels), then a lane permutation.
+    const V one = hn::Set(d, 1.0f);
+    V c = hn::Zero(d);
+    for (int m = 0; m + 1 < k.levels; ++m) {
+      // bands: !(e ≤ at) counts NaN as above every level, as the select chain does
+      const auto below = k.gradient ? hn::Gt(e, hn::Set(d, k.at[m])) : hn::Not(hn::Le(e, hn::Set(d, k.at[m])));
+      c = hn::Add(c, hn::IfThenElseZero(below, one));
+    }
+    const auto idx = hn::IndicesFromVec(d, hn::ConvertTo(DI(), c));
+    auto row = [&](int t) { return hn::TableLookupLanes(hn::LoadU(d, k.tables + t * kLevelLanes), idx); };
+    if (!k.gradient) {
+      r = row(0), g = row(1), b = row(2);
+      return;
+    }
+    const V s = hn::Div(hn::Sub(e, row(0)), row(1));
+    r = hn::Add(row(2), hn::Mul(row(5), s)), g = hn::Add(row(3), hn::Mul(row(6), s)), b = hn::Add(row(4), hn::Mul(row(7), s));
+  } else if (!k.gradient) {
     // First level with e ≤ at: walk down from the last so that lower levels win.
     const int last = k.levels - 1;
     r = hn::Set(d, k.r[last]), g = hn::Set(d, k.g[last]), b = hn::Set(d, k.b[last]);
@@ -179,6 +257,7 @@ HWY_INLINE void ColorVec(D d, const ColorRow& k, const float* HWY_RESTRICT e_in,
       g = hn::IfThenElse(in, hn::Set(d, k.g[m]), g);
       b = hn::IfThenElse(in, hn::Set(d, k.b[m]), b);
     }
+    return;
   } else {
     // Segment m with at[m] < e ≤ at[m + 1]: later segments override earlier ones.
     V a0 = hn::Set(d, k.at[0]), w = hn::Set(d, 1.0f);
@@ -198,14 +277,24 @@ HWY_INLINE void ColorVec(D d, const ColorRow& k, const float* HWY_RESTRICT e_in,
     }
     const V s = hn::Div(hn::Sub(e, a0), w);
     r = hn::Add(r0, hn::Mul(dr, s)), g = hn::Add(g0, hn::Mul(dg, s)), b = hn::Add(b0, hn::Mul(db, s));
-    const int last = k.levels - 1;
-    const auto below = hn::Le(e, hn::Set(d, k.at[0])), above = hn::Ge(e, hn::Set(d, k.at[last]));
-    r = hn::IfThenElse(below, hn::Set(d, k.r[0]), hn::IfThenElse(above, hn::Set(d, k.r[last]), r));
-    g = hn::IfThenElse(below, hn::Set(d, k.g[0]), hn::IfThenElse(above, hn::Set(d, k.g[last]), g));
-    b = hn::IfThenElse(below, hn::Set(d, k.b[0]), hn::IfThenElse(above, hn::Set(d, k.b[last]), b));
   }
+  // gradient: the first colour up to at[0], the last from at[K−1]
+  const int last = k.levels - 1;
+  const auto below = hn::Le(e, hn::Set(d, k.at[0])), above = hn::Ge(e, hn::Set(d, k.at[last]));
+  r = hn::IfThenElse(below, hn::Set(d, k.r[0]), hn::IfThenElse(above, hn::Set(d, k.r[last]), r));
+  g = hn::IfThenElse(below, hn::Set(d, k.g[0]), hn::IfThenElse(above, hn::Set(d, k.g[last]), g));
+  b = hn::IfThenElse(below, hn::Set(d, k.b[0]), hn::IfThenElse(above, hn::Set(d, k.b[last]), b));
+}
+
+// One vector of the colour stage: heights e, slope (degrees or |∇y|²), speckle rows a0, a1 and
+// water cover at this vector's columns (pointers: N readable lanes; a0, a1, water unused when off).
+HWY_INLINE void ColorVec(D d, const ColorRow& k, V e, V slope, const float* HWY_RESTRICT a0_in,
+                         const float* HWY_RESTRICT a1_in, float tz, const float* HWY_RESTRICT water,
+                         float* HWY_RESTRICT rgb) {
+  if (k.relative) e = hn::Div(e, hn::Set(d, k.max_height));
+  V r, g, b;
+  LevelColor(d, k, e, r, g, b);
   if (k.rock) {
-    const V slope = hn::LoadU(d, slope_in);
     const auto rock = hn::And(hn::And(hn::Gt(e, hn::Set(d, k.rock_min)), hn::Lt(e, hn::Set(d, k.rock_max))),
                               hn::Gt(slope, hn::Set(d, k.rock_gate)));
     if (!hn::AllFalse(d, rock)) {  // skipping is exact: no lane of this vector turns to rock
@@ -233,25 +322,58 @@ HWY_INLINE void ColorVec(D d, const ColorRow& k, const float* HWY_RESTRICT e_in,
     const V f = hn::Add(hn::Set(d, 1.0f), hn::Mul(hn::Set(d, k.variation), hn::Sub(hn::Add(v, v), hn::Set(d, 1.0f))));
     r = hn::Mul(r, f), g = hn::Mul(g, f), b = hn::Mul(b, f);
   }
-  hn::StoreInterleaved3(Clamp01(d, r), Clamp01(d, g), Clamp01(d, b), d, rgb);
+  r = Clamp01(d, r), g = Clamp01(d, g), b = Clamp01(d, b);
+  if (water) {
+    const V w = hn::LoadU(d, water);
+    const auto wet = hn::Gt(w, hn::Zero(d));
+    if (!hn::AllFalse(d, wet)) {
+      r = hn::IfThenElse(wet, hn::Add(r, hn::Mul(hn::Sub(hn::Set(d, k.water_r), r), w)), r);
+      g = hn::IfThenElse(wet, hn::Add(g, hn::Mul(hn::Sub(hn::Set(d, k.water_g), g), w)), g);
+      b = hn::IfThenElse(wet, hn::Add(b, hn::Mul(hn::Sub(hn::Set(d, k.water_b), b), w)), b);
+    }
+  }
+  hn::StoreInterleaved3(r, g, b, d, rgb);
 }
 
-void ColorRowImpl(const ColorRow& k, const float* HWY_RESTRICT e, const float* HWY_RESTRICT slope,
-                  const float* HWY_RESTRICT a0, const float* HWY_RESTRICT a1, float tz, float* HWY_RESTRICT rgb, int n) {
+void ColorRowImpl(const ColorRow& k, const GradientRows& rows, const float* HWY_RESTRICT slope_in,
+                  const float* HWY_RESTRICT a0, const float* HWY_RESTRICT a1, float tz, const float* HWY_RESTRICT water,
+                  float* HWY_RESTRICT rgb, int n) {
   const D d;
   const int N = int(hn::Lanes(d));
-  int i = 0;
-  for (; i + N <= n; i += N)
-    ColorVec(d, k, e + i, k.rock ? slope + i : nullptr, k.speckle ? a0 + i : nullptr, k.speckle ? a1 + i : nullptr, tz,
-             rgb + 3 * i);
-  if (i < n) {
-    HWY_ALIGN float eb[kRowPad] = {}, sb[kRowPad] = {}, out[3 * kRowPad];
-    std::copy(e + i, e + n, eb);
-    if (k.rock) std::copy(slope + i, slope + n, sb);
-    // a0, a1 are padded by the caller.
-    ColorVec(d, k, eb, sb, k.speckle ? a0 + i : nullptr, k.speckle ? a1 + i : nullptr, tz, out);
-    std::copy(out, out + 3 * (n - i), rgb + 3 * i);
-  }
+  const bool grad2 = k.rock && !slope_in;  // |∇y|² from the rows
+  const float* HWY_RESTRICT mid = rows.mid;
+  const V central = hn::Set(d, rows.central), kz = hn::Set(d, rows.kz);
+  HaloBlocks(
+      N, n,
+      [&](int i) {
+        V slope = hn::Zero(d);
+        if (grad2) {
+          const V x = hn::Mul(hn::Sub(hn::LoadU(d, mid + i + 1), hn::LoadU(d, mid + i - 1)), central);
+          const V z = hn::Mul(hn::Sub(hn::LoadU(d, rows.down + i), hn::LoadU(d, rows.up + i)), kz);
+          slope = hn::Add(hn::Mul(x, x), hn::Mul(z, z));
+        } else if (k.rock) {
+          slope = hn::LoadU(d, slope_in + i);
+        }
+        ColorVec(d, k, hn::LoadU(d, mid + i), slope, k.speckle ? a0 + i : nullptr, k.speckle ? a1 + i : nullptr, tz,
+                 water ? water + i : nullptr, rgb + 3 * i);
+      },
+      [&](int i, int m) {
+        HWY_ALIGN float eb[kRowPad] = {}, sb[kRowPad] = {}, wb[kRowPad] = {}, out[3 * kRowPad];
+        std::copy(mid + i, mid + i + m, eb);
+        for (int c = 0; c < m; ++c) {
+          if (grad2) {
+            const float x = GradX(rows, i + c, n), z = GradZ(rows, i + c);
+            sb[c] = x * x + z * z;
+          } else if (k.rock) {
+            sb[c] = slope_in[i + c];
+          }
+        }
+        if (water) std::copy(water + i, water + i + m, wb);
+        // a0, a1 are padded by the caller.
+        ColorVec(d, k, hn::Load(d, eb), hn::Load(d, sb), k.speckle ? a0 + i : nullptr, k.speckle ? a1 + i : nullptr, tz,
+                 water ? wb : nullptr, out);
+        std::copy(out, out + 3 * m, rgb + 3 * i);
+      });
 }
 
 void LatticeRowImpl(const float* HWY_RESTRICT lat, const std::int32_t* HWY_RESTRICT ix, const float* HWY_RESTRICT tx,
@@ -288,19 +410,17 @@ struct Spread {
   }
 };
 
-HWY_INLINE void HillshadeVec(D d, const Spread& spread, const HillshadeRow& k, const float* HWY_RESTRICT e_in,
-                             const float* HWY_RESTRICT fx_in, const float* HWY_RESTRICT fz_in,
+HWY_INLINE void HillshadeVec(D d, const Spread& spread, const HillshadeRow& k, V e, V fx, V fz,
                              const float* HWY_RESTRICT albedo, float* HWY_RESTRICT shade, float* HWY_RESTRICT rgb) {
   const V one = hn::Set(d, 1.0f);
-  const V fx = hn::LoadU(d, fx_in), fz = hn::LoadU(d, fz_in);
   const V num = hn::Sub(hn::Add(hn::Mul(hn::Neg(fx), hn::Set(d, k.lx)), hn::Set(d, k.ly)), hn::Mul(fz, hn::Set(d, k.lz)));
   const V len = hn::Sqrt(hn::Add(hn::Add(one, hn::Mul(fx, fx)), hn::Mul(fz, fz)));
   const V ndotl = hn::Div(num, len);
   V s = hn::Add(hn::Set(d, k.ambient), hn::Mul(hn::Set(d, k.diffuse), hn::Max(hn::Zero(d), ndotl)));
   const V flat = hn::Set(d, k.flat);
   const V water = hn::Add(flat, hn::Mul(hn::Set(d, k.water_relief), hn::Sub(s, flat)));
-  s = hn::IfThenElse(hn::Lt(hn::LoadU(d, e_in), hn::Set(d, k.sea_below)), water, s);
-  hn::StoreU(s, d, shade);
+  s = hn::IfThenElse(hn::Lt(e, hn::Set(d, k.sea_below)), water, s);
+  if (shade) hn::StoreU(s, d, shade);
   const std::size_t N = hn::Lanes(d);
   for (int c = 0; c < 3; ++c) {
     const V sc = hn::TableLookupLanes(s, spread.idx[c]);
@@ -308,65 +428,30 @@ HWY_INLINE void HillshadeVec(D d, const Spread& spread, const HillshadeRow& k, c
   }
 }
 
-void HillshadeRowImpl(const HillshadeRow& k, const float* HWY_RESTRICT e, const float* HWY_RESTRICT fx,
-                      const float* HWY_RESTRICT fz, const float* HWY_RESTRICT albedo, float* HWY_RESTRICT shade,
-                      float* HWY_RESTRICT rgb, int n) {
+void HillshadeRowImpl(const HillshadeRow& k, const GradientRows& rows, const float* HWY_RESTRICT albedo,
+                      float* HWY_RESTRICT shade, float* HWY_RESTRICT rgb, int n) {
   const D d;
   const Spread spread(d);
   const int N = int(hn::Lanes(d));
-  int i = 0;
-  for (; i + N <= n; i += N)
-    HillshadeVec(d, spread, k, e + i, fx + i, fz + i, albedo ? albedo + 3 * i : nullptr, shade + i, rgb + 3 * i);
-  if (i < n) {
-    const int m = n - i;
-    HWY_ALIGN float eb[kRowPad] = {}, xb[kRowPad] = {}, zb[kRowPad] = {}, ab[3 * kRowPad] = {};
-    HWY_ALIGN float sb[kRowPad], out[3 * kRowPad];
-    std::copy(e + i, e + n, eb);
-    std::copy(fx + i, fx + n, xb);
-    std::copy(fz + i, fz + n, zb);
-    if (albedo) std::copy(albedo + 3 * i, albedo + 3 * n, ab);
-    HillshadeVec(d, spread, k, eb, xb, zb, albedo ? ab : nullptr, sb, out);
-    std::copy(sb, sb + m, shade + i);
-    std::copy(out, out + 3 * m, rgb + 3 * i);
-  }
-}
-
-// The border columns and the columns after the last full vector are computed one by one with the
-// same two exactly rounded operations, so they equal what a vector lane would give.
-template <bool kSquare>
-void GradientRowT(const float* HWY_RESTRICT up, const float* HWY_RESTRICT mid, const float* HWY_RESTRICT down,
-                  float central, float edge, float kz, float* HWY_RESTRICT gx, float* HWY_RESTRICT gz, int n) {
-  const D d;
-  const int N = int(hn::Lanes(d));
-  const V vc = hn::Set(d, central), vz = hn::Set(d, kz);
-  auto one = [&](int i, float x) {
-    const float z = (down[i] - up[i]) * kz;
-    if constexpr (kSquare) gx[i] = x * x + z * z;
-    else gx[i] = x, gz[i] = z;
-  };
-  one(0, (mid[1] - mid[0]) * edge);
-  int i = 1;
-  for (; i + N <= n - 1; i += N) {
-    const V x = hn::Mul(hn::Sub(hn::LoadU(d, mid + i + 1), hn::LoadU(d, mid + i - 1)), vc);
-    const V z = hn::Mul(hn::Sub(hn::LoadU(d, down + i), hn::LoadU(d, up + i)), vz);
-    if constexpr (kSquare) {
-      hn::StoreU(hn::Add(hn::Mul(x, x), hn::Mul(z, z)), d, gx + i);
-    } else {
-      hn::StoreU(x, d, gx + i);
-      hn::StoreU(z, d, gz + i);
-    }
-  }
-  for (; i < n - 1; ++i) one(i, (mid[i + 1] - mid[i - 1]) * central);
-  one(n - 1, (mid[n - 1] - mid[n - 2]) * edge);
-}
-
-void GradientRowImpl(const float* up, const float* mid, const float* down, float central, float edge, float kz,
-                     float* gx, float* gz, int n) {
-  GradientRowT<false>(up, mid, down, central, edge, kz, gx, gz, n);
-}
-void Gradient2RowImpl(const float* up, const float* mid, const float* down, float central, float edge, float kz,
-                      float* g2, int n) {
-  GradientRowT<true>(up, mid, down, central, edge, kz, g2, nullptr, n);
+  const float* HWY_RESTRICT mid = rows.mid;
+  const V central = hn::Set(d, rows.central), kz = hn::Set(d, rows.kz);
+  HaloBlocks(
+      N, n,
+      [&](int i) {
+        const V fx = hn::Mul(hn::Sub(hn::LoadU(d, mid + i + 1), hn::LoadU(d, mid + i - 1)), central);
+        const V fz = hn::Mul(hn::Sub(hn::LoadU(d, rows.down + i), hn::LoadU(d, rows.up + i)), kz);
+        HillshadeVec(d, spread, k, hn::LoadU(d, mid + i), fx, fz, albedo ? albedo + 3 * i : nullptr,
+                     shade ? shade + i : nullptr, rgb + 3 * i);
+      },
+      [&](int i, int m) {
+        HWY_ALIGN float eb[kRowPad] = {}, xb[kRowPad] = {}, zb[kRowPad] = {}, ab[3 * kRowPad] = {};
+        HWY_ALIGN float sb[kRowPad], out[3 * kRowPad];
+        for (int c = 0; c < m; ++c) eb[c] = mid[i + c], xb[c] = GradX(rows, i + c, n), zb[c] = GradZ(rows, i + c);
+        if (albedo) std::copy(albedo + 3 * i, albedo + 3 * (i + m), ab);
+        HillshadeVec(d, spread, k, hn::Load(d, eb), hn::Load(d, xb), hn::Load(d, zb), albedo ? ab : nullptr, sb, out);
+        if (shade) std::copy(sb, sb + m, shade + i);
+        std::copy(out, out + 3 * m, rgb + 3 * i);
+      });
 }
 
 const char* TargetImpl() { return hwy::TargetName(HWY_TARGET); }
@@ -385,8 +470,6 @@ HWY_EXPORT(CurveRowImpl);
 HWY_EXPORT(ColorRowImpl);
 HWY_EXPORT(LatticeRowImpl);
 HWY_EXPORT(HillshadeRowImpl);
-HWY_EXPORT(GradientRowImpl);
-HWY_EXPORT(Gradient2RowImpl);
 HWY_EXPORT(TargetImpl);
 
 float float_at_most(double v) {
@@ -399,6 +482,16 @@ float float_at_least(double v) {
   float f = float(v);
   if (double(f) < v) f = std::nextafter(f, std::numeric_limits<float>::infinity());
   return f;
+}
+
+void RedistributeRow::set_exponent(double y) {
+  exponent = float(y);
+  power = exponent != 1.0f;
+  int e = 0;
+  std::frexp(double(exponent), &e);
+  const double scale = std::ldexp(1.0, 12 - e);  // keep 12 significant bits
+  exponent_hi = float(std::nearbyint(double(exponent) * scale) / scale);
+  exponent_lo = exponent - exponent_hi;  // exact: the low bits of a float
 }
 
 LandOnly LandOnly::make(bool enabled, double sea_level) {
@@ -421,24 +514,46 @@ void island_row(const IslandRow& k, float row_term, float* row, int n) {
   HWY_DYNAMIC_DISPATCH(IslandRowImpl)(k, row_term, row, n);
 }
 void curve_row(const CurveRow& k, float* row, int n) { HWY_DYNAMIC_DISPATCH(CurveRowImpl)(k, row, n); }
-void color_row(const ColorRow& k, const float* e, const float* slope, const float* a0, const float* a1, float tz,
-               float* rgb, int n) {
-  HWY_DYNAMIC_DISPATCH(ColorRowImpl)(k, e, slope, a0, a1, tz, rgb, n);
+void color_row(const ColorRow& k, const GradientRows& rows, const float* slope, const float* a0, const float* a1,
+               float tz, const float* water, float* rgb, int n) {
+  HWY_DYNAMIC_DISPATCH(ColorRowImpl)(k, rows, slope, a0, a1, tz, water, rgb, n);
 }
+
+std::vector<float> color_level_tables(const ColorRow& k) {
+  const int L = k.levels;
+  if (L < 1 || L > kLevelLanes) return {};
+  for (int m = 0; m + 1 < L; ++m)
+    if (!(k.at[m] <= k.at[m + 1])) return {};
+  // Row t, lane c: the value for the vectors with c levels below e (the select chain's choice).
+  std::vector<float> t(std::size_t(8) * kLevelLanes, 0.0f);
+  auto put = [&](int row, int c, float v) { t[std::size_t(row) * kLevelLanes + c] = v; };
+  for (int c = 0; c < L; ++c) {
+    if (!k.gradient) {
+      put(0, c, k.r[c]), put(1, c, k.g[c]), put(2, c, k.b[c]);
+      continue;
+    }
+    // The last non-empty segment m < c, as the chain of selects picks it; defaults if none.
+    float a0 = k.at[0], w = 1.0f, r0 = k.r[0], g0 = k.g[0], b0 = k.b[0], dr = 0, dg = 0, db = 0;
+    for (int m = 0; m < c && m + 1 < L; ++m) {
+      if (!(k.at[m + 1] > k.at[m])) continue;
+      a0 = k.at[m], w = float(double(k.at[m + 1]) - double(k.at[m]));
+      r0 = k.r[m], g0 = k.g[m], b0 = k.b[m];
+      dr = k.r[m + 1] - k.r[m], dg = k.g[m + 1] - k.g[m], db = k.b[m + 1] - k.b[m];
+    }
+    put(0, c, a0), put(1, c, w), put(2, c, r0), put(3, c, g0), put(4, c, b0), put(5, c, dr), put(6, c, dg), put(7, c, db);
+  }
+  // Lanes past the last level are never selected; give them the last level's values anyway.
+  for (int row = 0; row < 8; ++row)
+    for (int c = L; c < kLevelLanes; ++c) put(row, c, t[std::size_t(row) * kLevelLanes + L - 1]);
+  return t;
+}
+
 void lattice_row(const float* lat, const std::int32_t* ix, const float* tx, float* out, int n) {
   HWY_DYNAMIC_DISPATCH(LatticeRowImpl)(lat, ix, tx, out, n);
 }
-void hillshade_row(const HillshadeRow& k, const float* e, const float* fx, const float* fz, const float* albedo,
-                   float* shade, float* rgb, int n) {
-  HWY_DYNAMIC_DISPATCH(HillshadeRowImpl)(k, e, fx, fz, albedo, shade, rgb, n);
-}
-void gradient_row(const float* up, const float* mid, const float* down, float central, float edge, float kz, float* gx,
-                  float* gz, int n) {
-  HWY_DYNAMIC_DISPATCH(GradientRowImpl)(up, mid, down, central, edge, kz, gx, gz, n);
-}
-void gradient2_row(const float* up, const float* mid, const float* down, float central, float edge, float kz, float* g2,
+void hillshade_row(const HillshadeRow& k, const GradientRows& rows, const float* albedo, float* shade, float* rgb,
                    int n) {
-  HWY_DYNAMIC_DISPATCH(Gradient2RowImpl)(up, mid, down, central, edge, kz, g2, n);
+  HWY_DYNAMIC_DISPATCH(HillshadeRowImpl)(k, rows, albedo, shade, rgb, n);
 }
 const char* pointwise_target() { return HWY_DYNAMIC_DISPATCH(TargetImpl)(); }
 

@@ -15,17 +15,19 @@
 // identical for any thread count.
 //
 // Precision. Single precision, the layers' own. The kernels use Highway's exactly rounded
-// operations (add, mul, div, sqrt, floor, min/max) and never a fused multiply-add, so every
-// target gives bit-identical results — except the transcendental functions, which Highway
-// evaluates with MulAdd (an FMA on AVX2/AVX-512, a multiply and an add elsewhere): pow in
-// redistribute (exp(y·log x)) and atan in the colour stage's rock blend may differ between
-// targets in the last bits (tests/test_pointwise.cpp holds every compiled target to 1e-5 of the
-// scalar target). Within one process the target is fixed, so files are byte-identical for any
-// thread count.
+// operations (add, mul, div, sqrt, floor, min/max, integer and bit operations) and never a fused
+// multiply-add (the build uses -ffp-contract=off), so every target gives bit-identical results —
+// including redistribute's pow, which is our own polynomial exp2/log2 (pointwise.cpp: Pow01) —
+// except the colour stage's rock blend, whose atan is Highway's (evaluated with MulAdd: an FMA on
+// AVX2/AVX-512, a multiply and an add elsewhere), so it may differ between targets in the last
+// bits (tests/test_pointwise.cpp holds every compiled target to 1e-5 of the scalar target and the
+// others to bit identity). Within one process the target is fixed, so files are byte-identical for
+// any thread count.
 //
 // Thresholds taken from double parameters are converted so that float comparisons decide exactly
 // as the double comparison would (see float_at_most / float_at_least).
 #include <cstdint>
+#include <vector>
 
 namespace relief::detail {
 
@@ -51,11 +53,17 @@ struct LandOnly {
 // ---- height kernels: transform row[0, n) in place; inputs are clamped to [0, 1] first and the
 // ---- result is clamped to [0, 1].
 
-// e' = clamp(modifier · e^exponent); e^1 is exact (no pow), 0^y = 0.
+// e' = clamp(modifier · e^exponent); e^1 is exact (no pow), 0^y = 0, 1^y = 1 exactly.
+// e^y is our own exp2(y·log2 e) (pointwise.cpp: Pow01): relative error ≤ 1e-6 against the double
+// pow for results ≥ 2^−125, flushed to 0 below that; exactly rounded operations only, so every
+// target gives the same bits. Monotone up to that error (tests/test_pointwise.cpp).
 struct RedistributeRow {
   float exponent = 1.0f, modifier = 1.0f;
+  float exponent_hi = 1.0f, exponent_lo = 0.0f;  // exponent = hi + lo exactly, hi with 12 significant bits
   bool power = false;  // exponent ≠ 1
   LandOnly land;
+  // Sets exponent, exponent_hi/lo and power from a positive exponent.
+  void set_exponent(double y);
 };
 void redistribute_row(const RedistributeRow& k, float* row, int n);
 
@@ -101,7 +109,18 @@ void curve_row(const CurveRow& k, float* row, int n);
 
 // ---- colour kernels (3-channel interleaved outputs)
 
-// Colour by elevation levels with the rock rule and the brightness speckle:
+// The surface gradient of row j from the rows above and below it, as the neighbourhood stages use
+// it (relief/hillshade.hpp: gradient_at, in single precision): interior columns
+// gx = (mid[i+1] − mid[i−1])·central, the border columns one-sided (mid[1] − mid[0])·edge and
+// (mid[n−1] − mid[n−2])·edge; gz = (down[i] − up[i])·kz (kz = central inside, edge on the first and
+// last row, where up or down is the row itself). central = s·height_m/(2·cell_m), edge = 2·central
+// (computed in double, rounded to float), s the vertical scale (1, or the hillshade's z factor).
+struct GradientRows {
+  const float *up = nullptr, *mid = nullptr, *down = nullptr;
+  float central = 0.0f, edge = 0.0f, kz = 0.0f;
+};
+
+// Colour by elevation levels with the rock rule, the brightness speckle and surface water:
 //   e      = height (divided by max_height when relative)
 //   colour = bands: the first level with e ≤ at (the last level above all);
 //            gradient: the first colour up to at[0], the last from at[K−1], linear in between
@@ -109,10 +128,15 @@ void curve_row(const CurveRow& k, float* row, int n);
 //          w = smoothstep((slope° − rock_slope°)/rock_blend°); w = 1 when rock_blend = 0 or
 //          slope ≥ rock_full_gate (the angle, an atan for |∇y|² input, is only evaluated for
 //          vectors with a sample inside the blend band)
-//   result = clamp(colour · (1 + variation·(2v − 1))), v = a0 + (a1 − a0)·tz
+//   speckle colour · (1 + variation·(2v − 1)), v = a0 + (a1 − a0)·tz, then clamped to [0, 1]
+//   water  where cover w > 0: colour + (water colour − colour)·w
+// The level search is branch-free: a chain of selects, or, when the levels are sorted and fit in a
+// vector, a count of the levels below e and a lane permutation (color_level_tables). Both give
+// the same colours.
 struct ColorRow {
   int levels = 1;
   const float *at = nullptr, *r = nullptr, *g = nullptr, *b = nullptr;  // `levels` entries
+  const float* tables = nullptr;  // color_level_tables(*this), or null for the select chain
   bool gradient = false;
   bool relative = false;
   float max_height = 1.0f;
@@ -125,28 +149,40 @@ struct ColorRow {
   float rock_r = 0, rock_g = 0, rock_b = 0;
   bool speckle = false;
   float variation = 0.0f;
+  float water_r = 0, water_g = 0, water_b = 0;
 };
-// e: heights (n); slope: n values (ignored without rock); a0, a1: the speckle noise of this row
-// interpolated along x on the lattice rows below and above it (n + kRowPad readable; ignored
-// without speckle), tz the weight between them; rgb: 3n floats written.
-void color_row(const ColorRow& k, const float* e, const float* slope, const float* a0, const float* a1, float tz,
-               float* rgb, int n);
+
+// Lanes in one row of the lookup tables: levels beyond this use the select chain.
+constexpr int kLevelLanes = 16;
+// The level lookup tables of k (8 rows of kLevelLanes floats, indexed by the number of levels
+// below e), or an empty vector when the levels are not sorted (at non-decreasing) or more than
+// kLevelLanes. Reads k.levels, at, r, g, b, gradient.
+std::vector<float> color_level_tables(const ColorRow& k);
+
+// One row of the colour stage: heights rows.mid (n values; rows.up/down and the gradient factors
+// only used for the rock rule without a slope layer), slope: n values of a slope layer in degrees
+// or null (then |∇y|² from rows), a0, a1: the speckle noise of this row interpolated along x on
+// the lattice rows below and above it (n + kRowPad readable; ignored without speckle), tz the
+// weight between them; water: n cover values or null; rgb: 3n floats written.
+void color_row(const ColorRow& k, const GradientRows& rows, const float* slope, const float* a0, const float* a1,
+               float tz, const float* water, float* rgb, int n);
 
 // Value-noise lattice row interpolated along x: out[i] = lat[ix[i]] + (lat[ix[i] + 1] − lat[ix[i]])·tx[i]
 // for i in [0, n); ix and tx have n + kRowPad readable entries (padding: ix 0), lat ix + 2 entries.
 void lattice_row(const float* lat, const std::int32_t* ix, const float* tx, float* out, int n);
 
-// shade = ambient + (1 − ambient)·max(0, n·l), n ∝ (−fx, 1, −fz); under the sea (e < sea)
-// shade = flat + water_relief·(shade − flat); colour = albedo·shade (white without albedo).
+// shade = ambient + (1 − ambient)·max(0, n·l), n ∝ (−fx, 1, −fz) with (fx, fz) the gradient of
+// the rows (GradientRows, z factor included); under the sea (e < sea) shade = flat +
+// water_relief·(shade − flat); colour = albedo·shade (white without albedo).
 struct HillshadeRow {
   float lx = 0, ly = 1, lz = 0;
   float ambient = 0.2f, diffuse = 0.8f, flat = 1.0f, water_relief = 0.3f;
   float sea_below = 0.4f;  // e < this is under water (float_at_least(sea_level))
 };
-// e, fx, fz: n values (fx, fz: surface gradient with the z factor applied); albedo: 3n or null;
-// shade: n written; rgb: 3n written.
-void hillshade_row(const HillshadeRow& k, const float* e, const float* fx, const float* fz, const float* albedo,
-                   float* shade, float* rgb, int n);
+// rows: the height rows (n ≥ 1 values each); albedo: 3n or null; shade: n written (or null: not
+// written); rgb: 3n written. One read of the three rows and the albedo, one write.
+void hillshade_row(const HillshadeRow& k, const GradientRows& rows, const float* albedo, float* shade, float* rgb,
+                   int n);
 
 // The Highway target the kernels dispatch to in this process ("AVX3", "AVX2", "SSE4", …).
 const char* pointwise_target();

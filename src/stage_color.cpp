@@ -145,22 +145,6 @@ struct ColorParams {
 
 double smoothstep_weight(double s) { return smoothstep01(s); }
 
-// Surface gradient of row j in metres per metre times `scale`, as gradient_at (central
-// differences inside, one-sided at the window border), in single precision.
-void gradient_row(const Frame& fr, const Layer& h, int j, double scale, float* gx, float* gz) {
-  const int nx = fr.nx;
-  const float* mid = h.row(j, nx);
-  const float* up = h.row(std::max(j - 1, 0), nx);
-  const float* down = h.row(std::min(j + 1, fr.nz - 1), nx);
-  const double per_m = scale * fr.height_m / fr.cell_m();
-  const float central = float(per_m / 2.0), edge = float(per_m);
-  const float kz = (j > 0 && j < fr.nz - 1) ? central : edge;
-  gx[0] = (mid[1] - mid[0]) * edge;
-  for (int i = 1; i + 1 < nx; ++i) gx[i] = (mid[i + 1] - mid[i - 1]) * central;
-  gx[nx - 1] = (mid[nx - 1] - mid[nx - 2]) * edge;
-  for (int i = 0; i < nx; ++i) gz[i] = (down[i] - up[i]) * kz;
-}
-
 void require_single(const Terrain& t, const Layer& h, const char* name) {
   if (h.channels != 1 || h.data.size() != t.frame.count())
     throw Error("", std::string("layer '") + name + "' must have one channel and one value per sample");
@@ -177,6 +161,8 @@ void apply_color(Terrain& t, const ColorParams& p, const Context& ctx) {
   k.levels = int(at.size());
   k.at = at.data(), k.r = r.data(), k.g = g.data(), k.b = b.data();
   k.gradient = p.mode == "gradient";
+  const std::vector<float> level_tables = detail::color_level_tables(k);
+  k.tables = level_tables.empty() ? nullptr : level_tables.data();
   // Per-map normalisation (seed 000): the only non-local step; off by default.
   if (p.relative_to_max) {
     float hmax = 0.0f;
@@ -273,6 +259,7 @@ void apply_color(Terrain& t, const ColorParams& p, const Context& ctx) {
     if (l.channels == 1 && l.data.size() == fr.count()) water = &l;
   }
   const float wr = p.water_color.r, wg = p.water_color.g, wb = p.water_color.b;
+  k.water_r = wr, k.water_g = wg, k.water_b = wb;
   // Levels that tile an image instead of a flat colour: those rows take a scalar path that
   // samples the textures at world positions, then applies the same rock rule and speckle.
   const auto textures = detail::load_level_textures(p.levels, "stages[" + std::to_string(ctx.stage_index) + "].levels");
@@ -281,20 +268,8 @@ void apply_color(Terrain& t, const ColorParams& p, const Context& ctx) {
 
   Layer& out = t.layer("albedo", 3);
   detail::parallel_rows(fr.nz, [&](int j) {
-    thread_local std::vector<float> slope, gz;
     thread_local LatticeCache cache;
-    const float* slope_row = nullptr;
-    if (k.rock) {
-      if (given_slope) {
-        slope_row = given_slope->row(j, nx);
-      } else {
-        slope.resize(std::size_t(nx));
-        gz.resize(std::size_t(nx));
-        gradient_row(fr, h, j, 1.0, slope.data(), gz.data());
-        for (int i = 0; i < nx; ++i) slope[std::size_t(i)] = slope[std::size_t(i)] * slope[std::size_t(i)] + gz[std::size_t(i)] * gz[std::size_t(i)];
-        slope_row = slope.data();
-      }
-    }
+    const float* slope_row = k.rock && given_slope ? given_slope->row(j, nx) : nullptr;
     const float *a0 = nullptr, *a1 = nullptr;
     float tz = 0.0f;
     if (k.speckle) {
@@ -304,7 +279,10 @@ void apply_color(Terrain& t, const ColorParams& p, const Context& ctx) {
       std::tie(a0, a1) = lattice_pair(cache, iz);
     }
     float* row = out.row(j, nx);
-    detail::color_row(k, h.row(j, nx), slope_row, a0, a1, tz, row, nx);
+    const detail::GradientRows rows = detail::gradient_rows(fr, h, j, 1.0);
+    // Water is blended inside the kernel, except on textured rows, which are recoloured below.
+    const float* water_row = water && !textured ? water->row(j, nx) : nullptr;
+    detail::color_row(k, rows, slope_row, a0, a1, tz, water_row, row, nx);
     if (textured) {
       const float* e = h.row(j, nx);
       const double z = fr.z_m(j);
@@ -312,7 +290,15 @@ void apply_color(Terrain& t, const ColorParams& p, const Context& ctx) {
         const float v = k.relative ? e[i] / k.max_height : e[i];
         Rgb c = detail::level_color(p.levels, textures, k.gradient, v, fr.x_m(i), z);
         if (k.rock && v > k.rock_min && v < k.rock_max) {
-          const double sd = given_slope ? double(slope_row[i]) : std::atan(std::sqrt(double(slope_row[i]))) * kDeg;
+          float g2 = 0.0f;
+          if (!given_slope) {
+            const float gx = i == 0        ? (e[1] - e[0]) * rows.edge
+                             : i == nx - 1 ? (e[nx - 1] - e[nx - 2]) * rows.edge
+                                           : (e[i + 1] - e[i - 1]) * rows.central;
+            const float gz = (rows.down[i] - rows.up[i]) * rows.kz;
+            g2 = gx * gx + gz * gz;
+          }
+          const double sd = given_slope ? double(slope_row[i]) : std::atan(std::sqrt(double(g2))) * kDeg;
           if (sd > p.rock_slope_deg) {
             const double w = p.rock_blend_deg > 0.0 ? smoothstep_weight(std::min(1.0, (sd - p.rock_slope_deg) / p.rock_blend_deg)) : 1.0;
             c = Rgb{float(c.r + (p.rock_color.r - c.r) * w), float(c.g + (p.rock_color.g - c.g) * w),
@@ -325,7 +311,7 @@ void apply_color(Terrain& t, const ColorParams& p, const Context& ctx) {
         row[3 * i + 2] = std::clamp(c.b * f, 0.0f, 1.0f);
       }
     }
-    if (water) {
+    if (water && textured) {
       const float* w = water->row(j, nx);
       for (int i = 0; i < nx; ++i) {
         if (!(w[i] > 0.0f)) continue;
@@ -355,32 +341,12 @@ void apply_hillshade(Terrain& t, const HillshadeParams& p, const Context&) {
   const Frame& fr = t.frame;
   const Layer& h = t.get("height");
   require_single(t, h, "height");
-  const int nx = fr.nx;
-  const double az = p.azimuth_deg / kDeg, alt = p.altitude_deg / kDeg;
-  // World axes: x east, y up, z south. Azimuth is clockwise from north (−z).
-  const double lx = std::cos(alt) * std::sin(az), ly = std::sin(alt), lz = -std::cos(alt) * std::cos(az);
-  detail::HillshadeRow k;
-  k.lx = float(lx), k.ly = float(ly), k.lz = float(lz);
-  k.ambient = float(p.ambient);
-  k.diffuse = float(1.0 - p.ambient);
-  k.flat = float(p.ambient + (1.0 - p.ambient) * ly);
-  k.water_relief = float(p.water_relief);
-  k.sea_below = detail::float_at_least(fr.sea_level);
   const Layer* albedo = nullptr;
   if (t.has("albedo")) {
     const Layer& a = t.get("albedo");
     if (a.channels == 3 && a.data.size() == fr.count() * 3) albedo = &a;
   }
-  Layer& shade = t.layer("shade", 1);
-  Layer& color = t.layer("color", 3);
-  detail::parallel_rows(fr.nz, [&](int j) {
-    thread_local std::vector<float> fx, fz;
-    fx.resize(std::size_t(nx));
-    fz.resize(std::size_t(nx));
-    gradient_row(fr, h, j, p.z_factor, fx.data(), fz.data());
-    detail::hillshade_row(k, h.row(j, nx), fx.data(), fz.data(), albedo ? albedo->row(j, nx) : nullptr, shade.row(j, nx),
-                          color.row(j, nx), nx);
-  });
+  detail::hillshade(fr, h, albedo, p, &t.layer("shade", 1), t.layer("color", 3));
 }
 
 }  // namespace

@@ -53,8 +53,9 @@ struct RedistributeParams {
 };
 
 // e' = clamp(modifier · e^exponent); land_only applies it to u = (e − sea)/(1 − sea) above the sea
-// (pointwise.hpp: LandOnly). pow is exp(exponent · log e) in single precision (≤ 1e-6 from the
-// double result over [0, 1]); exponent 1 is exact.
+// (pointwise.hpp: LandOnly). Heights are clamped to [0, 1] first, so negative heights become 0 and
+// stay 0. pow is our own exp2(exponent · log2 e) in single precision (pointwise.hpp:
+// RedistributeRow; relative error ≤ 1e-6, the same bits on every SIMD target); exponent 1 is exact.
 struct RedistributeKernel final : RowKernel {
   detail::RedistributeRow k;
   int nx = 0;
@@ -65,9 +66,8 @@ struct RedistributeKernel final : RowKernel {
 std::unique_ptr<RowKernel> prepare_redistribute(Terrain& t, const RedistributeParams& p, const Context&) {
   require_height(t);
   auto r = std::make_unique<RedistributeKernel>();
-  r->k.exponent = float(p.exponent);
+  r->k.set_exponent(p.exponent);
   r->k.modifier = float(p.modifier);
-  r->k.power = p.exponent != 1.0;
   r->k.land = detail::LandOnly::make(p.land_only, t.frame.sea_level);
   r->nx = t.frame.nx;
   return r;

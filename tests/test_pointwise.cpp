@@ -70,8 +70,9 @@ struct Case {
 
 std::vector<Case> cases() {
   std::vector<Case> c = {
-      {"redistribute", {{"exponent", 1.7}, {"modifier", 1.2}}, {"height"}, false},
-      {"redistribute", {{"exponent", 0.3}, {"land_only", true}}, {"height"}, false},
+      {"redistribute", {{"exponent", 1.7}, {"modifier", 1.2}}, {"height"}, true},
+      {"redistribute", {{"exponent", 0.3}, {"land_only", true}}, {"height"}, true},
+      {"redistribute", {{"exponent", 8.0}}, {"height"}, true},
       {"redistribute", {{"exponent", 1.0}, {"modifier", 1.3}, {"land_only", true}}, {"height"}, true},
       {"terrace", {{"levels", 7}}, {"height"}, true},
       {"terrace", {{"levels", 5}, {"mode", "smooth"}, {"wall", 0.4}, {"land_only", true}}, {"height"}, true},
