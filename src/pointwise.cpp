@@ -64,53 +64,89 @@ HWY_INLINE V WithLand(D d, const LandOnly& land, V e, G&& g) {
 // x^y for x ∈ [0, 1] and a positive exponent, as exp2(y·log2 x) with our own polynomials, in
 // exactly rounded operations only (no MulAdd, no target-specific rounding), so every target gives
 // the same bits:
-//   x = 2^k·m, m ∈ [√½, √2) from the float's bits (subnormal x scaled by 2^24 first);
+//   x·2^24 = 2^k·m, m ∈ [√½, √2) from the float's bits (the exact scaling makes subnormal x normal);
 //   log2 m = t·P(t²), t = (m − 1)/(m + 1), P a degree-3 minimax fit (relative error 7e-10);
-//   y·log2 x = y_hi·k + (y_lo·k + y·log2 m), y_hi = y with 12 significant bits, so y_hi·k is exact
-//   and the float error is that of a number below ~5 in magnitude — the result's relative error
-//   does not grow for small x;
+//   y·log2 x = y_hi·(k − 24) + (y_lo·(k − 24) + y·log2 m), y_hi = y with 12 significant bits, so
+//   y_hi·(k − 24) is exact and the float error is that of a number below ~5 in magnitude — the
+//   result's relative error does not grow for small x;
 //   2^f = 2^n·2^g, n = round(f), g ∈ [−½, ½], 2^g = 1 + g·Q(g), Q a degree-4 minimax fit
-//   (relative error 9e-8); 2^n is built in the exponent bits.
-// x = 0 gives 0, x = 1 gives exactly 1 (t = 0, f = 0, 2^0 = 1). Results below 2^−125 (1e-38)
-// flush to 0. Rounding to an integer uses the 1.5·2^23 trick (valid for |f| < 2^22), which every
-// target evaluates with the same two IEEE additions.
-HWY_INLINE V Pow01(D d, const RedistributeRow& k, V x) {
+//   (relative error 9e-8); the product with 2^n is an integer add to the exponent bits.
+// x = 1 gives exactly 1 (t = 0, f = 0, 2^0 = 1). x < x_min (x^y < 2^−125, and x = 0) gives 0:
+// no subnormal results. Rounding to an integer uses the 1.5·2^23 trick (valid for |f| < 2^22),
+// which every target evaluates with the same two IEEE additions.
+// log2 x = kf + log2m (kf an integer, |log2m| ≤ ½), both exact functions of x's bits.
+HWY_INLINE void Log2Parts(D d, V x, V& kf, V& log2m) {
   const DI di;
   const V one = hn::Set(d, 1.0f);
-  const V magic = hn::Set(d, 12582912.0f);  // 1.5·2^23
-  const auto round = [&](V v) { return hn::Sub(hn::Add(v, magic), magic); };
-  const auto subnormal = hn::Lt(x, hn::Set(d, 1.17549435e-38f));
-  const V xs = hn::IfThenElse(subnormal, hn::Mul(x, hn::Set(d, 16777216.0f)), x);
   // Offsetting the bits by 1 − √½ (in the mantissa) moves the split point from 2 to √2.
-  const auto bits = hn::Add(hn::BitCast(di, xs), hn::Set(di, 0x004afb0d));
-  const V kf = hn::Add(hn::ConvertTo(d, hn::Sub(hn::ShiftRight<23>(bits), hn::Set(di, 127))),
-                       hn::IfThenElseZero(subnormal, hn::Set(d, -24.0f)));
+  const auto bits = hn::Add(hn::BitCast(di, hn::Mul(x, hn::Set(d, 16777216.0f))), hn::Set(di, 0x004afb0d));
+  kf = hn::ConvertTo(d, hn::Sub(hn::ShiftRight<23>(bits), hn::Set(di, 127 + 24)));
   const V m = hn::BitCast(d, hn::Add(hn::And(bits, hn::Set(di, 0x007fffff)), hn::Set(di, 0x3f3504f3)));
   const V t = hn::Div(hn::Sub(m, one), hn::Add(m, one));
   const V s = hn::Mul(t, t);
   V p = hn::Set(d, kLog2[3]);
   for (int c = 2; c >= 0; --c) p = hn::Add(hn::Set(d, kLog2[c]), hn::Mul(s, p));
-  const V log2m = hn::Mul(t, p);
+  log2m = hn::Mul(t, p);
+}
+
+// 2^(y·(kf + log2m)) for the lanes with keep, 0 elsewhere (see Pow01).
+template <class M>
+HWY_INLINE V Exp2Times(D d, const RedistributeRow& k, V kf, V log2m, M keep) {
+  const DI di;
+  // v + 1.5·2^23 rounds v to an integer n (|v| < 2^22) and holds n in its low mantissa bits: the
+  // bits of the sum are those of 1.5·2^23 plus n.
+  const V magic = hn::Set(d, 12582912.0f);
   const V hi = hn::Mul(hn::Set(d, k.exponent_hi), kf);  // exact
   const V lo = hn::Add(hn::Mul(hn::Set(d, k.exponent_lo), kf), hn::Mul(hn::Set(d, k.exponent), log2m));
-  const V n1 = round(hi);
-  const V f = hn::Add(hn::Sub(hi, n1), lo);  // hi − n1 is exact
-  const V n2 = round(f);
-  const V g = hn::Sub(f, n2);  // exact, |g| ≤ ½
+  const V r1 = hn::Add(hi, magic);
+  const V f = hn::Add(hn::Sub(hi, hn::Sub(r1, magic)), lo);  // hi − round(hi) is exact
+  const V r2 = hn::Add(f, magic);
+  const V g = hn::Sub(f, hn::Sub(r2, magic));  // exact, |g| ≤ ½
   V q = hn::Set(d, kExp2[4]);
   for (int c = 3; c >= 0; --c) q = hn::Add(hn::Set(d, kExp2[c]), hn::Mul(g, q));
-  const V frac = hn::Add(one, hn::Mul(g, q));
-  const V n = hn::Add(n1, n2);
-  const V scale = hn::BitCast(d, hn::ShiftLeft<23>(hn::Add(hn::ConvertTo(di, hn::Max(n, hn::Set(d, -126.0f))), hn::Set(di, 127))));
-  const auto keep = hn::And(hn::Gt(x, hn::Zero(d)), hn::Ge(n, hn::Set(d, -125.0f)));
-  return hn::IfThenElseZero(keep, hn::Mul(frac, scale));
+  const V frac = hn::Add(hn::Set(d, 1.0f), hn::Mul(g, q));  // in [0.7, 1.42]
+  // 2^n·frac, n = n1 + n2, by adding n to the exponent field: (bits(r1) + bits(r2)) << 23 equals
+  // n << 23 modulo 2^32, as the low 9 bits of 2·bits(1.5·2^23) are zero. Lanes that are not kept
+  // (where the field could underflow) are dropped.
+  const auto n_field = hn::ShiftLeft<23>(hn::Add(hn::BitCast(di, r1), hn::BitCast(di, r2)));
+  return hn::IfThenElseZero(keep, hn::BitCast(d, hn::Add(hn::BitCast(di, frac), n_field)));
+}
+
+HWY_INLINE V Pow01(D d, const RedistributeRow& k, V x) {
+  V kf, log2m;
+  Log2Parts(d, x, kf, log2m);
+  return Exp2Times(d, k, kf, log2m, hn::Ge(x, hn::Set(d, k.x_min)));
 }
 
 void RedistributeRowImpl(const RedistributeRow& k, float* HWY_RESTRICT row, int n) {
   const D d;
   const V mod = hn::Set(d, k.modifier);
-  auto g = [&](V u) { return Clamp01(d, hn::Mul(mod, k.power ? Pow01(d, k, u) : u)); };
-  InPlace(d, row, n, [&](V v, int) { return Clamp01(d, WithLand(d, k.land, Clamp01(d, v), g)); });
+  const V one = hn::Set(d, 1.0f);
+  if (!k.power) {
+    auto g = [&](V u) { return Clamp01(d, hn::Mul(mod, u)); };
+    InPlace(d, row, n, [&](V v, int) { return Clamp01(d, WithLand(d, k.land, Clamp01(d, v), g)); });
+  } else if (!k.land.enabled) {
+    // Pow01 gives 0 for x < x_min, so also for negative heights; the power is ≥ 0 and the modifier
+    // too, so only the upper clamps remain.
+    InPlace(d, row, n, [&](V v, int) { return hn::Min(hn::Mul(mod, Pow01(d, k, hn::Min(v, one))), one); });
+  } else {
+    // ((e − sea)/land)^y without the division: log2(e − sea) − log2(land), with log2(land) split the
+    // same way from the same float (1 − sea, which is e − sea at e = 1), so e = 1 still gives exactly
+    // u^y = 1. Lanes with e − sea < land_x_min (u^y < 2^−125, and the sea floor) give 0 here.
+    const V sea = hn::Set(d, k.land.sea), span = hn::Set(d, k.land.land), floor_max = hn::Set(d, k.land.sea_floor_max);
+    V k_land, l_land;
+    Log2Parts(d, hn::Sub(one, sea), k_land, l_land);
+    const V x_min = hn::Set(d, k.land_x_min);
+    InPlace(d, row, n, [&](V v, int) {
+      const V e = Clamp01(d, v);
+      const V x = hn::Sub(e, sea);
+      V kf, log2m;
+      Log2Parts(d, x, kf, log2m);
+      const V p = Exp2Times(d, k, hn::Sub(kf, k_land), hn::Sub(log2m, l_land), hn::Ge(x, x_min));
+      const V mapped = hn::Min(hn::Add(sea, hn::Mul(span, hn::Min(hn::Mul(mod, p), one))), one);
+      return hn::IfThenElse(hn::Le(e, floor_max), e, mapped);
+    });
+  }
 }
 
 void TerraceRowImpl(const TerraceRow& k, float* HWY_RESTRICT row, int n) {
@@ -492,6 +528,12 @@ void RedistributeRow::set_exponent(double y) {
   const double scale = std::ldexp(1.0, 12 - e);  // keep 12 significant bits
   exponent_hi = float(std::nearbyint(double(exponent) * scale) / scale);
   exponent_lo = exponent - exponent_hi;  // exact: the low bits of a float
+  // x^y ≥ 2^−125 ⟺ x ≥ 2^(−125/y); 0 is below it for every y > 0.
+  x_min = std::max(float_at_least(std::exp2(-125.0 / double(exponent))), std::numeric_limits<float>::denorm_min());
+  // Land-only: x = e − sea, u = x/land; u^y ≥ 2^−125 ⟸ x ≥ 2^(−125/y)·land (with a margin for
+  // the rounding of x/land).
+  land_x_min = std::max(float_at_least(std::exp2(-125.0 / double(exponent)) * double(land.land) * (1.0 + 1e-6)),
+                        std::numeric_limits<float>::denorm_min());
 }
 
 LandOnly LandOnly::make(bool enabled, double sea_level) {

@@ -55,14 +55,17 @@ struct LandOnly {
 
 // e' = clamp(modifier · e^exponent); e^1 is exact (no pow), 0^y = 0, 1^y = 1 exactly.
 // e^y is our own exp2(y·log2 e) (pointwise.cpp: Pow01): relative error ≤ 1e-6 against the double
-// pow for results ≥ 2^−125, flushed to 0 below that; exactly rounded operations only, so every
+// pow for results ≥ 2^−125 (inputs ≥ x_min), 0 below that; exactly rounded operations only, so every
 // target gives the same bits. Monotone up to that error (tests/test_pointwise.cpp).
 struct RedistributeRow {
   float exponent = 1.0f, modifier = 1.0f;
   float exponent_hi = 1.0f, exponent_lo = 0.0f;  // exponent = hi + lo exactly, hi with 12 significant bits
+  float x_min = 0.0f;       // e^exponent is 0 below this (where it would fall under 2^−125)
+  float land_x_min = 0.0f;  // the same for e − sea with land_only
   bool power = false;  // exponent ≠ 1
   LandOnly land;
-  // Sets exponent, exponent_hi/lo and power from a positive exponent.
+  // Sets exponent, exponent_hi/lo, power and the x_min thresholds from a positive exponent; call
+  // after setting `land`.
   void set_exponent(double y);
 };
 void redistribute_row(const RedistributeRow& k, float* row, int n);

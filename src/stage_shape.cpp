@@ -66,9 +66,9 @@ struct RedistributeKernel final : RowKernel {
 std::unique_ptr<RowKernel> prepare_redistribute(Terrain& t, const RedistributeParams& p, const Context&) {
   require_height(t);
   auto r = std::make_unique<RedistributeKernel>();
+  r->k.land = detail::LandOnly::make(p.land_only, t.frame.sea_level);
   r->k.set_exponent(p.exponent);
   r->k.modifier = float(p.modifier);
-  r->k.land = detail::LandOnly::make(p.land_only, t.frame.sea_level);
   r->nx = t.frame.nx;
   return r;
 }

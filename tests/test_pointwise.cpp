@@ -6,12 +6,15 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstring>
+#include <limits>
 #include <functional>
 #include <map>
 #include <numbers>
 #include <string>
 #include <vector>
 
+#include "hillshade.hpp"
 #include "pointwise.hpp"
 #include "relief/stage.hpp"
 #include "relief/terrain.hpp"
@@ -233,6 +236,128 @@ TEST(Curve, KnotsCompareAsInDouble) {
   EXPECT_GT(h[1], 0.49f);
 }
 
+// ---- redistribute's own pow (pointwise.cpp: Pow01) against std::pow --------------------------
+
+namespace {
+float from_bits(std::uint32_t u) {
+  float f;
+  std::memcpy(&f, &u, 4);
+  return f;
+}
+std::uint32_t to_bits(float f) {
+  std::uint32_t u;
+  std::memcpy(&u, &f, 4);
+  return u;
+}
+// redistribute_row over xs with exponent y (modifier 1), on the process's own target.
+std::vector<float> pow_row(double y, std::vector<float> xs, bool land_only = false, double sea = 0.4) {
+  relief::detail::RedistributeRow k;
+  k.land = relief::detail::LandOnly::make(land_only, sea);
+  k.set_exponent(y);
+  relief::detail::redistribute_row(k, xs.data(), int(xs.size()));
+  return xs;
+}
+// Every 1021st float from the smallest subnormal to 1, and 1 itself.
+std::vector<float> float_sweep() {
+  std::vector<float> xs;
+  for (std::uint32_t u = 1; u < 0x3f800000u; u += 1021) xs.push_back(from_bits(u));
+  xs.push_back(1.0f);
+  return xs;
+}
+const double kExponents[] = {0.1, 0.3, 0.5, 1.4, 2.0, 3.7, 8.0};
+}  // namespace
+
+// The contract of pointwise.hpp: relative error ≤ 8e-7 against the double pow of the same float
+// input and exponent (measured: 6e-7 at exponent 8 over every float in [0, 1]) wherever the
+// result is ≥ 2^−125, and 0 only below that.
+TEST(Redistribute, PowRelativeErrorBoundOverEveryBinade) {
+  const std::vector<float> xs = float_sweep();
+  const double tiny = std::ldexp(1.0, -125);
+  for (double y : kExponents) {
+    const std::vector<float> got = pow_row(y, xs);
+    const double yf = double(float(y));
+    double worst = 0;
+    for (std::size_t i = 0; i < xs.size(); ++i) {
+      const double want = std::pow(double(xs[i]), yf);
+      if (got[i] == 0.0f) {
+        ASSERT_LT(want, tiny * 1.0001) << "x " << xs[i] << " exponent " << y;
+        continue;
+      }
+      worst = std::max(worst, std::fabs(double(got[i]) - want) / want);
+    }
+    EXPECT_LE(worst, 8e-7) << "exponent " << y;
+  }
+}
+
+// Land only: e' = sea + land·u^y, u = (e − sea)/land, computed without the division (the
+// logarithm of land is subtracted). Against the double formula on the same floats the heights
+// agree within 5e-7: the power's relative error times land plus the final rounding.
+TEST(Redistribute, LandOnlyPowWithinBoundOfDouble) {
+  std::vector<float> es;
+  for (int i = 0; i <= 100000; ++i) es.push_back(float(0.4 + 0.6 * i / 100000.0));
+  const double sea = double(0.4f), land = double(1.0f - 0.4f);
+  for (double y : kExponents) {
+    const std::vector<float> got = pow_row(y, es, true, 0.4);
+    double worst = 0;
+    for (std::size_t i = 0; i < es.size(); ++i) {
+      const double u = es[i] > 0.4f ? double(es[i] - 0.4f) / land : 0.0;
+      const double want = es[i] > 0.4f ? sea + land * std::pow(u, double(float(y))) : double(es[i]);
+      worst = std::max(worst, std::fabs(double(got[i]) - want));
+    }
+    EXPECT_LE(worst, 5e-7) << "exponent " << y;
+  }
+}
+
+TEST(Redistribute, EndpointsAreExact) {
+  for (double y : kExponents) {
+    const auto plain = pow_row(y, {0.0f, 1.0f, -0.5f, 1.5f});
+    EXPECT_EQ(plain[0], 0.0f) << y;
+    EXPECT_EQ(plain[1], 1.0f) << y;
+    EXPECT_EQ(plain[2], 0.0f) << y;  // negative heights clamp to 0 first
+    EXPECT_EQ(plain[3], 1.0f) << y;  // and heights above 1 to 1
+    // Land only: the sea floor and the coastline stay, the highest point stays at 1.
+    const auto land = pow_row(y, {0.0f, 0.2f, 0.4f, 1.0f, -1.0f}, true, 0.4);
+    EXPECT_EQ(land[0], 0.0f) << y;
+    EXPECT_EQ(land[1], 0.2f) << y;
+    EXPECT_EQ(land[2], 0.4f) << y;
+    EXPECT_EQ(land[3], 1.0f) << y;
+    EXPECT_EQ(land[4], 0.0f) << y;
+  }
+}
+
+// Consecutive floats around every place where the evaluation changes regime (the √½ mantissa
+// split of each binade, powers of two, the flush threshold, just below 1): the result never
+// falls by more than one ulp from one input to the next, and on a grid coarser than the error it
+// never falls at all.
+TEST(Redistribute, PowIsMonotoneUpToOneUlp) {
+  std::vector<float> xs;
+  auto window = [&](float centre) {
+    const std::uint32_t c = to_bits(centre);
+    for (std::uint32_t u = c - std::min<std::uint32_t>(c, 3000); u < c + 3000 && u <= 0x3f800000u; ++u) xs.push_back(from_bits(u));
+  };
+  for (int e = 0; e >= -40; --e) {
+    window(float(std::ldexp(std::numbers::sqrt2 / 2, e)));
+    window(float(std::ldexp(1.0, e)));
+  }
+  window(1.17549435e-38f);  // smallest normal
+  for (double y : kExponents) {
+    std::vector<float> in = xs;
+    std::sort(in.begin(), in.end());
+    relief::detail::RedistributeRow k;
+    k.set_exponent(y);
+    window(k.x_min);
+    const auto got = pow_row(y, in);
+    for (std::size_t i = 1; i < in.size(); ++i) {
+      if (in[i] == in[i - 1]) continue;
+      ASSERT_GE(to_bits(got[i]) + 1, to_bits(got[i - 1])) << "exponent " << y << " at x = " << in[i];
+    }
+    std::vector<float> grid;
+    for (int i = 0; i <= 20000; ++i) grid.push_back(float(i / 20000.0));
+    const auto g = pow_row(y, grid);
+    for (std::size_t i = 1; i < g.size(); ++i) ASSERT_GE(g[i], g[i - 1]) << "exponent " << y << " at x = " << grid[i];
+  }
+}
+
 // ---- the colour stage's rock blend ----------------------------------------------------------
 
 namespace {
@@ -298,4 +423,107 @@ TEST(Stages, MultiChannelHeightIsAnError) {
   } catch (const relief::Error& e) {
     EXPECT_NE(std::string(e.what()).find("one channel"), std::string::npos) << e.what();
   }
+}
+
+// ---- colour level lookup and the hillshade halo ---------------------------------------------
+
+namespace {
+// Runs color_row over heights e (one row, no rock, no speckle) with or without the lookup tables.
+std::vector<float> level_colors(const std::vector<float>& at, bool gradient, const std::vector<float>& e, bool tables) {
+  relief::detail::ColorRow k;
+  std::vector<float> r, g, b;
+  for (std::size_t m = 0; m < at.size(); ++m) r.push_back(float(m) / 16), g.push_back(1.0f - float(m) / 20), b.push_back(float(m % 3) / 2);
+  k.levels = int(at.size());
+  k.at = at.data(), k.r = r.data(), k.g = g.data(), k.b = b.data();
+  k.gradient = gradient;
+  const std::vector<float> t = relief::detail::color_level_tables(k);
+  if (tables) {
+    EXPECT_FALSE(t.empty());
+    k.tables = t.data();
+  }
+  relief::detail::GradientRows rows;
+  rows.up = rows.mid = rows.down = e.data();
+  std::vector<float> rgb(3 * e.size());
+  relief::detail::color_row(k, rows, nullptr, nullptr, nullptr, 0.0f, nullptr, rgb.data(), int(e.size()));
+  return rgb;
+}
+}  // namespace
+
+// The branch-free lookup (count of levels below e, lane permutation) picks the same colours as
+// the chain of selects, bit for bit, on every target: bands and gradients, duplicate levels (empty
+// segments), one level and as many levels as the table has lanes; heights on, between and beyond
+// the levels.
+TEST(Color, LevelLookupMatchesTheSelectChain) {
+  const std::vector<std::vector<float>> palettes = {
+      {0.3f, 0.4f, 0.43f, 0.58f, 0.72f, 0.86f, 1.0f},
+      {0.5f},
+      {0.2f, 0.2f, 0.5f, 0.5f, 0.9f},
+      {0.0f, 0.05f, 0.1f, 0.15f, 0.2f, 0.3f, 0.35f, 0.4f, 0.5f, 0.55f, 0.6f, 0.7f, 0.8f, 0.85f, 0.9f, 1.0f},
+  };
+  std::vector<float> e;
+  for (int i = 0; i <= 1000; ++i) e.push_back(float(-0.1 + 1.2 * i / 1000.0));
+  for (auto& p : palettes)
+    for (float a : p) e.push_back(a), e.push_back(std::nextafter(a, 2.0f)), e.push_back(std::nextafter(a, -2.0f));
+  for (std::int64_t target : hwy::SupportedAndGeneratedTargets()) {
+    ForcedTarget force(target);
+    for (auto& p : palettes)
+      for (bool gradient : {false, true}) {
+        const auto chain = level_colors(p, gradient, e, false);
+        const auto lookup = level_colors(p, gradient, e, true);
+        ASSERT_EQ(lookup, chain) << hwy::TargetName(target) << " levels " << p.size() << (gradient ? " gradient" : " bands");
+      }
+  }
+}
+
+TEST(Color, UnsortedLevelsHaveNoLookupTables) {
+  relief::detail::ColorRow k;
+  const std::vector<float> at = {0.5f, 0.3f}, c = {0.0f, 1.0f};
+  k.levels = 2, k.at = at.data(), k.r = k.g = k.b = c.data();
+  EXPECT_TRUE(relief::detail::color_level_tables(k).empty());
+}
+
+// The former double-precision hillshade of the step pictures, kept as the reference: the one
+// single-precision implementation (stage and pictures) agrees with it within 1e-5 at every sample,
+// the window's border rows and columns included (the halo blocks of the kernel), on every target.
+TEST(Hillshade, AgreesWithTheDoubleReferenceIncludingBorders) {
+  const relief::detail::Light light{300.0, 40.0, 3.0, 0.2, 0.3};
+  for (std::int64_t target : hwy::SupportedAndGeneratedTargets()) {
+    ForcedTarget force(target);
+    for (int nx : {2, 5, 17, 67}) {
+      Terrain t = field(frame(nx, 45));
+      run("color", {{"rock_blend_deg", 0.0}}, t);
+      const relief::Frame& fr = t.frame;
+      const relief::Layer& h = t.get("height");
+      const relief::Layer& albedo = t.get("albedo");
+      relief::Layer shade, color;
+      relief::detail::hillshade(fr, h, &albedo, light, &shade, color);
+      const double az = light.azimuth_deg * std::numbers::pi / 180, alt = light.altitude_deg * std::numbers::pi / 180;
+      const double lx = std::cos(alt) * std::sin(az), ly = std::sin(alt), lz = -std::cos(alt) * std::cos(az);
+      const double flat = light.ambient + (1.0 - light.ambient) * ly;
+      double worst = 0;
+      for (int j = 0; j < fr.nz; ++j)
+        for (int i = 0; i < fr.nx; ++i) {
+          const std::size_t k = std::size_t(j) * fr.nx + i;
+          const auto g = relief::detail::gradient_at(fr, h, i, j);
+          const double fx = light.z_factor * g.dx, fz = light.z_factor * g.dz;
+          double s = light.ambient + (1.0 - light.ambient) * std::max(0.0, (-fx * lx + ly - fz * lz) / std::sqrt(1.0 + fx * fx + fz * fz));
+          if (double(h.data[k]) < fr.sea_level) s = flat + light.water_relief * (s - flat);
+          worst = std::max(worst, std::fabs(double(shade.data[k]) - s));
+          for (int c = 0; c < 3; ++c) worst = std::max(worst, std::fabs(double(color.data[3 * k + c]) - albedo.data[3 * k + c] * s));
+        }
+      EXPECT_LE(worst, 1e-5) << hwy::TargetName(target) << " nx " << nx;
+    }
+  }
+}
+
+// The stage and the --steps pictures share the implementation: the stage's layers equal
+// detail::hillshade's for the same light.
+TEST(Hillshade, StageIsTheSharedImplementation) {
+  Terrain t = field(frame(67, 45));
+  run("color", json::object(), t);
+  run("hillshade", {{"azimuth_deg", 315.0}, {"altitude_deg", 45.0}, {"z_factor", 1.0}, {"ambient", 0.2}, {"water_relief", 0.3}}, t);
+  relief::Layer shade, color;
+  relief::detail::hillshade(t.frame, t.get("height"), &t.get("albedo"), relief::detail::Light{}, &shade, color);
+  EXPECT_EQ(shade.data, t.get("shade").data);
+  EXPECT_EQ(color.data, t.get("color").data);
 }
