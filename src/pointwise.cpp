@@ -15,6 +15,7 @@
 #include <cmath>
 #include <limits>
 #include <numbers>
+#include <type_traits>
 
 #include "pointwise.hpp"
 
@@ -69,18 +70,19 @@ HWY_INLINE V WithLand(D d, const LandOnly& land, V e, G&& g) {
 //   y·log2 x = y_hi·(k − 24) + (y_lo·(k − 24) + y·log2 m), y_hi = y with 12 significant bits, so
 //   y_hi·(k − 24) is exact and the float error is that of a number below ~5 in magnitude — the
 //   result's relative error does not grow for small x;
-//   2^f = 2^n·2^g, n = round(f), g ∈ [−½, ½], 2^g = 1 + g·Q(g), Q a degree-4 minimax fit
-//   (relative error 9e-8); the product with 2^n is an integer add to the exponent bits.
+//   2^f = 2^n·2^g, n = round(f), g ∈ [−½, ½] (+ 2^−14), 2^g = 1 + g·Q(g), Q a degree-4 minimax
+//   fit (relative error 9e-8); the product with 2^n is an integer add to the exponent bits.
 // x = 1 gives exactly 1 (t = 0, f = 0, 2^0 = 1). x < x_min (x^y < 2^−125, and x = 0) gives 0:
 // no subnormal results. Rounding to an integer uses the 1.5·2^23 trick (valid for |f| < 2^22),
 // which every target evaluates with the same two IEEE additions.
-// log2 x = kf + log2m (kf an integer, |log2m| ≤ ½), both exact functions of x's bits.
-HWY_INLINE void Log2Parts(D d, V x, V& kf, V& log2m) {
+// log2 x = kf + log2m (kf an integer, |log2m| ≤ ½), both exact functions of x's bits; kf is
+// offset by −k_offset (an integer) at no cost.
+HWY_INLINE void Log2Parts(D d, V x, V& kf, V& log2m, int k_offset = 0) {
   const DI di;
   const V one = hn::Set(d, 1.0f);
   // Offsetting the bits by 1 − √½ (in the mantissa) moves the split point from 2 to √2.
   const auto bits = hn::Add(hn::BitCast(di, hn::Mul(x, hn::Set(d, 16777216.0f))), hn::Set(di, 0x004afb0d));
-  kf = hn::ConvertTo(d, hn::Sub(hn::ShiftRight<23>(bits), hn::Set(di, 127 + 24)));
+  kf = hn::ConvertTo(d, hn::Sub(hn::ShiftRight<23>(bits), hn::Set(di, 127 + 24 + k_offset)));
   const V m = hn::BitCast(d, hn::Add(hn::And(bits, hn::Set(di, 0x007fffff)), hn::Set(di, 0x3f3504f3)));
   const V t = hn::Div(hn::Sub(m, one), hn::Add(m, one));
   const V s = hn::Mul(t, t);
@@ -98,17 +100,17 @@ HWY_INLINE V Exp2Times(D d, const RedistributeRow& k, V kf, V log2m, M keep) {
   const V magic = hn::Set(d, 12582912.0f);
   const V hi = hn::Mul(hn::Set(d, k.exponent_hi), kf);  // exact
   const V lo = hn::Add(hn::Mul(hn::Set(d, k.exponent_lo), kf), hn::Mul(hn::Set(d, k.exponent), log2m));
-  const V r1 = hn::Add(hi, magic);
-  const V f = hn::Add(hn::Sub(hi, hn::Sub(r1, magic)), lo);  // hi − round(hi) is exact
-  const V r2 = hn::Add(f, magic);
-  const V g = hn::Sub(f, hn::Sub(r2, magic));  // exact, |g| ≤ ½
+  // n = round(hi + lo) (the rounded sum is close enough: any integer within ½ + 2^−14 of the
+  // exponent will do), then g = (hi − n) + lo with hi − n exact: one rounding, |g| ≤ ½ + 2^−14.
+  const V r = hn::Add(hn::Add(hi, lo), magic);
+  const V g = hn::Add(hn::Sub(hi, hn::Sub(r, magic)), lo);
   V q = hn::Set(d, kExp2[4]);
   for (int c = 3; c >= 0; --c) q = hn::Add(hn::Set(d, kExp2[c]), hn::Mul(g, q));
   const V frac = hn::Add(hn::Set(d, 1.0f), hn::Mul(g, q));  // in [0.7, 1.42]
-  // 2^n·frac, n = n1 + n2, by adding n to the exponent field: (bits(r1) + bits(r2)) << 23 equals
-  // n << 23 modulo 2^32, as the low 9 bits of 2·bits(1.5·2^23) are zero. Lanes that are not kept
-  // (where the field could underflow) are dropped.
-  const auto n_field = hn::ShiftLeft<23>(hn::Add(hn::BitCast(di, r1), hn::BitCast(di, r2)));
+  // 2^n·frac by adding n to the exponent field: bits(r) << 23 equals n << 23 modulo 2^32, as the
+  // low 9 bits of bits(1.5·2^23) are zero. Lanes that are not kept (where the field could
+  // underflow) are dropped.
+  const auto n_field = hn::ShiftLeft<23>(hn::BitCast(di, r));
   return hn::IfThenElseZero(keep, hn::BitCast(d, hn::Add(hn::BitCast(di, frac), n_field)));
 }
 
@@ -128,7 +130,9 @@ void RedistributeRowImpl(const RedistributeRow& k, float* HWY_RESTRICT row, int 
   } else if (!k.land.enabled) {
     // Pow01 gives 0 for x < x_min, so also for negative heights; the power is ≥ 0 and the modifier
     // too, so only the upper clamps remain.
-    InPlace(d, row, n, [&](V v, int) { return hn::Min(hn::Mul(mod, Pow01(d, k, hn::Min(v, one))), one); });
+    // With modifier 1 (the default) the power is ≤ 1 already (x ≤ 1 gives a non-positive exponent).
+    if (k.modifier == 1.0f) InPlace(d, row, n, [&](V v, int) { return Pow01(d, k, hn::Min(v, one)); });
+    else InPlace(d, row, n, [&](V v, int) { return hn::Min(hn::Mul(mod, Pow01(d, k, hn::Min(v, one))), one); });
   } else {
     // ((e − sea)/land)^y without the division: log2(e − sea) − log2(land), with log2(land) split the
     // same way from the same float (1 − sea, which is e − sea at e = 1), so e = 1 still gives exactly
@@ -136,16 +140,19 @@ void RedistributeRowImpl(const RedistributeRow& k, float* HWY_RESTRICT row, int 
     const V sea = hn::Set(d, k.land.sea), span = hn::Set(d, k.land.land), floor_max = hn::Set(d, k.land.sea_floor_max);
     V k_land, l_land;
     Log2Parts(d, hn::Sub(one, sea), k_land, l_land);
+    const int k_offset = int(hn::GetLane(k_land));
     const V x_min = hn::Set(d, k.land_x_min);
-    InPlace(d, row, n, [&](V v, int) {
+    auto land = [&](V v, auto with_modifier) {
       const V e = Clamp01(d, v);
       const V x = hn::Sub(e, sea);
       V kf, log2m;
-      Log2Parts(d, x, kf, log2m);
-      const V p = Exp2Times(d, k, hn::Sub(kf, k_land), hn::Sub(log2m, l_land), hn::Ge(x, x_min));
-      const V mapped = hn::Min(hn::Add(sea, hn::Mul(span, hn::Min(hn::Mul(mod, p), one))), one);
-      return hn::IfThenElse(hn::Le(e, floor_max), e, mapped);
-    });
+      Log2Parts(d, x, kf, log2m, k_offset);
+      V p = Exp2Times(d, k, kf, hn::Sub(log2m, l_land), hn::Ge(x, x_min));
+      if constexpr (decltype(with_modifier)::value) p = hn::Min(hn::Mul(mod, p), one);  // else p ≤ 1 already
+      return hn::IfThenElse(hn::Le(e, floor_max), e, hn::Min(hn::Add(sea, hn::Mul(span, p)), one));
+    };
+    if (k.modifier == 1.0f) InPlace(d, row, n, [&](V v, int) { return land(v, std::false_type()); });
+    else InPlace(d, row, n, [&](V v, int) { return land(v, std::true_type()); });
   }
 }
 
