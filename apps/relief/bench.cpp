@@ -234,7 +234,8 @@ int run_bench(const BenchSettings& s) {
   if (want("stages")) {
     // Pointwise stages on a size² layer against a plain copy of that layer (the floor: one read
     // and one write). The target is ≤ 2× the copy. The colour passes (color, hillshade) write
-    // 3-channel layers and are compared with a copy of a 3-channel layer of the same size.
+    // 3-channel layers and are compared with a copy of a 3-channel layer of the same size
+    // (hillshade also writes the 1-channel 'shade' and reads the 3-channel albedo).
     const int n = s.noise_size;
     Terrain base;
     base.frame = World{n, n, 4000.0, 600.0, 0.4}.frame();
@@ -286,6 +287,7 @@ int run_bench(const BenchSettings& s) {
       const std::vector<json> cases = {
           {{"stage", "redistribute"}, {"exponent", 1.4}},
           {{"stage", "redistribute"}, {"exponent", 1.4}, {"land_only", true}},
+          {{"stage", "redistribute"}, {"exponent", 2.2}, {"modifier", 1.1}},
           {{"stage", "terrace"}, {"levels", 8}},
           {{"stage", "terrace"}, {"mode", "smooth"}, {"levels", 8}},
           {{"stage", "island"}, {"distance", "square_bump"}},
