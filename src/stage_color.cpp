@@ -292,7 +292,8 @@ void apply_color(Terrain& t, const ColorParams& p, const Context& ctx) {
         if (k.rock && v > k.rock_min && v < k.rock_max) {
           float g2 = 0.0f;
           if (!given_slope) {
-            const float gx = i == 0        ? (e[1] - e[0]) * rows.edge
+            const float gx = nx < 2        ? 0.0f
+                             : i == 0      ? (e[1] - e[0]) * rows.edge
                              : i == nx - 1 ? (e[nx - 1] - e[nx - 2]) * rows.edge
                                            : (e[i + 1] - e[i - 1]) * rows.central;
             const float gz = (rows.down[i] - rows.up[i]) * rows.kz;
