@@ -20,6 +20,11 @@
 //   Gradient                          lattice split in double, then float: 2·Lanes(double)
 //                                     samples per step (16 on AVX-512); the gradient components
 //                                     come from an in-register permute (vpermps), no gathers.
+//                                     At lacunarity 2 (the dyadic lattice, noise.cpp) only
+//                                     octave 0 is split in double; the others step a 32.32
+//                                     fixed-point state with 8 integer/float operations per
+//                                     vector. Fractal::None has its own loop (no octave loop,
+//                                     no amplitude or 1/Σa multiplies, which are by 1).
 //
 // Exactness. Every kernel performs the same IEEE operations in the same order as the scalar
 // reference (Noise::row_reference in noise.cpp): no FMA, no reassociation, no approximate
@@ -168,7 +173,9 @@ HWY_INLINE VI Next(VI i, std::int64_t period) {
 
 // ---- fractal folding (double) --------------------------------------------------------------------
 
-enum { kFbm = 0, kRidged = 1, kBillow = 2 };
+// kNone: Fractal::None (one octave of amplitude 1, 1/Σa = 1); only the Gradient kernel has its own
+// instance, the double-precision ones treat it as kFbm.
+enum { kFbm = 0, kRidged = 1, kBillow = 2, kNone = 3 };
 
 template <int kFr>
 HWY_INLINE VD Fold(VD acc, VD amp, VD n) {
@@ -705,7 +712,21 @@ HWY_NOINLINE void RowGradient(const NoiseKernelArgs& a, double z, std::int64_t i
       }
     }
     VF acc = hn::Zero(df);
-    if constexpr (kDy) {
+    if constexpr (kFr == kNone) {
+      // One octave: the reference's 0 + 1·n is n (−0 becomes +0); its · 1/Σa = ·1 is skipped below.
+      const NoiseOctave& o = a.octaves[0];
+      VD u[kHalves];
+      lattice(o.freq_x, o.offset_x, x, u);
+      VF nb;
+      if constexpr (kWarp) {
+        VD v[kHalves];
+        lattice(o.freq_z, o.offset_z, zl, v);
+        nb = GradEval<kPX>(o, GradMakeRow<kPZ>(o, v), u);
+      } else {
+        nb = GradEval<kPX>(o, rows[0], u);
+      }
+      acc = hn::Add(nb, hn::Zero(df));
+    } else if constexpr (kDy) {
       const NoiseOctave& o0 = a.octaves[0];
       VD u[kHalves];
       lattice(o0.freq_x, o0.offset_x, x, u);
@@ -745,9 +766,12 @@ HWY_NOINLINE void RowGradient(const NoiseKernelArgs& a, double z, std::int64_t i
         acc = FoldF<kFr>(acc, hn::Set(df, amp[k]), nb);
       }
     }
-    VF v = kFr == kRidged ? hn::Sub(hn::Mul(hn::Set(df, 2.0f), hn::Mul(acc, inv)), one) : hn::Mul(acc, inv);
-    v = hn::IfThenElse(v > mone, v, mone);
-    v = hn::IfThenElse(v < one, v, one);
+    VF v = kFr == kRidged ? hn::Sub(hn::Mul(hn::Set(df, 2.0f), hn::Mul(acc, inv)), one)
+           : kFr == kNone ? acc
+                          : hn::Mul(acc, inv);
+    // The reference's v > −1 ? v : −1 and v < 1 ? v : 1 (NaN → −1): x86 max/min return their second
+    // operand when either is NaN, Highway's scalar Max/Min the one that is not NaN.
+    v = hn::Min(hn::Max(v, mone), one);
     if (start + NF <= n) {
       hn::StoreU(v, df, out + start);
     } else {
@@ -782,7 +806,8 @@ Fn PickSimplex(bool warp) {
 }
 template <int kFr>
 Fn PickGradient(bool warp, bool px, bool pz, bool dyadic) {
-  if (dyadic) return warp ? &RowGradient<kFr, true, false, false, true> : &RowGradient<kFr, false, false, false, true>;
+  if constexpr (kFr != kNone)  // one octave has nothing to step
+    if (dyadic) return warp ? &RowGradient<kFr, true, false, false, true> : &RowGradient<kFr, false, false, false, true>;
   if (!warp) return px ? &RowGradient<kFr, false, true, false, false> : &RowGradient<kFr, false, false, false, false>;
   if (px) return pz ? &RowGradient<kFr, true, true, true, false> : &RowGradient<kFr, true, true, false, false>;
   return pz ? &RowGradient<kFr, true, false, true, false> : &RowGradient<kFr, true, false, false, false>;
@@ -810,7 +835,8 @@ void NoiseRow(const NoiseKernelArgs& a, double z, std::int64_t i0, double dx, in
       }
       break;
     case NoiseBasis::Gradient:
-      fn = fr == kRidged ? PickGradient<kRidged>(a.warp, px, pz, a.dyadic)
+      fn = a.fractal == Fractal::None ? PickGradient<kNone>(a.warp, px, pz, false)
+           : fr == kRidged ? PickGradient<kRidged>(a.warp, px, pz, a.dyadic)
            : fr == kBillow ? PickGradient<kBillow>(a.warp, px, pz, a.dyadic)
                            : PickGradient<kFbm>(a.warp, px, pz, a.dyadic);
       break;
