@@ -362,8 +362,7 @@ struct GRow {
   std::uint32_t zp0, zp1;  // Z·P_z ⊕ key of the lattice rows below and above
   float fy, fy1, sy;
 };
-inline GRow grow(const detail::NoiseOctave& o, double v) {
-  const GAxis a = gaxis(v, o.period_z, o.inv_period_z);
+inline GRow grow_axis(const detail::NoiseOctave& o, const GAxis& a) {
   GRow r;
   r.zp0 = (a.i0 * detail::kGradPz) ^ o.key32;
   r.zp1 = (a.i1 * detail::kGradPz) ^ o.key32;
@@ -372,8 +371,8 @@ inline GRow grow(const detail::NoiseOctave& o, double v) {
   r.sy = gfade(a.f);
   return r;
 }
-inline float gradient_core(const detail::NoiseOctave& o, const GRow& r, double u) {
-  const GAxis a = gaxis(u, o.period_x, o.inv_period_x);
+inline GRow grow(const detail::NoiseOctave& o, double v) { return grow_axis(o, gaxis(v, o.period_z, o.inv_period_z)); }
+inline float gradient_axis(const GRow& r, const GAxis& a) {
   const std::uint32_t xp0 = a.i0 * detail::kGradPx, xp1 = a.i1 * detail::kGradPx;
   const float fx = a.f, fx1 = a.f - 1.0f;
   const float g00 = gcorner(xp0, r.zp0, fx, r.fy);
@@ -382,6 +381,54 @@ inline float gradient_core(const detail::NoiseOctave& o, const GRow& r, double u
   const float g11 = gcorner(xp1, r.zp1, fx1, r.fy1);
   const float sx = gfade(fx);
   return glerp(r.sy, glerp(sx, g00, g10), glerp(sx, g01, g11));
+}
+inline float gradient_core(const detail::NoiseOctave& o, const GRow& r, double u) {
+  return gradient_axis(r, gaxis(u, o.period_x, o.inv_period_x));
+}
+
+// Dyadic lattice (Gradient, lacunarity exactly 2, no period). Octave 0 is split in double as
+// above (u₀ = x·f₀ + offset₀); octave k ≥ 1 is evaluated at u_k = 2ᵏ·u₀ + ½ in its own cells.
+// B_k = 2ᵏ·u₀ is carried in 32.32 fixed point: cell c (modulo 2³², as the hash uses it) and
+// fraction q/2³², with q₀ = ⌊frac(u₀)·2³²⌋; doubling is exact (c ← 2c + top bit of q, q ← 2q).
+// Adding ½ flips q's top bit and carries it into the cell. No rounding anywhere after octave 0:
+// the float fraction is q ⊕ 2³¹'s top 23 bits. Positions are thereby quantised to 2⁻³² of an
+// octave-0 cell, the same resolution in metres for every octave (octave k keeps 32 − k bits of
+// its own fraction, ≥ 17 at the 16th octave), independent of the distance from the origin.
+// The ½ replaces the seeded per-octave offsets of the general path: it keeps every octave's
+// lattice points off every other octave's (a point of octave j lands on half-integer coordinates
+// of octave k), which was the offsets' purpose; the per-octave hash keys decorrelate the octaves.
+// (With one octave there is nothing to step: octave 0 is the same in both paths, so count ≥ 2
+// only picks the kernel.)
+inline bool dyadic(const NoiseSettings& s, std::size_t count) {
+  return s.basis == NoiseBasis::Gradient && count >= 2 && s.lacunarity == 2.0 && s.period_x_m == 0.0 &&
+         s.period_z_m == 0.0;
+}
+struct DyAxis {
+  std::uint32_t c, q, t;  // B_k's cell and fraction; t = q >> 31
+};
+inline GAxis dy_start(double u, DyAxis& s) {
+  const double fl = std::floor(u);
+  GAxis a;
+  a.f = float(u - fl);
+  a.i0 = low32(fl);
+  a.i1 = a.i0 + 1u;
+  s.c = a.i0;
+  s.q = low32(std::floor((u - fl) * detail::kTwo32));
+  s.t = s.q >> 31;
+  return a;
+}
+inline GAxis dy_step(DyAxis& s) {
+  s.c = s.c + s.c + s.t;
+  s.q = s.q + s.q;
+  s.t = s.q >> 31;
+  GAxis a;
+  a.i0 = s.c + s.t;
+  a.i1 = a.i0 + 1u;
+  const std::uint32_t bits = (s.q >> 9) ^ detail::kDyadicOne;
+  float m;
+  std::memcpy(&m, &bits, 4);
+  a.f = m - 1.0f;
+  return a;
 }
 
 // ---- one octave over a chunk ----------------------------------------------------------------------
@@ -635,6 +682,7 @@ void Noise::run_gradient(double z_m, XAt x_at, int n, float* out) const {
   constexpr int kChunk = 256;
   double xs[kChunk], zs[kChunk];
   float acc[kChunk];
+  DyAxis dx[kChunk], dz[kChunk];  // per-sample dyadic lattice state (x; z when warped)
   const bool warp = s_.warp_m > 0.0;
   const float inv = float(inv_amp_sum_);
   for (int start = 0; start < n; start += kChunk) {
@@ -651,12 +699,26 @@ void Noise::run_gradient(double z_m, XAt x_at, int n, float* out) const {
       }
     }
     for (int i = 0; i < m; ++i) acc[i] = 0.0f;
-    for (const detail::NoiseOctave& o : octaves_) {
+    const bool dy = dyadic(s_, octaves_.size());
+    const detail::NoiseOctave& o0 = octaves_[0];
+    DyAxis dzr{};  // the row's z lattice state (dyadic, no warp)
+    const GAxis az0 = dy_start(z_m * o0.freq_z + o0.offset_z, dzr);
+    for (std::size_t k = 0; k < octaves_.size(); ++k) {
+      const detail::NoiseOctave& o = octaves_[k];
       const float a = float(o.amp);
-      const GRow row = grow(o, z_m * o.freq_z + o.offset_z);
+      GRow row;
+      if (dy) row = grow_axis(o, k == 0 ? az0 : dy_step(dzr));
+      else row = grow(o, z_m * o.freq_z + o.offset_z);
       for (int i = 0; i < m; ++i) {
-        const float v = gradient_core(o, warp ? grow(o, zs[i] * o.freq_z + o.offset_z) : row,
-                                      xs[i] * o.freq_x + o.offset_x);
+        float v;
+        if (dy) {
+          // Octave 0 starts each sample's state, later octaves step it.
+          const GAxis ax = k == 0 ? dy_start(xs[i] * o.freq_x + o.offset_x, dx[i]) : dy_step(dx[i]);
+          if (warp) row = grow_axis(o, k == 0 ? dy_start(zs[i] * o.freq_z + o.offset_z, dz[i]) : dy_step(dz[i]));
+          v = gradient_axis(row, ax);
+        } else {
+          v = gradient_core(o, warp ? grow(o, zs[i] * o.freq_z + o.offset_z) : row, xs[i] * o.freq_x + o.offset_x);
+        }
         switch (s_.fractal) {
           case Fractal::None:
           case Fractal::Fbm: acc[i] = acc[i] + a * v; break;
@@ -693,6 +755,7 @@ void Noise::row(double z_m, std::int64_t i0, double dx_m, int n, float* out) con
   a.jitter = s_.jitter;
   a.periodic = s_.period_x_m > 0.0 || s_.period_z_m > 0.0;
   a.warp = s_.warp_m > 0.0;
+  a.dyadic = dyadic(s_, octaves_.size());
   a.warp_m = s_.warp_m;
   a.inv_amp_sum = inv_amp_sum_;
   a.octaves = octaves_.data();

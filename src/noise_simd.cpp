@@ -20,6 +20,11 @@
 //   Gradient                          lattice split in double, then float: 2·Lanes(double)
 //                                     samples per step (16 on AVX-512); the gradient components
 //                                     come from an in-register permute (vpermps), no gathers.
+//                                     At lacunarity 2 (the dyadic lattice, noise.cpp) only
+//                                     octave 0 is split in double; the others step a 32.32
+//                                     fixed-point state with 8 integer/float operations per
+//                                     vector. Fractal::None has its own loop (no octave loop,
+//                                     no amplitude or 1/Σa multiplies, which are by 1).
 //
 // Exactness. Every kernel performs the same IEEE operations in the same order as the scalar
 // reference (Noise::row_reference in noise.cpp): no FMA, no reassociation, no approximate
@@ -168,7 +173,9 @@ HWY_INLINE VI Next(VI i, std::int64_t period) {
 
 // ---- fractal folding (double) --------------------------------------------------------------------
 
-enum { kFbm = 0, kRidged = 1, kBillow = 2 };
+// kNone: Fractal::None (one octave of amplitude 1, 1/Σa = 1); only the Gradient kernel has its own
+// instance, the double-precision ones treat it as kFbm.
+enum { kFbm = 0, kRidged = 1, kBillow = 2, kNone = 3 };
 
 template <int kFr>
 HWY_INLINE VD Fold(VD acc, VD amp, VD n) {
@@ -539,11 +546,9 @@ struct GradRow {
   VU32 zp0, zp1;  // Z·P_z ⊕ key of the lattice rows below and above
   VF fy, fy1, sy;
 };
-template <bool kPZ>
-HWY_INLINE GradRow GradMakeRow(const NoiseOctave& o, const VD (&v)[kHalves]) {
+HWY_INLINE GradRow GradRowFromAxis(const NoiseOctave& o, const GAxisV& az) {
   const DF df;
   const DU32 du32;
-  const GAxisV az = GAxis<kPZ>(v, o.period_z, o.inv_period_z);
   const VU32 pz = hn::Set(du32, kGradPz), key = hn::Set(du32, o.key32);
   GradRow g;
   g.zp0 = hn::Xor(hn::Mul(az.i0, pz), key);
@@ -552,6 +557,11 @@ HWY_INLINE GradRow GradMakeRow(const NoiseOctave& o, const VD (&v)[kHalves]) {
   g.fy1 = hn::Sub(az.f, hn::Set(df, 1.0f));
   g.sy = Fade(az.f);
   return g;
+}
+
+template <bool kPZ>
+HWY_INLINE GradRow GradMakeRow(const NoiseOctave& o, const VD (&v)[kHalves]) {
+  return GradRowFromAxis(o, GAxis<kPZ>(v, o.period_z, o.inv_period_z));
 }
 HWY_INLINE GradRow GradRowHoisted(const NoiseOctave& o, VD v) {
   VD vv[kHalves];
@@ -579,10 +589,9 @@ HWY_INLINE VF GradCorner(VU32 xp, VU32 zp, VF ax, VF ay) {
 }
 
 template <bool kPX>
-HWY_INLINE VF GradEval(const NoiseOctave& o, const GradRow& r, const VD (&u)[kHalves]) {
+HWY_INLINE VF GradEvalAxis(const GradRow& r, const GAxisV& ax) {
   const DF df;
   const DU32 du32;
-  const GAxisV ax = GAxis<kPX>(u, o.period_x, o.inv_period_x);
   const VU32 px = hn::Set(du32, kGradPx);
   const VU32 xp0 = hn::Mul(ax.i0, px);
   // (i0 + 1)·Pₓ = i0·Pₓ + Pₓ modulo 2³²: the same bits as the scalar's multiply.
@@ -595,7 +604,48 @@ HWY_INLINE VF GradEval(const NoiseOctave& o, const GradRow& r, const VD (&u)[kHa
   const VF sx = Fade(fx);
   return Lerp(r.sy, Lerp(sx, g00, g10), Lerp(sx, g01, g11));
 }
+template <bool kPX>
+HWY_INLINE VF GradEval(const NoiseOctave& o, const GradRow& r, const VD (&u)[kHalves]) {
+  return GradEvalAxis<kPX>(r, GAxis<kPX>(u, o.period_x, o.inv_period_x));
+}
 
+// The dyadic lattice (noise.cpp, dy_start / dy_step): octave 0 split in double, later octaves
+// carried in 32.32 fixed point by exact doubling, u_k = 2ᵏ·u₀ + ½.
+struct DyState {
+  VU32 c, q, t;  // B_k's cell and fraction; t = q >> 31
+};
+HWY_INLINE GAxisV DyStart(const VD (&u)[kHalves], DyState& s) {
+  const DD d;
+  const DU32 du32;
+  const VD two32 = hn::Set(d, kTwo32);
+  VD fl[kHalves], fr[kHalves], fq[kHalves];
+  for (int h = 0; h < kHalves; ++h) {
+    fl[h] = hn::Floor(u[h]);
+    fr[h] = hn::Sub(u[h], fl[h]);
+    fq[h] = hn::Floor(hn::Mul(fr[h], two32));
+  }
+  GAxisV a;
+  a.f = JoinDemote(fr);
+  a.i0 = JoinLow32(fl);
+  a.i1 = hn::Add(a.i0, hn::Set(du32, 1u));
+  s.c = a.i0;
+  s.q = JoinLow32(fq);
+  s.t = hn::ShiftRight<31>(s.q);
+  return a;
+}
+HWY_INLINE GAxisV DyStep(DyState& s) {
+  const DF df;
+  const DU32 du32;
+  s.c = hn::Add(hn::Add(s.c, s.c), s.t);
+  s.q = hn::Add(s.q, s.q);
+  s.t = hn::ShiftRight<31>(s.q);
+  GAxisV a;
+  a.i0 = hn::Add(s.c, s.t);
+  a.i1 = hn::Add(a.i0, hn::Set(du32, 1u));
+  const VF m = hn::BitCast(df, hn::Xor(hn::ShiftRight<9>(s.q), hn::Set(du32, kDyadicOne)));
+  a.f = hn::Sub(m, hn::Set(df, 1.0f));
+  return a;
+}
 template <int kFr>
 HWY_INLINE VF FoldF(VF acc, VF amp, VF n) {
   const DF df;
@@ -609,8 +659,11 @@ HWY_INLINE VF FoldF(VF acc, VF amp, VF n) {
   }
 }
 
-template <int kFr, bool kWarp, bool kPX, bool kPZ>
+// kDy: the dyadic lattice (then kPX = kPZ = false): octave 0 is split in double, the later ones
+// step the fixed-point state (x per sample; z once per row, or per sample when warped).
+template <int kFr, bool kWarp, bool kPX, bool kPZ, bool kDy>
 HWY_NOINLINE void RowGradient(const NoiseKernelArgs& a, double z, std::int64_t i0, double dx, int n, float* out) {
+  static_assert(!kDy || (!kPX && !kPZ), "the dyadic lattice has no period");
   const DD d;
   const DI di;
   const DF df;
@@ -626,6 +679,12 @@ HWY_NOINLINE void RowGradient(const NoiseKernelArgs& a, double z, std::int64_t i
   };
   if constexpr (kWarp) {
     for (int w = 0; w < 2; ++w) wrows[w] = GradRowHoisted(a.warp_octaves[w], lattice_v(a.warp_octaves[w], vz));
+  } else if constexpr (kDy) {
+    VD v[kHalves];
+    for (int h = 0; h < kHalves; ++h) v[h] = lattice_v(a.octaves[0], vz);
+    DyState sz;
+    rows[0] = GradRowFromAxis(a.octaves[0], DyStart(v, sz));
+    for (int k = 1; k < a.count; ++k) rows[k] = GradRowFromAxis(a.octaves[k], DyStep(sz));
   } else {
     for (int k = 0; k < a.count; ++k) rows[k] = GradRowHoisted(a.octaves[k], lattice_v(a.octaves[k], vz));
   }
@@ -653,8 +712,9 @@ HWY_NOINLINE void RowGradient(const NoiseKernelArgs& a, double z, std::int64_t i
       }
     }
     VF acc = hn::Zero(df);
-    for (int k = 0; k < a.count; ++k) {
-      const NoiseOctave& o = a.octaves[k];
+    if constexpr (kFr == kNone) {
+      // One octave: the reference's 0 + 1·n is n (−0 becomes +0); its · 1/Σa = ·1 is skipped below.
+      const NoiseOctave& o = a.octaves[0];
       VD u[kHalves];
       lattice(o.freq_x, o.offset_x, x, u);
       VF nb;
@@ -663,13 +723,55 @@ HWY_NOINLINE void RowGradient(const NoiseKernelArgs& a, double z, std::int64_t i
         lattice(o.freq_z, o.offset_z, zl, v);
         nb = GradEval<kPX>(o, GradMakeRow<kPZ>(o, v), u);
       } else {
-        nb = GradEval<kPX>(o, rows[k], u);
+        nb = GradEval<kPX>(o, rows[0], u);
       }
-      acc = FoldF<kFr>(acc, hn::Set(df, amp[k]), nb);
+      acc = hn::Add(nb, hn::Zero(df));
+    } else if constexpr (kDy) {
+      const NoiseOctave& o0 = a.octaves[0];
+      VD u[kHalves];
+      lattice(o0.freq_x, o0.offset_x, x, u);
+      DyState sx, sz;
+      const GAxisV ax0 = DyStart(u, sx);
+      GradRow r0;
+      if constexpr (kWarp) {
+        VD v[kHalves];
+        lattice(o0.freq_z, o0.offset_z, zl, v);
+        r0 = GradRowFromAxis(o0, DyStart(v, sz));
+      } else {
+        r0 = rows[0];
+      }
+      acc = FoldF<kFr>(acc, hn::Set(df, amp[0]), GradEvalAxis<false>(r0, ax0));
+      for (int k = 1; k < a.count; ++k) {
+        const GAxisV ax = DyStep(sx);
+        VF nb;
+        if constexpr (kWarp)
+          nb = GradEvalAxis<false>(GradRowFromAxis(a.octaves[k], DyStep(sz)), ax);
+        else
+          nb = GradEvalAxis<false>(rows[k], ax);
+        acc = FoldF<kFr>(acc, hn::Set(df, amp[k]), nb);
+      }
+    } else {
+      for (int k = 0; k < a.count; ++k) {
+        const NoiseOctave& o = a.octaves[k];
+        VD u[kHalves];
+        lattice(o.freq_x, o.offset_x, x, u);
+        VF nb;
+        if constexpr (kWarp) {
+          VD v[kHalves];
+          lattice(o.freq_z, o.offset_z, zl, v);
+          nb = GradEval<kPX>(o, GradMakeRow<kPZ>(o, v), u);
+        } else {
+          nb = GradEval<kPX>(o, rows[k], u);
+        }
+        acc = FoldF<kFr>(acc, hn::Set(df, amp[k]), nb);
+      }
     }
-    VF v = kFr == kRidged ? hn::Sub(hn::Mul(hn::Set(df, 2.0f), hn::Mul(acc, inv)), one) : hn::Mul(acc, inv);
-    v = hn::IfThenElse(v > mone, v, mone);
-    v = hn::IfThenElse(v < one, v, one);
+    VF v = kFr == kRidged ? hn::Sub(hn::Mul(hn::Set(df, 2.0f), hn::Mul(acc, inv)), one)
+           : kFr == kNone ? acc
+                          : hn::Mul(acc, inv);
+    // The reference's v > −1 ? v : −1 and v < 1 ? v : 1 (NaN → −1): x86 max/min return their second
+    // operand when either is NaN, Highway's scalar Max/Min the one that is not NaN.
+    v = hn::Min(hn::Max(v, mone), one);
     if (start + NF <= n) {
       hn::StoreU(v, df, out + start);
     } else {
@@ -703,10 +805,12 @@ Fn PickSimplex(bool warp) {
   return warp ? &RowDouble<Simplex<false, false>, kFr, true> : &RowDouble<Simplex<false, false>, kFr, false>;
 }
 template <int kFr>
-Fn PickGradient(bool warp, bool px, bool pz) {
-  if (!warp) return px ? &RowGradient<kFr, false, true, false> : &RowGradient<kFr, false, false, false>;
-  if (px) return pz ? &RowGradient<kFr, true, true, true> : &RowGradient<kFr, true, true, false>;
-  return pz ? &RowGradient<kFr, true, false, true> : &RowGradient<kFr, true, false, false>;
+Fn PickGradient(bool warp, bool px, bool pz, bool dyadic) {
+  if constexpr (kFr != kNone)  // one octave has nothing to step
+    if (dyadic) return warp ? &RowGradient<kFr, true, false, false, true> : &RowGradient<kFr, false, false, false, true>;
+  if (!warp) return px ? &RowGradient<kFr, false, true, false, false> : &RowGradient<kFr, false, false, false, false>;
+  if (px) return pz ? &RowGradient<kFr, true, true, true, false> : &RowGradient<kFr, true, true, false, false>;
+  return pz ? &RowGradient<kFr, true, false, true, false> : &RowGradient<kFr, true, false, false, false>;
 }
 
 }  // namespace
@@ -731,9 +835,10 @@ void NoiseRow(const NoiseKernelArgs& a, double z, std::int64_t i0, double dx, in
       }
       break;
     case NoiseBasis::Gradient:
-      fn = fr == kRidged ? PickGradient<kRidged>(a.warp, px, pz)
-           : fr == kBillow ? PickGradient<kBillow>(a.warp, px, pz)
-                           : PickGradient<kFbm>(a.warp, px, pz);
+      fn = a.fractal == Fractal::None ? PickGradient<kNone>(a.warp, px, pz, false)
+           : fr == kRidged ? PickGradient<kRidged>(a.warp, px, pz, a.dyadic)
+           : fr == kBillow ? PickGradient<kBillow>(a.warp, px, pz, a.dyadic)
+                           : PickGradient<kFbm>(a.warp, px, pz, a.dyadic);
       break;
   }
   fn(a, z, i0, dx, n, out);

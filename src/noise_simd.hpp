@@ -42,6 +42,14 @@ alignas(64) constexpr float kGradDirY[16] = {
     float(-kGradLength * kSin22_5), float(-kGradLength * kCos22_5), float(-kGradLength * kCos22_5),
     float(-kGradLength * kSin22_5)};
 
+// Gradient basis, dyadic lattice (lacunarity exactly 2, no period; see noise.cpp, "Dyadic
+// lattice"): octave k ≥ 1 sits at u_k = 2ᵏ·u₀ + ½ in its own cells, carried from octave 0 in 32.32
+// fixed point (cell c, fraction q/2³²) by exact integer doubling. Its float fraction is the top 23
+// bits of u_k's fixed-point fraction q ⊕ 2³¹, read as the mantissa of a float in [1, 2)
+// (bits (q >> 9) ⊕ kDyadicOne = 0x3F800000 | ((q ⊕ 2³¹) >> 9)) minus 1: exact, always < 1.
+constexpr double kTwo32 = 4294967296.0;
+constexpr std::uint32_t kDyadicOne = 0x3FC00000u;
+
 // Shared with noise.cpp, which defines the tables from its constexpr generators.
 constexpr std::uint64_t kLatticePx = 0x9E3779B97F4A7C15ull;  // Value / Simplex / Cellular hashing
 constexpr std::uint64_t kLatticePz = 0xC2B2AE3D27D4EB4Full;
@@ -61,6 +69,7 @@ struct NoiseKernelArgs {
   double jitter = 1.0;
   bool periodic = false;  // any octave has period_x or period_z ≠ 0
   bool warp = false;
+  bool dyadic = false;    // Gradient, ≥ 2 octaves, lacunarity 2, no period: the dyadic lattice
   double warp_m = 0.0;
   double inv_amp_sum = 1.0;
   const NoiseOctave* octaves = nullptr;  // count entries, 1..16

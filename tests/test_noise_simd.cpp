@@ -202,7 +202,8 @@ TEST(Gradient, GoldenHashOnScalarReference) {
     ref.insert(ref.end(), a.begin(), a.end());
     simd.insert(simd.end(), b.begin(), b.end());
   }
-  EXPECT_EQ(fnv1a(ref), 15382442068763458187ull);
+  // Changed deliberately with the dyadic lattice (lacunarity 2: octaves ≥ 1 at 2ᵏ·u₀ + ½).
+  EXPECT_EQ(fnv1a(ref), 14297808085583764422ull);
   EXPECT_TRUE(same_bits(ref, simd));
 }
 
@@ -256,13 +257,15 @@ struct Moments {
 // statistics: over a few thousand cells the standard deviation still varies by several per cent
 // with the seed. At 16 samples per cell for derivatives (64 seeds: 16 384 cells), so that the
 // finite differences (also along the diagonals, √2 samples long) stay close to the derivative.
-Moments moments(NoiseBasis b, double frequency, int seeds = 16) {
+// `make(seed)`: the settings for one seed.
+template <class Make>
+Moments moments_of(Make make, int seeds) {
   Moments m;
   double sum = 0, sq = 0, count = 0, dcount = 0;
   const int side = 256;
   std::vector<double> all;
   for (std::uint64_t seed = 1; seed <= std::uint64_t(seeds); ++seed) {
-    const auto v = patch(single(b, seed, frequency), side, 1000.0 * double(seed), -500.0 * double(seed));
+    const auto v = patch(make(seed), side, 1000.0 * double(seed), -500.0 * double(seed));
     all.insert(all.end(), v.begin(), v.end());
     for (double x : v) {
       m.min = std::min(m.min, x);
@@ -295,6 +298,9 @@ Moments moments(NoiseBasis b, double frequency, int seeds = 16) {
   m.sd = std::sqrt(sq / count - m.mean * m.mean);
   for (double& d : m.dvar) d /= dcount;
   return m;
+}
+Moments moments(NoiseBasis b, double frequency, int seeds = 16) {
+  return moments_of([&](std::uint64_t seed) { return single(b, seed, frequency); }, seeds);
 }
 
 TEST(GradientVsPerlin, RangeMeanAndSpread) {
@@ -353,11 +359,12 @@ void fft(std::vector<std::complex<double>>& a) {
 // Radially averaged power spectrum of 256² patches, each normalised to total power 1, averaged
 // over 16 seeds (seeds from `first`); bin r holds the wave vectors with round(|k|) = r cycles per
 // patch. At 8 samples per cell a patch holds 32² lattice cells.
-std::vector<double> spectrum(NoiseBasis b, double frequency, std::uint64_t first = 11) {
+template <class Make>
+std::vector<double> spectrum_of(Make make, std::uint64_t first) {
   const int n = 256, seeds = 16;
   std::vector<double> bins(std::size_t(n / 2 + 1), 0.0);
   for (std::uint64_t seed = first; seed < first + seeds; ++seed) {
-    const auto v = patch(single(b, seed, frequency), n, 300.0 * double(seed), 0.0);
+    const auto v = patch(make(seed), n, 300.0 * double(seed), 0.0);
     double mean = 0;
     for (double x : v) mean += x;
     mean /= double(v.size());
@@ -384,6 +391,9 @@ std::vector<double> spectrum(NoiseBasis b, double frequency, std::uint64_t first
     for (std::size_t r = 0; r < bins.size(); ++r) bins[r] += local[r] / total / seeds;
   }
   return bins;
+}
+std::vector<double> spectrum(NoiseBasis b, double frequency, std::uint64_t first = 11) {
+  return spectrum_of([&](std::uint64_t seed) { return single(b, seed, frequency); }, first);
 }
 
 // Largest difference between the cumulative power distributions (a Kolmogorov–Smirnov distance).
@@ -419,6 +429,99 @@ TEST(GradientVsPerlin, RadialPowerSpectrumMatches) {
   std::printf("KS distance to perlin: value %.4f, perlin at 1.25x frequency %.4f\n", ks_value, ks_faster);
   EXPECT_GT(ks_value, 0.03);
   EXPECT_GT(ks_faster, 0.03);
+}
+
+// ---- Gradient: the dyadic lattice (lacunarity 2) ---------------------------------------------------
+
+TEST(SimdTargets, DyadicLatticeBitIdenticalToScalarReference) {
+  // Lacunarity exactly 2 (and no period) takes the fixed-point octave stepping; the tests above
+  // use 2.1 and 1.7. Every fractal, warped or not, 2 to 16 octaves, anisotropic.
+  for (const auto& t : detail::noise_simd_targets()) {
+    ForceTarget f(t.bits);
+    for (Fractal fr : {Fractal::Fbm, Fractal::Ridged, Fractal::Billow})
+      for (int octaves : {2, 7, 16})
+        for (bool warp : {false, true}) {
+          NoiseSettings s;
+          s.basis = NoiseBasis::Gradient;
+          s.fractal = fr;
+          s.octaves = octaves;
+          s.persistence = 0.6;
+          s.frequency = 1.0 / 57.0;
+          s.scale_z = 0.7;
+          s.seed = 0xD1AD1Cull + std::uint64_t(octaves);
+          if (warp) {
+            s.warp_m = 31.0;
+            s.warp_frequency = 1.0 / 80.0;
+          }
+          const std::string what = t.name + " dyadic fractal " + std::to_string(int(fr)) + " octaves " +
+                                   std::to_string(octaves) + (warp ? " warp" : "");
+          EXPECT_EQ(mismatches(s, what), 0) << what;
+        }
+  }
+}
+
+TEST(Gradient, DyadicFbmIsContinuousAcrossEveryOctavesCellEdges) {
+  // 12 octaves with persistence 0.8, so that the finest octaves still weigh: a wrong carry into a
+  // cell index at one of their cell edges would jump by ~a_k·0.3/Σa ≥ 3e-3. Steps of 2e-4 m cross
+  // an edge of the finest octave (cells of 64/2¹¹ m) about 1 time in 150, of octave k 2^(11−k)
+  // times less often; the smooth sum moves by at most ~4e-4 over such a step.
+  NoiseSettings s;
+  s.basis = NoiseBasis::Gradient;
+  s.octaves = 12;
+  s.persistence = 0.8;
+  s.frequency = 1.0 / 64.0;
+  s.seed = 77;
+  const Noise n(s);
+  // On the scalar reference (the vector paths equal it bit for bit: tests above), at x as at().
+  auto at = [&](double x, double z) {
+    float v;
+    n.row_reference(z, 1, x, 1, &v);
+    return double(v);
+  };
+  double worst = 0;
+  for (std::uint64_t i = 0; i < 40000; ++i) {
+    const double x = -2000 + 4000 * unit_double(hash64(0x21, i)), z = -2000 + 4000 * unit_double(hash64(0x22, i));
+    worst = std::max(worst, std::fabs(at(x + 2e-4, z) - at(x, z)));
+    worst = std::max(worst, std::fabs(at(x, z + 2e-4) - at(x, z)));
+  }
+  std::printf("largest change over a 2e-4 m step: %.3g\n", worst);
+  EXPECT_LT(worst, 8e-4);
+  EXPECT_GT(worst, 1e-5);  // not flat
+}
+
+// The dyadic lattice (lacunarity 2: octave k at 2ᵏ·u₀ + ½) against the general path's seeded
+// per-octave offsets (lacunarity the next double above 2: the same frequencies to 16 digits):
+// the same value distribution, derivative variance (isotropic) and spectrum of 6-octave fBm.
+NoiseSettings fbm6(std::uint64_t seed, double lacunarity, double frequency) {
+  NoiseSettings s;
+  s.basis = NoiseBasis::Gradient;
+  s.lacunarity = lacunarity;
+  s.frequency = frequency;
+  s.seed = seed;
+  return s;
+}
+
+TEST(Gradient, DyadicFbmStatisticsMatchTheSeededOffsets) {
+  const double general = std::nextafter(2.0, 3.0);
+  const Moments dy = moments_of([](std::uint64_t seed) { return fbm6(seed, 2.0, 1.0 / 64.0); }, 32);
+  const Moments ge = moments_of([&](std::uint64_t seed) { return fbm6(seed, general, 1.0 / 64.0); }, 32);
+  std::printf("6-octave fBm sd dyadic %.5f general %.5f; mean %.5f %.5f; derivative variance x %.3g %.3g z %.3g "
+              "%.3g diag %.3g %.3g anti %.3g %.3g\n",
+              dy.sd, ge.sd, dy.mean, ge.mean, dy.dvar[0], ge.dvar[0], dy.dvar[1], ge.dvar[1], dy.dvar[2], ge.dvar[2],
+              dy.dvar[3], ge.dvar[3]);
+  EXPECT_NEAR(dy.sd / ge.sd, 1.0, 0.04);
+  EXPECT_NEAR(dy.mean, ge.mean, 0.02);
+  EXPECT_NEAR(dy.q001, ge.q001, 0.05);
+  EXPECT_NEAR(dy.q999, ge.q999, 0.05);
+  // Per direction (the finest octave's 2 m cells make 1 m finite differences direction-biased
+  // in both paths alike, so the directions are compared path to path, not to each other).
+  for (int k = 0; k < 4; ++k) EXPECT_NEAR(dy.dvar[k] / ge.dvar[k], 1.0, 0.05) << "direction " << k;
+  const auto sd = spectrum_of([](std::uint64_t seed) { return fbm6(seed, 2.0, 1.0 / 32.0); }, 11);
+  const auto sg = spectrum_of([&](std::uint64_t seed) { return fbm6(seed, general, 1.0 / 32.0); }, 11);
+  const auto sg2 = spectrum_of([&](std::uint64_t seed) { return fbm6(seed, general, 1.0 / 32.0); }, 101);
+  std::printf("fBm spectrum KS distance: dyadic-general %.4f, general-general (other seeds) %.4f\n", ks(sd, sg),
+              ks(sg2, sg));
+  EXPECT_LT(ks(sd, sg), 0.03);
 }
 
 }  // namespace

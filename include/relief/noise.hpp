@@ -84,6 +84,13 @@ struct NoiseOctave {
 //             |lattice coordinate| < 2⁵¹), so one octave repeats every 2³² cells. The lattice split
 //             (floor, fraction) is done in double, everything after it in float, so its precision
 //             is float's (~6e-8 relative), independent of the distance from the origin.
+//             Dyadic lattice: with lacunarity exactly 2 and no period, octave k ≥ 1 is evaluated at
+//             2ᵏ·u₀ + ½ of its own cells (u₀: octave 0's lattice position, which keeps its seeded
+//             offset) instead of at a seeded offset of its own, carried from octave 0 exactly in
+//             32.32 fixed point: no per-octave double split, positions quantised to 2⁻³² of an
+//             octave-0 cell (octave k keeps 32 − k bits of its fraction). The ½ keeps every
+//             octave's lattice points off every other octave's; the per-octave hash keys
+//             decorrelate them (tests/test_noise_simd.cpp compares the statistics).
 //   Perlin    improved Perlin 2D (exactly perlin2 with the octave's table); one octave repeats
 //             every 256 of its own cells (the table's period), the per-octave tables and offsets
 //             keep the octaves of a sum from repeating together.
