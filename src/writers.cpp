@@ -402,6 +402,9 @@ void write_obj(const Terrain& t, const WriteContext& ctx, Output& out) {
               report_progress(ctx, "obj", reported);
             }
           }));
+  // A pipeline cancelled from outside (an Error in a writer running beside this one) returns
+  // early: never close a truncated file.
+  if (rows_written != total_rows) throw Error("obj", "cancelled before the mesh was complete");
   stream->close();
   out.put("terrain.mtl",
           "# Relief terrain material. albedo.png is written by the 'albedo' writer (--formats albedo);\n"
