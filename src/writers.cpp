@@ -159,6 +159,32 @@ char* put_fixed(char* p, double v) {
   return e;
 }
 
+// put_fixed<5> for |v| < 1 (normal components), the same text: "0.", five digits from a table of
+// digit pairs, trailing zeros dropped. Larger values go to put_fixed<5>.
+char* put_unit5(char* p, double v) {
+  static constexpr char kPairs[] =
+      "00010203040506070809101112131415161718192021222324252627282930313233343536373839"
+      "40414243444546474849505152535455565758596061626364656667686970717273747576777879"
+      "8081828384858687888990919293949596979899";
+  if (!(std::fabs(v) < 1.0)) return put_fixed<5>(p, v);
+  const double s = v * 1e5;
+  auto q = std::int64_t(s >= 0 ? (s + 0x1p52) - 0x1p52 : (s - 0x1p52) + 0x1p52);  // ties to even, as put_fixed
+  if (q < 0) *p++ = '-', q = -q;
+  if (q == 0 || q == 100000) {  // a lone '-' was not written for 0: q < 0 means q ≠ 0
+    *p = q ? '1' : '0';
+    return p + 1;
+  }
+  const auto u = std::uint32_t(q);
+  p[0] = '0';
+  p[1] = '.';
+  std::memcpy(p + 2, kPairs + 2 * (u / 1000), 2);
+  std::memcpy(p + 4, kPairs + 2 * (u / 10 % 100), 2);
+  p[6] = char('0' + u % 10);
+  char* e = p + 7;
+  while (e[-1] == '0') --e;  // u > 0: a non-zero digit stops it
+  return e;
+}
+
 char* put_fixed_runtime(char* p, double v, int decimals) {
   switch (decimals) {
     case 5: return put_fixed<5>(p, v);
@@ -175,6 +201,17 @@ int uv_decimals(int n) {
   while (d < 8 && double(pow10(d)) < 50.0 * double(n - 1)) ++d;
   return d;
 }
+
+// A formatted number (put_fixed writes at most 40 characters), copied with one fixed-size move.
+struct NumberText {
+  char text[48];
+  std::size_t len = 0;
+  void set(std::ptrdiff_t n) { len = std::size_t(n); }
+  char* copy_to(char* p) const {  // the caller's buffer has room for 48 bytes at p
+    std::memcpy(p, text, sizeof text);
+    return p + len;
+  }
+};
 
 // "k/k/k" for a 1-based index k, kept as text: increment() rewrites the last digit of the three
 // copies in place (nine times out of ten) instead of reformatting the number.
@@ -263,6 +300,15 @@ void write_obj(const Terrain& t, const WriteContext& ctx, Output& out) {
     for (int j0 = 0; j0 < sections[s].rows; j0 += rows) blocks.push_back({s, j0, std::min(sections[s].rows, j0 + rows)});
   }
 
+  // Numbers that repeat in every row, formatted once: u per column, and x per column when there
+  // is no jiggle.
+  std::vector<NumberText> u_text(static_cast<std::size_t>(nx)), x_text(off ? 0 : static_cast<std::size_t>(nx));
+  for (int i = 0; i < nx; ++i) {
+    NumberText& u = u_text[std::size_t(i)];
+    u.set(put_fixed_runtime(u.text, double(i) / (nx - 1), uv_d) - u.text);
+    if (!off) x_text[std::size_t(i)].set(put_fixed<4>(x_text[std::size_t(i)].text, f.x_m(i)) - x_text[std::size_t(i)].text);
+  }
+
   auto encode = [&](const Block& blk, TextBuffer& tb) {
     tb.clear();
     for (int j = blk.j0; j < blk.j1; ++j) {
@@ -270,16 +316,32 @@ void write_obj(const Terrain& t, const WriteContext& ctx, Output& out) {
       char* p = tb.cursor();
       switch (blk.section) {
         case 0:
-          for (int i = 0; i < nx; ++i) {
-            const std::size_t k = std::size_t(j) * nx + i;
-            *p++ = 'v';
-            *p++ = ' ';
-            p = put_fixed<4>(p, f.x_m(i) + (off ? double(off->data[2 * k]) : 0.0));
-            *p++ = ' ';
-            p = put_fixed<4>(p, Y(i, j));
-            *p++ = ' ';
-            p = put_fixed<4>(p, f.z_m(j) + (off ? double(off->data[2 * k + 1]) : 0.0));
-            *p++ = '\n';
+          if (off) {
+            for (int i = 0; i < nx; ++i) {
+              const std::size_t k = std::size_t(j) * nx + i;
+              *p++ = 'v';
+              *p++ = ' ';
+              p = put_fixed<4>(p, f.x_m(i) + double(off->data[2 * k]));
+              *p++ = ' ';
+              p = put_fixed<4>(p, Y(i, j));
+              *p++ = ' ';
+              p = put_fixed<4>(p, f.z_m(j) + double(off->data[2 * k + 1]));
+              *p++ = '\n';
+            }
+          } else {
+            // Without jiggle, x depends on the column only and z on the row only.
+            NumberText z;
+            z.set(put_fixed<4>(z.text, f.z_m(j)) - z.text);
+            for (int i = 0; i < nx; ++i) {
+              *p++ = 'v';
+              *p++ = ' ';
+              p = x_text[std::size_t(i)].copy_to(p);
+              *p++ = ' ';
+              p = put_fixed<4>(p, Y(i, j));
+              *p++ = ' ';
+              p = z.copy_to(p);
+              *p++ = '\n';
+            }
           }
           break;
         case 1: {
@@ -291,11 +353,11 @@ void write_obj(const Terrain& t, const WriteContext& ctx, Output& out) {
             const double hz = (Y(i, j1) - Y(i, j0)) / ((j1 - j0) * dz);
             const double inv = 1.0 / std::sqrt(hx * hx + 1.0 + hz * hz);
             std::memcpy(p, "vn ", 3);
-            p = put_fixed<5>(p + 3, -hx * inv);
+            p = put_unit5(p + 3, -hx * inv);
             *p++ = ' ';
-            p = put_fixed<5>(p, inv);
+            p = put_unit5(p, inv);
             *p++ = ' ';
-            p = put_fixed<5>(p, -hz * inv);
+            p = put_unit5(p, -hz * inv);
             *p++ = '\n';
           }
           break;
@@ -303,14 +365,13 @@ void write_obj(const Terrain& t, const WriteContext& ctx, Output& out) {
         case 2: {
           // Image row 0 (z-min) is the top of albedo.png; OBJ v = 0 is the image bottom. The v text
           // is the same for the whole row.
-          char vtext[48];
-          const std::size_t vlen = std::size_t(put_fixed_runtime(vtext, 1.0 - double(j) / (nz - 1), uv_d) - vtext);
+          NumberText v;
+          v.set(put_fixed_runtime(v.text, 1.0 - double(j) / (nz - 1), uv_d) - v.text);
           for (int i = 0; i < nx; ++i) {
             std::memcpy(p, "vt ", 3);
-            p = put_fixed_runtime(p + 3, double(i) / (nx - 1), uv_d);
+            p = u_text[std::size_t(i)].copy_to(p + 3);
             *p++ = ' ';
-            std::memcpy(p, vtext, vlen);
-            p += vlen;
+            p = v.copy_to(p);
             *p++ = '\n';
           }
           break;
