@@ -9,7 +9,6 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
-#include <atomic>
 #include <charconv>
 #include <mutex>
 #include <cmath>
@@ -111,8 +110,10 @@ void write_heightmap(const Terrain& t, const WriteContext& ctx, Output& out) {
 // threads and streamed to the output in order (tbb::parallel_pipeline), so it is never whole in
 // memory and the file writes overlap the encoding. The bytes do not depend on scheduling.
 
-// Appends into a growable buffer; `reserve(n)` guarantees room for n more characters. The buffer
-// keeps its capacity across clear(), so a pool of them is reused from block to block.
+// A growable buffer written through cursor()/advance_to(); `reserve(n)` guarantees room for n more
+// characters (the fixed-size copies below write up to 64 bytes past the text they place, which
+// the 128 bytes of slack per row cover). It keeps its capacity across clear(), so a pool of them
+// is reused from block to block.
 class TextBuffer {
  public:
   void reserve(std::size_t n) {
@@ -120,11 +121,6 @@ class TextBuffer {
   }
   char* cursor() { return buf_.data() + used_; }
   void advance_to(char* p) { used_ = std::size_t(p - buf_.data()); }
-  void put(char c) { buf_[used_++] = c; }
-  void put(std::string_view s) {
-    std::memcpy(buf_.data() + used_, s.data(), s.size());
-    used_ += s.size();
-  }
   std::string_view view() const { return {buf_.data(), used_}; }
   void clear() { used_ = 0; }
 
