@@ -2,12 +2,16 @@
 //
 // Atomic writes: the bytes go to a temporary file `.NAME.tmp-XXXXXX` in the target directory
 // (same file system, so rename(2) is atomic), are flushed with fsync, then renamed onto NAME.
-// Any failure removes the temporary file and leaves a previous NAME untouched.
+// Any failure removes the temporary file and leaves a previous NAME untouched. FileOutput's
+// OnCommit mode writes every temporary file as soon as it is encoded (overlapping the encoding of
+// the others) and renames them all at the end, so that a failed run changes no file at all.
 #include <fcntl.h>
 #include <spng.h>
+#include <zlib.h>
 #include <sys/stat.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <atomic>
 #include <cerrno>
 #include <chrono>
@@ -74,24 +78,50 @@ void check_layer(const Layer& l, int nx, int nz, int channels, const char* what)
                              std::to_string(channels) + ")");
 }
 
-// zlib level for image data. Measured on a 1025x1025 fBm terrain (8 octaves of value noise),
-// libspng 0.7.3, adaptive filter choice (SPNG_FILTER_CHOICE_ALL), one core:
-//   16-bit grey:  level 1: 1464 KB  59 ms | 3: 1453 KB  79 ms | 4: 1427 KB  97 ms | 6 (zlib default): 1426 KB 192 ms | 9: 1426 KB 193 ms
-//   8-bit RGB:    level 1:  668 KB  53 ms | 3:  580 KB  82 ms | 4:  533 KB  73 ms | 6:  486 KB 188 ms | 9:  431 KB 2346 ms
-// Level 4 is within 0.1 % of level 6 on heights (the bulk of our PNG bytes) at half the time;
-// colour images are ~10 % larger than at 6. Level 9 is an order of magnitude slower for RGB.
-constexpr int kPngCompressionLevel = 4;
+// PNG compression settings, chosen by measurement (bench/png_settings.cpp, `relief_png_settings`):
+// the four core presets (island, hills, mountains, desert) at 1025², seed 7, libspng 0.7.3 over
+// zlib 1.2.13; bytes and CPU ms of the encoding thread (medians of 3 runs), summed over the four
+// presets. The right-hand columns are color.png + albedo.png together.
+//
+//   level, strategy, row filter            16-bit height.png     |  8-bit RGB colour + albedo
+//                                             bytes       ms     |     bytes       ms
+//   4, Z_FILTERED, adaptive (until now)     5 529 880    386     |   7 561 910    775
+//   1, Z_RLE, none                          7 876 072     59     |  19 822 764    157
+//   1, Z_RLE, Sub                           5 854 471     65     |   8 747 765    217
+//   1, Z_RLE, Up                            5 928 111     66     |   9 201 379    203
+//   1, Z_RLE, Paeth            (chosen)     5 636 317     96     |   7 689 523    277
+//   1, Z_FILTERED, Sub                      5 607 396    120     |   8 665 915    231
+//   2, default, Sub                         5 548 827    132     |   8 290 116    279
+//   3, Z_FILTERED, Sub                      5 472 163    190     |   7 791 705    466
+//   4, default, Up                          5 579 700    201     |   7 586 112    393
+//   6, default, Up                          5 546 280    358     |   7 078 660   1369
+//   6, default, adaptive                    5 546 780    592     |   7 054 463   1771
+//
+// Z_RLE (matches at distance 1 only, no hash chains) after the Paeth predictor: 1.9 % more bytes
+// on heights and 1.7 % on colour than the old settings, for a quarter (heights) and a third
+// (colour) of the time. With Z_RLE the level only chooses stored (0) or compressed, so level 1
+// says what happens. The adaptive filter choice alone costs about 25 ms per 1025² image and gains
+// under 0.2 % over Paeth. Per image (KB / ms, chosen vs old): island height 1341/24 vs 1330/96,
+// colour 1207/38 vs 1168/110, albedo 574/31 vs 622/82 (smaller); the worst case is the desert's
+// hillshaded colour, 1383/35 vs 1213/101 (+14 %).
+struct PngSettings {
+  int level, strategy, filter_choice;  // strategy −1: libspng's default (Z_FILTERED)
+};
+constexpr PngSettings kPngLayers{1, Z_RLE, SPNG_FILTER_CHOICE_PAETH};  // height.png, color.png, albedo.png
+// Other images (8-bit grey, normal maps, splat maps, engine tiles: not measured again here).
+constexpr PngSettings kPngOther{4, -1, SPNG_FILTER_CHOICE_ALL};
 
 std::string encode_png(const void* pixels, std::size_t len, int w, int h, int bit_depth, int color_type,
-                       int filter_choice = SPNG_FILTER_CHOICE_ALL) {
+                       PngSettings settings = kPngOther) {
   std::unique_ptr<spng_ctx, decltype(&spng_ctx_free)> ctx(spng_ctx_new(SPNG_CTX_ENCODER), &spng_ctx_free);
   if (!ctx) throw Error("output", "PNG encoder: out of memory");
   auto check = [](int r) {
     if (r) throw Error("output", std::string("PNG encoding failed: ") + spng_strerror(r));
   };
   check(spng_set_option(ctx.get(), SPNG_ENCODE_TO_BUFFER, 1));
-  check(spng_set_option(ctx.get(), SPNG_IMG_COMPRESSION_LEVEL, kPngCompressionLevel));
-  check(spng_set_option(ctx.get(), SPNG_FILTER_CHOICE, filter_choice));
+  check(spng_set_option(ctx.get(), SPNG_IMG_COMPRESSION_LEVEL, settings.level));
+  if (settings.strategy >= 0) check(spng_set_option(ctx.get(), SPNG_IMG_COMPRESSION_STRATEGY, settings.strategy));
+  check(spng_set_option(ctx.get(), SPNG_FILTER_CHOICE, settings.filter_choice));
   spng_ihdr ihdr{};
   ihdr.width = std::uint32_t(w);
   ihdr.height = std::uint32_t(h);
@@ -113,53 +143,130 @@ std::string encode_png(const void* pixels, std::size_t len, int w, int h, int bi
 
 // ---- files --------------------------------------------------------------------------------
 
-void write_file_atomic(const std::string& path, std::string_view bytes) {
+namespace {
+
+// A temporary file `.NAME.tmp-XXXXXX` beside `path`, created with O_EXCL (mode 0666 & ~umask, like
+// any freshly created file; mkstemp would give 0600).
+struct TempFile {
+  std::string path, tmp;
+  int fd = -1;
+};
+
+TempFile create_temp(const std::string& path) {
   const fs::path target(path);
   const fs::path dir = target.has_parent_path() ? target.parent_path() : fs::path(".");
   const std::string base = target.filename().string();
   if (base.empty() || base == "." || base == "..") throw Error("output", "invalid file name '" + path + "'");
-
-  fs::path tmp;
-  int fd = -1;
-  for (unsigned attempt = 0; attempt < 100 && fd < 0; ++attempt) {
-    tmp = dir / ("." + base + ".tmp-" + temp_suffix(attempt));
-    // 0666 & ~umask, like any freshly created file (mkstemp would give 0600).
-    fd = ::open(tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-    if (fd < 0 && errno != EEXIST) throw Error("output", "cannot write to '" + path + "': " + errno_text(errno));
+  TempFile t;
+  t.path = path;
+  for (unsigned attempt = 0; attempt < 100 && t.fd < 0; ++attempt) {
+    t.tmp = (dir / ("." + base + ".tmp-" + temp_suffix(attempt))).string();
+    t.fd = ::open(t.tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (t.fd < 0 && errno != EEXIST) throw Error("output", "cannot write to '" + path + "': " + errno_text(errno));
   }
-  if (fd < 0) throw Error("output", "cannot write to '" + path + "': no free temporary name");
+  if (t.fd < 0) throw Error("output", "cannot write to '" + path + "': no free temporary name");
+  return t;
+}
 
-  auto fail = [&](const std::string& what, int e) {
-    if (fd >= 0) ::close(fd);
-    std::error_code ignore;
-    fs::remove(tmp, ignore);
-    throw Error("output", what + " '" + path + "': " + errno_text(e));
-  };
+// Closes and removes a temporary file (no-throw; used on every failure path).
+void discard(int& fd, const std::string& tmp) noexcept {
+  if (fd >= 0) ::close(fd);
+  fd = -1;
+  std::error_code ignore;
+  if (!tmp.empty()) fs::remove(tmp, ignore);
+}
 
-  const char* p = bytes.data();
-  std::size_t left = bytes.size();
+// Writes everything or returns the errno of the failure (0 on success).
+int write_all(int fd, const char* p, std::size_t left) {
   while (left > 0) {
-    ssize_t n = ::write(fd, p, left);
+    const ssize_t n = ::write(fd, p, left);
     if (n < 0) {
       if (errno == EINTR) continue;
-      fail("cannot write", errno);
+      return errno;
     }
     p += n;
     left -= std::size_t(n);
   }
-  // Data must be on disk before the rename makes it visible under the real name.
+  return 0;
+}
+
+// fsync, close, rename onto the real name; on failure the temporary file is removed and an Error
+// naming the path is thrown. Data must be on disk before the rename makes it visible.
+void finish_now(int& fd, const std::string& tmp, const std::string& path) {
+  auto fail = [&](const std::string& what, int e) {
+    discard(fd, tmp);
+    throw Error("output", what + " '" + path + "': " + errno_text(e));
+  };
   if (::fsync(fd) != 0) fail("cannot write", errno);
-  if (::close(fd) != 0) {
-    fd = -1;
-    fail("cannot write", errno);
-  }
+  const int closed = ::close(fd);
   fd = -1;
+  if (closed != 0) fail("cannot write", errno);
   std::error_code ec;
-  fs::rename(tmp, target, ec);
+  fs::rename(tmp, path, ec);
   if (ec) fail("cannot replace", ec.value());
 }
 
-FileOutput::FileOutput(std::string dir) : dir_(std::move(dir)) {
+}  // namespace
+
+std::unique_ptr<OutputStream> Output::open(const std::string& filename, std::size_t size_hint) {
+  // Collects the pieces; the file appears (through put) only at close().
+  class Collect final : public OutputStream {
+   public:
+    Collect(Output& out, std::string name, std::size_t hint) : out_(out), name_(std::move(name)) { bytes_.reserve(hint); }
+    void write(std::string_view b) override { bytes_.append(b); }
+    void close() override {
+      if (closed_) return;
+      closed_ = true;
+      out_.put(name_, std::move(bytes_));
+    }
+
+   private:
+    Output& out_;
+    std::string name_, bytes_;
+    bool closed_ = false;
+  };
+  return std::make_unique<Collect>(*this, filename, size_hint);
+}
+
+void write_file_atomic(const std::string& path, std::string_view bytes) {
+  TempFile t = create_temp(path);
+  if (const int e = write_all(t.fd, bytes.data(), bytes.size())) {
+    discard(t.fd, t.tmp);
+    throw Error("output", "cannot write '" + path + "': " + errno_text(e));
+  }
+  finish_now(t.fd, t.tmp, path);
+}
+
+// A FileOutput's stream: the pieces go straight into the temporary file.
+class FileOutputStream final : public OutputStream {
+ public:
+  FileOutputStream(FileOutput& owner, std::string filename, TempFile t)
+      : owner_(owner), filename_(std::move(filename)), t_(std::move(t)) {}
+  ~FileOutputStream() override { discard(t_.fd, t_.tmp); }
+  void write(std::string_view b) override {
+    if (t_.fd < 0) throw Error("output", "write to '" + t_.path + "' after close");
+    if (const int e = write_all(t_.fd, b.data(), b.size())) {
+      discard(t_.fd, t_.tmp);
+      throw Error("output", "cannot write '" + t_.path + "': " + errno_text(e));
+    }
+    bytes_ += b.size();
+  }
+  void close() override {
+    if (t_.fd < 0) return;
+    FileOutput::Pending p{filename_, std::move(t_.tmp), t_.path, t_.fd, bytes_};
+    t_.fd = -1;  // the FileOutput owns the file from here on
+    t_.tmp.clear();
+    owner_.finished(std::move(p));
+  }
+
+ private:
+  FileOutput& owner_;
+  std::string filename_;
+  TempFile t_;
+  std::uint64_t bytes_ = 0;
+};
+
+FileOutput::FileOutput(std::string dir, Mode mode) : dir_(std::move(dir)), mode_(mode) {
   if (dir_.empty()) dir_.push_back('.');  // (not `= "."`: GCC 12 -Wrestrict false positive, PR 105329)
   std::error_code ec;
   fs::create_directories(dir_, ec);
@@ -173,15 +280,80 @@ FileOutput::FileOutput(std::string dir) : dir_(std::move(dir)) {
     throw Error("output", "cannot write to '" + dir_ + "': " + errno_text(errno));
 }
 
-void FileOutput::put(const std::string& filename, std::string bytes) {
+FileOutput::~FileOutput() {
+  for (Pending& p : pending_) discard(p.fd, p.tmp);
+}
+
+std::string FileOutput::checked_path(const std::string& filename) const {
   // Writers emit plain names; refuse anything that would escape the directory.
   if (filename.empty() || filename == "." || filename == ".." || filename.find('/') != std::string::npos ||
       filename.find('\0') != std::string::npos)
     throw Error("output", "invalid file name '" + filename + "'");
-  const std::string path = (fs::path(dir_) / filename).string();
-  write_file_atomic(path, bytes);
-  written_.push_back(path);
-  bytes_ += bytes.size();
+  return (fs::path(dir_) / filename).string();
+}
+
+std::unique_ptr<OutputStream> FileOutput::open(const std::string& filename, std::size_t) {
+  const std::string path = checked_path(filename);
+  if (mode_ == Mode::OnCommit) {
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (std::find(reserved_.begin(), reserved_.end(), filename) != reserved_.end())
+      throw Error("output", "two outputs named '" + filename + "' in one run");
+    reserved_.push_back(filename);
+  }
+  return std::make_unique<FileOutputStream>(*this, filename, create_temp(path));
+}
+
+void FileOutput::put(const std::string& filename, std::string bytes) {
+  auto s = open(filename, bytes.size());
+  s->write(bytes);
+  s->close();
+}
+
+void FileOutput::finished(Pending p) {
+  if (mode_ == Mode::Immediate) {
+    finish_now(p.fd, p.tmp, p.path);
+    std::lock_guard<std::mutex> lock(mutex_);
+    written_.push_back(p.path);
+    bytes_ += p.bytes;
+    return;
+  }
+  // Start the write-back now (asynchronous), so that commit()'s fsync finds little left to do.
+  // Only a hint: its failure is caught by the fsync.
+  ::sync_file_range(p.fd, 0, 0, SYNC_FILE_RANGE_WRITE);
+  std::lock_guard<std::mutex> lock(mutex_);
+  pending_.push_back(std::move(p));
+}
+
+void FileOutput::commit() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  std::sort(pending_.begin(), pending_.end(), [](const Pending& a, const Pending& b) { return a.filename < b.filename; });
+  // Every file durable first; only then does any real name change.
+  for (Pending& p : pending_) {
+    int e = ::fsync(p.fd) != 0 ? errno : 0;
+    if (::close(p.fd) != 0 && !e) e = errno;
+    p.fd = -1;
+    if (e) {
+      const std::string path = p.path;
+      for (Pending& q : pending_) discard(q.fd, q.tmp);
+      pending_.clear();
+      throw Error("output", "cannot write '" + path + "': " + errno_text(e));
+    }
+  }
+  for (std::size_t k = 0; k < pending_.size(); ++k) {
+    std::error_code ec;
+    fs::rename(pending_[k].tmp, pending_[k].path, ec);
+    if (ec) {
+      // rename(2) within one directory of one file system does not fail short of a vanished
+      // directory or a full inode table; the files renamed before this one stay replaced.
+      const std::string path = pending_[k].path;
+      for (std::size_t r = k; r < pending_.size(); ++r) discard(pending_[r].fd, pending_[r].tmp);
+      pending_.clear();
+      throw Error("output", "cannot replace '" + path + "': " + ec.message());
+    }
+    written_.push_back(pending_[k].path);
+    bytes_ += pending_[k].bytes;
+  }
+  pending_.clear();
 }
 
 // ---- encoders -----------------------------------------------------------------------------
@@ -190,14 +362,14 @@ std::string encode_png_gray16(const Layer& l, int nx, int nz) {
   check_layer(l, nx, nz, 1, "16-bit PNG");
   std::vector<std::uint16_t> px(l.data.size());
   for (std::size_t k = 0; k < px.size(); ++k) px[k] = to_u16(l.data[k]);
-  return encode_png(px.data(), px.size() * 2, nx, nz, 16, SPNG_COLOR_TYPE_GRAYSCALE);
+  return encode_png(px.data(), px.size() * 2, nx, nz, 16, SPNG_COLOR_TYPE_GRAYSCALE, kPngLayers);
 }
 
 std::string encode_png_rgb8(const Layer& l, int nx, int nz) {
   check_layer(l, nx, nz, 3, "RGB PNG");
   std::vector<std::uint8_t> px(l.data.size());
   for (std::size_t k = 0; k < px.size(); ++k) px[k] = to_u8(l.data[k]);
-  return encode_png(px.data(), px.size(), nx, nz, 8, SPNG_COLOR_TYPE_TRUECOLOR);
+  return encode_png(px.data(), px.size(), nx, nz, 8, SPNG_COLOR_TYPE_TRUECOLOR, kPngLayers);
 }
 
 std::string encode_png_rgb8(const std::uint8_t* rgb, int width, int height) {
@@ -206,7 +378,7 @@ std::string encode_png_rgb8(const std::uint8_t* rgb, int width, int height) {
   // One SUB filter instead of the adaptive choice: measured on an 8192² tilemap render (libspng
   // 0.7.3, level 4, one core) 715 ms and 6.67 MB against 1970 ms and 6.85 MB adaptive.
   return encode_png(rgb, std::size_t(width) * std::size_t(height) * 3, width, height, 8, SPNG_COLOR_TYPE_TRUECOLOR,
-                    SPNG_FILTER_CHOICE_SUB);
+                    PngSettings{4, -1, SPNG_FILTER_CHOICE_SUB});
 }
 
 std::string encode_png_gray8(const Layer& l, int nx, int nz) {

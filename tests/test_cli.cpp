@@ -227,6 +227,10 @@ TEST(CliBadInput, FailedRunLeavesPreviousFilesIntact) {
   expect_bad_input("generate " + (d / "plain.json") + " --formats heightmap,color -o " + d.path.string(), "color");
   EXPECT_EQ(slurp(d.path / "height.png"), before);
   EXPECT_EQ(slurp(d.path / "color.png"), color_before);
+  // The heightmap writer may have finished (its files staged) before the colour writer failed:
+  // nothing of it is left behind.
+  for (auto& e : std::filesystem::directory_iterator(d.path))
+    EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos) << e.path();
 }
 
 // ---- island presets ------------------------------------------------------------------------------

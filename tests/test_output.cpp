@@ -9,6 +9,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <cctype>
 #include <array>
 #include <atomic>
 #include <cmath>
@@ -26,6 +27,9 @@
 #include "relief/error.hpp"
 #include "relief/output.hpp"
 #include "relief/stage.hpp"
+
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 
 #ifndef RELIEF_SYSTEM_PYTHON
 #define RELIEF_SYSTEM_PYTHON "/usr/bin/python3"
@@ -632,6 +636,166 @@ TEST(Obj, SameInputSameBytes) {
   EXPECT_EQ(run_writer("obj", t).files.at("terrain.obj"), run_writer("obj", t).files.at("terrain.obj"));
 }
 
+// A rough terrain for the precision tests: hashed heights over the whole range (2.5 km of relief),
+// a jiggle layer of ±3 m, a window west and north of the world origin (negative coordinates) and a
+// spacing with no short decimal form.
+Terrain rough_terrain(int nx, int nz) {
+  Terrain t = small_terrain(nx, nz);
+  t.frame.ix0 = -37;
+  t.frame.iz0 = -5;
+  t.frame.spacing_m = 7.3;
+  t.frame.height_m = 2500;
+  std::uint64_t x = 88172645463325252ull;
+  auto next = [&] {  // xorshift64: any fixed sequence will do
+    x ^= x << 13;
+    x ^= x >> 7;
+    x ^= x << 17;
+    return double(x >> 11) / double(1ull << 53);
+  };
+  for (float& v : t.layers["height"].data) v = float(next());
+  Layer off;
+  off.channels = 2;
+  for (std::size_t k = 0; k < 2 * t.frame.count(); ++k) off.data.push_back(float(6 * next() - 3));
+  t.layers["offset"] = off;
+  return t;
+}
+
+// A number as the OBJ writes it: no "-0", no trailing zero after the point, no bare point, at most
+// `decimals` digits after it.
+bool tidy_number(const std::string& s, int decimals) {
+  std::size_t k = s[0] == '-' ? 1 : 0;
+  const std::size_t int_begin = k;
+  while (k < s.size() && std::isdigit(static_cast<unsigned char>(s[k]))) ++k;
+  if (k == int_begin || (s[int_begin] == '0' && k - int_begin > 1)) return false;
+  if (k == s.size()) return s != "-0";
+  if (s[k] != '.' || k + 1 == s.size() || s.back() == '0' || int(s.size() - k - 1) > decimals) return false;
+  for (std::size_t d = k + 1; d < s.size(); ++d)
+    if (!std::isdigit(static_cast<unsigned char>(s[d]))) return false;
+  return true;
+}
+
+TEST(Obj, NumbersAreWithinTheStatedPrecision) {
+  // The contract in writers.cpp: positions to 0.1 mm, normals to 1e-5, uvs to 1e-5 (at this size),
+  // each rounded to the nearest step: error at most half a step.
+  const int nx = 83, nz = 41;
+  Terrain t = rough_terrain(nx, nz);
+  const Frame& fr = t.frame;
+  const std::string text = run_writer("obj", t).files.at("terrain.obj");
+  const Obj o = parse_obj(text);
+  ASSERT_EQ(o.bad_lines, 0);
+  ASSERT_EQ(o.v.size(), std::size_t(nx) * nz);
+  ASSERT_EQ(o.vn.size(), o.v.size());
+  ASSERT_EQ(o.vt.size(), o.v.size());
+  const auto& h = t.layers["height"].data;
+  const auto& off = t.layers["offset"].data;
+  auto Y = [&](int i, int j) { return fr.y_m(h[std::size_t(j) * nx + i]); };
+  double worst_p = 0, worst_n = 0, worst_t = 0;
+  for (int j = 0; j < nz; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const std::size_t k = std::size_t(j) * nx + i;
+      const Vec3& p = o.v[k];
+      worst_p = std::max({worst_p, std::fabs(p.x - (fr.x_m(i) + double(off[2 * k]))), std::fabs(p.y - Y(i, j)),
+                          std::fabs(p.z - (fr.z_m(j) + double(off[2 * k + 1])))});
+      // Central differences (one-sided at the border) of the metric heights.
+      const int i0 = std::max(i - 1, 0), i1 = std::min(i + 1, nx - 1), j0 = std::max(j - 1, 0), j1 = std::min(j + 1, nz - 1);
+      const double hx = (Y(i1, j) - Y(i0, j)) / ((i1 - i0) * fr.cell_m()), hz = (Y(i, j1) - Y(i, j0)) / ((j1 - j0) * fr.cell_m());
+      const double len = std::sqrt(hx * hx + 1 + hz * hz);
+      const Vec3& n = o.vn[k];
+      worst_n = std::max({worst_n, std::fabs(n.x + hx / len), std::fabs(n.y - 1 / len), std::fabs(n.z + hz / len)});
+      worst_t = std::max({worst_t, std::fabs(o.vt[k].first - double(i) / (nx - 1)),
+                          std::fabs(o.vt[k].second - (1.0 - double(j) / (nz - 1)))});
+    }
+  EXPECT_LE(worst_p, 0.5e-4 + 1e-9);
+  EXPECT_GT(worst_p, 0.3e-4);  // the data does need the rounding (so the bound is tight, not vacuous)
+  EXPECT_LE(worst_n, 0.5e-5 + 1e-12);
+  EXPECT_LE(worst_t, 0.5e-5 + 1e-12);
+  // Every number is tidy.
+  std::istringstream lines(text);
+  std::string line;
+  long numbers = 0;
+  while (std::getline(lines, line)) {
+    const int decimals = line.rfind("v ", 0) == 0 ? 4 : line.rfind("vn ", 0) == 0 || line.rfind("vt ", 0) == 0 ? 5 : -1;
+    if (decimals < 0) continue;
+    std::istringstream ls(line);
+    std::string tag, num;
+    ls >> tag;
+    while (ls >> num) {
+      ++numbers;
+      EXPECT_TRUE(tidy_number(num, decimals)) << line;
+    }
+  }
+  EXPECT_EQ(numbers, long(nx) * nz * 8);
+}
+
+TEST(Obj, WritesKnownValuesExactly) {
+  // y = (e − 0.4)·600: chosen heights whose metric values have known roundings.
+  Terrain t = small_terrain(2, 2);
+  auto& h = t.layers["height"].data;
+  h = {float(0.4), float(0.4 + 1e-7), float(0.4 - 1e-7), 1.0f};
+  const std::string text = run_writer("obj", t).files.at("terrain.obj");
+  // Metric elevations: float(0.4) → 3.6e-6 m, written "0"; float(0.4 ± 1e-7) → about ±6e-5 m,
+  // within 0.05 mm of ±0.0001, never "-0"; 1.0 → 360 m, written "360".
+  const Obj o = parse_obj(text);
+  ASSERT_EQ(o.v.size(), 4u);
+  EXPECT_NE(text.find("\nv 100 0 30\n"), std::string::npos) << text;
+  EXPECT_NE(text.find("\nv 110 360 40\n"), std::string::npos) << text;
+  EXPECT_EQ(text.find("-0 "), std::string::npos) << text;
+  EXPECT_EQ(text.find("-0\n"), std::string::npos) << text;
+  EXPECT_NEAR(o.v[1].y, t.frame.y_m(h[1]), 0.5e-4);
+  EXPECT_NEAR(o.v[2].y, t.frame.y_m(h[2]), 0.5e-4);
+  EXPECT_NE(o.v[1].y, 0.0);
+  EXPECT_NE(text.find("\nvt 0 1\nvt 1 1\nvt 0 0\nvt 1 0\n"), std::string::npos) << text;
+}
+
+TEST(Obj, FaceIndicesAreExactAcrossDecimalCarries) {
+  // 41×30 = 1230 vertices: indices cross 9→10, 99→100 and 999→1000 inside rows.
+  const int nx = 41, nz = 30;
+  Terrain t = small_terrain(nx, nz);
+  const std::string text = run_writer("obj", t).files.at("terrain.obj");
+  std::string want;
+  for (int j = 0; j + 1 < nz; ++j)
+    for (int i = 0; i + 1 < nx; ++i) {
+      const long a = long(j) * nx + i + 1, c = a + 1, d = a + nx, e = d + 1;
+      auto corner = [](long k) { return std::to_string(k) + "/" + std::to_string(k) + "/" + std::to_string(k); };
+      want += "f " + corner(a) + " " + corner(d) + " " + corner(c) + "\n";
+      want += "f " + corner(c) + " " + corner(d) + " " + corner(e) + "\n";
+    }
+  const std::size_t at = text.find("usemtl terrain\n");
+  ASSERT_NE(at, std::string::npos);
+  EXPECT_EQ(text.substr(at + 15), want);
+}
+
+TEST(Obj, UvDecimalsGrowWithTheGrid) {
+  // 3001 samples across (u = i/3000 has no short decimal form): five decimals would be up to 1/67
+  // texel off; the writer keeps within 1/100.
+  const int nx = 3001, nz = 2;
+  Terrain t = small_terrain(nx, nz);
+  const Obj o = parse_obj(run_writer("obj", t).files.at("terrain.obj"));
+  ASSERT_EQ(o.vt.size(), std::size_t(nx) * nz);
+  double worst = 0;
+  for (int i = 0; i < nx; ++i) worst = std::max(worst, std::fabs(o.vt[std::size_t(i)].first - double(i) / (nx - 1)));
+  EXPECT_LE(worst * (nx - 1), 0.01);
+  EXPECT_LE(worst, 0.5e-6 + 1e-12);
+}
+
+TEST(Obj, SameBytesForAnyThreadCountAndOutput) {
+  Terrain t = rough_terrain(190, 75);
+  std::vector<std::string> texts;
+  for (int threads : {1, 2, 3, 7}) {
+    tbb::task_arena arena(threads);
+    MemoryOutput out;
+    arena.execute([&] { find_writer("obj")->write(t, {}, out); });
+    texts.push_back(out.files.at("terrain.obj"));
+  }
+  for (std::size_t k = 1; k < texts.size(); ++k) EXPECT_TRUE(texts[k] == texts[0]) << "threads case " << k;
+  // Streamed into a file: the same bytes.
+  TempDir dir;
+  FileOutput files(dir.path.string(), FileOutput::Mode::OnCommit);
+  find_writer("obj")->write(t, {}, files);
+  files.commit();
+  EXPECT_TRUE(read_file(dir.path / "terrain.obj") == texts[0]);
+}
+
 // ---- FileOutput -------------------------------------------------------------------------------
 
 TEST(FileOutput, WritesFilesAndCountsBytes) {
@@ -731,4 +895,100 @@ TEST(FileOutput, WriteFileAtomicIntoMissingDirectoryFails) {
   }
   write_file_atomic(dir / "f.txt", "atomic");
   EXPECT_EQ(read_file(dir.path / "f.txt"), "atomic");
+}
+
+TEST(FileOutput, OnCommitShowsNothingUntilCommit) {
+  TempDir dir;
+  write_file(dir.path / "a.txt", "old a");
+  FileOutput out(dir.path.string(), FileOutput::Mode::OnCommit);
+  out.put("b.txt", "new b");
+  auto s = out.open("a.txt");
+  s->write("new ");
+  s->write("a");
+  s->close();
+  EXPECT_EQ(read_file(dir.path / "a.txt"), "old a");
+  EXPECT_FALSE(fs::exists(dir.path / "b.txt"));
+  EXPECT_EQ(temp_leftovers(dir.path).size(), 2u);
+  EXPECT_TRUE(out.written().empty());
+  out.commit();
+  EXPECT_EQ(read_file(dir.path / "a.txt"), "new a");
+  EXPECT_EQ(read_file(dir.path / "b.txt"), "new b");
+  EXPECT_TRUE(temp_leftovers(dir.path).empty());
+  ASSERT_EQ(out.written().size(), 2u);  // in name order, whatever the order of the puts
+  EXPECT_EQ(fs::path(out.written()[0]).filename(), "a.txt");
+  EXPECT_EQ(fs::path(out.written()[1]).filename(), "b.txt");
+  EXPECT_EQ(out.bytes_written(), 10u);
+}
+
+TEST(FileOutput, OnCommitWithoutCommitChangesNoFile) {
+  TempDir dir;
+  write_file(dir.path / "height.png", "old");
+  {
+    FileOutput out(dir.path.string(), FileOutput::Mode::OnCommit);
+    out.put("height.png", "new");
+    out.put("color.png", "new");
+    auto open_stream = out.open("terrain.obj");
+    open_stream->write("half a mesh");
+    // An Error in another writer: the output goes away without commit().
+  }
+  EXPECT_EQ(read_file(dir.path / "height.png"), "old");
+  EXPECT_FALSE(fs::exists(dir.path / "color.png"));
+  EXPECT_FALSE(fs::exists(dir.path / "terrain.obj"));
+  EXPECT_TRUE(temp_leftovers(dir.path).empty());
+}
+
+TEST(FileOutput, OnCommitRejectsTheSameNameTwice) {
+  TempDir dir;
+  FileOutput out(dir.path.string(), FileOutput::Mode::OnCommit);
+  out.put("x.txt", "one");
+  try {
+    out.put("x.txt", "two");
+    FAIL() << "expected relief::Error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.path(), "output");
+    EXPECT_NE(std::string(e.what()).find("x.txt"), std::string::npos) << e.what();
+  }
+  out.commit();
+  EXPECT_EQ(read_file(dir.path / "x.txt"), "one");
+}
+
+TEST(FileOutput, OnCommitTakesPutsFromManyThreads) {
+  TempDir dir;
+  FileOutput out(dir.path.string(), FileOutput::Mode::OnCommit);
+  std::vector<std::string> names;
+  for (int k = 0; k < 64; ++k) names.push_back(std::to_string(100 + k) + ".txt");  // name order = k order
+  tbb::parallel_for(0, 64, [&](int k) { out.put(names[std::size_t(k)], std::string(std::size_t(k) * 1000, char('a' + k % 26))); });
+  out.commit();
+  ASSERT_EQ(out.written().size(), 64u);
+  for (int k = 0; k < 64; ++k) {
+    EXPECT_EQ(fs::path(out.written()[std::size_t(k)]).filename(), names[std::size_t(k)]);
+    EXPECT_EQ(read_file(out.written()[std::size_t(k)]), std::string(std::size_t(k) * 1000, char('a' + k % 26)));
+  }
+  EXPECT_TRUE(temp_leftovers(dir.path).empty());
+}
+
+TEST(FileOutput, StreamWithoutCloseLeavesNoFile) {
+  TempDir dir;
+  FileOutput out(dir.path.string());
+  {
+    auto s = out.open("mesh.obj");
+    s->write("v 0 0 0\n");
+  }
+  EXPECT_FALSE(fs::exists(dir.path / "mesh.obj"));
+  EXPECT_TRUE(temp_leftovers(dir.path).empty());
+  auto s = out.open("mesh.obj");
+  s->write("v 0 0 0\n");
+  s->write("v 1 0 0\n");
+  s->close();
+  EXPECT_EQ(read_file(dir.path / "mesh.obj"), "v 0 0 0\nv 1 0 0\n");  // Immediate: visible at close()
+}
+
+TEST(MemoryOutput, StreamAppearsWholeAtClose) {
+  MemoryOutput out;
+  auto s = out.open("a.txt", 100);
+  s->write("one ");
+  s->write("two");
+  EXPECT_EQ(out.files.count("a.txt"), 0u);
+  s->close();
+  EXPECT_EQ(out.files.at("a.txt"), "one two");
 }

@@ -272,7 +272,7 @@ int cmd_generate(const GenerateSettings& s) {
                                   human_bytes(have) + "; choose a smaller --size" + (with_mesh ? " or drop the meshes from --formats" : ""));
 
   // Check the output directories before spending time on generation.
-  FileOutput files(s.out_dir);
+  FileOutput files(s.out_dir, FileOutput::Mode::OnCommit);
   std::unique_ptr<FileOutput> step_files;
   if (!s.steps_dir.empty()) step_files = std::make_unique<FileOutput>(s.steps_dir);
 
@@ -298,9 +298,10 @@ int cmd_generate(const GenerateSettings& s) {
   wc.recipe = recipe.to_json();
   wc.options = export_options;
   wc.progress = [&](std::string_view what, double f) { prog(what, 0.7 + 0.3 * f); };
-  // Writers encode in parallel (each into its own memory output), then their files are merged
-  // in a fixed order, so the bytes never depend on scheduling.
-  MemoryOutput mem;
+  // Writers run in parallel, one task each (the OBJ's rows spread over the threads as well). Each
+  // writes its files straight into temporary files as soon as they are encoded, so the writes
+  // overlap the encoding; commit() below renames them all into place only when every writer has
+  // succeeded, so a failed run changes no file. The bytes never depend on scheduling.
   json write_ms = json::object();
   const WriterDef* report = nullptr;
   std::vector<const WriterDef*> encoders;
@@ -310,25 +311,24 @@ int cmd_generate(const GenerateSettings& s) {
     else encoders.push_back(w);
   }
   {
-    std::vector<MemoryOutput> outs(encoders.size());
     std::vector<double> ms(encoders.size());
     std::mutex progress_mutex;
     wc.progress = [&](std::string_view what, double f) {
       std::lock_guard<std::mutex> lock(progress_mutex);
-      prog(what, 0.7 + 0.2 * f);
+      prog(what, 0.7 + 0.25 * f);
     };
     tbb::task_arena arena(s.threads > 0 ? s.threads : tbb::task_arena::automatic);
     arena.execute([&] {
-      tbb::parallel_for(std::size_t(0), encoders.size(), [&](std::size_t k) {
-        const auto t0 = std::chrono::steady_clock::now();
-        encoders[k]->write(res.terrain, wc, outs[k]);
-        ms[k] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-      });
+      tbb::parallel_for(
+          std::size_t(0), encoders.size(),
+          [&](std::size_t k) {
+            const auto t0 = std::chrono::steady_clock::now();
+            encoders[k]->write(res.terrain, wc, files);
+            ms[k] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
+          },
+          tbb::simple_partitioner());  // one task per writer, whatever their number
     });
-    for (std::size_t k = 0; k < encoders.size(); ++k) {
-      write_ms[encoders[k]->name] = ms[k];
-      for (auto& [name, bytes] : outs[k].files) mem.put(name, std::move(bytes));
-    }
+    for (std::size_t k = 0; k < encoders.size(); ++k) write_ms[encoders[k]->name] = ms[k];
   }
   if (report) {
     json perf;
@@ -341,11 +341,11 @@ int cmd_generate(const GenerateSettings& s) {
     }
     perf["stages"] = st;
     perf["generate_ms"] = res.total_ms;
-    perf["encode_ms"] = write_ms;
+    perf["encode_ms"] = write_ms;  // per writer: encoding and writing its temporary files
     perf["peak_memory_bytes"] = peak_rss_bytes();
     perf["total_ms"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_start).count();
     wc.report["performance"] = perf;
-    report->write(res.terrain, wc, mem);
+    report->write(res.terrain, wc, files);
   }
   MemoryOutput step_mem;
   if (step_files) {
@@ -354,11 +354,8 @@ int cmd_generate(const GenerateSettings& s) {
                                                           std::to_string(recipe.world.nx) + "x" +
                                                           std::to_string(recipe.world.nz) + ", step by step"));
   }
-  std::size_t k = 0;
-  for (auto& [name, bytes] : mem.files) {
-    prog("writing " + name, 0.7 + 0.3 * double(k++) / double(mem.files.size()));
-    files.put(name, std::move(bytes));
-  }
+  prog("writing files", 0.95);
+  files.commit();
   if (step_files)
     for (auto& [name, bytes] : step_mem.files) step_files->put(name, std::move(bytes));
   if (!s.save_recipe.empty()) {

@@ -1,12 +1,15 @@
 #pragma once
 // Writers: take a Terrain and produce bytes, in memory (the studio) or as files (the CLI).
 //
-// A writer emits named files into an Output. FileOutput writes each file to a temporary name
-// in the target directory and renames it into place, so a crash or an error never leaves half a
-// file where a previous good file stood.
+// A writer emits named files into an Output, either whole (put) or in pieces, in order, through an
+// OutputStream (open), so that a large file (the OBJ's text) never has to be whole in memory.
+// FileOutput writes each file to a temporary name in the target directory and renames it into
+// place, so a crash or an error never leaves half a file where a previous good file stood.
 #include <cstdint>
 #include <functional>
 #include <map>
+#include <memory>
+#include <mutex>
 #include <string>
 #include <string_view>
 #include <vector>
@@ -17,10 +20,23 @@
 
 namespace relief {
 
+// One file written in pieces, in order. close() finishes it (for a FileOutput: the data is in the
+// temporary file; it becomes visible as the real name at once or at commit(), see FileOutput). A
+// stream destroyed without close() (e.g. unwinding after an Error) leaves no file behind.
+class OutputStream {
+ public:
+  virtual ~OutputStream() = default;
+  virtual void write(std::string_view bytes) = 0;
+  virtual void close() = 0;
+};
+
 class Output {
  public:
   virtual ~Output() = default;
   virtual void put(const std::string& filename, std::string bytes) = 0;
+  // A file written in pieces. `size_hint` (bytes, 0 = unknown) lets an in-memory output reserve
+  // room once. The default collects the pieces in memory and put()s them at close().
+  virtual std::unique_ptr<OutputStream> open(const std::string& filename, std::size_t size_hint = 0);
 };
 
 class MemoryOutput final : public Output {
@@ -30,16 +46,49 @@ class MemoryOutput final : public Output {
 };
 
 // Writes into `dir` (created if missing). Throws Error("output", …) when the directory cannot be
-// created or written. Each put() is atomic (temporary file + rename).
+// created or written. put() and open() may be called from several threads at once.
+//
+// Mode::Immediate: each put() (or stream close()) is atomic on its own: temporary file, fsync,
+//   rename. A second file of the same name replaces the first.
+// Mode::OnCommit: put() and streams write their temporary files at once (so writing overlaps the
+//   encoding of other files) and start the write-back to disk, but every file becomes visible only
+//   at commit(), which fsyncs them and renames them into place in name order. Destroying the
+//   output without commit() (an Error in any writer) removes the temporary files: a failed run
+//   changes no file. Two files of the same name are an Error (two writers would race for it).
 class FileOutput final : public Output {
  public:
-  explicit FileOutput(std::string dir);
+  enum class Mode { Immediate, OnCommit };
+  explicit FileOutput(std::string dir, Mode mode = Mode::Immediate);
+  ~FileOutput() override;
+  FileOutput(const FileOutput&) = delete;
+  FileOutput& operator=(const FileOutput&) = delete;
+
   void put(const std::string& filename, std::string bytes) override;
-  const std::vector<std::string>& written() const { return written_; }  // paths, in order
+  std::unique_ptr<OutputStream> open(const std::string& filename, std::size_t size_hint = 0) override;
+  // OnCommit: makes every finished file visible (fsync, then rename, in name order). Streams still
+  // open are not part of it. Throws Error("output", …) if a file cannot be made durable; then no
+  // file has been replaced. Immediate: does nothing.
+  void commit();
+  const std::vector<std::string>& written() const { return written_; }  // visible paths, in order
   std::uint64_t bytes_written() const { return bytes_; }
 
+  // A finished temporary file waiting for commit(): its descriptor stays open for the fsync.
+  struct Pending {
+    std::string filename, tmp, path;
+    int fd = -1;
+    std::uint64_t bytes = 0;
+  };
+
  private:
+  friend class FileOutputStream;
+  std::string checked_path(const std::string& filename) const;
+  void finished(Pending p);  // a temporary file is complete: rename now or keep for commit()
+
   std::string dir_;
+  Mode mode_;
+  std::mutex mutex_;
+  std::vector<Pending> pending_;
+  std::vector<std::string> reserved_;  // OnCommit: names opened or put so far
   std::vector<std::string> written_;
   std::uint64_t bytes_ = 0;
 };
