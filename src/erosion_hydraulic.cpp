@@ -9,14 +9,38 @@
 //     radius) and the (r − d) brush weights. Two departures, both deliberate: speed grows when the
 //     droplet descends (v² − Δy·g; Lague's v² + Δy·g slows droplets going downhill), and erosion is
 //     bounded by elevation 0 instead of by "positive height", which creates spikes below sea level.
+//   * Google Highway (github.com/google/highway): foreach_target multi-target compilation and
+//     HWY_DYNAMIC_DISPATCH, once per batch of tiles.
 //
 // World units: positions and the brush are in metres, heights in metres, sediment in m³, so a
 // droplet moves, erodes and deposits the same volume at any sample spacing.
+//
+// Speed. A droplet step is one long chain of dependent operations (position → bilinear heights →
+// gradient → direction → square root and division → next position; and heights → capacity →
+// brush → the heights the next step reads), so one droplet at a time leaves the core mostly idle.
+// Each thread therefore runs kLanes droplets of different tiles of the same phase in lockstep:
+// those tiles touch disjoint cells, so the interleaving changes nothing in the result while the
+// out-of-order core overlaps the lanes' chains. The droplet state is single precision (the
+// layer's precision; mass totals stay in double per tile). The brush is a box of rows of ≤ 8
+// cells processed as masked vectors of at most 8 floats.
+//
+// Exactness across Highway targets. The per-droplet arithmetic is scalar float in a fixed order
+// (the build uses -ffp-contract=off). Brush cells are independent lane-wise operations, and the
+// material moved is summed per box column over the rows in order, then over the columns in a fixed
+// tree (blocks of 8), whatever the vector width: every target, and the one-lane fallback used
+// near the right border, gives bit-identical heights and totals (tests/test_erosion.cpp forces
+// each compiled target).
+
+// The shared part below is compiled once; foreach_target re-includes this file per target.
+#ifndef RELIEF_EROSION_HYDRAULIC_SHARED
+#define RELIEF_EROSION_HYDRAULIC_SHARED
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
+#include <limits>
 #include <numbers>
 #include <vector>
 
@@ -25,183 +49,340 @@
 #include "relief/random.hpp"
 
 namespace relief::erosion {
-namespace {
+namespace kernel {
 
-struct BrushCell {
-  int di, dj;
-  double w;  // weight, Σ w = 1 over the full brush
+// Everything a batch of droplets needs, in the units of the step (cells, normalised heights).
+struct Kernel {
+  float* e = nullptr;
+  int nx = 0, nz = 0;
+  int lifetime = 0;
+  float inertia = 0, keep_dir = 0;         // inertia, 1 − inertia
+  float capacity = 0, min_capacity = 0;    // s/m, metres of mean brush height
+  float erode = 0, deposit = 0, evap_keep = 0, gravity = 0;
+  float gs = 0;      // height_m / cell_m: normalised difference per cell → metres per metre
+  float H = 0;       // height_m
+  float cell2 = 0;   // cell_m²
+  float area = 0;    // π·brush_radius_m²
+  float step_c = 0;  // step in cells
+  float sea = 0;
+  float xlim = 0, zlim = 0;  // nx − 1, nz − 1
+  double m3 = 0;     // m³ per unit of normalised height on one cell: height_m · cell_m²
+  // The brush as a box of rows −R..R, columns −R..R: weights (normalised height per m³) in rows of
+  // stride P (P = w rounded up to 8), zero outside the disk and in the padding.
+  int R = 0, w = 0, P = 0;
+  const float* box = nullptr;
+  // The brush as a cell list with double weights (Σ = 1), for brushes cut by the window's border.
+  const int* cell_di = nullptr;
+  const int* cell_dj = nullptr;
+  const double* cell_w = nullptr;
+  int ncells = 0;
+  double to_norm = 0;  // 1 / (height_m · cell_m²)
+  // Droplet starts.
+  std::uint64_t seed = 0;
+  double wx = 0, wz = 0;
 };
 
-class Droplets {
- public:
-  Droplets(float* e, const Frame& f, const HydraulicSettings& s)
-      : e_(e), nx_(f.nx), nz_(f.nz), s_(s), cell_(f.cell_m()), H_(f.height_m), sea_(float(f.sea_level)) {
-    area_ = std::numbers::pi * s.brush_radius_m * s.brush_radius_m;
-    to_norm_ = 1.0 / (H_ * cell_ * cell_);
-    step_c_ = s.step_m / cell_;
-    // The brush covers at least the 3×3 cells around the droplet, so that on a coarse grid (cells
-    // larger than the brush) a droplet's volume is not piled onto one cell.
-    const double r = std::max(s.brush_radius_m, 1.5 * cell_);
-    radius_c_ = int(std::ceil(r / cell_));
-    double sum = 0;
-    for (int dj = -radius_c_; dj <= radius_c_; ++dj)
-      for (int di = -radius_c_; di <= radius_c_; ++di) {
-        const double d = std::hypot(double(di), double(dj)) * cell_;
-        if (d >= r) continue;
-        const double w = r - d;
-        brush_.push_back({di, dj, w});
-        sum += w;
-      }
-    for (auto& b : brush_) b.w /= sum;
-    for (auto& b : brush_) {
-      delta_.push_back(std::ptrdiff_t(b.dj) * nx_ + b.di);
-      wn_.push_back(float(b.w * to_norm_));
+// One tile's droplets: ids into the start hash, run in order, totals into *st.
+struct TileJob {
+  const std::uint32_t* ids = nullptr;
+  std::uint32_t n = 0;
+  HydraulicStats* st = nullptr;
+};
+
+// Start position of droplet k in cells, in [0, nx − 1) × [0, nz − 1).
+inline void start_position(const Kernel& k, std::uint32_t id, float& px, float& pz) {
+  const float xmax = std::nextafter(float(k.wx), 0.0f), zmax = std::nextafter(float(k.wz), 0.0f);
+  px = std::min(float(unit_double(hash64(k.seed, id, 0x78)) * k.wx), xmax);
+  pz = std::min(float(unit_double(hash64(k.seed, id, 0x7a)) * k.wz), zmax);
+}
+
+}  // namespace kernel
+}  // namespace relief::erosion
+#endif  // RELIEF_EROSION_HYDRAULIC_SHARED
+
+// ---- the per-target droplet kernels ------------------------------------------------------------
+#ifndef HWY_DISABLED_TARGETS
+#define HWY_DISABLED_TARGETS HWY_SSSE3  // as noise_simd.cpp: the same target list
+#endif
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "erosion_hydraulic.cpp"
+#include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include <hwy/aligned_allocator.h>
+#include <hwy/highway.h>
+
+#if defined(__clang__)
+#pragma STDC FP_CONTRACT OFF
+#elif defined(__GNUC__)
+#pragma GCC optimize("fp-contract=off")
+#endif
+
+HWY_BEFORE_NAMESPACE();
+namespace relief::erosion::kernel {
+namespace HWY_NAMESPACE {
+namespace {
+
+namespace hn = hwy::HWY_NAMESPACE;
+
+constexpr int kLanes = 4;  // droplets in flight per thread
+
+// Applies clamp(old + vs·weight, lo, hi) over the brush box whose top-left cell is `base` and
+// returns Σ (new − old) (normalised), summed per column over the rows in order, then over the
+// columns in blocks of 8 as ((a0+a1)+(a2+a3))+((a4+a5)+(a6+a7)), the blocks in order. Lanes of
+// weight 0 are neither read nor written. `acc` holds P floats, 32-byte aligned. Any lane count
+// gives the same bits.
+template <class D>
+HWY_INLINE float BrushBox(D d, const Kernel& k, float* HWY_RESTRICT base, float vs, float lo, float hi,
+                          float* HWY_RESTRICT acc) {
+  const int N = int(hn::Lanes(d)), w = k.w, P = k.P;
+  const std::ptrdiff_t nx = k.nx;
+  const float* HWY_RESTRICT box = k.box;
+  const auto zero = hn::Zero(d), vv = hn::Set(d, vs), vlo = hn::Set(d, lo), vhi = hn::Set(d, hi);
+  auto cell = [&](float* HWY_RESTRICT q, const float* HWY_RESTRICT wq) {
+    const auto wv = hn::Load(d, wq);
+    const auto m = hn::Gt(wv, zero);
+    // 0 outside the disk: nothing moves there. AVX2 and AVX-512 load only the disk's lanes; the
+    // 128-bit targets read up to 3 cells past the box, never past the row (see Brush) and never
+    // into cells that another tile of the phase writes (those lie ≥ 4 cells further: tiles are
+    // 2·reach wide and reach has 2 cells of margin on each side).
+#if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX2
+    const auto old = hn::MaskedLoad(m, d, q);
+#else
+    const auto old = hn::IfThenElseZero(m, hn::LoadU(d, q));
+#endif
+    const auto now = hn::Min(hn::Max(hn::Add(old, hn::Mul(vv, wv)), vlo), vhi);
+    hn::BlendedStore(now, m, d, q);
+    return hn::Sub(now, old);
+  };
+#if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX2  // 256-bit vectors or wider: CappedTag<float, 8> is 8 lanes
+  if constexpr (hn::MaxLanes(D()) == 8) {
+    if (HWY_LIKELY(P == 8)) {  // one vector per row, the column sums in a register
+      auto a = zero;
+      for (int r = 0; r < w; ++r) a = hn::Add(a, cell(base + r * nx, box + r * 8));
+      a = hn::Add(a, hn::Shuffle2301(a));         // lane 0: a0+a1, lane 2: a2+a3, …
+      a = hn::Add(a, hn::Shuffle1032(a));         // lane 0: (a0+a1)+(a2+a3), lane 4: (a4+a5)+(a6+a7)
+      a = hn::Add(a, hn::SwapAdjacentBlocks(a));  // lane 0: the block's sum
+      return hn::GetLane(a);
     }
   }
+#endif
+  for (int b = 0; b < P; b += N) hn::Store(zero, d, acc + b);
+  for (int r = 0; r < w; ++r) {
+    float* HWY_RESTRICT row = base + r * nx;
+    const float* HWY_RESTRICT wr = box + std::ptrdiff_t(r) * P;
+    for (int b = 0; b < w; b += N) hn::Store(hn::Add(hn::Load(d, acc + b), cell(row + b, wr + b)), d, acc + b);
+  }
+  float total = 0;
+  for (int b = 0; b < w; b += 8) {
+    const float* a = acc + b;
+    const float s = ((a[0] + a[1]) + (a[2] + a[3])) + ((a[4] + a[5]) + (a[6] + a[7]));
+    total = b == 0 ? s : total + s;
+  }
+  return total;
+}
 
-  int radius_cells() const { return radius_c_; }
+class Batch {
+ public:
+  Batch(const Kernel& k, const TileJob* jobs, std::size_t njobs) : k_(k), jobs_(jobs), njobs_(njobs) {
+    acc_ = hwy::AllocateAligned<float>(std::size_t(kLanes) * (k.P + 16));
+    for (std::size_t i = 0; i < std::size_t(kLanes) * (k.P + 16); ++i) acc_[i] = 0;
+  }
 
-  // Runs one droplet starting at (px, pz) in cell units; adds to `st`.
-  void run(double px, double pz, HydraulicStats& st) const {
-    const double gs = H_ / cell_;  // normalised difference per cell → metres per metre
-    double dirx = 0, dirz = 0, speed = 1, water = 1, sed = 0;
-    if (height(px, pz) < sea_) return;
-    ++st.droplets;
-    for (int life = 0; life < s_.lifetime; ++life) {
-      const int ix = int(px), iz = int(pz);
-      const double fx = px - ix, fz = pz - iz;
-      const float* p = e_ + std::size_t(iz) * nx_ + ix;
-      const double a = p[0], b = p[1], c = p[nx_], d = p[nx_ + 1];
-      const double gx = ((b - a) * (1 - fz) + (d - c) * fz) * gs;
-      const double gz = ((c - a) * (1 - fx) + (d - b) * fx) * gs;
-      const double h_old = a * (1 - fx) * (1 - fz) + b * fx * (1 - fz) + c * (1 - fx) * fz + d * fx * fz;
-      dirx = dirx * s_.inertia - gx * (1 - s_.inertia);
-      dirz = dirz * s_.inertia - gz * (1 - s_.inertia);
-      const double len = std::sqrt(dirx * dirx + dirz * dirz);
-      if (len < 1e-12) break;  // no slope, no momentum: the droplet dies here
-      dirx /= len;
-      dirz /= len;
-      const double npx = px + dirx * step_c_, npz = pz + dirz * step_c_;
-      if (!(npx >= 0 && npz >= 0 && npx < nx_ - 1 && npz < nz_ - 1)) {
-        st.off_map_m3 += sed;
-        return;
-      }
-      const double h_new = height(npx, npz);
-      const double dy = (h_new - h_old) * H_;  // metres, negative downhill
-      const double cap = std::max(-dy * speed * water * s_.capacity, s_.min_capacity) * area_;
-      if (dy > 0 || sed > cap) {
-        const double want = dy > 0 ? std::min(dy * cell_ * cell_, sed) : (sed - cap) * s_.deposit;
-        const double got = dy > 0 ? deposit_bilinear(ix, iz, fx, fz, want) : deposit_brush(ix, iz, want);
-        sed -= got;
-        st.deposited_m3 += got;
-      } else {
-        const double want = std::min((cap - sed) * s_.erode, -dy * area_);
-        const double got = erode_brush(ix, iz, want);
-        sed += got;
-        st.eroded_m3 += got;
-      }
-      speed = std::sqrt(std::max(0.0, speed * speed - dy * s_.gravity));
-      water *= 1 - s_.evaporate;
-      px = npx;
-      pz = npz;
-      if (h_new < sea_) {
-        st.to_sea_m3 += sed;
-        return;
-      }
+  void Run() {
+    int active = 0;
+    for (int l = 0; l < kLanes; ++l) {
+      lanes_[l].acc = acc_.get() + std::size_t(l) * (k_.P + 16);
+      lanes_[l].active = Next(lanes_[l]);
+      active += lanes_[l].active;
     }
-    if (sed > 0) {
-      const double got = deposit_brush(int(px), int(pz), sed);
-      st.deposited_m3 += got;
-      st.stranded_m3 += sed - got;
-    }
+    while (active > 0)
+      for (int l = 0; l < kLanes; ++l) {
+        Lane& L = lanes_[l];
+        if (!L.active || Step(L)) continue;
+        if (!Next(L)) {
+          L.active = false;
+          --active;
+        }
+      }
   }
 
  private:
-  double height(double px, double pz) const {
+  struct Lane {
+    float px = 0, pz = 0, dx = 0, dz = 0, speed = 0, water = 0;
+    double sed = 0;  // m³; double so that what a droplet carries balances what it moved
+    int life = 0;
+    bool active = false;
+    const std::uint32_t* ids = nullptr;  // the current tile's remaining droplets [ids, end)
+    const std::uint32_t* end = nullptr;
+    HydraulicStats* st = nullptr;
+    float* acc = nullptr;
+  };
+
+  float Height(float px, float pz) const {
     const int ix = int(px), iz = int(pz);
-    const double fx = px - ix, fz = pz - iz;
-    const float* p = e_ + std::size_t(iz) * nx_ + ix;
-    return p[0] * (1 - fx) * (1 - fz) + p[1] * fx * (1 - fz) + p[nx_] * (1 - fx) * fz + p[nx_ + 1] * fx * fz;
+    const float fx = px - float(ix), fz = pz - float(iz);
+    const float* p = k_.e + std::size_t(iz) * k_.nx + ix;
+    return p[0] * (1 - fx) * (1 - fz) + p[1] * fx * (1 - fz) + p[k_.nx] * (1 - fx) * fz + p[k_.nx + 1] * fx * fz;
   }
-  bool brush_inside(int ix, int iz) const {
-    return ix >= radius_c_ && iz >= radius_c_ && ix + radius_c_ < nx_ && iz + radius_c_ < nz_;
-  }
-  // Applies f(cell pointer, normalised amount) over the brush centred on (ix, iz); near the border
-  // the weights are renormalised over the cells inside. Returns Σ f (normalised), times H·cell².
-  template <class F>
-  double brush(int ix, int iz, double vol, F&& f) const {
-    float* base = e_ + std::size_t(iz) * nx_ + ix;
-    double got = 0;
-    if (brush_inside(ix, iz)) {
-      // Single precision inside the brush (the layer's precision); four partial sums in a fixed
-      // order keep the reduction short and deterministic.
-      const float v = float(vol);
-      const std::size_t m = delta_.size();
-      float acc[4] = {0, 0, 0, 0};
-      for (std::size_t k = 0; k < m; ++k) acc[k & 3] += f(base + delta_[k], v * wn_[k]);
-      got = double((acc[0] + acc[1]) + (acc[2] + acc[3]));
-    } else {
-      double sum = 0;
-      for (const auto& b : brush_) {
-        const int a = ix + b.di, c = iz + b.dj;
-        if (a >= 0 && c >= 0 && a < nx_ && c < nz_) sum += b.w;
+
+  // Starts the lane's next droplet (from its tile, or from the next tile of the batch); false when
+  // the batch is done. Droplets starting in the sea are skipped.
+  bool Next(Lane& L) {
+    for (;;) {
+      while (L.ids != L.end) {
+        float px, pz;
+        start_position(k_, *L.ids++, px, pz);
+        if (Height(px, pz) < k_.sea) continue;
+        L.px = px, L.pz = pz, L.dx = 0, L.dz = 0, L.speed = 1, L.water = 1, L.sed = 0, L.life = 0;
+        ++L.st->droplets;
+        return true;
       }
-      for (const auto& b : brush_) {
-        const int a = ix + b.di, c = iz + b.dj;
-        if (a >= 0 && c >= 0 && a < nx_ && c < nz_)
-          got += f(e_ + std::size_t(c) * nx_ + a, float(vol * b.w / sum * to_norm_));
-      }
+      if (next_job_ == njobs_) return false;
+      const TileJob& j = jobs_[next_job_++];
+      L.ids = j.ids, L.end = j.ids + j.n, L.st = j.st;
     }
-    return got / to_norm_;
   }
-  double erode_brush(int ix, int iz, double vol) const {
-    return brush(ix, iz, vol, [](float* p, float want) {
-      const float old = *p, now = std::max(old - want, 0.0f);
-      *p = now;
-      return old - now;
-    });
-  }
-  double deposit_brush(int ix, int iz, double vol) const {
-    return brush(ix, iz, vol, [](float* p, float want) {
-      const float old = *p, now = std::min(old + want, 1.0f);
-      *p = now;
-      return now - old;
-    });
-  }
-  double deposit_bilinear(int ix, int iz, double fx, double fz, double vol) const {
-    float* p = e_ + std::size_t(iz) * nx_ + ix;
-    const double v = vol * to_norm_;
+
+  // Moves vol_m3 (m³, ≥ 0) with the brush centred on cell (ix, iz): deposits when `add` (heights
+  // become min(old + want, 1)), else erodes (max(old − want, 0)). Returns the volume actually
+  // moved (m³, ≥ 0). Branch-free in `add`: which of the two a step does is data-dependent.
+  HWY_INLINE double Brush(Lane& L, int ix, int iz, float vol_m3, bool add) const {
+    static constexpr float kInf = std::numeric_limits<float>::infinity();
+    static constexpr float kSign[2] = {-1.0f, 1.0f}, kLo[2] = {0.0f, -kInf}, kHi[2] = {kInf, 1.0f};
+    const float sign = kSign[add];
+    const int R = k_.R;
+    if (HWY_LIKELY(iz >= R && iz + R < k_.nz && ix >= R && ix + R < k_.nx)) {
+      float* base = k_.e + std::size_t(iz - R) * k_.nx + (ix - R);
+      const float vs = vol_m3 * sign, lo = kLo[add], hi = kHi[add];
+      const hn::CappedTag<float, 8> d8;
+      const int N = int(hn::Lanes(d8));
+      // Full vectors stay inside the row; otherwise the same arithmetic one lane at a time.
+      const float s = HWY_LIKELY(ix - R + (k_.w + N - 1) / N * N <= k_.nx)
+                          ? BrushBox(d8, k_, base, vs, lo, hi, L.acc)
+                          : BrushBox(hn::CappedTag<float, 1>(), k_, base, vs, lo, hi, L.acc);
+      return double(s * sign) * k_.m3;
+    }
+    // Cut by the border: the weights are renormalised over the cells inside.
+    double sum = 0;
+    for (int c = 0; c < k_.ncells; ++c) {
+      const int a = ix + k_.cell_di[c], b = iz + k_.cell_dj[c];
+      if (a >= 0 && b >= 0 && a < k_.nx && b < k_.nz) sum += k_.cell_w[c];
+    }
     double got = 0;
-    auto put = [&](float* q, double amount) {
-      const float old = *q, now = std::min(old + float(amount), 1.0f);
+    for (int c = 0; c < k_.ncells; ++c) {
+      const int a = ix + k_.cell_di[c], b = iz + k_.cell_dj[c];
+      if (!(a >= 0 && b >= 0 && a < k_.nx && b < k_.nz)) continue;
+      float* p = k_.e + std::size_t(b) * k_.nx + a;
+      const float want = float(double(vol_m3) * k_.cell_w[c] / sum * k_.to_norm);
+      const float old = *p, now = add ? std::min(old + want, 1.0f) : std::max(old - want, 0.0f);
+      *p = now;
+      got += add ? double(now - old) : double(old - now);
+    }
+    return got / k_.to_norm;
+  }
+
+  double DepositBilinear(int ix, int iz, float fx, float fz, float vol_m3) const {
+    float* p = k_.e + std::size_t(iz) * k_.nx + ix;
+    const float v = float(vol_m3 / k_.m3);
+    float got = 0;
+    auto put = [&](float* q, float amount) {
+      const float old = *q, now = std::min(old + amount, 1.0f);
       *q = now;
-      got += double(now - old);
+      got += now - old;
     };
     put(p, v * (1 - fx) * (1 - fz));
     put(p + 1, v * fx * (1 - fz));
-    put(p + nx_, v * (1 - fx) * fz);
-    put(p + nx_ + 1, v * fx * fz);
-    return got / to_norm_;
+    put(p + k_.nx, v * (1 - fx) * fz);
+    put(p + k_.nx + 1, v * fx * fz);
+    return double(got) * k_.m3;
   }
 
-  float* e_;
-  int nx_, nz_;
-  HydraulicSettings s_;
-  double cell_, H_;
-  float sea_;
-  double area_ = 0, to_norm_ = 0, step_c_ = 0;
-  int radius_c_ = 0;
-  std::vector<BrushCell> brush_;
-  std::vector<std::ptrdiff_t> delta_;  // brush cell offsets (index space)
-  std::vector<float> wn_;              // weight / (H · cell²): normalised height per m³
+  // One step of the lane's droplet; false when the droplet ended (its totals are booked).
+  bool Step(Lane& L) {
+    HydraulicStats& st = *L.st;
+    const int ix = int(L.px), iz = int(L.pz);
+    const float fx = L.px - float(ix), fz = L.pz - float(iz);
+    const float* p = k_.e + std::size_t(iz) * k_.nx + ix;
+    const float a = p[0], b = p[1], c = p[k_.nx], d = p[k_.nx + 1];
+    const float gx = ((b - a) * (1 - fz) + (d - c) * fz) * k_.gs;
+    const float gz = ((c - a) * (1 - fx) + (d - b) * fx) * k_.gs;
+    const float h_old = a * (1 - fx) * (1 - fz) + b * fx * (1 - fz) + c * (1 - fx) * fz + d * fx * fz;
+    float dx = L.dx * k_.inertia - gx * k_.keep_dir;
+    float dz = L.dz * k_.inertia - gz * k_.keep_dir;
+    const float len = std::sqrt(dx * dx + dz * dz);
+    if (!(len >= 1e-12f)) return Die(L);  // no slope, no momentum: the droplet dies here
+    dx /= len;
+    dz /= len;
+    const float npx = L.px + dx * k_.step_c, npz = L.pz + dz * k_.step_c;
+    if (!(npx >= 0 && npz >= 0 && npx < k_.xlim && npz < k_.zlim)) {
+      st.off_map_m3 += L.sed;
+      return false;
+    }
+    const float h_new = Height(npx, npz);
+    const float dy = (h_new - h_old) * k_.H;  // metres, negative downhill
+    const float cap = std::max(-dy * L.speed * L.water * k_.capacity, k_.min_capacity) * k_.area;
+    if (dy > 0) {
+      const double got = DepositBilinear(ix, iz, fx, fz, std::min(dy * k_.cell2, float(L.sed)));
+      L.sed -= got;
+      st.deposited_m3 += got;
+    } else {
+      // Over capacity: deposit part of the excess; else erode. Both sides computed, one selected.
+      const float sed = float(L.sed);
+      const bool add = sed > cap;
+      const float wants[2] = {std::min((cap - sed) * k_.erode, -dy * k_.area), (sed - cap) * k_.deposit};
+      const double got = Brush(L, ix, iz, wants[add], add);
+      static constexpr double kGain[2] = {1.0, -1.0};
+      L.sed += got * kGain[add];
+      *(add ? &st.deposited_m3 : &st.eroded_m3) += got;
+    }
+    L.speed = std::sqrt(std::max(0.0f, L.speed * L.speed - dy * k_.gravity));
+    L.water *= k_.evap_keep;
+    L.dx = dx, L.dz = dz, L.px = npx, L.pz = npz;
+    if (h_new < k_.sea) {
+      st.to_sea_m3 += L.sed;
+      return false;
+    }
+    if (++L.life == k_.lifetime) return Die(L);
+    return true;
+  }
+
+  // The droplet dies on land: what it carries is deposited with the brush.
+  bool Die(Lane& L) {
+    if (L.sed > 0) {
+      const double got = Brush(L, int(L.px), int(L.pz), float(L.sed), true);
+      L.st->deposited_m3 += got;
+      L.st->stranded_m3 += L.sed - got;
+    }
+    return false;
+  }
+
+  const Kernel& k_;
+  const TileJob* jobs_;
+  std::size_t njobs_;
+  std::size_t next_job_ = 0;
+  Lane lanes_[kLanes];
+  hwy::AlignedFreeUniquePtr<float[]> acc_;
 };
 
 }  // namespace
 
+void RunBatchImpl(const Kernel& k, const TileJob* jobs, std::size_t njobs) { Batch(k, jobs, njobs).Run(); }
+
+}  // namespace HWY_NAMESPACE
+}  // namespace relief::erosion::kernel
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace relief::erosion {
+namespace kernel {
+HWY_EXPORT(RunBatchImpl);
+void run_batch(const Kernel& k, const TileJob* jobs, std::size_t njobs) {
+  HWY_DYNAMIC_DISPATCH(RunBatchImpl)(k, jobs, njobs);
+}
+}  // namespace kernel
+
 HydraulicStats hydraulic_erosion(float* e, const Frame& f, const HydraulicSettings& s, std::uint64_t seed) {
   HydraulicStats total;
   if (f.nx < 2 || f.nz < 2) return total;
-  const Droplets drops(e, f, s);
   const double cell = f.cell_m();
   const double area_km2 = double(f.nx - 1) * double(f.nz - 1) * cell * cell * 1e-6;
   const double wanted = std::round(s.droplets_per_km2 * area_km2);
@@ -210,51 +391,94 @@ HydraulicStats hydraulic_erosion(float* e, const Frame& f, const HydraulicSettin
                                         " droplets (at most 400000000); lower the density");
   const std::uint32_t count = std::uint32_t(wanted);
 
+  // The brush covers at least the 3×3 cells around the droplet, so that on a coarse grid (cells
+  // larger than the brush) a droplet's volume is not piled onto one cell. Weights ∝ (r − d).
+  const double r = std::max(s.brush_radius_m, 1.5 * cell);
+  const int radius_c = int(std::ceil(r / cell));
+  std::vector<int> cdi, cdj;
+  std::vector<double> cw;
+  double sum = 0;
+  int R = 0;
+  for (int dj = -radius_c; dj <= radius_c; ++dj)
+    for (int di = -radius_c; di <= radius_c; ++di) {
+      const double dist = std::hypot(double(di), double(dj)) * cell;
+      if (dist >= r) continue;
+      cdi.push_back(di), cdj.push_back(dj), cw.push_back(r - dist);
+      sum += r - dist;
+      R = std::max({R, std::abs(di), std::abs(dj)});
+    }
+  for (double& w : cw) w /= sum;
+
+  kernel::Kernel k;
+  k.e = e;
+  k.nx = f.nx, k.nz = f.nz;
+  k.lifetime = s.lifetime;
+  k.inertia = float(s.inertia), k.keep_dir = float(1 - s.inertia);
+  k.capacity = float(s.capacity), k.min_capacity = float(s.min_capacity);
+  k.erode = float(s.erode), k.deposit = float(s.deposit), k.evap_keep = float(1 - s.evaporate);
+  k.gravity = float(s.gravity);
+  k.gs = float(f.height_m / cell);
+  k.H = float(f.height_m);
+  k.cell2 = float(cell * cell);
+  k.area = float(std::numbers::pi * s.brush_radius_m * s.brush_radius_m);
+  k.step_c = float(s.step_m / cell);
+  k.sea = float(f.sea_level);
+  k.xlim = float(f.nx - 1), k.zlim = float(f.nz - 1);
+  k.m3 = f.height_m * cell * cell;
+  k.to_norm = 1.0 / (f.height_m * cell * cell);
+  k.R = R, k.w = 2 * R + 1, k.P = (k.w + 7) / 8 * 8;
+  hwy::AlignedFreeUniquePtr<float[]> box = hwy::AllocateAligned<float>(std::size_t(k.w) * k.P);
+  std::fill(box.get(), box.get() + std::size_t(k.w) * k.P, 0.0f);
+  for (std::size_t c = 0; c < cw.size(); ++c)
+    box[std::size_t(cdj[c] + R) * k.P + (cdi[c] + R)] = float(cw[c] * k.to_norm);
+  k.box = box.get();
+  k.cell_di = cdi.data(), k.cell_dj = cdj.data(), k.cell_w = cw.data(), k.ncells = int(cw.size());
+  k.seed = seed;
+  k.wx = f.nx - 1, k.wz = f.nz - 1;
+
   // Tiles of side 2·reach: a droplet never leaves reach cells around its start (it moves step_m
   // per step and erodes within the brush radius), so tiles of one checkerboard colour never touch
   // the same cells.
-  const int reach = int(std::ceil(s.lifetime * s.step_m / cell)) + drops.radius_cells() + 2;
+  const int reach = int(std::ceil(s.lifetime * s.step_m / cell)) + radius_c + 2;
   const int tile = 2 * reach;
   const int ntx = (f.nx - 1 + tile - 1) / tile, ntz = (f.nz - 1 + tile - 1) / tile;
   const std::size_t ntiles = std::size_t(ntx) * ntz;
-  const double wx = f.nx - 1, wz = f.nz - 1;
-  auto start = [&](std::uint32_t k, double& px, double& pz) {
-    px = unit_double(hash64(seed, k, 0x78)) * wx;
-    pz = unit_double(hash64(seed, k, 0x7a)) * wz;
-  };
   // Counting sort of the droplets by tile (index order is kept inside each tile).
   std::vector<std::uint32_t> tile_of(count), first(ntiles + 1, 0), ids(count);
-  for (std::uint32_t k = 0; k < count; ++k) {
-    double px, pz;
-    start(k, px, pz);
+  for (std::uint32_t id = 0; id < count; ++id) {
+    float px, pz;
+    kernel::start_position(k, id, px, pz);
     const int tx = std::min(int(px) / tile, ntx - 1), tz = std::min(int(pz) / tile, ntz - 1);
-    tile_of[k] = std::uint32_t(tz * ntx + tx);
-    ++first[tile_of[k] + 1];
+    tile_of[id] = std::uint32_t(tz * ntx + tx);
+    ++first[tile_of[id] + 1];
   }
   for (std::size_t t = 0; t < ntiles; ++t) first[t + 1] += first[t];
   {
     std::vector<std::uint32_t> fill(first.begin(), first.end() - 1);
-    for (std::uint32_t k = 0; k < count; ++k) ids[fill[tile_of[k]]++] = k;
+    for (std::uint32_t id = 0; id < count; ++id) ids[fill[tile_of[id]]++] = id;
   }
   std::vector<HydraulicStats> per_tile(ntiles);
+  // Each round runs a quarter of every tile's droplets; each phase one checkerboard colour, in
+  // batches of tiles that one thread interleaves (batches of one phase touch disjoint cells).
   constexpr int kRounds = 4;
-  std::vector<std::uint32_t> phase_tiles;
+  constexpr std::size_t kBatch = 4;
+  std::vector<kernel::TileJob> jobs;
   for (int round = 0; round < kRounds; ++round)
     for (int phase = 0; phase < 4; ++phase) {
-      phase_tiles.clear();
+      jobs.clear();
       for (int tz = phase / 2; tz < ntz; tz += 2)
-        for (int tx = phase % 2; tx < ntx; tx += 2) phase_tiles.push_back(std::uint32_t(tz * ntx + tx));
-      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, phase_tiles.size(), 1), [&](const tbb::blocked_range<std::size_t>& r) {
-        for (std::size_t q = r.begin(); q < r.end(); ++q) {
-          const std::uint32_t t = phase_tiles[q];
+        for (int tx = phase % 2; tx < ntx; tx += 2) {
+          const std::size_t t = std::size_t(tz) * ntx + tx;
           const std::uint32_t n = first[t + 1] - first[t];
           const std::uint32_t lo = first[t] + std::uint32_t(std::uint64_t(n) * round / kRounds);
           const std::uint32_t hi = first[t] + std::uint32_t(std::uint64_t(n) * (round + 1) / kRounds);
-          for (std::uint32_t a = lo; a < hi; ++a) {
-            double px, pz;
-            start(ids[a], px, pz);
-            drops.run(px, pz, per_tile[t]);
-          }
+          if (hi > lo) jobs.push_back({ids.data() + lo, hi - lo, &per_tile[t]});
+        }
+      const std::size_t nbatch = (jobs.size() + kBatch - 1) / kBatch;
+      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nbatch, 1), [&](const tbb::blocked_range<std::size_t>& br) {
+        for (std::size_t b = br.begin(); b < br.end(); ++b) {
+          const std::size_t lo = b * kBatch, hi = std::min(jobs.size(), lo + kBatch);
+          kernel::run_batch(k, jobs.data() + lo, hi - lo);
         }
       });
     }
@@ -270,3 +494,4 @@ HydraulicStats hydraulic_erosion(float* e, const Frame& f, const HydraulicSettin
 }
 
 }  // namespace relief::erosion
+#endif  // HWY_ONCE

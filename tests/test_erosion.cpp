@@ -17,6 +17,7 @@
 
 #include "erosion.hpp"
 #include "hydrology.hpp"
+#include "noise_simd.hpp"
 #include "relief/error.hpp"
 #include "relief/output.hpp"
 #include "relief/pipeline.hpp"
@@ -508,6 +509,43 @@ TEST(Hydraulic, SeaFloorBelowSeaLevelMakesNoSpikes) {
     if (before[c] < f.sea_level) max_rise_m = std::max(max_rise_m, (double(z[c]) - before[c]) * f.height_m);
   }
   EXPECT_LT(max_rise_m, 1.0) << "the sea floor gets no spikes";
+}
+
+TEST(Hydraulic, EveryHighwayTargetGivesTheSameBits) {
+  // The droplet kernel is compiled per Highway target (the brush as masked vectors of up to 8
+  // lanes; one lane on the scalar fallback). Forced one target at a time, each must give the same
+  // heights and totals bit for bit: a small brush (3×3 cells, one vector per row) and a wide one
+  // (19×19 cells, several vectors per row), both also cut by the window's border.
+  for (const double brush_m : {24.0, 300.0}) {
+    const Terrain t0 = island(129, 5);
+    erosion::HydraulicSettings s;
+    s.brush_radius_m = brush_m;
+    s.step_m = std::min(40.0, 2 * brush_m);
+    s.droplets_per_km2 = 1500;
+    std::uint64_t ref = 0;
+    erosion::HydraulicStats r0;
+    const auto targets = detail::noise_simd_targets();
+    ASSERT_GE(targets.size(), 2u);
+    for (const auto& target : targets) {
+      detail::noise_simd_force_target(target.bits);
+      Terrain t = t0;
+      const erosion::HydraulicStats r = erosion::hydraulic_erosion(t.get("height").data.data(), t.frame, s, 9);
+      detail::noise_simd_force_target(0);
+      const auto& z = t.get("height").data;
+      const std::uint64_t h = fnv1a(z.data(), z.size() * sizeof(float));
+      ASSERT_GT(r.eroded_m3, 0.0);
+      if (&target == &targets.front()) {
+        ref = h, r0 = r;
+        EXPECT_NE(h, fnv1a(t0.get("height").data.data(), z.size() * sizeof(float)));
+        continue;
+      }
+      EXPECT_EQ(h, ref) << target.name << ", brush " << brush_m << " m";
+      EXPECT_EQ(r.eroded_m3, r0.eroded_m3) << target.name;
+      EXPECT_EQ(r.deposited_m3, r0.deposited_m3) << target.name;
+      EXPECT_EQ(r.off_map_m3 + r.to_sea_m3 + r.stranded_m3, r0.off_map_m3 + r0.to_sea_m3 + r0.stranded_m3) << target.name;
+      EXPECT_EQ(r.droplets, r0.droplets) << target.name;
+    }
+  }
 }
 
 // =================================================================================== thermal
