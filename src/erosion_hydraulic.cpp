@@ -9,6 +9,9 @@
 //     radius) and the (r − d) brush weights. Two departures, both deliberate: speed grows when the
 //     droplet descends (v² − Δy·g; Lague's v² + Δy·g slows droplets going downhill), and erosion is
 //     bounded by elevation 0 instead of by "positive height", which creates spikes below sea level.
+//     As in both sources, a droplet erodes with the brush and deposits on the four cells of its
+//     bilinear cell (uphill and over capacity); only a droplet that dies on land spreads what it
+//     still carries with the brush.
 //   * Google Highway (github.com/google/highway): foreach_target multi-target compilation and
 //     HWY_DYNAMIC_DISPATCH, once per batch of tiles.
 //
@@ -327,12 +330,15 @@ class Batch {
     } else {
       // Over capacity: deposit part of the excess; else erode. Both sides computed, one selected.
       const float sed = float(L.sed);
-      const bool add = sed > cap;
-      const float wants[2] = {std::min((cap - sed) * k_.erode, -dy * k_.area), (sed - cap) * k_.deposit};
-      const double got = Brush(L, ix, iz, wants[add], add);
-      static constexpr double kGain[2] = {1.0, -1.0};
-      L.sed += got * kGain[add];
-      *(add ? &st.deposited_m3 : &st.eroded_m3) += got;
+      if (sed > cap) {
+        const double got = DepositBilinear(ix, iz, fx, fz, (sed - cap) * k_.deposit);
+        L.sed -= got;
+        st.deposited_m3 += got;
+      } else {
+        const double got = Brush(L, ix, iz, std::min((cap - sed) * k_.erode, -dy * k_.area), false);
+        L.sed += got;
+        st.eroded_m3 += got;
+      }
     }
     L.speed = std::sqrt(std::max(0.0f, L.speed * L.speed - dy * k_.gravity));
     L.water *= k_.evap_keep;

@@ -327,7 +327,7 @@ StageDef hydraulic() {
             "Droplets per km² of the map (so previews and builds get the same rain); starts over the sea are skipped"),
       param(&P::lifetime, "lifetime", 1, 1000, "steps", "Maximum steps of one droplet"),
       param(&P::step_m, "step_m", 0.01, 1000, "m", "Distance a droplet moves per step (at most 2 × brush_radius_m)"),
-      param(&P::brush_radius_m, "brush_radius_m", 0.01, 1000, "m", "Radius over which a droplet erodes and deposits"),
+      param(&P::brush_radius_m, "brush_radius_m", 0.01, 1000, "m", "Radius over which a droplet erodes (it deposits on the four cells around it)"),
       param(&P::inertia, "inertia", 0, 1, "", "0: droplets follow the slope; 1: they keep their direction"),
       param(&P::capacity, "capacity", 0, 1000, "s/m",
             "Sediment capacity factor: capacity = max(−drop · speed · water · capacity, min_capacity) · brush area"),
