@@ -1,4 +1,5 @@
-// Micro-benchmarks of Noise::row: one 4096-sample row per iteration, for every basis, single
+// Micro-benchmarks of Noise::row (one 4096-sample row per iteration) and Noise::rows ("rows16": a
+// block of 16 such rows per iteration), for every basis, single
 // octave and 6-octave fBm / ridged, on every Highway target this CPU supports (forced one at a
 // time) and on the scalar reference. Throughput is reported as samples per second.
 //
@@ -68,6 +69,26 @@ void run_row(benchmark::State& state, Case c, std::int64_t target) {
   state.SetItemsProcessed(state.iterations() * kRow);
 }
 
+// The block API: 16 rows per iteration through Noise::rows (x-only terms reused across the block);
+// items are samples, comparable with run_row's.
+void run_rows(benchmark::State& state, Case c, std::int64_t target) {
+  const Noise noise(settings_of(c));
+  constexpr int kBlock = 16;
+  std::vector<float> out(std::size_t(kRow) * kBlock);
+  relief::detail::noise_simd_force_target(target > 0 ? target : 0);
+  int j = 0;
+  double z[kBlock];
+  for (auto _ : state) {
+    for (int r = 0; r < kBlock; ++r) z[r] = double((j + r) & 1023);
+    j += kBlock;
+    noise.rows(z, kBlock, 0, 1.0, kRow, out.data(), kRow);
+    benchmark::DoNotOptimize(out.data());
+    benchmark::ClobberMemory();
+  }
+  relief::detail::noise_simd_force_target(0);
+  state.SetItemsProcessed(state.iterations() * kRow * kBlock);
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -75,6 +96,8 @@ int main(int argc, char** argv) {
   for (const Case& c : kCases) {
     for (const auto& t : targets)
       benchmark::RegisterBenchmark((std::string(c.name) + "/" + t.name).c_str(), run_row, c, t.bits);
+    for (const auto& t : targets)
+      benchmark::RegisterBenchmark((std::string(c.name) + " rows16/" + t.name).c_str(), run_rows, c, t.bits);
     benchmark::RegisterBenchmark((std::string(c.name) + "/scalar-reference").c_str(), run_row, c, std::int64_t(-1));
   }
   benchmark::Initialize(&argc, argv);

@@ -36,6 +36,8 @@
 #include <cstdio>
 #include <cstring>
 #include <limits>
+#include <memory>
+#include <new>
 #include <string>
 #include <utility>
 
@@ -746,8 +748,7 @@ void Noise::row_reference(double z_m, std::int64_t i0, double dx_m, int n, float
     run(z_m, [=](int i) { return double(i0 + i) * dx_m; }, n, out);
 }
 
-void Noise::row(double z_m, std::int64_t i0, double dx_m, int n, float* out) const {
-  if (n <= 0) return;
+detail::NoiseKernelArgs Noise::kernel_args() const {
   detail::NoiseKernelArgs a;
   a.basis = s_.basis;
   a.fractal = s_.fractal;
@@ -761,7 +762,56 @@ void Noise::row(double z_m, std::int64_t i0, double dx_m, int n, float* out) con
   a.octaves = octaves_.data();
   a.count = int(octaves_.size());
   a.warp_octaves = warp_.data();
-  detail::noise_row_simd(a, z_m, i0, dx_m, n, out);
+  return a;
+}
+
+void Noise::row(double z_m, std::int64_t i0, double dx_m, int n, float* out) const {
+  if (n <= 0) return;
+  detail::noise_row_simd(kernel_args(), z_m, i0, dx_m, n, out);
+}
+
+NoiseColumns Noise::columns(std::int64_t i0, double dx_m, int n) const {
+  NoiseColumns c;
+  c.owner_ = this;
+  c.i0_ = i0;
+  c.dx_ = dx_m;
+  c.n_ = std::max(n, 0);
+  const detail::NoiseKernelArgs a = kernel_args();
+  if (c.n_ == 0 || !detail::noise_columns_supported(a)) return c;
+  c.stride_ = (c.n_ + 15) / 16 * 16;
+  c.count_ = a.count;
+  const std::size_t entries = std::size_t(detail::kColumnArrays) * std::size_t(a.count) * std::size_t(c.stride_);
+  constexpr std::align_val_t kAlign{64};
+  auto* p = static_cast<std::uint32_t*>(::operator new(entries * sizeof(std::uint32_t), kAlign));
+  c.data_ = std::shared_ptr<const std::uint32_t>(
+      p, [](const std::uint32_t* q) { ::operator delete(const_cast<std::uint32_t*>(q), std::align_val_t{64}); });
+  detail::noise_columns_simd(a, i0, dx_m, c.stride_, p, c.stride_);
+  return c;
+}
+
+void Noise::row(double z_m, const NoiseColumns& c, float* out) const {
+  if (c.n_ <= 0) return;
+  if (c.owner_ != this || !c.data_ || c.count_ != int(octaves_.size())) {
+    row(z_m, c.i0_, c.dx_, c.n_, out);
+    return;
+  }
+  detail::noise_row_columns_simd(kernel_args(), z_m, c.data_.get(), c.stride_, c.n_, out);
+}
+
+void Noise::rows(const double* z_m, int nrows, std::int64_t i0, double dx_m, int n, float* out,
+                 std::ptrdiff_t stride) const {
+  if (n <= 0 || nrows <= 0) return;
+  const detail::NoiseKernelArgs a = kernel_args();
+  if (nrows == 1 || !detail::noise_columns_supported(a)) {
+    for (int r = 0; r < nrows; ++r) row(z_m[r], i0, dx_m, n, out + r * stride);
+    return;
+  }
+  // Strips of columns whose terms (20 bytes per column per octave) fit in about 32 KiB.
+  const int strip = std::max(64, (32768 / (20 * a.count)) / 64 * 64);
+  for (int c0 = 0; c0 < n; c0 += strip) {
+    const NoiseColumns c = columns(i0 + c0, dx_m, std::min(strip, n - c0));
+    for (int r = 0; r < nrows; ++r) row(z_m[r], c, out + r * stride + c0);
+  }
 }
 
 // x = double(1)·x_m exactly: the row kernel at i0 = 1, dx = x_m evaluates at x_m.

@@ -782,6 +782,117 @@ HWY_NOINLINE void RowGradient(const NoiseKernelArgs& a, double z, std::int64_t i
   }
 }
 
+// ---- Gradient from per-column terms (Noise::columns / rows: no warp) -------------------------------
+
+// Fills the x-only terms, the values GradEvalAxis derives from each octave's x axis (GAxis, or
+// DyStart / DyStep on the dyadic lattice), computed by exactly the same operations.
+template <bool kPX>
+HWY_NOINLINE void ColumnsGradient(const NoiseKernelArgs& a, std::int64_t i0, double dx, int npad,
+                                  std::uint32_t* cols, int stride) {
+  const DD d;
+  const DI di;
+  const DF df;
+  const DU32 du32;
+  const int N = int(hn::Lanes(d)), NF = kHalves * N;
+  const VD vdx = hn::Set(d, dx);
+  const VI iota = hn::Iota(di, 0);
+  const VU32 px = hn::Set(du32, kGradPx);
+  const std::size_t S = std::size_t(stride);
+  auto put = [&](int k, int start, const GAxisV& ax, bool periodic_x) {
+    std::uint32_t* c = cols + std::size_t(k) * kColumnArrays * S + std::size_t(start);
+    const VU32 xp0 = hn::Mul(ax.i0, px);
+    const VU32 xp1 = periodic_x ? hn::Mul(ax.i1, px) : hn::Add(xp0, px);
+    const VF fx1 = hn::Sub(ax.f, hn::Set(df, 1.0f));
+    hn::Store(xp0, du32, c);
+    hn::Store(xp1, du32, c + S);
+    hn::Store(hn::BitCast(du32, ax.f), du32, c + 2 * S);
+    hn::Store(hn::BitCast(du32, fx1), du32, c + 3 * S);
+    hn::Store(hn::BitCast(du32, Fade(ax.f)), du32, c + 4 * S);
+  };
+  for (int start = 0; start < npad; start += NF) {
+    VD x[kHalves];
+    for (int h = 0; h < kHalves; ++h)
+      x[h] = hn::Mul(hn::ConvertTo(d, hn::Add(iota, hn::Set(di, i0 + start + h * N))), vdx);
+    auto lattice = [&](const NoiseOctave& o, VD (&u)[kHalves]) {
+      for (int h = 0; h < kHalves; ++h) u[h] = hn::Add(hn::Mul(x[h], hn::Set(d, o.freq_x)), hn::Set(d, o.offset_x));
+    };
+    if (a.dyadic) {
+      VD u[kHalves];
+      lattice(a.octaves[0], u);
+      DyState sx;
+      put(0, start, DyStart(u, sx), false);
+      for (int k = 1; k < a.count; ++k) put(k, start, DyStep(sx), false);
+    } else {
+      for (int k = 0; k < a.count; ++k) {
+        const NoiseOctave& o = a.octaves[k];
+        VD u[kHalves];
+        lattice(o, u);
+        put(k, start, GAxis<kPX>(u, o.period_x, o.inv_period_x), kPX);
+      }
+    }
+  }
+}
+
+// RowGradient without warp, its per-sample x work replaced by loads of the columns' terms.
+template <int kFr>
+HWY_NOINLINE void RowGradientColumns(const NoiseKernelArgs& a, double z, const std::uint32_t* cols, int stride, int n,
+                                     float* out) {
+  const DD d;
+  const DF df;
+  const DU32 du32;
+  const int NF = kHalves * int(hn::Lanes(d));
+  const std::size_t S = std::size_t(stride);
+  GradRow rows[kMaxOctaves];
+  const VD vz = hn::Set(d, z);
+  auto lattice_v = [&](const NoiseOctave& o) {
+    return hn::Add(hn::Mul(vz, hn::Set(d, o.freq_z)), hn::Set(d, o.offset_z));
+  };
+  if (kFr != kNone && a.dyadic) {
+    VD v[kHalves];
+    for (int h = 0; h < kHalves; ++h) v[h] = lattice_v(a.octaves[0]);
+    DyState sz;
+    rows[0] = GradRowFromAxis(a.octaves[0], DyStart(v, sz));
+    for (int k = 1; k < a.count; ++k) rows[k] = GradRowFromAxis(a.octaves[k], DyStep(sz));
+  } else {
+    for (int k = 0; k < a.count; ++k) rows[k] = GradRowHoisted(a.octaves[k], lattice_v(a.octaves[k]));
+  }
+  float amp[kMaxOctaves];
+  for (int k = 0; k < a.count; ++k) amp[k] = float(a.octaves[k].amp);
+  const VF inv = hn::Set(df, float(a.inv_amp_sum)), one = hn::Set(df, 1.0f), mone = hn::Set(df, -1.0f);
+  auto octave = [&](int k, int start) {
+    const std::uint32_t* c = cols + std::size_t(k) * kColumnArrays * S + std::size_t(start);
+    const GradRow& r = rows[k];
+    const VU32 xp0 = hn::Load(du32, c), xp1 = hn::Load(du32, c + S);
+    const VF fx = hn::BitCast(df, hn::Load(du32, c + 2 * S)), fx1 = hn::BitCast(df, hn::Load(du32, c + 3 * S));
+    const VF sx = hn::BitCast(df, hn::Load(du32, c + 4 * S));
+    const VF g00 = GradCorner(xp0, r.zp0, fx, r.fy);
+    const VF g10 = GradCorner(xp1, r.zp0, fx1, r.fy);
+    const VF g01 = GradCorner(xp0, r.zp1, fx, r.fy1);
+    const VF g11 = GradCorner(xp1, r.zp1, fx1, r.fy1);
+    return Lerp(r.sy, Lerp(sx, g00, g10), Lerp(sx, g01, g11));
+  };
+  for (int start = 0; start < n; start += NF) {
+    VF acc;
+    if constexpr (kFr == kNone) {
+      acc = hn::Add(octave(0, start), hn::Zero(df));
+    } else {
+      acc = hn::Zero(df);
+      for (int k = 0; k < a.count; ++k) acc = FoldF<kFr>(acc, hn::Set(df, amp[k]), octave(k, start));
+    }
+    VF v = kFr == kRidged ? hn::Sub(hn::Mul(hn::Set(df, 2.0f), hn::Mul(acc, inv)), one)
+           : kFr == kNone ? acc
+                          : hn::Mul(acc, inv);
+    v = hn::Min(hn::Max(v, mone), one);
+    if (start + NF <= n) {
+      hn::StoreU(v, df, out + start);
+    } else {
+      HWY_ALIGN float tmp[64];
+      hn::Store(v, df, tmp);
+      std::memcpy(out + start, tmp, std::size_t(n - start) * sizeof(float));
+    }
+  }
+}
+
 // ---- dispatch on parameters, once per row ---------------------------------------------------------
 
 using Fn = void (*)(const NoiseKernelArgs&, double, std::int64_t, double, int, float*);
@@ -814,6 +925,23 @@ Fn PickGradient(bool warp, bool px, bool pz, bool dyadic) {
 }
 
 }  // namespace
+
+void ColumnTerms(const NoiseKernelArgs& a, std::int64_t i0, double dx, int npad, std::uint32_t* cols, int stride) {
+  const bool px = a.periodic && a.octaves[0].period_x != 0;
+  if (px)
+    ColumnsGradient<true>(a, i0, dx, npad, cols, stride);
+  else
+    ColumnsGradient<false>(a, i0, dx, npad, cols, stride);
+}
+
+void RowFromColumns(const NoiseKernelArgs& a, double z, const std::uint32_t* cols, int stride, int n, float* out) {
+  switch (a.fractal) {
+    case Fractal::None: RowGradientColumns<kNone>(a, z, cols, stride, n, out); break;
+    case Fractal::Ridged: RowGradientColumns<kRidged>(a, z, cols, stride, n, out); break;
+    case Fractal::Billow: RowGradientColumns<kBillow>(a, z, cols, stride, n, out); break;
+    default: RowGradientColumns<kFbm>(a, z, cols, stride, n, out); break;
+  }
+}
 
 void NoiseRow(const NoiseKernelArgs& a, double z, std::int64_t i0, double dx, int n, float* out) {
   const int fr = a.fractal == Fractal::Ridged ? kRidged : a.fractal == Fractal::Billow ? kBillow : kFbm;
@@ -852,6 +980,18 @@ HWY_AFTER_NAMESPACE();
 namespace relief::detail {
 
 HWY_EXPORT(NoiseRow);
+HWY_EXPORT(ColumnTerms);
+HWY_EXPORT(RowFromColumns);
+
+void noise_columns_simd(const NoiseKernelArgs& a, std::int64_t i0, double dx, int npad, std::uint32_t* cols,
+                        int stride) {
+  HWY_DYNAMIC_DISPATCH(ColumnTerms)(a, i0, dx, npad, cols, stride);
+}
+
+void noise_row_columns_simd(const NoiseKernelArgs& a, double z_m, const std::uint32_t* cols, int stride, int n,
+                            float* out) {
+  HWY_DYNAMIC_DISPATCH(RowFromColumns)(a, z_m, cols, stride, n, out);
+}
 
 void noise_row_simd(const NoiseKernelArgs& a, double z_m, std::int64_t i0, double dx, int n, float* out) {
   HWY_DYNAMIC_DISPATCH(NoiseRow)(a, z_m, i0, dx, n, out);

@@ -81,6 +81,20 @@ struct NoiseKernelArgs {
 // the best Highway target this CPU supports (or the one forced below).
 void noise_row_simd(const NoiseKernelArgs& a, double z_m, std::int64_t i0, double dx, int n, float* out);
 
+// Per-column terms (Noise::columns): only the Gradient basis without warp has x-only terms.
+// Layout: for octave k and array f (kColumnArrays of them: i0·Pₓ, i1·Pₓ as uint32; fx, fx − 1 and
+// fade(fx) as float bits), entry i is at cols[(k·kColumnArrays + f)·stride + i]; stride is a
+// multiple of 16, cols 64-byte aligned. Target-independent (natural lane order, exact values).
+constexpr int kColumnArrays = 5;
+inline bool noise_columns_supported(const NoiseKernelArgs& a) {
+  return a.basis == NoiseBasis::Gradient && !a.warp;
+}
+// Fills the arrays for x = double(i0 + i)·dx, i in [0, npad) (npad a multiple of 16).
+void noise_columns_simd(const NoiseKernelArgs& a, std::int64_t i0, double dx, int npad, std::uint32_t* cols,
+                        int stride);
+// out[i], i in [0, n), from the columns' terms: bit-identical to noise_row_simd over the same window.
+void noise_row_columns_simd(const NoiseKernelArgs& a, double z_m, const std::uint32_t* cols, int stride, int n,
+                            float* out);
 // For tests and benchmarks: the Highway targets compiled into noise_simd.cpp that this CPU can run
 // (best first), with their names ("AVX3", "AVX2", "SSE4", "EMU128", …).
 struct SimdTarget {

@@ -94,9 +94,11 @@ void validate(const NoiseParams& p, const std::string& path) {
 }
 
 // A row stage (stage.hpp: RowKernel): Noise::row evaluates a whole row, then the blend folds it
-// into the layer's row while both are in cache.
+// into the layer's row while both are in cache. The x-only terms of the frame's columns are
+// computed once in prepare() and reused by every row (NoiseColumns; same values as plain rows).
 struct NoiseKernel final : RowKernel {
   Noise noise;
+  NoiseColumns columns;
   Frame frame;
   float amp = 1.0f, off = 0.0f;
   int mode = 0;  // set, add, multiply, max, min
@@ -105,7 +107,7 @@ struct NoiseKernel final : RowKernel {
     const int nx = frame.nx;
     thread_local std::vector<float> buf;
     buf.resize(std::size_t(nx));
-    noise.row(frame.z_m(j), frame.ix0, frame.cell_m(), nx, buf.data());
+    noise.row(frame.z_m(j), columns, buf.data());
     for (int i = 0; i < nx; ++i) {
       const float v = buf[std::size_t(i)];
       const float u = off + amp * (0.5f + 0.5f * v);  // [-1,1] → [0,1], scaled and offset
@@ -136,6 +138,7 @@ std::unique_ptr<RowKernel> prepare(Terrain& t, const NoiseParams& p, const Conte
   t.layer(p.layer, 1);  // created zero-filled (or reshaped) if needed
   auto k = std::make_unique<NoiseKernel>(p.layer, std::move(noise));
   k->frame = f;
+  k->columns = k->noise.columns(f.ix0, f.cell_m(), f.nx);
   k->amp = float(p.amplitude);
   k->off = float(p.offset);
   k->mode = p.blend == "set" ? 0 : p.blend == "add" ? 1 : p.blend == "multiply" ? 2 : p.blend == "max" ? 3 : 4;

@@ -18,7 +18,9 @@
 // z axes are additionally multiplied by `scale_x`, `scale_z` (anisotropy). Everything is a pure
 // function of (settings, seed, x, z): any window of the world gives the same values.
 #include <array>
+#include <cstddef>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 namespace relief {
@@ -53,6 +55,7 @@ struct NoiseSettings {
 };
 
 namespace detail {
+struct NoiseKernelArgs;  // src/noise_simd.hpp
 // Everything the row kernels need for one octave (or one warp noise), precomputed by Noise's
 // constructor. An implementation detail shared by the scalar and the SIMD kernels; not an API.
 struct NoiseOctave {
@@ -67,6 +70,34 @@ struct NoiseOctave {
   std::array<std::int32_t, 512> perm32{};   // the same, widened for SIMD gathers (Perlin)
 };
 }  // namespace detail
+
+class Noise;
+
+// The terms of a window of columns that depend only on x (per octave: the lattice cells' hash
+// terms i0·Pₓ and i1·Pₓ, the fraction fx, fx − 1 and its fade), computed once by Noise::columns()
+// and reused for every row: Noise::row(z_m, columns, out) then only does the per-row work. Only the
+// Gradient basis without domain warp has such terms (warp moves x per row); for every other
+// setting the object just remembers the window and row() falls back to the plain row kernel. The
+// values are the same, bit for bit, either way. Memory: 20 bytes per column per octave.
+class NoiseColumns {
+ public:
+  std::int64_t i0() const { return i0_; }
+  double dx_m() const { return dx_; }
+  int size() const { return n_; }
+  bool precomputed() const { return data_ != nullptr; }
+
+ private:
+  friend class Noise;
+  const Noise* owner_ = nullptr;  // used only with the Noise that built it (else: plain rows)
+  std::int64_t i0_ = 0;
+  double dx_ = 0.0;
+  int n_ = 0;
+  int stride_ = 0;                   // entries per array: n rounded up to 16
+  int count_ = 0;                    // octaves
+  // Per octave 5 arrays (i0·Pₓ, i1·Pₓ, fx, fx − 1, fade(fx)), 64-byte aligned; immutable, so
+  // copies share it. Null when not precomputed.
+  std::shared_ptr<const std::uint32_t> data_;
+};
 
 // A compiled noise generator. Construction validates the settings (throwing relief::Error naming
 // the field: "octaves", "frequency", "lacunarity", "persistence", "scale_x", "scale_z", "jitter",
@@ -123,6 +154,15 @@ class Noise {
   //   Cellular F1/F2 are mapped from distance d (in cells) as 2·min(d,1)−1 (F2: d/1.5, F2−F1: d),
   //   CellValue is a hash of the owning cell in [−1, 1).
   void row(double z_m, std::int64_t i0, double dx_m, int n, float* out) const;
+  // Precomputes the x-only terms of the window x = double(i0 + i) · dx_m, i in [0, n) (NoiseColumns).
+  NoiseColumns columns(std::int64_t i0, double dx_m, int n) const;
+  // The same values as row(z_m, c.i0(), c.dx_m(), c.size(), out), bit for bit, reusing c's terms.
+  void row(double z_m, const NoiseColumns& c, float* out) const;
+  // A block of rows: row r (0 ≤ r < nrows) at z_m[r] goes to out + r·stride, with the same values
+  // as row(z_m[r], i0, dx_m, n, out + r·stride), bit for bit. The x-only terms are computed once
+  // per strip of columns (small enough to stay in L1) and reused for every row of the block.
+  void rows(const double* z_m, int nrows, std::int64_t i0, double dx_m, int n, float* out,
+            std::ptrdiff_t stride) const;
   // The same values as row(), bit for bit, computed by the scalar reference implementation (no
   // SIMD, no dispatch): the definition the vector kernels are tested against. Several times slower.
   void row_reference(double z_m, std::int64_t i0, double dx_m, int n, float* out) const;
@@ -131,6 +171,7 @@ class Noise {
   const NoiseSettings& settings() const { return s_; }
 
  private:
+  detail::NoiseKernelArgs kernel_args() const;
   template <class XAt>
   void run(double z_m, XAt x_at, int n, float* out) const;
   template <class XAt>

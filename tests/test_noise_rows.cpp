@@ -1,0 +1,164 @@
+// Tests for the block API of Noise (Noise::columns, Noise::row(z, columns), Noise::rows): the x-only
+// terms computed once per window of columns and reused for every row must give exactly the values
+// of the per-row path, bit for bit, on every forced Highway target; settings without x-only terms
+// (other bases, domain warp) fall back to the per-row kernel.
+#include <gtest/gtest.h>
+
+#include <cstdint>
+#include <cstring>
+#include <string>
+#include <vector>
+
+#include "noise_simd.hpp"
+#include "relief/noise.hpp"
+
+namespace relief {
+namespace {
+
+struct ForceTarget {
+  explicit ForceTarget(std::int64_t bits) { detail::noise_simd_force_target(bits); }
+  ~ForceTarget() { detail::noise_simd_force_target(0); }
+};
+
+bool same_bits(const float* a, const float* b, std::size_t n) { return std::memcmp(a, b, n * sizeof(float)) == 0; }
+
+struct Window {
+  std::int64_t i0;
+  double dx;
+  int n;
+  double z0, dz;  // rows at z0 + r·dz
+};
+// Shorter than one vector, odd tails, several L1 strips (1700 columns), negative and huge offsets,
+// a non-dyadic spacing, a billion metres out.
+const Window kWindows[] = {{0, 1.0, 1, 0.0, 1.0},           {-7, 0.731, 3, 3.25, 0.731},
+                           {12, 2.5, 17, -41.5, 2.5},        {-37, 9.775, 301, 777.7, 9.775},
+                           {0, 1.0, 1700, 0.0, 1.0},         {1000000000, 1.0, 67, 1e6 + 0.3, 1.0},
+                           {-123456789, 3.3, 333, -2.5e7, 3.3}};
+
+// rows() and row(z, columns()) against row() for every window, rows at varied z. Returns the number
+// of differing rows and reports the first.
+int mismatches(const NoiseSettings& s, const std::string& what) {
+  const Noise noise(s);
+  int bad = 0;
+  for (const Window& w : kWindows) {
+    const int nrows = 5;
+    const std::ptrdiff_t stride = w.n + 3;  // gaps between rows must stay untouched
+    std::vector<double> z(nrows);
+    for (int r = 0; r < nrows; ++r) z[std::size_t(r)] = w.z0 + double(r * r) * w.dz;
+    std::vector<float> block(std::size_t(stride) * nrows, -5.0f), cols(std::size_t(w.n), -6.0f),
+        ref(std::size_t(w.n), -7.0f);
+    noise.rows(z.data(), nrows, w.i0, w.dx, w.n, block.data(), stride);
+    const NoiseColumns c = noise.columns(w.i0, w.dx, w.n);
+    for (int r = 0; r < nrows; ++r) {
+      noise.row(z[std::size_t(r)], w.i0, w.dx, w.n, ref.data());
+      noise.row(z[std::size_t(r)], c, cols.data());
+      const float* b = block.data() + r * stride;
+      const bool ok = same_bits(b, ref.data(), ref.size()) && same_bits(cols.data(), ref.data(), ref.size()) &&
+                      b[w.n] == -5.0f && b[w.n + 1] == -5.0f && b[w.n + 2] == -5.0f;
+      if (!ok && bad++ == 0) {
+        for (int i = 0; i < w.n; ++i)
+          if (b[i] != ref[std::size_t(i)] || cols[std::size_t(i)] != ref[std::size_t(i)]) {
+            ADD_FAILURE() << what << ": n " << w.n << " row " << r << " i " << i << ": rows " << b[i] << " columns "
+                          << cols[std::size_t(i)] << " row() " << ref[std::size_t(i)];
+            break;
+          }
+      }
+    }
+  }
+  return bad;
+}
+
+NoiseSettings gradient(Fractal fr, int octaves, double lacunarity) {
+  NoiseSettings s;
+  s.basis = NoiseBasis::Gradient;
+  s.fractal = fr;
+  s.octaves = octaves;
+  s.lacunarity = lacunarity;
+  s.persistence = 0.55;
+  s.frequency = 1.0 / 57.0;
+  s.scale_x = 1.3;
+  s.seed = 0xB10Cull + std::uint64_t(octaves);
+  return s;
+}
+
+// The core property: every fractal, dyadic (lacunarity 2) and not, 1 to 16 octaves, periodic in x
+// and z, z only or x only, on every compiled target.
+TEST(NoiseRows, GradientBlockBitIdenticalToRowOnEveryTarget) {
+  const Fractal fractals[] = {Fractal::None, Fractal::Fbm, Fractal::Ridged, Fractal::Billow};
+  for (const auto& t : detail::noise_simd_targets()) {
+    ForceTarget f(t.bits);
+    int configs = 0;
+    for (Fractal fr : fractals)
+      for (double lac : {2.0, 2.1})
+        for (int octaves : {1, 6, 16})
+          for (int period = 0; period < 4; ++period) {  // none, x and z, z only, x only
+            NoiseSettings s = gradient(fr, octaves, lac);
+            if (period == 1 || period == 3) s.period_x_m = 700.0;
+            if (period == 1 || period == 2) s.period_z_m = 450.0;
+            const std::string what = t.name + " fractal " + std::to_string(int(fr)) + " lacunarity " +
+                                     std::to_string(lac) + " octaves " + std::to_string(octaves) + " period " +
+                                     std::to_string(period);
+            EXPECT_TRUE(Noise(s).columns(0, 1.0, 10).precomputed()) << what;
+            EXPECT_EQ(mismatches(s, what), 0) << what;
+            ++configs;
+          }
+    EXPECT_EQ(configs, 4 * 2 * 3 * 4);
+  }
+}
+
+// Settings without x-only terms fall back to the per-row kernel, with the same values.
+TEST(NoiseRows, WarpAndOtherBasesFallBackToRows) {
+  for (const auto& t : detail::noise_simd_targets()) {
+    ForceTarget f(t.bits);
+    for (NoiseBasis b : {NoiseBasis::Perlin, NoiseBasis::Simplex, NoiseBasis::Value, NoiseBasis::Cellular,
+                         NoiseBasis::Gradient})
+      for (bool periodic : {false, true}) {
+        if (periodic && b == NoiseBasis::Simplex) continue;
+        NoiseSettings s = gradient(Fractal::Fbm, 4, 2.0);
+        s.basis = b;
+        if (periodic) s.period_x_m = s.period_z_m = 640.0;
+        s.warp_m = 23.0;
+        s.warp_frequency = 1.0 / 90.0;
+        const std::string what = t.name + " basis " + std::to_string(int(b)) + (periodic ? " periodic" : "");
+        EXPECT_FALSE(Noise(s).columns(0, 1.0, 10).precomputed()) << what;
+        EXPECT_EQ(mismatches(s, what + " warp"), 0) << what;
+        s.warp_m = 0.0;
+        EXPECT_EQ(Noise(s).columns(0, 1.0, 10).precomputed(), b == NoiseBasis::Gradient) << what;
+        EXPECT_EQ(mismatches(s, what), 0) << what;
+      }
+  }
+}
+
+// Columns remember their window; used with another Noise they give that Noise's values (it falls
+// back to its own per-row path) rather than the builder's terms.
+TEST(NoiseRows, ColumnsKeepTheirWindowAndBelongToTheirNoise) {
+  const Noise a(gradient(Fractal::Fbm, 6, 2.0));
+  NoiseSettings sb = gradient(Fractal::Fbm, 6, 2.0);
+  sb.seed = 99;
+  const Noise b(sb);
+  const NoiseColumns c = a.columns(-40, 0.5, 123);
+  EXPECT_EQ(c.i0(), -40);
+  EXPECT_EQ(c.dx_m(), 0.5);
+  EXPECT_EQ(c.size(), 123);
+  std::vector<float> got(123), want(123), own(123);
+  b.row(17.0, c, got.data());
+  b.row(17.0, -40, 0.5, 123, want.data());
+  a.row(17.0, -40, 0.5, 123, own.data());
+  EXPECT_TRUE(same_bits(got.data(), want.data(), want.size()));
+  EXPECT_FALSE(same_bits(got.data(), own.data(), own.size()));
+}
+
+TEST(NoiseRows, EmptyBlocksWriteNothing) {
+  const Noise noise(gradient(Fractal::Ridged, 3, 2.0));
+  std::vector<float> out(8, -3.0f);
+  const double z[2] = {1.0, 2.0};
+  noise.rows(z, 2, 0, 1.0, 0, out.data(), 4);
+  noise.rows(z, 0, 0, 1.0, 4, out.data(), 4);
+  noise.row(1.0, noise.columns(0, 1.0, 0), out.data());
+  noise.row(1.0, noise.columns(0, 1.0, -5), out.data());
+  for (float v : out) EXPECT_EQ(v, -3.0f);
+  EXPECT_FALSE(noise.columns(0, 1.0, 0).precomputed());
+}
+
+}  // namespace
+}  // namespace relief
