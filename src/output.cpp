@@ -161,16 +161,38 @@ void write_file_atomic(const std::string& path, std::string_view bytes) {
 
 FileOutput::FileOutput(std::string dir) : dir_(std::move(dir)) {
   if (dir_.empty()) dir_.push_back('.');  // (not `= "."`: GCC 12 -Wrestrict false positive, PR 105329)
+  // Nothing is created here, so that a run which fails before its first file leaves the file
+  // system as it was: check that the directory, or else its nearest existing ancestor (where
+  // put() will create the rest), is a directory we can write into.
+  std::error_code ec;
+  fs::path existing = fs::path(dir_);
+  while (!fs::exists(existing, ec)) {
+    const fs::path parent = existing.parent_path();
+    if (parent.empty() || parent == existing) {
+      existing = ".";
+      break;
+    }
+    existing = parent;
+  }
+  if (!fs::is_directory(existing, ec))
+    throw Error("output", "cannot create directory '" + dir_ + "': " +
+                              (existing == fs::path(dir_) ? std::string("exists and is not a directory")
+                                                          : "'" + existing.string() + "' is not a directory"));
+  // W_OK|X_OK: we need to create entries in it. (root passes access(); a read-only file system
+  // still reports EROFS.)
+  if (::access(existing.c_str(), W_OK | X_OK) != 0)
+    throw Error("output", "cannot write to '" + existing.string() + "': " + errno_text(errno));
+}
+
+void FileOutput::create_directory() {
+  if (created_) return;
   std::error_code ec;
   fs::create_directories(dir_, ec);
   if (ec) throw Error("output", "cannot create directory '" + dir_ + "': " + ec.message());
   if (!fs::is_directory(dir_, ec))
     throw Error("output", "cannot create directory '" + dir_ + "': " +
                               (ec ? ec.message() : std::string("exists and is not a directory")));
-  // W_OK|X_OK: we need to create entries in it. (root passes access(); a read-only file system
-  // still reports EROFS.)
-  if (::access(dir_.c_str(), W_OK | X_OK) != 0)
-    throw Error("output", "cannot write to '" + dir_ + "': " + errno_text(errno));
+  created_ = true;
 }
 
 void FileOutput::put(const std::string& filename, std::string bytes) {
@@ -178,6 +200,7 @@ void FileOutput::put(const std::string& filename, std::string bytes) {
   if (filename.empty() || filename == "." || filename == ".." || filename.find('/') != std::string::npos ||
       filename.find('\0') != std::string::npos)
     throw Error("output", "invalid file name '" + filename + "'");
+  create_directory();
   const std::string path = (fs::path(dir_) / filename).string();
   write_file_atomic(path, bytes);
   written_.push_back(path);

@@ -29,8 +29,10 @@ class MemoryOutput final : public Output {
   std::map<std::string, std::string> files;
 };
 
-// Writes into `dir` (created if missing). Throws Error("output", …) when the directory cannot be
-// created or written. Each put() is atomic (temporary file + rename).
+// Writes into `dir`, created (with missing parents) by the first put(), so that a run that fails
+// before writing anything leaves the file system unchanged. The constructor already throws
+// Error("output", …) when the directory could not be created or written (its nearest existing
+// ancestor is not a writable directory). Each put() is atomic (temporary file + rename).
 class FileOutput final : public Output {
  public:
   explicit FileOutput(std::string dir);
@@ -39,7 +41,9 @@ class FileOutput final : public Output {
   std::uint64_t bytes_written() const { return bytes_; }
 
  private:
+  void create_directory();
   std::string dir_;
+  bool created_ = false;
   std::vector<std::string> written_;
   std::uint64_t bytes_ = 0;
 };

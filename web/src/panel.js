@@ -5,6 +5,12 @@
 import GUI from 'lil-gui';
 
 // A slider step with about 500 positions over the range, rounded to a power of ten.
+// Colours come as "#rrggbb", or as [r, g, b] in 0..255 when 8 bits would not hold them exactly
+// (write_color): lil-gui edits such arrays in place with this channel scale.
+function rgbScale(value) {
+  return Array.isArray(value) ? 255 : 1;
+}
+
 function niceStep(min, max, isInt) {
   if (isInt) return 1;
   const range = max - min;
@@ -112,7 +118,7 @@ export class Panel {
         c = folder.add(obj, info.name, info.choices);
         break;
       case 'color':
-        c = folder.addColor(obj, info.name);
+        c = folder.addColor(obj, info.name, rgbScale(obj[info.name]));
         break;
       case 'levels': {
         const sub = folder.addFolder(`${info.name} (${obj[info.name].length})`);
@@ -121,7 +127,7 @@ export class Panel {
           const label = level.name || `level ${k + 1}`;
           const at = sub.add(level, 'at', info.min, info.max, 0.001).name(`${label} ≤`);
           this.decorate(at, info, `${path}[${k}].at`, changed);
-          const col = sub.addColor(level, 'color').name(`${label} colour`);
+          const col = sub.addColor(level, 'color', rgbScale(level.color)).name(`${label} colour`);
           this.decorate(col, info, `${path}[${k}].color`, changed);
         });
         sub.close();

@@ -46,6 +46,7 @@ export function elevationTint(heights, sea) {
 export class View3D {
   constructor(container) {
     this.container = container;
+    this.frames = 0;  // frames drawn (see render)
     const renderer = new THREE.WebGLRenderer({ antialias: true, logarithmicDepthBuffer: true });
     renderer.setPixelRatio(Math.min(window.devicePixelRatio || 1, 2));
     renderer.domElement.id = 'view3d';
@@ -372,6 +373,7 @@ export class View3D {
   render() {
     this.renderer.render(this.scene, this.camera);
     this.dirty = false;
+    this.frames++;  // tests wait on it: until a frame is drawn, the camera matrices are the previous ones
   }
 
   // Renders and reads the pixels back in the same task (the drawing buffer is still valid), for

@@ -251,6 +251,57 @@ test('walk mode: the walker reaches a clicked point on land along a dry, climbab
   assert.ok(w.dry, 'every path point is on land');
   assert.ok(w.eye > 1 && w.eye < 6, `camera ${w.eye} m above the walker's feet`);
   assert.ok(w.dist < 8, `camera ${w.dist} m behind the walker`);
+
+  // Clicking the sea is refused with a message, and the walker stays where it is.
+  await page.click('#walk-view');  // overview: the sea is in sight
+  // Wait until the overview camera is what the page has drawn and has come to rest: orbit mode, no
+  // generation in flight, two frames drawn since the switch and nothing left to draw (the orbit
+  // controls' damping marks the view dirty while the camera still moves). Until a frame is drawn,
+  // the camera's matrices are still the walk camera's, so screen positions would be wrong.
+  const frames0 = await page.evaluate(() => window.studio.view3d.frames);
+  await page.waitForFunction(
+    (f0) => {
+      const s = window.studio;
+      return s.view3d.mode === 'orbit' && !s.walk.follow && s.idle && s.view3d.frames >= f0 + 2 && !s.view3d.dirty;
+    },
+    frames0,
+    { timeout: 60000 },
+  );
+  // A sea sample from the terrain the page holds: well below sea level, with every sample within 3
+  // of it under the sea too (a click a pixel off still lands in water), on screen, not hidden
+  // behind land, and picked back to itself by the same ray cast the click uses.
+  const sea = await page.evaluate(() => {
+    const s = window.studio, g = s.walk.grid, canvas = s.view3d.renderer.domElement;
+    const deep = (i, j) => {
+      for (let dj = -3; dj <= 3; dj++)
+        for (let di = -3; di <= 3; di++) {
+          const a = i + di, b = j + dj;
+          if (a < 0 || b < 0 || a >= g.nx || b >= g.nz || g.h[b * g.nx + a] >= g.sea - 0.01) return false;
+        }
+      return true;
+    };
+    let best = null;
+    for (let j = 3; j < g.nz - 3; j += 2)
+      for (let i = 3; i < g.nx - 3; i += 2) {
+        if (!deep(i, j)) continue;
+        const p = s.sampleToScreen(i, j);
+        if (!p.visible || document.elementFromPoint(p.x, p.y) !== canvas) continue;
+        const hit = s.view3d.pick(p.x, p.y);
+        if (!hit || Math.hypot(hit.fi - i, hit.fj - j) > 1) continue;
+        // Prefer the point nearest the middle of the canvas (least foreshortened).
+        const r = canvas.getBoundingClientRect();
+        const d = Math.hypot(p.x - (r.left + r.width / 2), p.y - (r.top + r.height / 2));
+        if (!best || d < best.d) best = { x: p.x, y: p.y, i, j, d };
+      }
+    return best && { ...best, pos: s.walk.pos.slice(), frames: s.view3d.frames };
+  });
+  assert.ok(sea, 'some sea is in sight');
+  // Still the frame the point was chosen on (nothing moved in between).
+  assert.equal(await page.evaluate(() => window.studio.view3d.dirty), false);
+  await page.mouse.click(sea.x, sea.y);
+  await page.waitForFunction(() => window.studio.walk.state === 'blocked', null, { timeout: 30000 });
+  assert.match(await page.textContent('#walk-text'), /water/);
+  assert.deepEqual(await page.evaluate(() => window.studio.walk.pos), sea.pos, 'the walker did not move');
   await page.keyboard.press('Escape');
   assert.equal(await page.evaluate(() => window.studio.walk.active), false);
   await page.close();
