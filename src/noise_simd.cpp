@@ -410,15 +410,20 @@ struct CellularR {
   };
 };
 
-// Bases other than cellular ignore the jitter argument.
+// Bases other than cellular ignore the jitter argument. (Tag dispatch: `int` prefers the
+// four-argument Eval when it exists; clang rejects the overload set as ambiguous otherwise.)
 template <class B>
-HWY_INLINE auto EvalWith(const NoiseOctave& o, const typename B::Row& r, VD u, VD jitter)
+HWY_INLINE auto EvalWithTag(const NoiseOctave& o, const typename B::Row& r, VD u, VD jitter, int)
     -> decltype(B::Eval(o, r, u, jitter)) {
   return B::Eval(o, r, u, jitter);
 }
-template <class B, class... Unused>
-HWY_INLINE VD EvalWith(const NoiseOctave& o, const typename B::Row& r, VD u, VD, Unused...) {
+template <class B>
+HWY_INLINE VD EvalWithTag(const NoiseOctave& o, const typename B::Row& r, VD u, VD, long) {
   return B::Eval(o, r, u);
+}
+template <class B>
+HWY_INLINE VD EvalWith(const NoiseOctave& o, const typename B::Row& r, VD u, VD jitter) {
+  return EvalWithTag<B>(o, r, u, jitter, 0);
 }
 
 // ---- the double-precision row driver ----------------------------------------------------------------

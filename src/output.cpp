@@ -268,20 +268,54 @@ class FileOutputStream final : public OutputStream {
 
 FileOutput::FileOutput(std::string dir, Mode mode) : dir_(std::move(dir)), mode_(mode) {
   if (dir_.empty()) dir_.push_back('.');  // (not `= "."`: GCC 12 -Wrestrict false positive, PR 105329)
+  // Nothing is created here, so that a run which fails before its first file leaves the file
+  // system as it was: check that the directory, or else its nearest existing ancestor (where the
+  // first file will create the rest), is a directory we can write into.
   std::error_code ec;
+  fs::path existing = fs::path(dir_);
+  while (!fs::exists(existing, ec)) {
+    const fs::path parent = existing.parent_path();
+    if (parent.empty() || parent == existing) {
+      existing = ".";
+      break;
+    }
+    existing = parent;
+  }
+  if (!fs::is_directory(existing, ec))
+    throw Error("output", "cannot create directory '" + dir_ + "': " +
+                              (existing == fs::path(dir_) ? std::string("exists and is not a directory")
+                                                          : "'" + existing.string() + "' is not a directory"));
+  // W_OK|X_OK: we need to create entries in it. (root passes access(); a read-only file system
+  // still reports EROFS.)
+  if (::access(existing.c_str(), W_OK | X_OK) != 0)
+    throw Error("output", "cannot write to '" + existing.string() + "': " + errno_text(errno));
+}
+
+void FileOutput::create_directory() {
+  std::lock_guard<std::mutex> lock(mutex_);
+  if (created_) return;
+  std::error_code ec;
+  // Remember the directories this creates (deepest first), to remove them again if the run fails.
+  for (fs::path p = fs::path(dir_); !p.empty() && !fs::exists(p, ec); p = p.parent_path()) {
+    made_dirs_.push_back(p.string());
+    if (p.parent_path() == p) break;
+  }
   fs::create_directories(dir_, ec);
   if (ec) throw Error("output", "cannot create directory '" + dir_ + "': " + ec.message());
   if (!fs::is_directory(dir_, ec))
     throw Error("output", "cannot create directory '" + dir_ + "': " +
                               (ec ? ec.message() : std::string("exists and is not a directory")));
-  // W_OK|X_OK: we need to create entries in it. (root passes access(); a read-only file system
-  // still reports EROFS.)
-  if (::access(dir_.c_str(), W_OK | X_OK) != 0)
-    throw Error("output", "cannot write to '" + dir_ + "': " + errno_text(errno));
+  created_ = true;
 }
 
 FileOutput::~FileOutput() {
   for (Pending& p : pending_) discard(p.fd, p.tmp);
+  // A run that made no file visible leaves no directory it created (fs::remove only removes
+  // empty directories: a file someone else put there keeps it).
+  if (written_.empty()) {
+    std::error_code ec;
+    for (const std::string& d : made_dirs_) fs::remove(d, ec);
+  }
 }
 
 std::string FileOutput::checked_path(const std::string& filename) const {
@@ -294,6 +328,7 @@ std::string FileOutput::checked_path(const std::string& filename) const {
 
 std::unique_ptr<OutputStream> FileOutput::open(const std::string& filename, std::size_t) {
   const std::string path = checked_path(filename);
+  create_directory();
   if (mode_ == Mode::OnCommit) {
     std::lock_guard<std::mutex> lock(mutex_);
     if (std::find(reserved_.begin(), reserved_.end(), filename) != reserved_.end())

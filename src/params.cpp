@@ -142,6 +142,12 @@ Rgb read_color(const json& v, const std::string& path) {
 
 json write_color(const Rgb& c) {
   auto b = [](float x) { return int(std::lround(std::clamp(x, 0.0f, 1.0f) * 255.0f)); };
+  // "#rrggbb" when that is exact (as read_color reads it back); otherwise [r, g, b] in 0..255 with
+  // every bit kept (x·255 is exact in a double, and read_color's /255 gives x back), so that a
+  // resolved recipe (--save-recipe) reproduces colours such as 0.25 exactly.
+  auto hex_exact = [&](float x) { return float(b(x)) / 255.0f == x; };
+  if (!hex_exact(c.r) || !hex_exact(c.g) || !hex_exact(c.b))
+    return json::array({double(c.r) * 255.0, double(c.g) * 255.0, double(c.b) * 255.0});
   char buf[8];
   std::snprintf(buf, sizeof buf, "#%02x%02x%02x", b(c.r), b(c.g), b(c.b));
   return std::string(buf);

@@ -3,7 +3,9 @@
 #include <tbb/task_arena.h>
 #include <unistd.h>
 
+#include <algorithm>
 #include <chrono>
+#include <map>
 #include <random>
 #include <thread>
 
@@ -17,16 +19,70 @@ std::uint64_t physical_memory_bytes() {
   return pages > 0 && size > 0 ? std::uint64_t(pages) * std::uint64_t(size) : 0;
 }
 
+namespace {
+
+// What each stage leaves in the terrain (layer name → channels) and the most scratch memory it
+// holds while it runs (bytes per sample), for estimate_memory_bytes. Kept next to the estimate;
+// tests/test_cli.cpp (CliMemory) holds the estimate to the measured peak for the presets, so a
+// stage that starts keeping more than listed here shows up there.
+struct StageFootprint {
+  std::vector<std::pair<const char*, int>> layers;
+  std::uint64_t scratch = 0;  // bytes per sample, released when the stage ends
+};
+const StageFootprint& footprint(const std::string& stage) {
+  static const std::map<std::string, StageFootprint> table = {
+      {"noise", {{}, 0}},  // writes its `layer` parameter (see below)
+      {"jiggle", {{{"offset", 2}}, 0}},
+      {"slope", {{{"slope", 1}, {"slope_deg", 1}}, 0}},
+      {"color", {{{"albedo", 3}}, 8}},
+      {"hillshade", {{{"shade", 1}, {"color", 3}}, 0}},
+      // h and uplift (double), receivers, stack and donor counts (u32), Priority-Flood's queue
+      {"stream_power", {{}, 16 + 12 + 16}},
+      {"hydraulic", {{}, 12}},
+      {"thermal", {{}, 8}},
+      {"fill", {{}, 16}},
+      // receivers, order, donor counts, lake ids (u32), visit and channel flags, the flood queue
+      {"flow", {{{"flow", 1}, {"water", 1}}, 16 + 2 + 5 + 16}},
+      {"biomes", {{{"albedo", 3}, {"biome", 1}}, 12}},
+      {"climate", {{{"temperature", 1}, {"moisture", 1}, {"biome", 1}, {"albedo", 3}}, 8}},
+      {"volcano", {{{"volcano", 1}}, 4}},
+  };
+  static const StageFootprint none;
+  auto it = table.find(stage);
+  return it == table.end() ? none : it->second;
+}
+
+}  // namespace
+
 std::uint64_t estimate_memory_bytes(const Recipe& r, bool with_mesh) {
   const std::uint64_t n = std::uint64_t(r.world.nx) * std::uint64_t(r.world.nz);
-  // Layers: height, slope, slope_deg, shade (1 channel each), albedo and color (3 each), plus one
-  // scratch layer per stage; then the encoders' buffers (16-bit + two RGB images, raw).
-  std::uint64_t layers = 4 * (1 + 1 + 1 + 1 + 3 + 3 + r.stages.size());
-  std::uint64_t encode = 2 + 2 + 3 + 3;
-  std::uint64_t bytes = n * (layers + encode);
-  // OBJ text: a vertex line (~30 B), normal (~25 B), uv (~16 B) and two faces (~2×40 B).
-  if (with_mesh) bytes += n * 160;
-  return bytes;
+  // Layers the run leaves (each name once, whatever wrote it), float per channel.
+  std::map<std::string, int> layers = {{"height", 1}};
+  std::uint64_t scratch = 0, tilemap_render = 0;
+  for (const RecipeStage& st : r.stages) {
+    const StageFootprint& f = footprint(st.def->name);
+    for (auto& [name, channels] : f.layers) layers[name] = std::max(layers[name], channels);
+    scratch = std::max(scratch, f.scratch * n);
+    const json p = st.stage->params();
+    if (st.def->name == "noise" && p.contains("layer") && p["layer"].is_string()) layers[p["layer"].get<std::string>()] =
+        std::max(layers[p["layer"].get<std::string>()], 1);
+    if (st.def->name == "tilemap" && p.contains("tiles_x") && p.contains("tiles_z") && p.contains("tile_size")) {
+      // The tilemap writer's map: tiles × tile_size² RGB pixels, plus its PNG while encoding.
+      const std::uint64_t px = p["tiles_x"].get<std::uint64_t>() * p["tiles_z"].get<std::uint64_t>() *
+                               p["tile_size"].get<std::uint64_t>() * p["tile_size"].get<std::uint64_t>();
+      tilemap_render = px * 3 + px * 3 / 2;
+    }
+  }
+  std::uint64_t channels = 0;
+  for (auto& [name, c] : layers) channels += std::uint64_t(c);
+  const std::uint64_t kept = n * 4 * channels;
+  // Encoding (writers run concurrently, each file written as it is encoded): heightmap (16-bit
+  // pixels, PNG, r16), colour and albedo PNGs (RGB pixels and PNG each). The OBJ streams its text
+  // through a small pool of ~256 KiB blocks, so it adds a fixed few MiB, not a per-sample term.
+  const std::uint64_t encode = n * ((2 + 2 + 2) + 2 * (3 + 3)) + (with_mesh ? 8ull << 20 : 0) + tilemap_render;
+  // The program itself: code, thread stacks, allocator arenas (a 17² run peaks at ~10 MiB).
+  const std::uint64_t base = 12ull << 20;
+  return base + kept + std::max(scratch, encode);
 }
 
 std::uint64_t random_seed() {

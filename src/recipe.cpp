@@ -6,6 +6,8 @@
 #include <fstream>
 #include <sstream>
 
+#include "relief/output.hpp"
+
 namespace relief {
 namespace detail {
 const std::vector<std::pair<std::string_view, std::string_view>>& builtin_preset_texts();
@@ -59,6 +61,43 @@ std::vector<ParamInfo> world_params() {
   return out;
 }
 
+ExportSettings parse_export_settings(const json& block, const std::string& path) {
+  if (!block.is_object()) throw Error(path, "expected an object of writer options, got " + describe(block));
+  ExportSettings e;
+  if (block.contains("formats")) {
+    const json& f = block["formats"];
+    const std::string fp = path + ".formats";
+    if (!f.is_string()) throw Error(fp, "expected \"default\", \"all\" or comma-separated format names, got " + describe(f));
+    const std::string text = f.get<std::string>();
+    if (text != "default" && text != "all") {
+      std::vector<std::string> names;
+      for (auto& w : writer_registry()) names.push_back(w.name);
+      std::stringstream ss(text);
+      std::string name;
+      int count = 0;
+      while (std::getline(ss, name, ',')) {
+        if (name.empty()) continue;
+        ++count;
+        if (!find_writer(name)) {
+          const std::string near = nearest_name(name, names);
+          throw Error(fp, "unknown format \"" + name + "\"" + (near.empty() ? "" : " (did you mean '" + near + "'?)"));
+        }
+      }
+      if (count == 0) throw Error(fp, "expected at least one format, got \"" + text + "\"");
+      e.formats = text;
+    }
+  }
+  e.options = export_options_table().read(block, path, {"formats"});
+  validate_export_options(e.options, [&](const std::string& n) { return path + "." + n; });
+  return e;
+}
+
+json export_settings_json(const ExportSettings& e) {
+  json o = export_options_table().write(e.options);
+  o["formats"] = e.formats.empty() ? "default" : e.formats;
+  return o;
+}
+
 json Recipe::to_json() const {
   json o;
   o["name"] = name;
@@ -80,6 +119,7 @@ json Recipe::to_json() const {
     st.push_back(e);
   }
   o["stages"] = st;
+  if (export_settings) o["export"] = export_settings_json(*export_settings);
   return o;
 }
 
@@ -137,8 +177,10 @@ Recipe parse_recipe(const json& doc) {
         rs.stage = def->parse(e, path);
         r.stages.push_back(std::move(rs));
       }
+    } else if (k == "export") {
+      r.export_settings = parse_export_settings(v, "export");
     } else {
-      std::string near = nearest_name(k, {"name", "description", "seed", "world", "stages"});
+      std::string near = nearest_name(k, {"name", "description", "seed", "world", "stages", "export"});
       throw Error(k, "unknown recipe key" + (near.empty() ? std::string() : " (did you mean '" + near + "'?)"));
     }
   }
@@ -206,7 +248,8 @@ void apply_override(json& doc, const std::string& assignment) {
       const std::string idx = path.substr(p + 1, close - p - 1);
       if (idx.empty() || idx.find_first_not_of("0123456789") != std::string::npos)
         throw Error(path, "malformed path: index \"" + idx + "\" is not a number");
-      std::size_t i = std::stoul(idx);
+      // Any index of more than 9 digits is out of range (and would overflow std::stoul).
+      const std::size_t i = idx.size() > 9 ? std::size_t(-1) : std::stoul(idx);
       walked += "[" + idx + "]";
       if (!cur->is_array() || i >= cur->size())
         throw Error(walked, cur->is_array() ? "index out of range (there are " + std::to_string(cur->size()) + ")"

@@ -7,6 +7,7 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <fstream>
 #include <map>
 #include <mutex>
@@ -43,6 +44,15 @@ std::shared_ptr<const Texture> decode(const std::string& file, const std::string
     const int e = errno;
     throw Error(field_path, "cannot read texture '" + file + "': " + std::error_code(e, std::generic_category()).message());
   }
+  // Only a regular file of a PNG's plausible size: a recipe naming /dev/zero, a FIFO or a huge file
+  // gets an error instead of reading forever.
+  std::error_code ec;
+  const auto status = std::filesystem::status(file, ec);
+  if (!std::filesystem::is_regular_file(status))
+    throw Error(field_path, "cannot read texture '" + file + "': not a regular file");
+  const auto file_size = std::filesystem::file_size(file, ec);
+  if (ec || file_size > (std::uintmax_t(512) << 20))
+    throw Error(field_path, "cannot read texture '" + file + "': " + (ec ? ec.message() : "larger than 512 MiB"));
   std::stringstream ss;
   ss << in.rdbuf();
   const std::string bytes = ss.str();

@@ -9,6 +9,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <fstream>
+#include <map>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -288,3 +289,112 @@ TEST(CliIslands, BadIslandParametersExit2NamingTheField) {
                    "stages[3].table: no row covers temperature 0.00");
   EXPECT_TRUE(!fs::exists(d.path / "out") || fs::is_empty(d.path / "out"));  // nothing half-written
 }
+
+// ---- failed runs leave the file system unchanged -------------------------------------------------
+
+TEST(CliFailure, FailedRunCreatesNoOutputDirectory) {
+  TempDir d;
+  // Valid recipe, but it has no colour stage, so the color writer fails after generation.
+  std::ofstream(d / "plain.json") << R"({"seed": 2, "world": {"size": 33}, "stages": [{"stage": "noise"}]})";
+  expect_bad_input("generate " + (d / "plain.json") + " --formats heightmap,color -o " + (d / "new/sub") + " --steps " +
+                       (d / "steps"),
+                   "color");
+  EXPECT_FALSE(fs::exists(d.path / "new"));
+  EXPECT_FALSE(fs::exists(d.path / "steps"));
+  std::vector<std::string> left;
+  for (auto& e : fs::directory_iterator(d.path)) left.push_back(e.path().filename().string());
+  EXPECT_EQ(left, std::vector<std::string>{"plain.json"});
+}
+
+TEST(CliFailure, SuccessfulRunCreatesMissingParents) {
+  TempDir d;
+  ASSERT_EQ(relief("generate --seed 1 --size 17 --formats heightmap -q -o " + (d / "a/b/c")).code, 0);
+  EXPECT_TRUE(fs::exists(d.path / "a/b/c/height.png"));
+}
+
+TEST(CliFailure, OutputUnderAFileIsRefusedBeforeGenerating) {
+  TempDir d;
+  std::ofstream(d / "file") << "x";
+  Result r = relief("generate --seed 1 --size 17 -o " + (d / "file") + "/sub");
+  EXPECT_EQ(r.code, 2);
+  EXPECT_NE(r.out.find("output: cannot create directory"), std::string::npos) << r.out;
+  EXPECT_EQ(r.out.find("seed 1"), std::string::npos) << "refused only after generating:\n" << r.out;
+}
+
+// ---- --save-recipe keeps the export settings --------------------------------------------------------
+
+namespace {
+// Every file of a directory but `skip`, by name.
+std::map<std::string, std::string> files_of(const fs::path& dir, const std::string& skip = "") {
+  std::map<std::string, std::string> m;
+  for (auto& e : fs::directory_iterator(dir))
+    if (e.path().filename() != skip) m[e.path().filename().string()] = slurp(e.path());
+  return m;
+}
+// report.json without its performance block (timings differ between runs by design).
+std::string report_without_performance(const std::string& text) {
+  auto j = nlohmann::json::parse(text);
+  j.erase("performance");
+  return j.dump();
+}
+}  // namespace
+
+TEST(CliSaveRecipe, ReplayReproducesEveryExportFileByteForByte) {
+  TempDir a, b, c;
+  const std::string flags =
+      "--formats heightmap,glb,fbx,stl,normalmap,splat,hillshade,report --engine unity --chunk-quads 16 --style lowpoly "
+      "--stl-size-mm 80 --stl-base-mm 5 --normal-bits 16 --splat-rock-slope-deg 25 --hillshade-azimuth-deg 200";
+  ASSERT_EQ(relief("generate volcanic-island --seed 7 --size 65 -q " + flags + " -o " + a.path.string() + " --save-recipe " +
+                   (a / "saved.json"))
+                .code,
+            0);
+  const auto saved = nlohmann::json::parse(slurp(a.path / "saved.json"));
+  ASSERT_TRUE(saved.contains("export")) << saved.dump(2);
+  EXPECT_EQ(saved["export"]["engine"], "unity");
+  EXPECT_EQ(saved["export"]["chunk_quads"], 16);
+  EXPECT_EQ(saved["export"]["style"], "lowpoly");
+  EXPECT_EQ(saved["export"]["normal_bits"], 16);
+
+  ASSERT_EQ(relief("generate " + (a / "saved.json") + " -q -o " + b.path.string()).code, 0);
+  auto fa = files_of(a.path, "saved.json"), fb = files_of(b.path);
+  std::vector<std::string> na, nb;
+  for (auto& [n, bytes] : fa) na.push_back(n);
+  for (auto& [n, bytes] : fb) nb.push_back(n);
+  ASSERT_EQ(na, nb);
+  EXPECT_TRUE(fa.count("terrain.glb") && fa.count("terrain.fbx") && fa.count("terrain.stl") && fa.count("splat0.png"));
+  for (auto& [name, bytes] : fa) {
+    if (name == "report.json") EXPECT_EQ(report_without_performance(bytes), report_without_performance(fb.at(name)));
+    else EXPECT_TRUE(bytes == fb.at(name)) << name << " differs after replaying the saved recipe";
+  }
+
+  // The options did change the files (without them the replay would not match), and flags still
+  // override the recipe's block.
+  ASSERT_EQ(relief("generate volcanic-island --seed 7 --size 65 -q --formats glb,stl -o " + c.path.string()).code, 0);
+  EXPECT_NE(slurp(c.path / "terrain.glb"), fa.at("terrain.glb"));
+  EXPECT_NE(slurp(c.path / "terrain.stl"), fa.at("terrain.stl"));
+  ASSERT_EQ(relief("generate " + (a / "saved.json") + " -q --stl-size-mm 150 --formats stl -o " + c.path.string()).code, 0);
+  EXPECT_NE(slurp(c.path / "terrain.stl"), fa.at("terrain.stl"));
+}
+
+TEST(CliSaveRecipe, DefaultRunSavesTheWritersThatRan) {
+  TempDir a, b;
+  ASSERT_EQ(relief("generate island --seed 3 --size 33 -q -o " + a.path.string() + " --save-recipe " + (a / "r.json")).code, 0);
+  const auto saved = nlohmann::json::parse(slurp(a.path / "r.json"));
+  EXPECT_EQ(saved["export"]["formats"], "heightmap,color,albedo,obj,rivers,lakes,report");  // the island has a flow stage
+  EXPECT_EQ(saved["export"]["engine"], "none");
+  ASSERT_EQ(relief("generate " + (a / "r.json") + " -q -o " + b.path.string()).code, 0);
+  auto fa = files_of(a.path, "r.json"), fb = files_of(b.path);
+  ASSERT_EQ(fa.size(), fb.size());
+  for (auto& [name, bytes] : fa)
+    if (name != "report.json") EXPECT_TRUE(bytes == fb.at(name)) << name;
+}
+
+TEST(CliSaveRecipe, BadExportBlockNamesTheField) {
+  TempDir d;
+  std::ofstream(d / "r.json") << R"({"world": {"size": 17}, "stages": [{"stage": "noise"}], "export": {"chunk_quads": 0}})";
+  expect_bad_input("generate " + (d / "r.json") + " -o " + (d / "out"), "export.chunk_quads: ");
+  std::ofstream(d / "f.json") << R"({"world": {"size": 17}, "stages": [{"stage": "noise"}], "export": {"formats": "heightmap,glbb"}})";
+  expect_bad_input("generate " + (d / "f.json") + " -o " + (d / "out"), "export.formats: unknown format \"glbb\" (did you mean 'glb'?)");
+  EXPECT_FALSE(fs::exists(d.path / "out"));
+}
+

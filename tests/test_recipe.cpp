@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "relief/pipeline.hpp"
 #include "relief/recipe.hpp"
 
 using namespace relief;
@@ -238,4 +239,101 @@ TEST(Presets, UserFolderFromEnvironmentIsListedAndLoaded) {
   EXPECT_EQ(load_preset("my-valley")["description"], "my own valley");
   ::unsetenv("RELIEF_PRESETS");
   std::filesystem::remove_all(dir);
+}
+
+// ---- the "export" block ------------------------------------------------------------------------
+
+TEST(RecipeExport, AbsentBlockStaysAbsent) {
+  Recipe r = parse_recipe(minimal());
+  EXPECT_FALSE(r.export_settings.has_value());
+  EXPECT_FALSE(r.to_json().contains("export"));
+}
+
+TEST(RecipeExport, BlockIsReadAndWrittenInFull) {
+  json doc = minimal();
+  doc["export"] = {{"formats", "glb,stl"}, {"engine", "godot"}, {"chunk_quads", 32}, {"lod_levels", 2}};
+  Recipe r = parse_recipe(doc);
+  ASSERT_TRUE(r.export_settings.has_value());
+  EXPECT_EQ(r.export_settings->formats, "glb,stl");
+  EXPECT_EQ(r.export_settings->options.engine, "godot");
+  EXPECT_EQ(r.export_settings->options.chunk_quads, 32);
+  EXPECT_EQ(r.export_settings->options.lod_levels, 2);
+  const json out = r.to_json()["export"];
+  EXPECT_EQ(out["formats"], "glb,stl");
+  EXPECT_EQ(out["stl_size_mm"], 150.0);  // defaults filled in
+  EXPECT_EQ(out.size(), export_options_table().fields.size() + 1);
+  EXPECT_EQ(parse_recipe(r.to_json()).to_json(), r.to_json());
+}
+
+TEST(RecipeExport, DefaultFormatsAreWrittenAsDefault) {
+  json doc = minimal();
+  doc["export"] = json::object();
+  Recipe r = parse_recipe(doc);
+  EXPECT_EQ(r.export_settings->formats, "");
+  EXPECT_EQ(r.to_json()["export"]["formats"], "default");
+  doc["export"]["formats"] = "default";
+  EXPECT_EQ(parse_recipe(doc).export_settings->formats, "");
+}
+
+TEST(RecipeExport, ErrorsNameTheField) {
+  auto with = [](json block) {
+    json doc = minimal();
+    doc["export"] = std::move(block);
+    return error_of(doc);
+  };
+  EXPECT_EQ(with({{"chunk_quads", 0}}).rfind("export.chunk_quads: ", 0), 0u) << with({{"chunk_quads", 0}});
+  EXPECT_NE(with({{"chunk_quad", 4}}).find("export.chunk_quad: unknown parameter (did you mean 'chunk_quads'?)"), std::string::npos);
+  EXPECT_NE(with({{"formats", "obj,glbb"}}).find("export.formats: unknown format \"glbb\" (did you mean 'glb'?)"), std::string::npos);
+  EXPECT_NE(with({{"formats", ","}}).find("export.formats: expected at least one format"), std::string::npos);
+  EXPECT_NE(with({{"formats", 3}}).find("export.formats: expected"), std::string::npos);
+  EXPECT_NE(with({{"split", "2x2"}}).find("export.split: splitting writes engine tiles"), std::string::npos);
+  EXPECT_NE(with(json::array()).find("export: expected an object"), std::string::npos);
+}
+
+TEST(RecipeExport, OverridesReachTheBlock) {
+  json doc = minimal();
+  apply_override(doc, "export.engine=unity");
+  apply_override(doc, "export.formats=engine");
+  Recipe r = parse_recipe(doc);
+  EXPECT_EQ(r.export_settings->options.engine, "unity");
+  EXPECT_EQ(r.export_settings->formats, "engine");
+}
+
+TEST(RecipeOverride, HugeIndexIsAnErrorNotACrash) {
+  json doc = minimal();
+  for (const char* a : {"stages[99999999999999999999].octaves=3", "stages[0].x[99999999999999999999999]=1",
+                        "world[18446744073709551616]=1"}) {
+    try {
+      apply_override(doc, a);
+      ADD_FAILURE() << a << " was accepted";
+    } catch (const Error& e) {
+      EXPECT_FALSE(std::string(e.what()).empty());
+    }
+  }
+}
+
+// ---- resolved recipes reproduce their terrain --------------------------------------------------
+
+TEST(RecipeColours, WrittenExactlyHexWhenPossible) {
+  const Rgb on_grid{64 / 255.0f, 128 / 255.0f, 1.0f}, off_grid{0.25f, 0.55f, 0.72f};
+  EXPECT_EQ(write_color(on_grid), "#4080ff");
+  const json w = write_color(off_grid);
+  ASSERT_TRUE(w.is_array()) << w;
+  EXPECT_EQ(read_color(w, "c"), off_grid);  // every bit
+  EXPECT_EQ(read_color(write_color(on_grid), "c"), on_grid);
+}
+
+TEST(RecipeRoundTrip, EveryPresetResolvedGivesTheSameTerrain) {
+  for (const auto& p : list_presets()) {
+    if (p.origin != "built-in") continue;
+    json doc = load_preset(p.name);
+    doc["world"]["size"] = 33;
+    doc["seed"] = 5;
+    const Recipe original = parse_recipe(doc);
+    const Recipe resolved = parse_recipe(original.to_json());
+    const Terrain a = run(original, {}).terrain, b = run(resolved, {}).terrain;
+    ASSERT_EQ(a.layers.size(), b.layers.size()) << p.name;
+    for (auto& [name, layer] : a.layers) EXPECT_TRUE(layer.data == b.get(name).data) << p.name << ": layer " << name;
+    EXPECT_EQ(a.points.size(), b.points.size()) << p.name;
+  }
 }

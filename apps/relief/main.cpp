@@ -62,9 +62,9 @@ std::string option_flag(const std::string& name) {
   return f;
 }
 
-// Writer options from the command line, validated (errors name the flag).
-ExportOptions parse_export_options(const GenerateSettings& s) {
-  ExportOptions o;
+// Writer options: the recipe's "export" block (`base`), then the command line's flags over it,
+// validated (errors name the flag).
+ExportOptions parse_export_options(const GenerateSettings& s, ExportOptions o) {
   for (const std::string& name : s.export_given) {
     json v;
     if (auto it = s.export_flags.find(name); it != s.export_flags.end()) {
@@ -157,9 +157,9 @@ bool formats_name(const std::string& formats, const std::string& name) {
 // --formats tilemap, --tile-size and --map-tiles: make sure the recipe has a "tilemap" stage and
 // write the flags into it, so that the stage's parameter table validates them. Returns the
 // stage's path ("stages[N]"), or "" when no tilemap is wanted.
-std::string apply_tilemap_shortcuts(const GenerateSettings& s, json& doc) {
+std::string apply_tilemap_shortcuts(const GenerateSettings& s, const std::string& formats, json& doc) {
   const bool flags = !s.tile_size.empty() || !s.map_tiles.empty();
-  if (!flags && !formats_name(s.formats, "tilemap")) return "";
+  if (!flags && !formats_name(formats, "tilemap")) return "";
   if (!doc.contains("stages") || !doc["stages"].is_array()) return "";  // parse_recipe reports it
   json& st = doc["stages"];
   std::size_t at = st.size();
@@ -194,9 +194,19 @@ int cmd_generate(const GenerateSettings& s) {
       throw Error("--seed", "expected an integer in 0..9007199254740991, got " + std::to_string(s.seed));
     doc["seed"] = s.seed;
   }
-  const std::string tilemap_stage = apply_tilemap_shortcuts(s, doc);
+  // --formats, else the recipe's "export.formats" ("default" = the default set).
+  auto recipe_formats = [&doc]() -> std::string {
+    if (!doc.contains("export") || !doc["export"].is_object() || !doc["export"].contains("formats")) return "";
+    const json& f = doc["export"]["formats"];
+    return f.is_string() && f != "default" ? f.get<std::string>() : "";
+  };
+  const std::string tilemap_stage = apply_tilemap_shortcuts(s, s.formats.empty() ? recipe_formats() : s.formats, doc);
   for (auto& a : s.sets) apply_override(doc, a);
-  const ExportOptions export_options = parse_export_options(s);
+  std::optional<ExportSettings> from_recipe;
+  if (doc.contains("export")) from_recipe = parse_export_settings(doc["export"], "export");
+  const ExportOptions export_options = parse_export_options(s, from_recipe ? from_recipe->options : ExportOptions{});
+  std::string formats = !s.formats.empty() ? s.formats : from_recipe ? from_recipe->formats : "";
+  if (formats == "default") formats.clear();
   const bool engine = export_options.engine != "none";
   if (engine && s.size.empty()) {
     // Pick the engine's legal size nearest to the recipe's (square tiles, overlapping by one sample).
@@ -225,15 +235,15 @@ int cmd_generate(const GenerateSettings& s) {
 
   // Writers: validated before any work is done.
   std::vector<const WriterDef*> writers;
-  const bool default_set = s.formats.empty();
-  if (s.formats == "all") {
+  const bool default_set = formats.empty();
+  if (formats == "all") {
     for (auto& w : writer_registry())
       if (w.name != "engine" || engine) writers.push_back(&w);
   } else if (default_set) {
     for (auto& w : writer_registry())
       if (w.in_default_set) writers.push_back(&w);
   } else {
-    std::stringstream ss(s.formats);
+    std::stringstream ss(formats);
     std::string name;
     std::vector<std::string> names;
     for (auto& w : writer_registry()) names.push_back(w.name);
@@ -248,7 +258,7 @@ int cmd_generate(const GenerateSettings& s) {
       }
       writers.push_back(w);
     }
-    if (writers.empty()) throw Error("--formats", "expected at least one format, got \"" + s.formats + "\"");
+    if (writers.empty()) throw Error("--formats", "expected at least one format, got \"" + formats + "\"");
   }
   // The tilemap flags imply the tilemap writer.
   if (!tilemap_stage.empty() && std::find_if(writers.begin(), writers.end(), [](auto* w) { return w->name == "tilemap"; }) == writers.end())
@@ -291,6 +301,21 @@ int cmd_generate(const GenerateSettings& s) {
   if (!recipe.seed && !s.quiet) std::fprintf(stderr, "relief: no seed given; using a random one\n");
   RunResult res = run(recipe, opt);
   recipe.seed = res.seed;
+  const WriterDef* report = nullptr;
+  std::vector<const WriterDef*> encoders;
+  for (auto* w : writers) {
+    if (w->name == "report") report = w;
+    else if ((default_set || formats == "all") && w->applies && !w->applies(res.terrain)) continue;  // e.g. no props here
+    else encoders.push_back(w);
+  }
+  // What is written, in full (the writers that run, by name, and every writer option), so that the
+  // saved recipe and report.json reproduce these files.
+  {
+    std::string ran;
+    for (auto* w : writers)
+      if (w == report || std::find(encoders.begin(), encoders.end(), w) != encoders.end()) ran += (ran.empty() ? "" : ",") + w->name;
+    recipe.export_settings = ExportSettings{ran, export_options};
+  }
   if (!s.quiet) std::printf("seed %llu (reproduce with --seed %llu)\n", (unsigned long long)res.seed, (unsigned long long)res.seed);
 
   WriteContext wc;
@@ -303,13 +328,6 @@ int cmd_generate(const GenerateSettings& s) {
   // overlap the encoding; commit() below renames them all into place only when every writer has
   // succeeded, so a failed run changes no file. The bytes never depend on scheduling.
   json write_ms = json::object();
-  const WriterDef* report = nullptr;
-  std::vector<const WriterDef*> encoders;
-  for (auto* w : writers) {
-    if (w->name == "report") report = w;
-    else if ((default_set || s.formats == "all") && w->applies && !w->applies(res.terrain)) continue;  // e.g. no props here
-    else encoders.push_back(w);
-  }
   {
     std::vector<double> ms(encoders.size());
     std::mutex progress_mutex;

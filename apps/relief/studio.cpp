@@ -16,6 +16,7 @@
 //     Uint8 RGB (round(clamp(v, 0, 1)·255)), points Float32 × 7 (x, y, z, rotation_deg, scale,
 //     kind index, type index) with the kind and type names in the header.
 #include "studio.hpp"
+#include "studio_request.hpp"
 
 #include <archive.h>
 #include <archive_entry.h>
@@ -60,12 +61,6 @@ namespace {
 using Clock = std::chrono::steady_clock;
 double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
 
-// A refused request: HTTP status, the field it is about ("" for none) and the message.
-struct ApiError {
-  int status = 400;
-  std::string path, message;
-};
-
 void send_json(httplib::Response& res, int status, const json& body) {
   res.status = status;
   res.set_content(body.dump(), "application/json");
@@ -73,10 +68,10 @@ void send_json(httplib::Response& res, int status, const json& body) {
 
 void send_error(httplib::Response& res, const ApiError& e) {
   json b;
-  b["error"] = e.path.empty() ? e.message : e.path + ": " + e.message;
-  if (!e.path.empty()) b["path"] = e.path;
-  if (e.status == 409) b["superseded"] = true;
-  send_json(res, e.status, b);
+  b["error"] = e.what();
+  if (!e.path().empty()) b["path"] = e.path();
+  if (e.status() == 409) b["superseded"] = true;
+  send_json(res, e.status(), b);
 }
 
 // ---- hashing ----------------------------------------------------------------------------------
@@ -353,11 +348,6 @@ std::string content_type_of(const std::string& file) {
 
 // ---- the server -------------------------------------------------------------------------------
 
-bool valid_client_id(const std::string& s) {
-  if (s.empty() || s.size() > 64) return false;
-  return std::all_of(s.begin(), s.end(), [](char c) { return std::isalnum((unsigned char)c) || c == '-' || c == '_'; });
-}
-
 class Studio {
  public:
   explicit Studio(const StudioSettings& s) : s_(s), cache_(s.cache_mib << 20), runs_(2) {}
@@ -365,11 +355,7 @@ class Studio {
   void routes(httplib::Server& svr);
 
  private:
-  struct Request {
-    json body;
-    Recipe recipe;
-    Frame frame;
-  };
+  using Request = StudioRequest;
   struct Generated {
     std::shared_ptr<const Terrain> terrain;
     std::vector<Snapshot> snaps;  // every stage's snapshot (only when asked for)
@@ -378,8 +364,7 @@ class Studio {
     int first_stage = 0;  // stages before it came from the cache
   };
 
-  json parse_body(const httplib::Request& req, const std::vector<std::string>& allowed) const;
-  Request parse_request(const httplib::Request& req, const std::vector<std::string>& allowed, int max_size) const;
+  Request parse_request(const httplib::Request& req, Endpoint e) const { return parse_studio_request(e, req.body, s_); }
   std::shared_ptr<Session> session_of(const httplib::Request& req);
   Generated generate(const Recipe& r, const Frame& f, const std::function<bool()>& cancelled, bool all_snapshots);
   template <class F>
@@ -395,50 +380,6 @@ class Studio {
   std::mutex sessions_m_;
   std::unordered_map<std::string, std::shared_ptr<Session>> sessions_;
 };
-
-json Studio::parse_body(const httplib::Request& req, const std::vector<std::string>& allowed) const {
-  if (req.body.size() > s_.max_body)
-    throw ApiError{413, "", "request body too large: " + std::to_string(req.body.size()) + " bytes, limit " +
-                                std::to_string(s_.max_body)};
-  json body;
-  try {
-    body = json::parse(req.body);
-  } catch (const json::exception& e) {
-    throw ApiError{400, "", std::string("request body is not valid JSON: ") + e.what()};
-  }
-  if (!body.is_object()) throw ApiError{400, "", "request body: expected a JSON object, got " + describe(body)};
-  for (auto& [k, v] : body.items())
-    if (std::find(allowed.begin(), allowed.end(), k) == allowed.end()) {
-      std::string list;
-      for (auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
-      throw ApiError{400, k, "unknown request field (expected " + list + ")"};
-    }
-  if (!body.contains("recipe")) throw ApiError{400, "recipe", "missing: the request needs a recipe object"};
-  return body;
-}
-
-Studio::Request Studio::parse_request(const httplib::Request& req, const std::vector<std::string>& allowed,
-                                      int max_size) const {
-  Request r;
-  r.body = parse_body(req, allowed);
-  try {
-    r.recipe = parse_recipe(r.body["recipe"]);
-  } catch (const Error& e) {
-    // Recipe paths stay relative to the recipe (as on the command line and in the panel).
-    const std::string what = e.what();
-    if (e.path().empty()) throw ApiError{400, "recipe", what};
-    throw ApiError{400, e.path(), what.substr(std::min(what.size(), e.path().size() + 2))};
-  }
-  const World& w = r.recipe.world;
-  if (w.nx > max_size || w.nz > max_size)
-    throw ApiError{400, "world.size",
-                   "the studio accepts at most " + std::to_string(max_size) + " samples per axis here, got " +
-                       std::to_string(w.nx) + "x" + std::to_string(w.nz) +
-                       (max_size == s_.max_preview ? " (export larger sizes, or use `relief generate`)" : " (use `relief generate`)")};
-  if (!r.recipe.seed) r.recipe.seed = random_seed();
-  r.frame = r.recipe.world.frame();
-  return r;
-}
 
 std::shared_ptr<Session> Studio::session_of(const httplib::Request& req) {
   if (!req.has_header("X-Relief-Client")) return nullptr;
@@ -541,6 +482,8 @@ void Studio::with_run(const httplib::Request& req, F&& work) {
   } release{runs_};
   try {
     work(std::function<bool()>(cancelled));
+  } catch (const ApiError&) {
+    throw;
   } catch (const Cancelled&) {
     throw ApiError{409, "", "superseded by a newer request from the same client"};
   } catch (const Error& e) {
@@ -552,18 +495,9 @@ void Studio::with_run(const httplib::Request& req, F&& work) {
 
 void Studio::api_generate(const httplib::Request& req, httplib::Response& res) {
   const auto t0 = Clock::now();
-  Request r = parse_request(req, {"recipe", "layers"}, s_.max_preview);
-  std::vector<std::string> want;
-  bool all = true;
-  if (r.body.contains("layers")) {
-    const json& l = r.body["layers"];
-    if (!l.is_array()) throw ApiError{400, "layers", "expected a list of layer names, got " + describe(l)};
-    for (std::size_t i = 0; i < l.size(); ++i) {
-      if (!l[i].is_string()) throw ApiError{400, "layers[" + std::to_string(i) + "]", "expected a layer name, got " + describe(l[i])};
-      want.push_back(l[i].get<std::string>());
-    }
-    all = false;
-  }
+  Request r = parse_request(req, Endpoint::Generate);
+  const std::vector<std::string>& want = r.layers;
+  const bool all = r.all_layers;
   with_run(req, [&](const std::function<bool()>& cancelled) {
     Generated g = generate(r.recipe, r.frame, cancelled, false);
     const Terrain& t = *g.terrain;
@@ -595,7 +529,7 @@ void Studio::api_generate(const httplib::Request& req, httplib::Response& res) {
 }
 
 void Studio::api_steps(const httplib::Request& req, httplib::Response& res) {
-  Request r = parse_request(req, {"recipe"}, s_.max_preview);
+  Request r = parse_request(req, Endpoint::Steps);
   with_run(req, [&](const std::function<bool()>& cancelled) {
     Generated g = generate(r.recipe, r.frame, cancelled, true);
     FrameWriter w;
@@ -631,32 +565,16 @@ void Studio::api_steps(const httplib::Request& req, httplib::Response& res) {
 }
 
 void Studio::api_export(const httplib::Request& req, httplib::Response& res) {
-  Request r = parse_request(req, {"recipe", "format", "file"}, s_.max_export);
-  if (!r.body.contains("format") || !r.body["format"].is_string())
-    throw ApiError{400, "format", "expected a format name, got " + (r.body.contains("format") ? describe(r.body["format"]) : "nothing")};
-  const std::string fmt = r.body["format"].get<std::string>();
-  const WriterDef* writer = find_writer(fmt);
-  if (!writer) {
-    std::vector<std::string> names;
-    std::string list;
-    for (auto& wd : writer_registry()) names.push_back(wd.name), list += (list.empty() ? "" : ", ") + wd.name;
-    const std::string near = nearest_name(fmt, names);
-    throw ApiError{400, "format", "unknown format \"" + fmt + "\"" + (near.empty() ? "" : " (did you mean '" + near + "'?)") +
-                                      "; available: " + list};
-  }
-  std::string file;
-  if (r.body.contains("file")) {
-    if (!r.body["file"].is_string()) throw ApiError{400, "file", "expected a file name, got " + describe(r.body["file"])};
-    file = r.body["file"].get<std::string>();
-  }
-  const std::uint64_t need = estimate_memory_bytes(r.recipe, true), have = physical_memory_bytes();
-  if (have && need > have / 2)
-    throw ApiError{400, "world.size", "this export needs about " + std::to_string(need >> 20) + " MiB; choose a smaller size"};
+  Request r = parse_request(req, Endpoint::Export);
+  const WriterDef* writer = r.writer;
+  const std::string fmt = writer->name;
+  const std::string& file = r.file;
   with_run(req, [&](const std::function<bool()>& cancelled) {
     Generated g = generate(r.recipe, r.frame, cancelled, false);
     WriteContext wc;
     wc.seed = *r.recipe.seed;
     wc.recipe = r.recipe.to_json();
+    if (r.recipe.export_settings) wc.options = r.recipe.export_settings->options;  // the recipe's writer options
     json perf;
     perf["threads"] = s_.threads;
     perf["stages"] = g.timings;
@@ -732,7 +650,7 @@ void Studio::routes(httplib::Server& svr) {
     send_json(res, 200, parameter_table_json());
   }));
   svr.Post("/api/resolve", guard([this](const httplib::Request& req, httplib::Response& res) {
-    Request r = parse_request(req, {"recipe"}, s_.max_export);
+    Request r = parse_request(req, Endpoint::Resolve);
     send_json(res, 200, {{"recipe", r.recipe.to_json()}});
   }));
   svr.Post("/api/generate", guard([this](const httplib::Request& req, httplib::Response& res) { api_generate(req, res); }));

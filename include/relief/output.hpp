@@ -45,8 +45,10 @@ class MemoryOutput final : public Output {
   std::map<std::string, std::string> files;
 };
 
-// Writes into `dir` (created if missing). Throws Error("output", …) when the directory cannot be
-// created or written. put() and open() may be called from several threads at once.
+// Writes into `dir`, created (with missing parents) by the first file, so that a run that fails
+// before writing anything leaves the file system unchanged. The constructor already throws
+// Error("output", …) when the directory could not be created or written (its nearest existing
+// ancestor is not a writable directory). put() and open() may be called from several threads at once.
 //
 // Mode::Immediate: each put() (or stream close()) is atomic on its own: temporary file, fsync,
 //   rename. A second file of the same name replaces the first.
@@ -82,6 +84,7 @@ class FileOutput final : public Output {
  private:
   friend class FileOutputStream;
   std::string checked_path(const std::string& filename) const;
+  void create_directory();  // on the first file (thread-safe)
   void finished(Pending p);  // a temporary file is complete: rename now or keep for commit()
 
   std::string dir_;
@@ -89,6 +92,8 @@ class FileOutput final : public Output {
   std::mutex mutex_;
   std::vector<Pending> pending_;
   std::vector<std::string> reserved_;  // OnCommit: names opened or put so far
+  bool created_ = false;
+  std::vector<std::string> made_dirs_;  // directories create_directory() made, deepest first
   std::vector<std::string> written_;
   std::uint64_t bytes_ = 0;
 };

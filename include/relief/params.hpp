@@ -78,7 +78,7 @@ double read_float(const json& v, const std::string& path, double min, double max
 bool read_bool(const json& v, const std::string& path);
 std::string read_choice(const json& v, const std::string& path, const std::vector<std::string>& choices);
 Rgb read_color(const json& v, const std::string& path);  // "#rrggbb" or [r,g,b] in 0..255
-json write_color(const Rgb& c);                          // "#rrggbb"
+json write_color(const Rgb& c);  // "#rrggbb" when exact, else [r, g, b] in 0..255 (every bit kept)
 std::vector<CurvePoint> read_curve(const json& v, const std::string& path, double min, double max);
 std::vector<Level> read_levels(const json& v, const std::string& path, double min, double max);
 json write_levels(const std::vector<Level>& l);

@@ -4,7 +4,8 @@
 //   {
 //     "name": "island", "description": "…", "seed": 7,          // seed optional
 //     "world": {"size": [1025, 1025], "width_m": 4000, "height_m": 600, "sea_level": 0.4},
-//     "stages": [ {"stage": "noise", "octaves": 6, …}, {"stage": "island", …}, … ]
+//     "stages": [ {"stage": "noise", "octaves": 6, …}, {"stage": "island", …}, … ],
+//     "export": {"formats": "glb,fbx", "engine": "unity", "chunk_quads": 64, …}   // optional
 //   }
 //
 // Field paths (`world.width_m`, `stages[1].octaves`, `seed`) are the same in error messages and
@@ -15,6 +16,7 @@
 #include <string>
 #include <vector>
 
+#include "relief/export.hpp"
 #include "relief/params.hpp"
 #include "relief/stage.hpp"
 #include "relief/terrain.hpp"
@@ -31,6 +33,17 @@ struct World {
   Frame frame() const;      // the whole world as one window
 };
 
+// The optional "export" block: what `relief generate` writes when its command line does not say
+// (its --formats and writer-option flags override it; --save-recipe writes the block in full, so a
+// saved recipe reproduces the run's files byte for byte).
+struct ExportSettings {
+  std::string formats;    // as --formats: "" (written "default") = the default set, "all", or "a,b,c"
+  ExportOptions options;  // writer options: export_options_table(), the CLI's --NAME flags
+};
+// Reads an "export" block; errors name `path`.NAME (unknown keys, bad values, unknown formats).
+ExportSettings parse_export_settings(const json& block, const std::string& path = "export");
+json export_settings_json(const ExportSettings& e);  // every option, and "formats"
+
 struct RecipeStage {
   const StageDef* def = nullptr;
   std::string label;  // caption ("" = the stage's name)
@@ -43,6 +56,7 @@ struct Recipe {
   std::optional<std::uint64_t> seed;
   World world;
   std::vector<RecipeStage> stages;
+  std::optional<ExportSettings> export_settings;  // "export" (absent: default formats and options)
 
   // The fully resolved recipe: every parameter with its value, defaults filled in.
   json to_json() const;

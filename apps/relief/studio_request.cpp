@@ -1,0 +1,94 @@
+#include "studio_request.hpp"
+
+#include <algorithm>
+#include <cctype>
+
+#include "relief/pipeline.hpp"
+
+namespace relief::cli {
+
+namespace {
+
+json parse_body(std::string_view text, const std::vector<std::string>& allowed, const StudioSettings& s) {
+  if (text.size() > s.max_body)
+    throw ApiError{413, "", "request body too large: " + std::to_string(text.size()) + " bytes, limit " + std::to_string(s.max_body)};
+  json body;
+  try {
+    body = json::parse(text);
+  } catch (const json::exception& e) {
+    throw ApiError{400, "", std::string("request body is not valid JSON: ") + e.what()};
+  }
+  if (!body.is_object()) throw ApiError{400, "", "request body: expected a JSON object, got " + describe(body)};
+  for (auto& [k, v] : body.items())
+    if (std::find(allowed.begin(), allowed.end(), k) == allowed.end()) {
+      std::string list;
+      for (auto& a : allowed) list += (list.empty() ? "" : ", ") + a;
+      throw ApiError{400, k, "unknown request field (expected " + list + ")"};
+    }
+  if (!body.contains("recipe")) throw ApiError{400, "recipe", "missing: the request needs a recipe object"};
+  return body;
+}
+
+}  // namespace
+
+StudioRequest parse_studio_request(Endpoint e, std::string_view text, const StudioSettings& s) {
+  static const std::vector<std::string> fields[] = {{"recipe"}, {"recipe", "layers"}, {"recipe"}, {"recipe", "format", "file"}};
+  const int max_size = e == Endpoint::Generate || e == Endpoint::Steps ? s.max_preview : s.max_export;
+  StudioRequest r;
+  r.body = parse_body(text, fields[int(e)], s);
+  try {
+    r.recipe = parse_recipe(r.body["recipe"]);
+  } catch (const Error& err) {
+    // Recipe paths stay relative to the recipe (as on the command line and in the panel).
+    const std::string what = err.what();
+    if (err.path().empty()) throw ApiError{400, "recipe", what};
+    throw ApiError{400, err.path(), what.substr(std::min(what.size(), err.path().size() + 2))};
+  }
+  const World& w = r.recipe.world;
+  if (w.nx > max_size || w.nz > max_size)
+    throw ApiError{400, "world.size",
+                   "the studio accepts at most " + std::to_string(max_size) + " samples per axis here, got " +
+                       std::to_string(w.nx) + "x" + std::to_string(w.nz) +
+                       (max_size == s.max_preview ? " (export larger sizes, or use `relief generate`)" : " (use `relief generate`)")};
+  if (!r.recipe.seed) r.recipe.seed = random_seed();
+  r.frame = r.recipe.world.frame();
+
+  if (e == Endpoint::Generate && r.body.contains("layers")) {
+    const json& l = r.body["layers"];
+    if (!l.is_array()) throw ApiError{400, "layers", "expected a list of layer names, got " + describe(l)};
+    for (std::size_t i = 0; i < l.size(); ++i) {
+      if (!l[i].is_string()) throw ApiError{400, "layers[" + std::to_string(i) + "]", "expected a layer name, got " + describe(l[i])};
+      r.layers.push_back(l[i].get<std::string>());
+    }
+    r.all_layers = false;
+  }
+  if (e == Endpoint::Export) {
+    if (!r.body.contains("format") || !r.body["format"].is_string())
+      throw ApiError{400, "format", "expected a format name, got " + (r.body.contains("format") ? describe(r.body["format"]) : "nothing")};
+    const std::string fmt = r.body["format"].get<std::string>();
+    r.writer = find_writer(fmt);
+    if (!r.writer) {
+      std::vector<std::string> names;
+      std::string list;
+      for (auto& wd : writer_registry()) names.push_back(wd.name), list += (list.empty() ? "" : ", ") + wd.name;
+      const std::string near = nearest_name(fmt, names);
+      throw ApiError{400, "format", "unknown format \"" + fmt + "\"" + (near.empty() ? "" : " (did you mean '" + near + "'?)") +
+                                        "; available: " + list};
+    }
+    if (r.body.contains("file")) {
+      if (!r.body["file"].is_string()) throw ApiError{400, "file", "expected a file name, got " + describe(r.body["file"])};
+      r.file = r.body["file"].get<std::string>();
+    }
+    const std::uint64_t need = estimate_memory_bytes(r.recipe, true), have = physical_memory_bytes();
+    if (have && need > have / 2)
+      throw ApiError{400, "world.size", "this export needs about " + std::to_string(need >> 20) + " MiB; choose a smaller size"};
+  }
+  return r;
+}
+
+bool valid_client_id(std::string_view s) {
+  if (s.empty() || s.size() > 64) return false;
+  return std::all_of(s.begin(), s.end(), [](char c) { return std::isalnum((unsigned char)c) || c == '-' || c == '_'; });
+}
+
+}  // namespace relief::cli
