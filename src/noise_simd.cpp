@@ -664,6 +664,27 @@ HWY_INLINE VF FoldF(VF acc, VF amp, VF n) {
   }
 }
 
+// The end of a Gradient vector, shared by RowGradient and RowGradientColumns: normalise (ridged:
+// 2·acc·inv − 1; one octave: as is), clamp like the reference's v > −1 ? v : −1 and v < 1 ? v : 1
+// (NaN → −1: x86 max/min return their second operand when either is NaN, Highway's scalar Max/Min
+// the one that is not NaN), store, with a partial vector at the row's end.
+template <int kFr>
+HWY_INLINE void StoreGradient(VF acc, VF inv, int start, int NF, int n, float* HWY_RESTRICT out) {
+  const DF df;
+  const VF one = hn::Set(df, 1.0f), mone = hn::Set(df, -1.0f);
+  VF v = kFr == kRidged ? hn::Sub(hn::Mul(hn::Set(df, 2.0f), hn::Mul(acc, inv)), one)
+         : kFr == kNone ? acc
+                        : hn::Mul(acc, inv);
+  v = hn::Min(hn::Max(v, mone), one);
+  if (start + NF <= n) {
+    hn::StoreU(v, df, out + start);
+  } else {
+    HWY_ALIGN float tmp[64];
+    hn::Store(v, df, tmp);
+    std::memcpy(out + start, tmp, std::size_t(n - start) * sizeof(float));
+  }
+}
+
 // kDy: the dyadic lattice (then kPX = kPZ = false): octave 0 is split in double, the later ones
 // step the fixed-point state (x per sample; z once per row, or per sample when warped).
 template <int kFr, bool kWarp, bool kPX, bool kPZ, bool kDy>
@@ -696,7 +717,7 @@ HWY_NOINLINE void RowGradient(const NoiseKernelArgs& a, double z, std::int64_t i
   float amp[kMaxOctaves];
   for (int k = 0; k < a.count; ++k) amp[k] = float(a.octaves[k].amp);
   const VD vdx = hn::Set(d, dx), wm = hn::Set(d, a.warp_m);
-  const VF inv = hn::Set(df, float(a.inv_amp_sum)), one = hn::Set(df, 1.0f), mone = hn::Set(df, -1.0f);
+  const VF inv = hn::Set(df, float(a.inv_amp_sum));
   const VI iota = hn::Iota(di, 0);
   for (int start = 0; start < n; start += NF) {
     VD x[kHalves], zl[kHalves];
@@ -771,19 +792,7 @@ HWY_NOINLINE void RowGradient(const NoiseKernelArgs& a, double z, std::int64_t i
         acc = FoldF<kFr>(acc, hn::Set(df, amp[k]), nb);
       }
     }
-    VF v = kFr == kRidged ? hn::Sub(hn::Mul(hn::Set(df, 2.0f), hn::Mul(acc, inv)), one)
-           : kFr == kNone ? acc
-                          : hn::Mul(acc, inv);
-    // The reference's v > −1 ? v : −1 and v < 1 ? v : 1 (NaN → −1): x86 max/min return their second
-    // operand when either is NaN, Highway's scalar Max/Min the one that is not NaN.
-    v = hn::Min(hn::Max(v, mone), one);
-    if (start + NF <= n) {
-      hn::StoreU(v, df, out + start);
-    } else {
-      HWY_ALIGN float tmp[64];
-      hn::Store(v, df, tmp);
-      std::memcpy(out + start, tmp, std::size_t(n - start) * sizeof(float));
-    }
+    StoreGradient<kFr>(acc, inv, start, NF, n, out);
   }
 }
 
@@ -863,7 +872,7 @@ HWY_NOINLINE void RowGradientColumns(const NoiseKernelArgs& a, double z, const s
   }
   float amp[kMaxOctaves];
   for (int k = 0; k < a.count; ++k) amp[k] = float(a.octaves[k].amp);
-  const VF inv = hn::Set(df, float(a.inv_amp_sum)), one = hn::Set(df, 1.0f), mone = hn::Set(df, -1.0f);
+  const VF inv = hn::Set(df, float(a.inv_amp_sum));
   auto octave = [&](int k, int start) {
     const std::uint32_t* c = cols + std::size_t(k) * kColumnArrays * S + std::size_t(start);
     const GradRow& r = rows[k];
@@ -884,17 +893,7 @@ HWY_NOINLINE void RowGradientColumns(const NoiseKernelArgs& a, double z, const s
       acc = hn::Zero(df);
       for (int k = 0; k < a.count; ++k) acc = FoldF<kFr>(acc, hn::Set(df, amp[k]), octave(k, start));
     }
-    VF v = kFr == kRidged ? hn::Sub(hn::Mul(hn::Set(df, 2.0f), hn::Mul(acc, inv)), one)
-           : kFr == kNone ? acc
-                          : hn::Mul(acc, inv);
-    v = hn::Min(hn::Max(v, mone), one);
-    if (start + NF <= n) {
-      hn::StoreU(v, df, out + start);
-    } else {
-      HWY_ALIGN float tmp[64];
-      hn::Store(v, df, tmp);
-      std::memcpy(out + start, tmp, std::size_t(n - start) * sizeof(float));
-    }
+    StoreGradient<kFr>(acc, inv, start, NF, n, out);
   }
 }
 
