@@ -21,18 +21,20 @@
 // Speed. A droplet step is one long chain of dependent operations (position → bilinear heights →
 // gradient → direction → square root and division → next position; and heights → capacity →
 // brush → the heights the next step reads), so one droplet at a time leaves the core mostly idle.
-// Each thread therefore runs kLanes droplets of different tiles of the same phase in lockstep:
-// those tiles touch disjoint cells, so the interleaving changes nothing in the result while the
-// out-of-order core overlaps the lanes' chains. The droplet state is single precision (the
-// layer's precision; mass totals stay in double per tile). The brush is a box of rows of ≤ 8
-// cells processed as masked vectors of at most 8 floats.
+// Each thread therefore runs one droplet per vector lane (8 on AVX2/AVX-512), each from a
+// different tile of the same phase: those tiles touch disjoint cells, so running them side by
+// side changes nothing in the result. The step up to the capacity runs on vectors (the bilinear
+// corners are gathers); the brush or the bilinear deposit then runs lane by lane. The droplet
+// state is single precision (the layer's precision; sediment and mass totals stay in double).
+// The brush is a box of rows of ≤ 8 cells processed as masked vectors of at most 8 floats.
 //
-// Exactness across Highway targets. The per-droplet arithmetic is scalar float in a fixed order
-// (the build uses -ffp-contract=off). Brush cells are independent lane-wise operations, and the
-// material moved is summed per box column over the rows in order, then over the columns in a fixed
-// tree (blocks of 8), whatever the vector width: every target, and the one-lane fallback used
-// near the right border, gives bit-identical heights and totals (tests/test_erosion.cpp forces
-// each compiled target).
+// Exactness across Highway targets. The per-droplet arithmetic is float in a fixed order (the
+// build uses -ffp-contract=off): the same IEEE operations lane-wise on vectors as one at a time.
+// Brush cells are independent lane-wise operations, and the material moved is summed per box
+// column over the rows in order, then over the columns in a fixed tree (blocks of 8), whatever
+// the vector width: every target (8, 4 or 1 droplets in flight), and the one-lane brush used near
+// the right border, gives bit-identical heights and totals (tests/test_erosion.cpp forces each
+// compiled target).
 
 // The shared part below is compiled once; foreach_target re-includes this file per target.
 #ifndef RELIEF_EROSION_HYDRAULIC_SHARED
@@ -40,7 +42,10 @@
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 
+#include <tbb/task_arena.h>
+
 #include <algorithm>
+#include <atomic>
 #include <cmath>
 #include <cstdint>
 #include <limits>
@@ -126,8 +131,6 @@ namespace {
 
 namespace hn = hwy::HWY_NAMESPACE;
 
-constexpr int kLanes = 4;  // droplets in flight per thread
-
 // Applies clamp(old + vs·weight, lo, hi) over the brush box whose top-left cell is `base` and
 // returns Σ (new − old) (normalised), summed per column over the rows in order, then over the
 // columns in blocks of 8 as ((a0+a1)+(a2+a3))+((a4+a5)+(a6+a7)), the blocks in order. Lanes of
@@ -183,34 +186,131 @@ HWY_INLINE float BrushBox(D d, const Kernel& k, float* HWY_RESTRICT base, float 
   return total;
 }
 
+// The droplets in flight: one per vector lane (8 on AVX2 and AVX-512, 4 on the 128-bit targets, 1 on
+// the scalar fallback), each from its own tile. The step up to the heights and the capacity runs
+// lane-wise on vectors (the 8 bilinear corners are gathers); what a step does to the heights
+// (brush, bilinear deposit) and the double-precision sediment run per lane, in lane order.
 class Batch {
  public:
-  Batch(const Kernel& k, const TileJob* jobs, std::size_t njobs) : k_(k), jobs_(jobs), njobs_(njobs) {
-    acc_ = hwy::AllocateAligned<float>(std::size_t(kLanes) * (k.P + 16));
-    for (std::size_t i = 0; i < std::size_t(kLanes) * (k.P + 16); ++i) acc_[i] = 0;
+  using DF = hn::CappedTag<float, 8>;
+  using DI = hn::RebindToSigned<DF>;
+  static constexpr int kMax = 8;
+
+  Batch(const Kernel& k, const TileJob* jobs, std::size_t njobs, std::atomic<std::size_t>* next)
+      : k_(k), jobs_(jobs), njobs_(njobs), next_(next) {
+    acc_ = hwy::AllocateAligned<float>(std::size_t(kMax) * (k.P + 16));
+    for (std::size_t i = 0; i < std::size_t(kMax) * (k.P + 16); ++i) acc_[i] = 0;
   }
 
   void Run() {
+    const DF df;
+    const DI di;
+    const int N = int(hn::Lanes(df));
     int active = 0;
-    for (int l = 0; l < kLanes; ++l) {
+    for (int l = 0; l < N; ++l) {
       lanes_[l].acc = acc_.get() + std::size_t(l) * (k_.P + 16);
-      lanes_[l].active = Next(lanes_[l]);
+      lanes_[l].active = Next(l);
+      if (!lanes_[l].active) Park(l);
       active += lanes_[l].active;
     }
-    while (active > 0)
-      for (int l = 0; l < kLanes; ++l) {
+    const auto zero = hn::Zero(df), one = hn::Set(df, 1.0f);
+    const auto vnx = hn::Set(di, k_.nx);
+    const float* HWY_RESTRICT e = k_.e;
+    const std::ptrdiff_t nx = k_.nx;
+    // Bilinear corners of (px, pz), as the scalar Height() and Step() compute them.
+    struct Corners {
+      hn::Vec<DI> ix, iz;
+      hn::Vec<DF> fx, fz, a, b, c, d;
+    };
+    auto corners = [&](hn::Vec<DF> px, hn::Vec<DF> pz) {
+      Corners r;
+      r.ix = hn::ConvertTo(di, px);
+      r.iz = hn::ConvertTo(di, pz);
+      r.fx = hn::Sub(px, hn::ConvertTo(df, r.ix));
+      r.fz = hn::Sub(pz, hn::ConvertTo(df, r.iz));
+      const auto idx = hn::Add(hn::Mul(r.iz, vnx), r.ix);
+      r.a = hn::GatherIndex(df, e, idx);
+      r.b = hn::GatherIndex(df, e + 1, idx);
+      r.c = hn::GatherIndex(df, e + nx, idx);
+      r.d = hn::GatherIndex(df, e + nx + 1, idx);
+      return r;
+    };
+    auto height = [&](const Corners& q) {
+      const auto ofx = hn::Sub(one, q.fx), ofz = hn::Sub(one, q.fz);
+      return hn::Add(hn::Add(hn::Add(hn::Mul(hn::Mul(q.a, ofx), ofz), hn::Mul(hn::Mul(q.b, q.fx), ofz)),
+                             hn::Mul(hn::Mul(q.c, ofx), q.fz)),
+                     hn::Mul(hn::Mul(q.d, q.fx), q.fz));
+    };
+    const auto gs = hn::Set(df, k_.gs), inertia = hn::Set(df, k_.inertia), keep = hn::Set(df, k_.keep_dir);
+    const auto tiny = hn::Set(df, 1e-12f), stepc = hn::Set(df, k_.step_c);
+    const auto xlim = hn::Set(df, k_.xlim), zlim = hn::Set(df, k_.zlim), H = hn::Set(df, k_.H);
+    const auto capacity = hn::Set(df, k_.capacity), minc = hn::Set(df, k_.min_capacity);
+    const auto area = hn::Set(df, k_.area), gravity = hn::Set(df, k_.gravity), evap = hn::Set(df, k_.evap_keep);
+    HWY_ALIGN std::int32_t ix[kMax], iz[kMax];
+    HWY_ALIGN float fx[kMax], fz[kMax], dy[kMax], cap[kMax], hnew[kMax];
+    HWY_ALIGN std::uint8_t alive_bits[8], go_bits[8];
+    while (active > 0) {
+      const auto px = hn::Load(df, px_), pz = hn::Load(df, pz_);
+      const Corners q = corners(px, pz);
+      const auto gx = hn::Mul(hn::Add(hn::Mul(hn::Sub(q.b, q.a), hn::Sub(one, q.fz)), hn::Mul(hn::Sub(q.d, q.c), q.fz)), gs);
+      const auto gz = hn::Mul(hn::Add(hn::Mul(hn::Sub(q.c, q.a), hn::Sub(one, q.fx)), hn::Mul(hn::Sub(q.d, q.b), q.fx)), gs);
+      const auto h_old = height(q);
+      auto dx = hn::Sub(hn::Mul(hn::Load(df, dx_), inertia), hn::Mul(gx, keep));
+      auto dz = hn::Sub(hn::Mul(hn::Load(df, dz_), inertia), hn::Mul(gz, keep));
+      const auto len = hn::Sqrt(hn::Add(hn::Mul(dx, dx), hn::Mul(dz, dz)));
+      const auto alive = hn::Ge(len, tiny);  // false also for NaN: no slope, no momentum
+      dx = hn::Div(dx, len);
+      dz = hn::Div(dz, len);
+      const auto npx = hn::Add(px, hn::Mul(dx, stepc)), npz = hn::Add(pz, hn::Mul(dz, stepc));
+      const auto inside = hn::And(hn::And(hn::Ge(npx, zero), hn::Ge(npz, zero)),
+                                  hn::And(hn::Lt(npx, xlim), hn::Lt(npz, zlim)));
+      const auto go = hn::And(alive, inside);
+      // Lanes that stop here read the heights at (0, 0): always inside the grid.
+      const auto h_new = height(corners(hn::IfThenElseZero(go, npx), hn::IfThenElseZero(go, npz)));
+      const auto vdy = hn::Mul(hn::Sub(h_new, h_old), H);  // metres, negative downhill
+      const auto speed = hn::Load(df, speed_), water = hn::Load(df, water_);
+      const auto c0 = hn::Mul(hn::Mul(hn::Mul(hn::Neg(vdy), speed), water), capacity);
+      // std::max(c0, minc) is (c0 < minc ? minc : c0); std::max(0, v) is (0 < v ? v : 0).
+      const auto vcap = hn::Mul(hn::IfThenElse(hn::Lt(c0, minc), minc, c0), area);
+      const auto v = hn::Sub(hn::Mul(speed, speed), hn::Mul(vdy, gravity));
+      hn::Store(hn::IfThenElse(go, npx, px), df, px_);
+      hn::Store(hn::IfThenElse(go, npz, pz), df, pz_);
+      hn::Store(dx, df, dx_);
+      hn::Store(dz, df, dz_);
+      hn::Store(hn::Sqrt(hn::IfThenElseZero(hn::Lt(zero, v), v)), df, speed_);
+      hn::Store(hn::Mul(water, evap), df, water_);
+      hn::Store(q.ix, di, ix);
+      hn::Store(q.iz, di, iz);
+      hn::Store(q.fx, df, fx);
+      hn::Store(q.fz, df, fz);
+      hn::Store(vdy, df, dy);
+      hn::Store(vcap, df, cap);
+      hn::Store(h_new, df, hnew);
+      hn::StoreMaskBits(df, alive, alive_bits);
+      hn::StoreMaskBits(df, go, go_bits);
+      for (int l = 0; l < N; ++l) {
         Lane& L = lanes_[l];
-        if (!L.active || Step(L)) continue;
-        if (!Next(L)) {
-          L.active = false;
-          --active;
+        if (!L.active) continue;
+        bool more;
+        if (!((alive_bits[l >> 3] >> (l & 7)) & 1)) {
+          more = Die(L, px_[l], pz_[l]);  // position unchanged: the droplet dies where it is
+        } else if (!((go_bits[l >> 3] >> (l & 7)) & 1)) {
+          L.st->off_map_m3 += L.sed;
+          more = false;
+        } else {
+          more = Apply(L, ix[l], iz[l], fx[l], fz[l], dy[l], cap[l], hnew[l]);
         }
+        if (more) continue;
+        if (Next(l)) continue;
+        L.active = false;
+        Park(l);
+        --active;
       }
+    }
   }
 
  private:
   struct Lane {
-    float px = 0, pz = 0, dx = 0, dz = 0, speed = 0, water = 0;
     double sed = 0;  // m³; double so that what a droplet carries balances what it moved
     int life = 0;
     bool active = false;
@@ -227,21 +327,26 @@ class Batch {
     return p[0] * (1 - fx) * (1 - fz) + p[1] * fx * (1 - fz) + p[k_.nx] * (1 - fx) * fz + p[k_.nx + 1] * fx * fz;
   }
 
-  // Starts the lane's next droplet (from its tile, or from the next tile of the batch); false when
-  // the batch is done. Droplets starting in the sea are skipped.
-  bool Next(Lane& L) {
+  // An idle lane computes at (0, 0) and is ignored.
+  void Park(int l) { px_[l] = pz_[l] = dx_[l] = dz_[l] = 0, speed_[l] = water_[l] = 1; }
+
+  // Starts lane l's next droplet (from its tile, or from the next tile of the phase); false when
+  // the phase has no more. Droplets starting in the sea are skipped.
+  bool Next(int l) {
+    Lane& L = lanes_[l];
     for (;;) {
       while (L.ids != L.end) {
         float px, pz;
         start_position(k_, *L.ids++, px, pz);
         if (Height(px, pz) < k_.sea) continue;
-        L.px = px, L.pz = pz, L.dx = 0, L.dz = 0, L.speed = 1, L.water = 1, L.sed = 0, L.life = 0;
+        px_[l] = px, pz_[l] = pz, dx_[l] = 0, dz_[l] = 0, speed_[l] = 1, water_[l] = 1;
+        L.sed = 0, L.life = 0;
         ++L.st->droplets;
         return true;
       }
-      if (next_job_ == njobs_) return false;
-      const TileJob& j = jobs_[next_job_++];
-      L.ids = j.ids, L.end = j.ids + j.n, L.st = j.st;
+      const std::size_t j = next_->fetch_add(1, std::memory_order_relaxed);
+      if (j >= njobs_) return false;
+      L.ids = jobs_[j].ids, L.end = jobs_[j].ids + jobs_[j].n, L.st = jobs_[j].st;
     }
   }
 
@@ -299,36 +404,18 @@ class Batch {
     return double(got) * k_.m3;
   }
 
-  // One step of the lane's droplet; false when the droplet ended (its totals are booked).
-  bool Step(Lane& L) {
+  // The rest of a step that stays on the map: deposit or erode at the old cell (ix, iz) with
+  // fraction (fx, fz), given the height change dy (m) and the capacity; then the droplet ends in
+  // the sea or at the end of its life (the lane's position is already the new one). False when the
+  // droplet ended (its totals are booked).
+  bool Apply(Lane& L, int ix, int iz, float fx, float fz, float dy, float cap, float h_new) {
     HydraulicStats& st = *L.st;
-    const int ix = int(L.px), iz = int(L.pz);
-    const float fx = L.px - float(ix), fz = L.pz - float(iz);
-    const float* p = k_.e + std::size_t(iz) * k_.nx + ix;
-    const float a = p[0], b = p[1], c = p[k_.nx], d = p[k_.nx + 1];
-    const float gx = ((b - a) * (1 - fz) + (d - c) * fz) * k_.gs;
-    const float gz = ((c - a) * (1 - fx) + (d - b) * fx) * k_.gs;
-    const float h_old = a * (1 - fx) * (1 - fz) + b * fx * (1 - fz) + c * (1 - fx) * fz + d * fx * fz;
-    float dx = L.dx * k_.inertia - gx * k_.keep_dir;
-    float dz = L.dz * k_.inertia - gz * k_.keep_dir;
-    const float len = std::sqrt(dx * dx + dz * dz);
-    if (!(len >= 1e-12f)) return Die(L);  // no slope, no momentum: the droplet dies here
-    dx /= len;
-    dz /= len;
-    const float npx = L.px + dx * k_.step_c, npz = L.pz + dz * k_.step_c;
-    if (!(npx >= 0 && npz >= 0 && npx < k_.xlim && npz < k_.zlim)) {
-      st.off_map_m3 += L.sed;
-      return false;
-    }
-    const float h_new = Height(npx, npz);
-    const float dy = (h_new - h_old) * k_.H;  // metres, negative downhill
-    const float cap = std::max(-dy * L.speed * L.water * k_.capacity, k_.min_capacity) * k_.area;
     if (dy > 0) {
       const double got = DepositBilinear(ix, iz, fx, fz, std::min(dy * k_.cell2, float(L.sed)));
       L.sed -= got;
       st.deposited_m3 += got;
     } else {
-      // Over capacity: deposit part of the excess; else erode. Both sides computed, one selected.
+      // Over capacity: deposit part of the excess; else erode.
       const float sed = float(L.sed);
       if (sed > cap) {
         const double got = DepositBilinear(ix, iz, fx, fz, (sed - cap) * k_.deposit);
@@ -340,21 +427,21 @@ class Batch {
         st.eroded_m3 += got;
       }
     }
-    L.speed = std::sqrt(std::max(0.0f, L.speed * L.speed - dy * k_.gravity));
-    L.water *= k_.evap_keep;
-    L.dx = dx, L.dz = dz, L.px = npx, L.pz = npz;
     if (h_new < k_.sea) {
       st.to_sea_m3 += L.sed;
       return false;
     }
-    if (++L.life == k_.lifetime) return Die(L);
+    if (++L.life == k_.lifetime) {
+      const int l = int(&L - lanes_);
+      return Die(L, px_[l], pz_[l]);
+    }
     return true;
   }
 
-  // The droplet dies on land: what it carries is deposited with the brush.
-  bool Die(Lane& L) {
+  // The droplet dies on land at (px, pz): what it carries is deposited with the brush.
+  bool Die(Lane& L, float px, float pz) {
     if (L.sed > 0) {
-      const double got = Brush(L, int(L.px), int(L.pz), float(L.sed), true);
+      const double got = Brush(L, int(px), int(pz), float(L.sed), true);
       L.st->deposited_m3 += got;
       L.st->stranded_m3 += L.sed - got;
     }
@@ -364,14 +451,17 @@ class Batch {
   const Kernel& k_;
   const TileJob* jobs_;
   std::size_t njobs_;
-  std::size_t next_job_ = 0;
-  Lane lanes_[kLanes];
+  std::atomic<std::size_t>* next_;
+  Lane lanes_[kMax];
+  HWY_ALIGN float px_[kMax], pz_[kMax], dx_[kMax], dz_[kMax], speed_[kMax], water_[kMax];
   hwy::AlignedFreeUniquePtr<float[]> acc_;
 };
 
 }  // namespace
 
-void RunBatchImpl(const Kernel& k, const TileJob* jobs, std::size_t njobs) { Batch(k, jobs, njobs).Run(); }
+void RunBatchImpl(const Kernel& k, const TileJob* jobs, std::size_t njobs, std::atomic<std::size_t>* next) {
+  Batch(k, jobs, njobs, next).Run();
+}
 
 }  // namespace HWY_NAMESPACE
 }  // namespace relief::erosion::kernel
@@ -381,8 +471,8 @@ HWY_AFTER_NAMESPACE();
 namespace relief::erosion {
 namespace kernel {
 HWY_EXPORT(RunBatchImpl);
-void run_batch(const Kernel& k, const TileJob* jobs, std::size_t njobs) {
-  HWY_DYNAMIC_DISPATCH(RunBatchImpl)(k, jobs, njobs);
+void run_batch(const Kernel& k, const TileJob* jobs, std::size_t njobs, std::atomic<std::size_t>* next) {
+  HWY_DYNAMIC_DISPATCH(RunBatchImpl)(k, jobs, njobs, next);
 }
 }  // namespace kernel
 
@@ -464,10 +554,12 @@ HydraulicStats hydraulic_erosion(float* e, const Frame& f, const HydraulicSettin
     for (std::uint32_t id = 0; id < count; ++id) ids[fill[tile_of[id]]++] = id;
   }
   std::vector<HydraulicStats> per_tile(ntiles);
-  // Each round runs a quarter of every tile's droplets; each phase one checkerboard colour, in
-  // batches of tiles that one thread interleaves (batches of one phase touch disjoint cells).
+  // Each round runs a quarter of every tile's droplets; each phase one checkerboard colour. The
+  // tiles of a phase touch disjoint cells, so they may run in any order on any thread, each tile's
+  // droplets in index order in one lane: every thread pulls the next tile from a shared counter,
+  // the largest tiles first so that lanes run out of work together.
   constexpr int kRounds = 4;
-  constexpr std::size_t kBatch = 4;
+  const int workers = std::max(1, tbb::this_task_arena::max_concurrency());
   std::vector<kernel::TileJob> jobs;
   for (int round = 0; round < kRounds; ++round)
     for (int phase = 0; phase < 4; ++phase) {
@@ -480,13 +572,9 @@ HydraulicStats hydraulic_erosion(float* e, const Frame& f, const HydraulicSettin
           const std::uint32_t hi = first[t] + std::uint32_t(std::uint64_t(n) * (round + 1) / kRounds);
           if (hi > lo) jobs.push_back({ids.data() + lo, hi - lo, &per_tile[t]});
         }
-      const std::size_t nbatch = (jobs.size() + kBatch - 1) / kBatch;
-      tbb::parallel_for(tbb::blocked_range<std::size_t>(0, nbatch, 1), [&](const tbb::blocked_range<std::size_t>& br) {
-        for (std::size_t b = br.begin(); b < br.end(); ++b) {
-          const std::size_t lo = b * kBatch, hi = std::min(jobs.size(), lo + kBatch);
-          kernel::run_batch(k, jobs.data() + lo, hi - lo);
-        }
-      });
+      std::stable_sort(jobs.begin(), jobs.end(), [](const kernel::TileJob& a, const kernel::TileJob& b) { return a.n > b.n; });
+      std::atomic<std::size_t> next{0};
+      tbb::parallel_for(0, workers, [&](int) { kernel::run_batch(k, jobs.data(), jobs.size(), &next); });
     }
   for (const auto& st : per_tile) {
     total.eroded_m3 += st.eroded_m3;
