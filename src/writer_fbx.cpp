@@ -133,6 +133,17 @@ Node& P(Node& p70, const std::string& name, const std::string& type, const std::
   return p70.add("P").str(name).str(type).str(label).str(flags);
 }
 
+// A geometry layer element (version 101): its name and how its values map onto the mesh.
+Node& layer_element(Node& geometry, const std::string& type, const std::string& name, const std::string& mapping,
+                    const std::string& reference) {
+  Node& e = geometry.add(type).i32(0);
+  e.add("Version").i32(101);
+  e.add("Name").str(name);
+  e.add("MappingInformationType").str(mapping);
+  e.add("ReferenceInformationType").str(reference);
+  return e;
+}
+
 struct Builder {
   std::int64_t next_id = 1000000;
   Node objects{"Objects"};
@@ -156,40 +167,21 @@ struct Builder {
     for (std::size_t k = 0; k < m.indices.size(); ++k)
       pvi[k] = k % 3 == 2 ? -std::int32_t(m.indices[k]) - 1 : std::int32_t(m.indices[k]);  // last corner: ~index
     g.add("PolygonVertexIndex").i32s(pvi);
-    Node& ln = g.add("LayerElementNormal").i32(0);
-    ln.add("Version").i32(101);
-    ln.add("Name").str("");
-    ln.add("MappingInformationType").str("ByVertice");
-    ln.add("ReferenceInformationType").str("Direct");
-    ln.add("Normals").f64s(std::vector<double>(m.normals.begin(), m.normals.end()));
+    layer_element(g, "LayerElementNormal", "", "ByVertice", "Direct")
+        .add("Normals").f64s(std::vector<double>(m.normals.begin(), m.normals.end()));
     if (!m.uvs.empty()) {
       std::vector<double> uv(m.uvs.size());
       for (std::size_t k = 0; k < uv.size(); ++k) uv[k] = k % 2 ? 1.0 - double(m.uvs[k]) : double(m.uvs[k]);  // FBX v = 0 at the image bottom
-      Node& lu = g.add("LayerElementUV").i32(0);
-      lu.add("Version").i32(101);
-      lu.add("Name").str("UVMap");
-      lu.add("MappingInformationType").str("ByVertice");
-      lu.add("ReferenceInformationType").str("Direct");
-      lu.add("UV").f64s(uv);
+      layer_element(g, "LayerElementUV", "UVMap", "ByVertice", "Direct").add("UV").f64s(uv);
     }
     if (!m.colors.empty()) {
       std::vector<double> rgba;
       rgba.reserve(m.colors.size() / 3 * 4);
       for (std::size_t k = 0; k < m.colors.size(); k += 3)
         rgba.insert(rgba.end(), {double(m.colors[k]), double(m.colors[k + 1]), double(m.colors[k + 2]), 1.0});
-      Node& lc = g.add("LayerElementColor").i32(0);
-      lc.add("Version").i32(101);
-      lc.add("Name").str("Col");
-      lc.add("MappingInformationType").str("ByVertice");
-      lc.add("ReferenceInformationType").str("Direct");
-      lc.add("Colors").f64s(rgba);
+      layer_element(g, "LayerElementColor", "Col", "ByVertice", "Direct").add("Colors").f64s(rgba);
     }
-    Node& lm = g.add("LayerElementMaterial").i32(0);
-    lm.add("Version").i32(101);
-    lm.add("Name").str("");
-    lm.add("MappingInformationType").str("AllSame");
-    lm.add("ReferenceInformationType").str("IndexToDirect");
-    lm.add("Materials").i32s({0});
+    layer_element(g, "LayerElementMaterial", "", "AllSame", "IndexToDirect").add("Materials").i32s({0});
     Node& layer = g.add("Layer").i32(0);
     layer.add("Version").i32(100);
     auto element = [&](const char* type) {

@@ -24,6 +24,7 @@
 #include "relief/recipe.hpp"
 #include "relief/stage.hpp"
 #include "stages.hpp"
+#include "support.hpp"
 
 using namespace relief;
 namespace st = relief::stages;
@@ -31,23 +32,10 @@ namespace st = relief::stages;
 namespace {
 
 Frame square(int n, double world_m = 4000.0, double height_m = 500.0, double sea = 0.4) {
-  Frame f;
-  f.world_width_m = f.world_depth_m = world_m;
-  f.spacing_m = world_m / (n - 1);
-  f.nx = f.nz = n;
-  f.height_m = height_m;
-  f.sea_level = sea;
-  return f;
+  return test::square_frame(n, world_m, height_m, sea);
 }
 
-Terrain grid(const Frame& f, const std::function<double(int, int)>& h) {
-  Terrain t;
-  t.frame = f;
-  auto& l = t.layer("height", 1);
-  for (int j = 0; j < f.nz; ++j)
-    for (int i = 0; i < f.nx; ++i) l.data[std::size_t(j) * f.nx + i] = float(h(i, j));
-  return t;
-}
+Terrain grid(const Frame& f, const std::function<double(int, int)>& h) { return test::grid_terrain(f, h); }
 
 void apply(const StageDef& def, json params, Terrain& t, std::uint64_t seed = 7) {
   params["stage"] = def.name;

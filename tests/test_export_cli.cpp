@@ -13,43 +13,23 @@
 
 #include <nlohmann/json.hpp>
 
+#include "support.hpp"
+
 namespace fs = std::filesystem;
 
 namespace {
 
-struct Result {
-  int code = -1;
-  std::string out;
-};
-Result relief(const std::string& args) {
-  Result r;
-  FILE* p = popen((std::string(RELIEF_BINARY) + " " + args + " 2>&1").c_str(), "r");
-  if (!p) return r;
-  std::array<char, 4096> buf;
-  std::size_t n;
-  while ((n = fread(buf.data(), 1, buf.size(), p)) > 0) r.out.append(buf.data(), n);
-  const int st = pclose(p);
-  r.code = WIFEXITED(st) ? WEXITSTATUS(st) : -1;
-  return r;
-}
-std::string slurp(const fs::path& p) {
-  std::ifstream in(p, std::ios::binary);
-  std::stringstream ss;
-  ss << in.rdbuf();
-  return ss.str();
-}
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    static int c = 0;
-    path = fs::temp_directory_path() / ("relief-export-cli-" + std::to_string(::getpid()) + "-" + std::to_string(c++));
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~TempDir() { fs::remove_all(path); }
+using Result = relief::test::Shell;
+using relief::test::slurp;
+
+// Runs the relief binary with `args`.
+Result cli(const std::string& args) { return relief::test::sh(std::string(RELIEF_BINARY) + " " + args); }
+
+struct TempDir : relief::test::TempDir {
+  TempDir() : relief::test::TempDir("relief-export-cli") {}
 };
 void expect_bad(const std::string& args, const std::string& prefix) {
-  const Result r = relief(args);
+  const Result r = cli(args);
   EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
   EXPECT_NE(r.out.find("relief: error: " + prefix), std::string::npos) << args << "\n" << r.out;
 }
@@ -75,7 +55,7 @@ TEST(ExportCli, BadOptionValuesExit2NamingTheFlag) {
 TEST(ExportCli, EnginePicksALegalSizeAndWritesItsFiles) {
   TempDir d;
   // The island recipe is 513²: Unreal's nearest legal size is 505.
-  const Result r = relief("generate island --seed 2 --engine unreal --formats heightmap -o " + d.path.string());
+  const Result r = cli("generate island --seed 2 --engine unreal --formats heightmap -o " + d.path.string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("unreal: using --size 505x505"), std::string::npos) << r.out;
   for (const char* f : {"unreal_height.png", "unreal_height.json", "unreal_import.txt", "height.png"})
@@ -85,7 +65,7 @@ TEST(ExportCli, EnginePicksALegalSizeAndWritesItsFiles) {
   EXPECT_EQ(fs::file_size(d.path / "height.r16"), 505u * 505u * 2u);
 
   TempDir t;
-  const Result tiles = relief("generate island --seed 2 --size 65 --engine unity --split 2x2 -q --formats heightmap -o " + t.path.string());
+  const Result tiles = cli("generate island --seed 2 --size 65 --engine unity --split 2x2 -q --formats heightmap -o " + t.path.string());
   ASSERT_EQ(tiles.code, 0) << tiles.out;
   for (const char* f : {"unity_height_x0_y0.raw", "unity_height_x1_y0.raw", "unity_height_x0_y1.raw", "unity_height_x1_y1.raw"})
     EXPECT_EQ(fs::file_size(t.path / f), 33u * 33u * 2u) << f;
@@ -94,8 +74,8 @@ TEST(ExportCli, EnginePicksALegalSizeAndWritesItsFiles) {
 TEST(ExportCli, FormatsAllWritesEveryFileIdenticallyForAnyThreadCount) {
   TempDir a, b;
   const std::string args = "generate island --seed 9 --size 65 --formats all --engine godot --lod-levels 1 --chunk-quads 32 -q -o ";
-  ASSERT_EQ(relief(args + a.path.string() + " --threads 1").code, 0);
-  const Result r = relief(args + b.path.string() + " --threads 3");
+  ASSERT_EQ(cli(args + a.path.string() + " --threads 1").code, 0);
+  const Result r = cli(args + b.path.string() + " --threads 3");
   ASSERT_EQ(r.code, 0) << r.out;
   for (const char* f : {"terrain.glb", "terrain_lod1.glb", "terrain.fbx", "terrain.stl", "terrain.obj", "normal.png", "splat0.png",
                         "splat.json", "hillshade.png", "godot_height.exr", "godot_height.json", "godot_import.txt", "albedo.png"})
@@ -111,11 +91,11 @@ TEST(ExportCli, FormatsAllWritesEveryFileIdenticallyForAnyThreadCount) {
 }
 
 TEST(ExportCli, ExplainAndHelpListTheWriterOptions) {
-  const Result e = relief("explain");
+  const Result e = cli("explain");
   ASSERT_EQ(e.code, 0);
   for (const char* s : {"writer options", "--stl-size-mm", "--engine", "unity|unreal|godot", "--split", "--instancing"})
     EXPECT_NE(e.out.find(s), std::string::npos) << s;
-  const auto j = nlohmann::json::parse(relief("explain --json").out);
+  const auto j = nlohmann::json::parse(cli("explain --json").out);
   bool found = false;
   for (auto& o : j["writer_options"])
     if (o["name"] == "stl_base_mm") {
@@ -125,7 +105,7 @@ TEST(ExportCli, ExplainAndHelpListTheWriterOptions) {
       EXPECT_EQ(o["default"], 3.0);
     }
   EXPECT_TRUE(found);
-  const Result h = relief("generate --help");
+  const Result h = cli("generate --help");
   EXPECT_NE(h.out.find("--lod-levels"), std::string::npos);
   EXPECT_NE(h.out.find("--stl-exaggeration"), std::string::npos);
 }

@@ -28,6 +28,7 @@
 #include "relief/steps.hpp"
 #include "relief/terrain.hpp"
 #include "stages.hpp"
+#include "support.hpp"
 
 using relief::json;
 using relief::Terrain;
@@ -37,22 +38,12 @@ namespace fs = std::filesystem;
 namespace {
 
 relief::Frame square(int n, double world_m, double height_m = 100.0, double sea = 0.2) {
-  relief::Frame f;
-  f.world_width_m = f.world_depth_m = world_m;
-  f.spacing_m = world_m / (n - 1);
-  f.nx = f.nz = n;
-  f.height_m = height_m;
-  f.sea_level = sea;
-  return f;
+  return relief::test::square_frame(n, world_m, height_m, sea);
 }
 
+// A Terrain whose height is h(x_m, z_m), in world metres.
 Terrain grid(const relief::Frame& f, const std::function<double(double, double)>& h) {
-  Terrain t;
-  t.frame = f;
-  auto& l = t.layer("height", 1);
-  for (int j = 0; j < f.nz; ++j)
-    for (int i = 0; i < f.nx; ++i) l.data[std::size_t(j) * f.nx + i] = float(h(f.x_m(i), f.z_m(j)));
-  return t;
+  return relief::test::grid_terrain(f, [&](int i, int j) { return h(f.x_m(i), f.z_m(j)); });
 }
 
 // A round island: elevation 0.8 at the centre falling to 0 at `radius_m` and beyond.

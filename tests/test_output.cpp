@@ -27,6 +27,7 @@
 #include "relief/error.hpp"
 #include "relief/output.hpp"
 #include "relief/stage.hpp"
+#include "support.hpp"
 
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
@@ -42,20 +43,8 @@ namespace {
 
 // ---- fixtures -------------------------------------------------------------------------------
 
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    static std::atomic<int> n{0};
-    path = fs::temp_directory_path() /
-           ("relief_test_output_" + std::to_string(::getpid()) + "_" + std::to_string(n.fetch_add(1)));
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~TempDir() {
-    std::error_code ec;
-    fs::remove_all(path, ec);
-  }
-  std::string operator/(const std::string& name) const { return (path / name).string(); }
+struct TempDir : relief::test::TempDir {
+  TempDir() : relief::test::TempDir("relief_test_output") {}
 };
 
 std::string read_file(const fs::path& p) {

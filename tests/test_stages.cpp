@@ -15,6 +15,7 @@
 #include "relief/stage.hpp"
 #include "relief/terrain.hpp"
 #include "stages.hpp"
+#include "support.hpp"
 
 using relief::json;
 using relief::Terrain;
@@ -24,26 +25,12 @@ namespace {
 
 constexpr double kPi = std::numbers::pi;
 
-// A square world of `world_m` metres sampled with n × n samples over the whole world.
 relief::Frame square(int n, double world_m = 4000.0, double height_m = 600.0, double sea = 0.4) {
-  relief::Frame f;
-  f.world_width_m = f.world_depth_m = world_m;
-  f.spacing_m = world_m / (n - 1);
-  f.nx = f.nz = n;
-  f.height_m = height_m;
-  f.sea_level = sea;
-  return f;
+  return relief::test::square_frame(n, world_m, height_m, sea);
 }
 
 // A Terrain whose height is h(i, j).
-Terrain grid(const relief::Frame& f, const std::function<double(int, int)>& h) {
-  Terrain t;
-  t.frame = f;
-  auto& l = t.layer("height", 1);
-  for (int j = 0; j < f.nz; ++j)
-    for (int i = 0; i < f.nx; ++i) l.data[std::size_t(j) * f.nx + i] = float(h(i, j));
-  return t;
-}
+Terrain grid(const relief::Frame& f, const std::function<double(int, int)>& h) { return relief::test::grid_terrain(f, h); }
 
 // A Terrain whose height is a smooth function of world position (so windows and resolutions agree).
 Terrain world_field(const relief::Frame& f) {

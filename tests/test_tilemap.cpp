@@ -35,16 +35,8 @@ namespace {
 
 // ---- fixtures --------------------------------------------------------------------------------
 
-struct TempDir {
-  fs::path path;
-  TempDir() {
-    static int counter = 0;
-    path = fs::temp_directory_path() / ("relief-tilemap-" + std::to_string(::getpid()) + "-" + std::to_string(counter++));
-    fs::remove_all(path);
-    fs::create_directories(path);
-  }
-  ~TempDir() { fs::remove_all(path); }
-  std::string operator/(const std::string& s) const { return (path / s).string(); }
+struct TempDir : relief::test::TempDir {
+  TempDir() : relief::test::TempDir("relief-tilemap") {}
 };
 
 using relief::test::slurp;
