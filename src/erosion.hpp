@@ -94,7 +94,9 @@ struct StreamPowerStats {
 // so flow always reaches base level (Cordonnier et al. reroute across lake passes instead; filling
 // is the limit in which lakes fill with sediment). The result is written back to `e`, clamped to
 // [0, 1] (raise world.height_m if peaks clip), then ε-filled once more in float so that the stored
-// layer drains too.
+// layer drains too. Each step: D8 direction codes and donor masks (SIMD, row-parallel), then every
+// drainage basin walked depth-first from its outlet (receivers first), in parallel across basins;
+// bit-identical to one global Braun–Willett stack for any thread count.
 StreamPowerStats stream_power(float* e, const Frame& f, const StreamPowerSettings& s);
 
 }  // namespace relief::erosion

@@ -14,6 +14,10 @@
 //     S = (U/K)^(1/n)·A^(−m/n): channel concavity θ = m/n, which the tests measure.
 //
 // Units: h in metres (sea surface at 0), A in m² (times `rainfall`), S in m/m, t in years.
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -51,57 +55,101 @@ StreamPowerStats stream_power(float* e, const Frame& f, const StreamPowerSetting
   for (std::size_t a = 0; a < table_size; ++a) area_m[a] = std::pow(double(a) * cell_area, s.m);
   auto pow_area = [&](std::uint32_t cnt) { return cnt < table_size ? area_m[cnt] : std::pow(double(cnt) * cell_area, s.m); };
 
-  std::vector<std::uint32_t> rec(n), order, count(n);
   const bool linear = s.n == 1.0;
   const double max_rise_straight = std::tan(s.max_slope_deg * 3.14159265358979323846 / 180.0) * cell;
   const double max_rise_diag = max_rise_straight * std::sqrt(2.0);
-  for (int step = 0; step < s.steps; ++step) {
-    hydro::d8_receivers<double>(h.data(), nx, nz, 0.0, rec.data());
-    bool pits = false;
-    for (int j = 1; j + 1 < nz && !pits; ++j)
-      for (int i = 1; i + 1 < nx; ++i) {
-        const std::size_t c = std::size_t(j) * nx + i;
-        if (rec[c] == c && h[c] >= 0.0) {
-          pits = true;
+  // The implicit update of one cell with uplifted height h0 = h + U·dt, receiver height hr (already updated),
+  // drainage area cnt cells and a straight or diagonal receiver.
+  auto solve = [&](double h0, double hr, std::uint32_t cnt, bool straight) {
+    const double F = (straight ? kdt_straight : kdt_diag) * pow_area(cnt);
+    double x;
+    if (linear) {
+      x = (h0 + F * hr) / (1.0 + F);
+    } else {
+      // Newton–Raphson on g(x) = x − h0 + F·(x − hr)^n, starting at h0 (g(h0) ≥ 0, g convex).
+      x = h0;
+      for (int it = 0; it < 30 && x > hr; ++it) {
+        const double d = x - hr, pn = std::pow(d, s.n);
+        const double g = x - h0 + F * pn, dg = 1.0 + F * s.n * pn / d;
+        const double nxv = x - g / dg;
+        if (std::fabs(nxv - x) < 1e-9) {
+          x = nxv;
           break;
         }
+        x = nxv;
       }
-    if (pits) {
+    }
+    x = std::min(x, hr + (straight ? max_rise_straight : max_rise_diag));
+    if (!(x > hr)) x = std::nextafter(hr, hr + 1.0);
+    return x;
+  };
+
+  std::ptrdiff_t off[8];
+  for (int k = 0; k < 8; ++k) off[k] = std::ptrdiff_t(hydro::kDj[k]) * nx + hydro::kDi[k];
+  std::vector<std::uint8_t> dir(n), mask(n);
+  // Per-thread buffers of one drainage basin in depth-first preorder: cells, the position of each
+  // cell's receiver times 2 plus 1 for a diagonal receiver, drainage areas (cells), updated heights;
+  // and the depth-first stack.
+  struct Basin {
+    std::vector<std::uint32_t> cell, link, count, stack_cell, stack_link;
+    std::vector<double> h;
+  };
+  tbb::enumerable_thread_specific<Basin> basins;
+  for (int step = 0; step < s.steps; ++step) {
+    if (hydro::d8_directions<double>(h.data(), nx, nz, 0.0, dir.data()) != 0) {
       hydro::fill_depressions<double>(h.data(), nx, nz, 0.0, 1e-6);
-      hydro::d8_receivers<double>(h.data(), nx, nz, 0.0, rec.data());
+      hydro::d8_directions<double>(h.data(), nx, nz, 0.0, dir.data());
       ++stats.fills;
     }
-    hydro::flow_order(rec.data(), n, order, count.data());
-    // Receivers before donors: the reverse of the donor-first order.
-    for (std::size_t q = n; q-- > 0;) {
-      const std::uint32_t c = order[q], r = rec[c];
-      if (r == c) continue;
-      const std::uint32_t delta = c > r ? c - r : r - c;
-      const bool straight = delta == 1 || delta == std::uint32_t(nx);
-      const double F = (straight ? kdt_straight : kdt_diag) * pow_area(count[c]);
-      const double hr = std::max(h[r], 0.0);  // the sea surface is the base level, not the sea floor
-      const double h0 = h[c] + uplift[c] * dt;
-      double x;
-      if (linear) {
-        x = (h0 + F * hr) / (1.0 + F);
-      } else {
-        // Newton–Raphson on g(x) = x − h0 + F·(x − hr)^n, starting at h0 (g(h0) ≥ 0, g convex).
-        x = h0;
-        for (int it = 0; it < 30 && x > hr; ++it) {
-          const double d = x - hr, pn = std::pow(d, s.n);
-          const double g = x - h0 + F * pn, dg = 1.0 + F * s.n * pn / d;
-          const double nxv = x - g / dg;
-          if (std::fabs(nxv - x) < 1e-9) {
-            x = nxv;
-            break;
+    hydro::donor_masks(dir.data(), nx, nz, mask.data());
+    // Uplift first, in a streaming pass (h_c⁰ = h_c + U·dt for every cell that has a receiver), so
+    // that the basin walks below read one array per cell; outlets stay at base level.
+    detail::parallel_rows(nz, [&](int j) {
+      const std::size_t row = std::size_t(j) * nx;
+      for (std::size_t c = row; c < row + std::size_t(nx); ++c)
+        if (dir[c] != hydro::kNoReceiver) h[c] += uplift[c] * dt;
+    }, 16);
+    // Every cell without a receiver (outlets) roots a drainage basin; basins are disjoint, so they
+    // are solved in parallel, each by the same sequential code: the result does not depend on the
+    // schedule. In a basin, the depth-first preorder from the root puts every receiver before its
+    // donors (Braun & Willett's stack) and keeps neighbouring cells close in the order, which keeps
+    // the random reads of h in cache; drainage areas are summed in the reverse order.
+    tbb::parallel_for(tbb::blocked_range<int>(0, nz, 8), [&](const tbb::blocked_range<int>& rows) {
+      Basin& b = basins.local();
+      for (int j = rows.begin(); j < rows.end(); ++j)
+        for (int i = 0; i < nx; ++i) {
+          const std::size_t root = std::size_t(j) * nx + i;
+          if (dir[root] != hydro::kNoReceiver || mask[root] == 0) continue;
+          b.cell.clear();
+          b.link.clear();
+          b.stack_cell.assign(1, std::uint32_t(root));
+          b.stack_link.assign(1, 0);
+          while (!b.stack_cell.empty()) {
+            const std::uint32_t x = b.stack_cell.back(), l = b.stack_link.back();
+            b.stack_cell.pop_back();
+            b.stack_link.pop_back();
+            const std::uint32_t q = std::uint32_t(b.cell.size());
+            b.cell.push_back(x);
+            b.link.push_back(l);
+            for (unsigned m = mask[x]; m != 0; m &= m - 1) {
+              const int k = __builtin_ctz(m);  // the donor's receiver is c in direction (k + 4) mod 8
+              b.stack_cell.push_back(std::uint32_t(std::ptrdiff_t(x) + off[k]));
+              b.stack_link.push_back(q * 2 + std::uint32_t(k & 1));
+            }
           }
-          x = nxv;
+          const std::size_t cells = b.cell.size();
+          b.count.assign(cells, 1);
+          for (std::size_t q = cells; q-- > 1;) b.count[b.link[q] >> 1] += b.count[q];
+          b.h.resize(cells);
+          b.h[0] = std::max(h[root], 0.0);  // the sea surface is the base level, not the sea floor
+          for (std::size_t q = 1; q < cells; ++q) {
+            const std::uint32_t c = b.cell[q], l = b.link[q];
+            const double x = solve(h[c], b.h[l >> 1], b.count[q], (l & 1) == 0);
+            h[c] = x;
+            b.h[q] = std::max(x, 0.0);
+          }
         }
-      }
-      x = std::min(x, hr + (straight ? max_rise_straight : max_rise_diag));
-      if (!(x > hr)) x = std::nextafter(hr, hr + 1.0);
-      h[c] = x;
-    }
+    });
   }
   detail::parallel_rows(nz, [&](int j) {
     for (int i = 0; i < nx; ++i) {
