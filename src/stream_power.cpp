@@ -20,6 +20,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <memory>
 #include <vector>
 
 #include "erosion.hpp"
@@ -58,10 +59,9 @@ StreamPowerStats stream_power(float* e, const Frame& f, const StreamPowerSetting
   const bool linear = s.n == 1.0;
   const double max_rise_straight = std::tan(s.max_slope_deg * 3.14159265358979323846 / 180.0) * cell;
   const double max_rise_diag = max_rise_straight * std::sqrt(2.0);
-  // The implicit update of one cell with uplifted height h0 = h + U·dt, receiver height hr (already updated),
-  // drainage area cnt cells and a straight or diagonal receiver.
-  auto solve = [&](double h0, double hr, std::uint32_t cnt, bool straight) {
-    const double F = (straight ? kdt_straight : kdt_diag) * pow_area(cnt);
+  // The implicit update of one cell with uplifted height h0 = h + U·dt, receiver height hr (already
+  // updated), F = K·dt·A^m / L^n and a straight or diagonal receiver (the linear case is inlined below).
+  auto solve = [&](double h0, double hr, double F, bool straight) {
     double x;
     if (linear) {
       x = (h0 + F * hr) / (1.0 + F);
@@ -87,14 +87,25 @@ StreamPowerStats stream_power(float* e, const Frame& f, const StreamPowerSetting
   std::ptrdiff_t off[8];
   for (int k = 0; k < 8; ++k) off[k] = std::ptrdiff_t(hydro::kDj[k]) * nx + hydro::kDi[k];
   std::vector<std::uint8_t> dir(n), mask(n);
-  // Per-thread buffers of one drainage basin in depth-first preorder: cells, the position of each
-  // cell's receiver times 2 plus 1 for a diagonal receiver, drainage areas (cells), updated heights;
-  // and the depth-first stack.
+  // Per-thread buffers of one drainage basin in depth-first preorder (sized for the whole map):
+  // cells, the position of each cell's receiver times 2 plus 1 for a diagonal receiver, the
+  // uplifted heights h⁰ (gathered during the walk, while the cell's row is in cache), drainage
+  // areas (cells), the factors F = K·dt·A^m / L^n and the updated heights; and the walk's stack.
   struct Basin {
-    std::vector<std::uint32_t> cell, link, count, stack_cell, stack_link;
-    std::vector<double> h;
+    std::unique_ptr<std::uint32_t[]> cell, link, count, stack;
+    std::unique_ptr<double[]> h0, f, h;
   };
-  tbb::enumerable_thread_specific<Basin> basins;
+  tbb::enumerable_thread_specific<Basin> basins([n] {
+    Basin b;
+    b.cell.reset(new std::uint32_t[n]);
+    b.link.reset(new std::uint32_t[n]);
+    b.count.reset(new std::uint32_t[n]);
+    b.stack.reset(new std::uint32_t[2 * n + 16]);
+    b.h0.reset(new double[n]);
+    b.f.reset(new double[n]);
+    b.h.reset(new double[n]);
+    return b;
+  });
   for (int step = 0; step < s.steps; ++step) {
     if (hydro::d8_directions<double>(h.data(), nx, nz, 0.0, dir.data()) != 0) {
       hydro::fill_depressions<double>(h.data(), nx, nz, 0.0, 1e-6);
@@ -116,37 +127,63 @@ StreamPowerStats stream_power(float* e, const Frame& f, const StreamPowerSetting
     // the random reads of h in cache; drainage areas are summed in the reverse order.
     tbb::parallel_for(tbb::blocked_range<int>(0, nz, 8), [&](const tbb::blocked_range<int>& rows) {
       Basin& b = basins.local();
+      std::uint32_t *const cell = b.cell.get(), *const link = b.link.get(), *const count = b.count.get(),
+                           *const stack = b.stack.get();
+      double *const hb0 = b.h0.get(), *const fb = b.f.get(), *const hb = b.h.get();
       for (int j = rows.begin(); j < rows.end(); ++j)
         for (int i = 0; i < nx; ++i) {
           const std::size_t root = std::size_t(j) * nx + i;
           if (dir[root] != hydro::kNoReceiver || mask[root] == 0) continue;
-          b.cell.clear();
-          b.link.clear();
-          b.stack_cell.assign(1, std::uint32_t(root));
-          b.stack_link.assign(1, 0);
-          while (!b.stack_cell.empty()) {
-            const std::uint32_t x = b.stack_cell.back(), l = b.stack_link.back();
-            b.stack_cell.pop_back();
-            b.stack_link.pop_back();
-            const std::uint32_t q = std::uint32_t(b.cell.size());
-            b.cell.push_back(x);
-            b.link.push_back(l);
+          // Depth-first preorder: a cell is placed when popped, then its donors are pushed.
+          std::size_t cells = 0, top = 0;
+          stack[top++] = std::uint32_t(root);
+          stack[top++] = 0;
+          while (top != 0) {
+            const std::uint32_t l = stack[--top], x = stack[--top];
+            const std::uint32_t q = std::uint32_t(cells++);
+            cell[q] = x;
+            link[q] = l;
+            hb0[q] = h[x];
             for (unsigned m = mask[x]; m != 0; m &= m - 1) {
-              const int k = __builtin_ctz(m);  // the donor's receiver is c in direction (k + 4) mod 8
-              b.stack_cell.push_back(std::uint32_t(std::ptrdiff_t(x) + off[k]));
-              b.stack_link.push_back(q * 2 + std::uint32_t(k & 1));
+              const int k = __builtin_ctz(m);  // the donor drains to x in direction (k + 4) mod 8
+              const std::ptrdiff_t donor = std::ptrdiff_t(x) + off[k];
+              __builtin_prefetch(h.data() + donor);  // read when the donor is placed
+              __builtin_prefetch(mask.data() + donor);
+              stack[top++] = std::uint32_t(donor);
+              stack[top++] = q * 2 + std::uint32_t(k & 1);
             }
           }
-          const std::size_t cells = b.cell.size();
-          b.count.assign(cells, 1);
-          for (std::size_t q = cells; q-- > 1;) b.count[b.link[q] >> 1] += b.count[q];
-          b.h.resize(cells);
-          b.h[0] = std::max(h[root], 0.0);  // the sea surface is the base level, not the sea floor
+          // Drainage areas in reverse preorder (a cell's count is final when it is reached).
+          for (std::size_t q = 0; q < cells; ++q) count[q] = 1;
+          for (std::size_t q = cells; q-- > 1;) count[link[q] >> 1] += count[q];
+          constexpr std::size_t kAhead = 16;  // table rows of large areas are far apart: prefetch them
+          for (std::size_t q = 1; q < std::min(cells, kAhead); ++q) __builtin_prefetch(area_m.data() + std::min<std::size_t>(count[q], table_size - 1));
           for (std::size_t q = 1; q < cells; ++q) {
-            const std::uint32_t c = b.cell[q], l = b.link[q];
-            const double x = solve(h[c], b.h[l >> 1], b.count[q], (l & 1) == 0);
-            h[c] = x;
-            b.h[q] = std::max(x, 0.0);
+            if (q + kAhead < cells) __builtin_prefetch(area_m.data() + std::min<std::size_t>(count[q + kAhead], table_size - 1));
+            fb[q] = ((link[q] & 1) == 0 ? kdt_straight : kdt_diag) * pow_area(count[q]);
+          }
+          hb[0] = std::max(hb0[0], 0.0);  // the sea surface is the base level, not the sea floor
+          if (linear) {
+            // The receiver is usually the previous cell: keep its height in a register.
+            double prev = hb[0];
+            for (std::size_t q = 1; q < cells; ++q) {
+              const std::uint32_t l = link[q];
+              const double hr = (l >> 1) == q - 1 ? prev : hb[l >> 1];
+              const double F = fb[q];
+              double x = (hb0[q] + F * hr) / (1.0 + F);
+              x = std::min(x, hr + ((l & 1) == 0 ? max_rise_straight : max_rise_diag));
+              if (!(x > hr)) [[unlikely]] x = std::nextafter(hr, hr + 1.0);
+              h[cell[q]] = x;
+              prev = std::max(x, 0.0);
+              hb[q] = prev;
+            }
+          } else {
+            for (std::size_t q = 1; q < cells; ++q) {
+              const std::uint32_t l = link[q];
+              const double x = solve(hb0[q], hb[l >> 1], fb[q], (l & 1) == 0);
+              h[cell[q]] = x;
+              hb[q] = std::max(x, 0.0);
+            }
           }
         }
     });
