@@ -20,7 +20,6 @@
 
 #include <algorithm>
 #include <cmath>
-#include <memory>
 #include <vector>
 
 #include "erosion.hpp"
@@ -87,23 +86,23 @@ StreamPowerStats stream_power(float* e, const Frame& f, const StreamPowerSetting
   std::ptrdiff_t off[8];
   for (int k = 0; k < 8; ++k) off[k] = std::ptrdiff_t(hydro::kDj[k]) * nx + hydro::kDi[k];
   std::vector<std::uint8_t> dir(n), mask(n);
-  // Per-thread buffers of one drainage basin in depth-first preorder (sized for the whole map):
+  // Per-thread buffers of one drainage basin in depth-first preorder:
   // cells, the position of each cell's receiver times 2 plus 1 for a diagonal receiver, the
   // uplifted heights h⁰ (gathered during the walk, while the cell's row is in cache), drainage
   // areas (cells), the factors F = K·dt·A^m / L^n and the updated heights; and the walk's stack.
+  // They start small and grow with the largest basin met (not with the map).
   struct Basin {
-    std::unique_ptr<std::uint32_t[]> cell, link, count, stack;
-    std::unique_ptr<double[]> h0, f, h;
+    std::vector<std::uint32_t> cell, link, count, stack;
+    std::vector<double> h0, f, h;
+    void grow_cells(std::size_t need) {
+      const std::size_t size = std::max(need, 2 * cell.size());
+      cell.resize(size), link.resize(size), h0.resize(size);
+    }
   };
-  tbb::enumerable_thread_specific<Basin> basins([n] {
+  tbb::enumerable_thread_specific<Basin> basins([] {
     Basin b;
-    b.cell.reset(new std::uint32_t[n]);
-    b.link.reset(new std::uint32_t[n]);
-    b.count.reset(new std::uint32_t[n]);
-    b.stack.reset(new std::uint32_t[2 * n + 16]);
-    b.h0.reset(new double[n]);
-    b.f.reset(new double[n]);
-    b.h.reset(new double[n]);
+    b.grow_cells(256);
+    b.stack.resize(512);
     return b;
   });
   for (int step = 0; step < s.steps; ++step) {
@@ -127,19 +126,26 @@ StreamPowerStats stream_power(float* e, const Frame& f, const StreamPowerSetting
     // the random reads of h in cache; drainage areas are summed in the reverse order.
     tbb::parallel_for(tbb::blocked_range<int>(0, nz, 8), [&](const tbb::blocked_range<int>& rows) {
       Basin& b = basins.local();
-      std::uint32_t *const cell = b.cell.get(), *const link = b.link.get(), *const count = b.count.get(),
-                           *const stack = b.stack.get();
-      double *const hb0 = b.h0.get(), *const fb = b.f.get(), *const hb = b.h.get();
       for (int j = rows.begin(); j < rows.end(); ++j)
         for (int i = 0; i < nx; ++i) {
           const std::size_t root = std::size_t(j) * nx + i;
           if (dir[root] != hydro::kNoReceiver || mask[root] == 0) continue;
           // Depth-first preorder: a cell is placed when popped, then its donors are pushed.
+          std::uint32_t *cell = b.cell.data(), *link = b.link.data(), *stack = b.stack.data();
+          double* hb0 = b.h0.data();
           std::size_t cells = 0, top = 0;
           stack[top++] = std::uint32_t(root);
           stack[top++] = 0;
           while (top != 0) {
             const std::uint32_t l = stack[--top], x = stack[--top];
+            if (cells == b.cell.size()) [[unlikely]] {
+              b.grow_cells(cells + 1);
+              cell = b.cell.data(), link = b.link.data(), hb0 = b.h0.data();
+            }
+            if (top + 16 > b.stack.size()) [[unlikely]] {
+              b.stack.resize(2 * b.stack.size());
+              stack = b.stack.data();
+            }
             const std::uint32_t q = std::uint32_t(cells++);
             cell[q] = x;
             link[q] = l;
@@ -153,6 +159,9 @@ StreamPowerStats stream_power(float* e, const Frame& f, const StreamPowerSetting
               stack[top++] = q * 2 + std::uint32_t(k & 1);
             }
           }
+          if (b.count.size() < cells) b.count.resize(b.cell.size()), b.f.resize(b.cell.size()), b.h.resize(b.cell.size());
+          std::uint32_t* const count = b.count.data();
+          double *const fb = b.f.data(), *const hb = b.h.data();
           // Drainage areas in reverse preorder (a cell's count is final when it is reached).
           for (std::size_t q = 0; q < cells; ++q) count[q] = 1;
           for (std::size_t q = cells; q-- > 1;) count[link[q] >> 1] += count[q];
