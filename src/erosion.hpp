@@ -65,9 +65,10 @@ HydraulicStats hydraulic_erosion(float* e, const Frame& f, const HydraulicSettin
 // of the 4 neighbours and T = tan(talus_deg)·cell_m, a cell with d_max > T sends
 // rate·(d_max − T) to its lower neighbours with d_k > T, in proportion to d_k (Olsen's form of
 // Musgrave's rule). All cells move at once (Jacobi), so the result does not depend on scheduling;
-// mass is conserved up to float rounding. rate in (0, 0.5] never overshoots. Reads `e`, writes the
-// new elevations to `next` (nx·nz floats, not aliasing e) and uses `scratch` (nx·nz floats).
-void thermal_iteration(const float* e, float* next, float* scratch, const Frame& f, double talus_deg, double rate);
+// mass is conserved up to float rounding. rate in (0, 0.5] never overshoots. Reads `e` and writes the
+// new elevations to `next` (nx·nz floats, not aliasing e), in one fused pass (Highway SIMD,
+// bit-identical for every target and thread count).
+void thermal_iteration(const float* e, float* next, const Frame& f, double talus_deg, double rate);
 
 // ---- stream power with uplift (Braun & Willett 2013; Cordonnier et al. 2016) ---------------
 struct StreamPowerSettings {
@@ -93,7 +94,9 @@ struct StreamPowerStats {
 // so flow always reaches base level (Cordonnier et al. reroute across lake passes instead; filling
 // is the limit in which lakes fill with sediment). The result is written back to `e`, clamped to
 // [0, 1] (raise world.height_m if peaks clip), then ε-filled once more in float so that the stored
-// layer drains too.
+// layer drains too. Each step: D8 direction codes and donor masks (SIMD, row-parallel), then every
+// drainage basin walked depth-first from its outlet (receivers first), in parallel across basins;
+// bit-identical to one global Braun–Willett stack for any thread count.
 StreamPowerStats stream_power(float* e, const Frame& f, const StreamPowerSettings& s);
 
 }  // namespace relief::erosion

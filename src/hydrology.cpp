@@ -1,4 +1,5 @@
-// Grid hydrology: Priority-Flood+ε depression filling, D8 receivers, flow order and accumulation.
+// Grid hydrology: Priority-Flood+ε depression filling, flow order and accumulation (D8 receivers
+// are in hydrology_d8.cpp).
 //
 // Sources:
 //   * R. Barnes, C. Lehman, D. Mulla, "Priority-Flood: An optimal depression-filling and
@@ -13,8 +14,6 @@
 //     problem", J. ACM 37(2), 1990 — the radix heap: Priority-Flood pops non-decreasing levels, so
 //     a monotone integer queue keyed on the order-preserving bits of the float replaces the binary
 //     heap.
-//   * J. F. O'Callaghan, D. M. Mark, "The extraction of drainage networks from digital elevation
-//     data", CVGIP 28, 1984 — D8 steepest descent.
 //   * A. B. Kahn, "Topological sorting of large networks", CACM 5(11), 1962.
 #include "hydrology.hpp"
 
@@ -22,7 +21,6 @@
 #include <cstring>
 #include <limits>
 
-#include "parallel.hpp"
 
 namespace relief::hydro {
 namespace {
@@ -210,34 +208,6 @@ void fill_depressions(T* z, int nx, int nz, T sea, T epsilon) {
   }
 }
 
-template <class T>
-void d8_receivers(const T* z, int nx, int nz, T sea, std::uint32_t* rec) {
-  // Drops are compared in T: straight neighbours by z_c − z_n, diagonal ones by (z_c − z_n)/√2.
-  const T inv_diag = T(1.0 / kDist[1]);
-  std::ptrdiff_t off[8];
-  for (int k = 0; k < 8; ++k) off[k] = std::ptrdiff_t(kDj[k]) * nx + kDi[k];
-  detail::parallel_rows(nz, [&](int j) {
-    const std::size_t row = std::size_t(j) * nx;
-    for (int i = 0; i < nx; ++i) rec[row + i] = std::uint32_t(row + i);
-    if (j == 0 || j == nz - 1) return;
-    for (int i = 1; i + 1 < nx; ++i) {
-      const std::size_t c = row + i;
-      const T zc = z[c];
-      if (zc < sea) continue;
-      T best = 0;
-      int bk = -1;
-      for (int k = 0; k < 8; ++k) {
-        T drop = zc - z[std::ptrdiff_t(c) + off[k]];
-        if (k & 1) drop *= inv_diag;
-        const bool better = drop > best;
-        best = better ? drop : best;
-        bk = better ? k : bk;
-      }
-      if (bk >= 0) rec[c] = std::uint32_t(std::ptrdiff_t(c) + off[bk]);
-    }
-  }, 16);
-}
-
 void flow_order(const std::uint32_t* rec, std::size_t n, std::vector<std::uint32_t>& order, std::uint32_t* count) {
   // Donor counts (at most 8 in D8; 0xFF marks a cell already placed in the order).
   std::vector<std::uint8_t> donors(n, 0);
@@ -280,8 +250,6 @@ std::size_t count_pits(const T* z, int nx, int nz, T sea) {
 
 template void fill_depressions<float>(float*, int, int, float, float);
 template void fill_depressions<double>(double*, int, int, double, double);
-template void d8_receivers<float>(const float*, int, int, float, std::uint32_t*);
-template void d8_receivers<double>(const double*, int, int, double, std::uint32_t*);
 template std::size_t count_pits<float>(const float*, int, int, float);
 template std::size_t count_pits<double>(const double*, int, int, double);
 

@@ -36,9 +36,23 @@ void fill_depressions(T* z, int nx, int nz, T sea, T epsilon);
 
 // D8 steepest descent: rec[c] = the neighbour with the largest drop / distance, if that drop is
 // > 0; rec[c] = c for outlets and for pits (no lower neighbour). Ties go to the first neighbour in
-// the order E, SE, S, SW, W, NW, N, NE. Row-parallel.
+// the order E, SE, S, SW, W, NW, N, NE. Row-parallel, Highway SIMD (src/hydrology_d8.cpp; every
+// target picks the same receivers).
 template <class T>
 void d8_receivers(const T* z, int nx, int nz, T sea, std::uint32_t* rec);
+
+// The same choice as a direction code per cell: dir[c] = k when the receiver is the neighbour
+// (i + kDi[k], j + kDj[k]), kNoReceiver for outlets and pits. Returns the number of pits (cells
+// that are not outlets and have no strictly lower neighbour, as count_pits counts them).
+inline constexpr std::uint8_t kNoReceiver = 8;
+template <class T>
+std::size_t d8_directions(const T* z, int nx, int nz, T sea, std::uint8_t* dir);
+
+// Donor masks of direction codes: bit k of mask[c] is set when the neighbour (i + kDi[k],
+// j + kDj[k]) drains into c (its code is (k + 4) mod 8). Row-parallel. With them the flow graph can
+// be walked upstream from any outlet without building donor lists (Braun and Willett 2013's stack,
+// breadth first).
+void donor_masks(const std::uint8_t* dir, int nx, int nz, std::uint8_t* mask);
 
 // A topological order of the flow graph, donors before receivers: every cell appears after all
 // cells that drain into it (Kahn 1962, following chains downstream from the sources). `rec` must

@@ -69,9 +69,9 @@ struct ThermalParams {
 void apply_thermal(Terrain& t, const ThermalParams& p, const Context&) {
   Layer& h = height_layer(t);
   const int iterations = int(std::ceil(p.distance_m / t.frame.cell_m() - 1e-9));
-  std::vector<float> next(h.data.size()), scratch(h.data.size());
+  std::vector<float> next(h.data.size());
   for (int it = 0; it < iterations; ++it) {
-    erosion::thermal_iteration(h.data.data(), next.data(), scratch.data(), t.frame, p.talus_deg, p.rate);
+    erosion::thermal_iteration(h.data.data(), next.data(), t.frame, p.talus_deg, p.rate);
     h.data.swap(next);
   }
   for (float& v : h.data) v = std::clamp(v, 0.0f, 1.0f);

@@ -14,6 +14,10 @@
 //     S = (U/K)^(1/n)·A^(−m/n): channel concavity θ = m/n, which the tests measure.
 //
 // Units: h in metres (sea surface at 0), A in m² (times `rainfall`), S in m/m, t in years.
+#include <tbb/blocked_range.h>
+#include <tbb/enumerable_thread_specific.h>
+#include <tbb/parallel_for.h>
+
 #include <algorithm>
 #include <cmath>
 #include <vector>
@@ -51,57 +55,147 @@ StreamPowerStats stream_power(float* e, const Frame& f, const StreamPowerSetting
   for (std::size_t a = 0; a < table_size; ++a) area_m[a] = std::pow(double(a) * cell_area, s.m);
   auto pow_area = [&](std::uint32_t cnt) { return cnt < table_size ? area_m[cnt] : std::pow(double(cnt) * cell_area, s.m); };
 
-  std::vector<std::uint32_t> rec(n), order, count(n);
   const bool linear = s.n == 1.0;
   const double max_rise_straight = std::tan(s.max_slope_deg * 3.14159265358979323846 / 180.0) * cell;
   const double max_rise_diag = max_rise_straight * std::sqrt(2.0);
-  for (int step = 0; step < s.steps; ++step) {
-    hydro::d8_receivers<double>(h.data(), nx, nz, 0.0, rec.data());
-    bool pits = false;
-    for (int j = 1; j + 1 < nz && !pits; ++j)
-      for (int i = 1; i + 1 < nx; ++i) {
-        const std::size_t c = std::size_t(j) * nx + i;
-        if (rec[c] == c && h[c] >= 0.0) {
-          pits = true;
+  // The implicit update of one cell with uplifted height h0 = h + U·dt, receiver height hr (already
+  // updated), F = K·dt·A^m / L^n and a straight or diagonal receiver (the linear case is inlined below).
+  auto solve = [&](double h0, double hr, double F, bool straight) {
+    double x;
+    if (linear) {
+      x = (h0 + F * hr) / (1.0 + F);
+    } else {
+      // Newton–Raphson on g(x) = x − h0 + F·(x − hr)^n, starting at h0 (g(h0) ≥ 0, g convex).
+      x = h0;
+      for (int it = 0; it < 30 && x > hr; ++it) {
+        const double d = x - hr, pn = std::pow(d, s.n);
+        const double g = x - h0 + F * pn, dg = 1.0 + F * s.n * pn / d;
+        const double nxv = x - g / dg;
+        if (std::fabs(nxv - x) < 1e-9) {
+          x = nxv;
           break;
         }
+        x = nxv;
       }
-    if (pits) {
+    }
+    x = std::min(x, hr + (straight ? max_rise_straight : max_rise_diag));
+    if (!(x > hr)) x = std::nextafter(hr, hr + 1.0);
+    return x;
+  };
+
+  std::ptrdiff_t off[8];
+  for (int k = 0; k < 8; ++k) off[k] = std::ptrdiff_t(hydro::kDj[k]) * nx + hydro::kDi[k];
+  std::vector<std::uint8_t> dir(n), mask(n);
+  // Per-thread buffers of one drainage basin in depth-first preorder:
+  // cells, the position of each cell's receiver times 2 plus 1 for a diagonal receiver, the
+  // uplifted heights h⁰ (gathered during the walk, while the cell's row is in cache), drainage
+  // areas (cells), the factors F = K·dt·A^m / L^n and the updated heights; and the walk's stack.
+  // They start small and grow with the largest basin met (not with the map).
+  struct Basin {
+    std::vector<std::uint32_t> cell, link, count, stack;
+    std::vector<double> h0, f, h;
+    void grow_cells(std::size_t need) {
+      const std::size_t size = std::max(need, 2 * cell.size());
+      cell.resize(size), link.resize(size), h0.resize(size);
+    }
+  };
+  tbb::enumerable_thread_specific<Basin> basins([] {
+    Basin b;
+    b.grow_cells(256);
+    b.stack.resize(512);
+    return b;
+  });
+  for (int step = 0; step < s.steps; ++step) {
+    if (hydro::d8_directions<double>(h.data(), nx, nz, 0.0, dir.data()) != 0) {
       hydro::fill_depressions<double>(h.data(), nx, nz, 0.0, 1e-6);
-      hydro::d8_receivers<double>(h.data(), nx, nz, 0.0, rec.data());
+      hydro::d8_directions<double>(h.data(), nx, nz, 0.0, dir.data());
       ++stats.fills;
     }
-    hydro::flow_order(rec.data(), n, order, count.data());
-    // Receivers before donors: the reverse of the donor-first order.
-    for (std::size_t q = n; q-- > 0;) {
-      const std::uint32_t c = order[q], r = rec[c];
-      if (r == c) continue;
-      const std::uint32_t delta = c > r ? c - r : r - c;
-      const bool straight = delta == 1 || delta == std::uint32_t(nx);
-      const double F = (straight ? kdt_straight : kdt_diag) * pow_area(count[c]);
-      const double hr = std::max(h[r], 0.0);  // the sea surface is the base level, not the sea floor
-      const double h0 = h[c] + uplift[c] * dt;
-      double x;
-      if (linear) {
-        x = (h0 + F * hr) / (1.0 + F);
-      } else {
-        // Newton–Raphson on g(x) = x − h0 + F·(x − hr)^n, starting at h0 (g(h0) ≥ 0, g convex).
-        x = h0;
-        for (int it = 0; it < 30 && x > hr; ++it) {
-          const double d = x - hr, pn = std::pow(d, s.n);
-          const double g = x - h0 + F * pn, dg = 1.0 + F * s.n * pn / d;
-          const double nxv = x - g / dg;
-          if (std::fabs(nxv - x) < 1e-9) {
-            x = nxv;
-            break;
+    hydro::donor_masks(dir.data(), nx, nz, mask.data());
+    // Uplift first, in a streaming pass (h_c⁰ = h_c + U·dt for every cell that has a receiver), so
+    // that the basin walks below read one array per cell; outlets stay at base level.
+    detail::parallel_rows(nz, [&](int j) {
+      const std::size_t row = std::size_t(j) * nx;
+      for (std::size_t c = row; c < row + std::size_t(nx); ++c)
+        if (dir[c] != hydro::kNoReceiver) h[c] += uplift[c] * dt;
+    }, 16);
+    // Every cell without a receiver (outlets) roots a drainage basin; basins are disjoint, so they
+    // are solved in parallel, each by the same sequential code: the result does not depend on the
+    // schedule. In a basin, the depth-first preorder from the root puts every receiver before its
+    // donors (Braun & Willett's stack) and keeps neighbouring cells close in the order, which keeps
+    // the random reads of h in cache; drainage areas are summed in the reverse order.
+    tbb::parallel_for(tbb::blocked_range<int>(0, nz, 8), [&](const tbb::blocked_range<int>& rows) {
+      Basin& b = basins.local();
+      for (int j = rows.begin(); j < rows.end(); ++j)
+        for (int i = 0; i < nx; ++i) {
+          const std::size_t root = std::size_t(j) * nx + i;
+          if (dir[root] != hydro::kNoReceiver || mask[root] == 0) continue;
+          // Depth-first preorder: a cell is placed when popped, then its donors are pushed.
+          std::uint32_t *cell = b.cell.data(), *link = b.link.data(), *stack = b.stack.data();
+          double* hb0 = b.h0.data();
+          std::size_t cells = 0, top = 0;
+          stack[top++] = std::uint32_t(root);
+          stack[top++] = 0;
+          while (top != 0) {
+            const std::uint32_t l = stack[--top], x = stack[--top];
+            if (cells == b.cell.size()) [[unlikely]] {
+              b.grow_cells(cells + 1);
+              cell = b.cell.data(), link = b.link.data(), hb0 = b.h0.data();
+            }
+            if (top + 16 > b.stack.size()) [[unlikely]] {
+              b.stack.resize(2 * b.stack.size());
+              stack = b.stack.data();
+            }
+            const std::uint32_t q = std::uint32_t(cells++);
+            cell[q] = x;
+            link[q] = l;
+            hb0[q] = h[x];
+            for (unsigned m = mask[x]; m != 0; m &= m - 1) {
+              const int k = __builtin_ctz(m);  // the donor drains to x in direction (k + 4) mod 8
+              const std::ptrdiff_t donor = std::ptrdiff_t(x) + off[k];
+              __builtin_prefetch(h.data() + donor);  // read when the donor is placed
+              __builtin_prefetch(mask.data() + donor);
+              stack[top++] = std::uint32_t(donor);
+              stack[top++] = q * 2 + std::uint32_t(k & 1);
+            }
           }
-          x = nxv;
+          if (b.count.size() < cells) b.count.resize(b.cell.size()), b.f.resize(b.cell.size()), b.h.resize(b.cell.size());
+          std::uint32_t* const count = b.count.data();
+          double *const fb = b.f.data(), *const hb = b.h.data();
+          // Drainage areas in reverse preorder (a cell's count is final when it is reached).
+          for (std::size_t q = 0; q < cells; ++q) count[q] = 1;
+          for (std::size_t q = cells; q-- > 1;) count[link[q] >> 1] += count[q];
+          constexpr std::size_t kAhead = 16;  // table rows of large areas are far apart: prefetch them
+          for (std::size_t q = 1; q < std::min(cells, kAhead); ++q) __builtin_prefetch(area_m.data() + std::min<std::size_t>(count[q], table_size - 1));
+          for (std::size_t q = 1; q < cells; ++q) {
+            if (q + kAhead < cells) __builtin_prefetch(area_m.data() + std::min<std::size_t>(count[q + kAhead], table_size - 1));
+            fb[q] = ((link[q] & 1) == 0 ? kdt_straight : kdt_diag) * pow_area(count[q]);
+          }
+          hb[0] = std::max(hb0[0], 0.0);  // the sea surface is the base level, not the sea floor
+          if (linear) {
+            // The receiver is usually the previous cell: keep its height in a register.
+            double prev = hb[0];
+            for (std::size_t q = 1; q < cells; ++q) {
+              const std::uint32_t l = link[q];
+              const double hr = (l >> 1) == q - 1 ? prev : hb[l >> 1];
+              const double F = fb[q];
+              double x = (hb0[q] + F * hr) / (1.0 + F);
+              x = std::min(x, hr + ((l & 1) == 0 ? max_rise_straight : max_rise_diag));
+              if (!(x > hr)) [[unlikely]] x = std::nextafter(hr, hr + 1.0);
+              h[cell[q]] = x;
+              prev = std::max(x, 0.0);
+              hb[q] = prev;
+            }
+          } else {
+            for (std::size_t q = 1; q < cells; ++q) {
+              const std::uint32_t l = link[q];
+              const double x = solve(hb0[q], hb[l >> 1], fb[q], (l & 1) == 0);
+              h[cell[q]] = x;
+              hb[q] = std::max(x, 0.0);
+            }
+          }
         }
-      }
-      x = std::min(x, hr + (straight ? max_rise_straight : max_rise_diag));
-      if (!(x > hr)) x = std::nextafter(hr, hr + 1.0);
-      h[c] = x;
-    }
+    });
   }
   detail::parallel_rows(nz, [&](int j) {
     for (int i = 0; i < nx; ++i) {

@@ -547,7 +547,7 @@ int run_bench(const BenchSettings& s) {
     const Terrain base = terrain(n);
     const Frame& f = base.frame;
     const std::vector<float>& h0 = base.get("height").data;
-    std::vector<float> h(h0.size()), next(h0.size()), scratch(h0.size());
+    std::vector<float> h(h0.size()), next(h0.size());
     for (int threads : s.threads) {
       tbb::task_arena arena(threads);
       // 1M droplets, brush radius 3 samples, lifetime 30 steps of one sample.
@@ -571,7 +571,7 @@ int run_bench(const BenchSettings& s) {
         h = h0;
         arena.execute([&] {
           for (int it = 0; it < kIter; ++it) {
-            erosion::thermal_iteration(h.data(), next.data(), scratch.data(), f, 30.0, 0.5);
+            erosion::thermal_iteration(h.data(), next.data(), f, 30.0, 0.5);
             h.swap(next);
           }
         });
