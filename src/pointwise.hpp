@@ -186,6 +186,9 @@ struct HillshadeRow {
   float lx = 0, ly = 1, lz = 0;
   float ambient = 0.2f, diffuse = 0.8f, flat = 1.0f, water_relief = 0.3f;
   float sea_below = 0.4f;  // e < this is under water (float_at_least(sea_level))
+  // Non-temporal stores for rgb (hillshade.cpp sets it for layers far beyond the caches): the
+  // colour is written without first reading its cache lines. The same values either way.
+  bool stream = false;
 };
 // rows: the height rows (n ≥ 1 values each); albedo: 3n or null; shade: n written (or null: not
 // written); rgb: 3n written. One read of the three rows and the albedo, one write.

@@ -540,3 +540,38 @@ TEST(Hillshade, StageIsTheSharedImplementation) {
   EXPECT_EQ(color.data, t.get("color").data);
 }
 
+// ---- hillshade's streaming stores -------------------------------------------------------------
+
+// Layers far beyond the caches are written with non-temporal stores from the first vector-aligned
+// colour sample on (HillshadeRow::stream): the same bytes as plain stores for every alignment of
+// the colour row, with and without albedo and shade.
+TEST(Hillshade, StreamingStoresWriteTheSameBytes) {
+  const int n = 301;
+  std::vector<float> up(n), mid(n), down(n), albedo(3 * n);
+  for (int i = 0; i < n; ++i) {
+    mid[i] = float(0.5 + 0.3 * std::sin(i * 0.37));
+    up[i] = float(0.5 + 0.3 * std::sin(i * 0.29 + 1.0));
+    down[i] = float(0.5 + 0.3 * std::cos(i * 0.41));
+    for (int c = 0; c < 3; ++c) albedo[3 * i + c] = float(0.2 + 0.1 * c + 0.5 * std::fabs(std::sin(i * 0.13 + c)));
+  }
+  relief::detail::GradientRows rows;
+  rows.up = up.data(), rows.mid = mid.data(), rows.down = down.data();
+  rows.central = 3.0f, rows.edge = 6.0f, rows.kz = 3.0f;
+  relief::detail::HillshadeRow k;
+  k.sea_below = 0.45f;
+  int streamed = 0;
+  for (int offset = 0; offset < 16; ++offset)
+    for (bool with_albedo : {true, false}) {
+      std::vector<float> rgb0(3 * n + 16, -1.0f), rgb1(rgb0), shade0(n, -1.0f), shade1(shade0);
+      k.stream = false;
+      relief::detail::hillshade_row(k, rows, with_albedo ? albedo.data() : nullptr, shade0.data(), rgb0.data() + offset, n);
+      k.stream = true;
+      relief::detail::hillshade_row(k, rows, with_albedo ? albedo.data() : nullptr, with_albedo ? shade1.data() : nullptr,
+                                    rgb1.data() + offset, n);
+      EXPECT_EQ(0, std::memcmp(rgb0.data(), rgb1.data(), rgb0.size() * sizeof(float))) << "offset " << offset;
+      if (with_albedo) EXPECT_EQ(shade0, shade1) << "offset " << offset;
+      else EXPECT_EQ(shade1, std::vector<float>(n, -1.0f));  // no shade asked for: none written
+      streamed += rgb0[offset + 3 * n - 1] != -1.0f;
+    }
+  EXPECT_EQ(streamed, 32);  // every row was written to its end
+}
