@@ -30,10 +30,12 @@ using D = hn::ScalableTag<float>;
 using V = hn::Vec<D>;
 using DI = hn::RebindToSigned<D>;
 
-// Pow01's 2^g = 1 + g·(kExp2[0] + g·(… + g·kExp2[4])), |g| ≤ ½: a minimax fit (Remez exchange in
-// double, rounded to float), relative error 9e-8. Its log2 polynomial is kPowLog2 (pointwise.hpp).
-constexpr float kExp2[5] = {0.6931469775991949f, 0.24022242085377893f, 0.055507337431893136f, 0.009671512639580928f,
-                            0.0013264727217737718f};
+// Pow01's 2^g = (P + Q)/(P − Q), P = 1 + kExp2R[1]·g², Q = kExp2R[0]·g, |g| ≤ ½ + 2^−14: a [2/2]
+// rational of the symmetric form exp itself has (R(−g) = 1/R(g)), minimax relative error 5.6e-7
+// among those with R(½) = √2 (so 2^n·R(½) = 2^(n+1)·R(−½): the result is continuous where n steps).
+// Three operations fewer than the degree-5 polynomial it replaces. Its log2 polynomial is kPowLog2
+// (pointwise.hpp).
+constexpr float kExp2R[2] = {0.3465709434903669f, 0.03992697537626633f};
 
 HWY_INLINE V Clamp01(D d, V v) { return hn::Min(hn::Max(v, hn::Zero(d)), hn::Set(d, 1.0f)); }
 
@@ -72,8 +74,8 @@ HWY_INLINE V WithLand(D d, const LandOnly& land, V e, G&& g) {
 //   y·log2 x = y_hi·k + (y_lo·k + y·log2 m), y_hi = y with 12 significant bits, so y_hi·k is exact
 //   and the float error is that of a number below ~5 in magnitude — the result's relative error
 //   does not grow for small x;
-//   2^f = 2^n·2^g, n = round(f), g ∈ [−½, ½] (+ 2^−14), 2^g = 1 + g·Q(g), Q a degree-4 minimax
-//   fit (relative error 9e-8); the product with 2^n is an integer add to the exponent bits.
+//   2^f = 2^n·2^g, n = round(f), g ∈ [−½, ½] (+ 2^−14), 2^g a [2/2] rational (kExp2R, relative
+//   error 5.6e-7); the product with 2^n is an integer add to the exponent bits.
 // x = 1 gives exactly 1 (t = 0, f = 0, 2^0 = 1). x < x_min (x^y < 2^−125, and x = 0) gives 0:
 // no subnormal results. Rounding to an integer uses the 1.5·2^23 trick (valid for |f| < 2^22),
 // which every target evaluates with the same two IEEE additions.
@@ -107,9 +109,10 @@ HWY_INLINE V Exp2Times(D d, const RedistributeRow& k, V kf, V ylog2m) {
   // exponent will do), then g = (hi − n) + lo with hi − n exact: one rounding, |g| ≤ ½ + 2^−14.
   const V r = hn::Add(hn::Add(hi, lo), magic);
   const V g = hn::Add(hn::Sub(hi, hn::Sub(r, magic)), lo);
-  V q = hn::Set(d, kExp2[4]);
-  for (int c = 3; c >= 0; --c) q = hn::Add(hn::Set(d, kExp2[c]), hn::Mul(g, q));
-  const V frac = hn::Add(hn::Set(d, 1.0f), hn::Mul(g, q));  // in [0.7, 1.42]
+  // (P + Q)/(P − Q) as 1 + 2Q/(P − Q): the rounding errors scale with the small term.
+  const V pe = hn::Add(hn::Set(d, 1.0f), hn::Mul(hn::Set(d, kExp2R[1]), hn::Mul(g, g)));
+  const V qo = hn::Mul(hn::Set(d, kExp2R[0]), g), qo2 = hn::Mul(hn::Set(d, 2.0f * kExp2R[0]), g);
+  const V frac = hn::Add(hn::Set(d, 1.0f), hn::Div(qo2, hn::Sub(pe, qo)));  // in [0.7, 1.42]
   // 2^n·frac by adding n to the exponent field: bits(r) << 23 equals n << 23 modulo 2^32, as the
   // low 9 bits of bits(1.5·2^23) are zero.
   const auto n_field = hn::ShiftLeft<23>(hn::BitCast(di, r));

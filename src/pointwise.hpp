@@ -54,7 +54,7 @@ struct LandOnly {
 // ---- result is clamped to [0, 1].
 
 // e' = clamp(modifier · e^exponent); e^1 is exact (no pow), 0^y = 0, 1^y = 1 exactly.
-// e^y is our own exp2(y·log2 e) (pointwise.cpp: Pow01): relative error ≤ 1e-6 against the double
+// e^y is our own exp2(y·log2 e) (pointwise.cpp: Pow01): relative error ≤ 1.5e-6 against the double
 // pow for results ≥ 2^−125 (inputs ≥ x_min), 0 below that; exactly rounded operations only, so every
 // target gives the same bits. Monotone up to that error (tests/test_pointwise.cpp).
 // log2 m = t·P(t²), t = (m − 1)/(m + 1), m ∈ [√½, √2) (|t| ≤ 3 − 2√2), P(s) = c0 + s·(c1 + s·c2):
