@@ -156,12 +156,16 @@ void RedistributePow(const RedistributeRow& kr, float* HWY_RESTRICT row, int n) 
   const V x_min = hn::Set(d, k.land_x_min);
   auto land = [&](V v, auto with_modifier) {
     const V e = Clamp01(d, v);
+    const auto sea_floor = hn::Le(e, floor_max);
+    // A vector wholly under the sea (common: seas are wide) keeps its heights; the same values as
+    // the select below, without the power.
+    if (hn::AllTrue(d, sea_floor)) return e;
     const V x = hn::Max(hn::Sub(e, sea), x_min);
     V kf, yl;
     Log2Parts<kTiny>(d, k, x, kf, yl, k_offset);
     V p = Exp2Times(d, k, kf, hn::Sub(yl, yl_land));
     if constexpr (decltype(with_modifier)::value) p = hn::Min(hn::Mul(mod, p), one);  // else p ≤ 1 already
-    return hn::IfThenElse(hn::Le(e, floor_max), e, hn::Min(hn::Add(sea, hn::Mul(span, p)), one));
+    return hn::IfThenElse(sea_floor, e, hn::Min(hn::Add(sea, hn::Mul(span, p)), one));
   };
   if (k.modifier == 1.0f) InPlace(d, row, n, [&](V v, int) { return land(v, std::false_type()); });
   else InPlace(d, row, n, [&](V v, int) { return land(v, std::true_type()); });
