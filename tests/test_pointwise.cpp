@@ -337,6 +337,23 @@ TEST(Redistribute, LandOnlyHeightsJustAboveTheSeaMapToIt) {
   EXPECT_GT(low[0], 0.4f + 0.01f);  // ((ulp)/0.6)^0.1 ≈ 0.18 of the land span
 }
 
+// Vectors wholly under the sea skip the power: each height gets the same value whether its vector
+// is all sea floor or mixed with land (the kernel is pointwise), and the sea floor keeps its
+// (clamped) height.
+TEST(Redistribute, LandOnlySeaFloorVectorsMatchMixedOnes) {
+  std::vector<float> sea_first, mixed;
+  for (int i = 0; i < 64; ++i) sea_first.push_back(i < 64 - 16 ? float(-0.1 + 0.5 * i / 48.0) : float(0.45 + i * 0.008));
+  for (int i = 0; i < 64; ++i) mixed.push_back(sea_first[std::size_t(i % 2 ? 63 - i / 2 : i / 2)]);
+  for (double y : {0.5, 2.2}) {
+    const auto a = pow_row(y, sea_first, true, 0.4), b = pow_row(y, mixed, true, 0.4);
+    for (int i = 0; i < 64; ++i) {
+      const int src = i % 2 ? 63 - i / 2 : i / 2;
+      EXPECT_EQ(to_bits(b[std::size_t(i)]), to_bits(a[std::size_t(src)])) << "height " << mixed[std::size_t(i)];
+      if (sea_first[std::size_t(src)] <= 0.4f) EXPECT_EQ(a[std::size_t(src)], std::max(sea_first[std::size_t(src)], 0.0f));
+    }
+  }
+}
+
 // Consecutive floats around every place where the evaluation changes regime (the √½ mantissa
 // split of each binade, powers of two, the flush threshold, just below 1): the result never
 // falls by more than one ulp from one input to the next, and on a grid coarser than the error it
