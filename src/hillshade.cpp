@@ -21,6 +21,9 @@ void hillshade(const Frame& fr, const Layer& h, const Layer* albedo, const Light
   k.water_relief = float(p.water_relief);
   k.sea_below = float_at_least(fr.sea_level);
   const std::size_t count = fr.count();
+  // Outputs far beyond the last-level cache (here 16 bytes per sample over 32 MiB, from about
+  // 1450² on) cannot stay cached for the next reader anyway: write the colour without reading it.
+  k.stream = count * 16 > (std::size_t(32) << 20);
   // Every sample is written below: size the outputs without clearing them.
   auto size = [&](Layer& l, int channels) {
     l.channels = channels;

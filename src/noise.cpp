@@ -384,6 +384,22 @@ inline float gradient_axis(const GRow& r, const GAxis& a) {
   const float sx = gfade(fx);
   return glerp(r.sy, glerp(sx, g00, g10), glerp(sx, g01, g11));
 }
+// Ridged (noise_simd.hpp, ridged_scale): the corner offsets scaled by s, the fades not.
+inline GRow scale_row(GRow r, float s) {
+  r.fy = s * r.fy;
+  r.fy1 = r.fy - s;
+  return r;
+}
+inline float gradient_axis_scaled(const GRow& r, const GAxis& a, float s) {
+  const std::uint32_t xp0 = a.i0 * detail::kGradPx, xp1 = a.i1 * detail::kGradPx;
+  const float fx = s * a.f, fx1 = fx - s;
+  const float g00 = gcorner(xp0, r.zp0, fx, r.fy);
+  const float g10 = gcorner(xp1, r.zp0, fx1, r.fy);
+  const float g01 = gcorner(xp0, r.zp1, fx, r.fy1);
+  const float g11 = gcorner(xp1, r.zp1, fx1, r.fy1);
+  const float sx = gfade(a.f);
+  return glerp(r.sy, glerp(sx, g00, g10), glerp(sx, g01, g11));
+}
 inline float gradient_core(const detail::NoiseOctave& o, const GRow& r, double u) {
   return gradient_axis(r, gaxis(u, o.period_x, o.inv_period_x));
 }
@@ -520,6 +536,7 @@ detail::NoiseOctave make_octave(const NoiseSettings& s, std::uint64_t index, dou
   o.offset_x = 256.0 * unit_double(hash64(s.seed, kTagOffset, 2 * index));
   o.offset_z = 256.0 * unit_double(hash64(s.seed, kTagOffset, 2 * index + 1));
   o.amp = amp;
+  o.ridge_scale = detail::ridged_scale(amp);
   o.key = hash64(s.seed, kTagTable, index);
   o.key32 = std::uint32_t(o.key ^ (o.key >> 32));
   if (s.basis == NoiseBasis::Perlin) {
@@ -705,36 +722,45 @@ void Noise::run_gradient(double z_m, XAt x_at, int n, float* out) const {
     const detail::NoiseOctave& o0 = octaves_[0];
     DyAxis dzr{};  // the row's z lattice state (dyadic, no warp)
     const GAxis az0 = dy_start(z_m * o0.freq_z + o0.offset_z, dzr);
+    const bool ridged = s_.fractal == Fractal::Ridged;
     for (std::size_t k = 0; k < octaves_.size(); ++k) {
       const detail::NoiseOctave& o = octaves_[k];
       const float a = float(o.amp);
+      const float sc = o.ridge_scale;  // ridged: √a folded into the corner offsets
+      auto scaled = [&](const GRow& r) { return ridged ? scale_row(r, sc) : r; };
+      auto eval = [&](const GRow& r, const GAxis& ax) {
+        return ridged ? gradient_axis_scaled(r, ax, sc) : gradient_axis(r, ax);
+      };
       GRow row;
-      if (dy) row = grow_axis(o, k == 0 ? az0 : dy_step(dzr));
-      else row = grow(o, z_m * o.freq_z + o.offset_z);
+      if (dy) row = scaled(grow_axis(o, k == 0 ? az0 : dy_step(dzr)));
+      else row = scaled(grow(o, z_m * o.freq_z + o.offset_z));
       for (int i = 0; i < m; ++i) {
         float v;
         if (dy) {
           // Octave 0 starts each sample's state, later octaves step it.
           const GAxis ax = k == 0 ? dy_start(xs[i] * o.freq_x + o.offset_x, dx[i]) : dy_step(dx[i]);
-          if (warp) row = grow_axis(o, k == 0 ? dy_start(zs[i] * o.freq_z + o.offset_z, dz[i]) : dy_step(dz[i]));
-          v = gradient_axis(row, ax);
+          if (warp)
+            row = scaled(grow_axis(o, k == 0 ? dy_start(zs[i] * o.freq_z + o.offset_z, dz[i]) : dy_step(dz[i])));
+          v = eval(row, ax);
         } else {
-          v = gradient_core(o, warp ? grow(o, zs[i] * o.freq_z + o.offset_z) : row, xs[i] * o.freq_x + o.offset_x);
+          v = eval(warp ? scaled(grow(o, zs[i] * o.freq_z + o.offset_z)) : row,
+                   gaxis(xs[i] * o.freq_x + o.offset_x, o.period_x, o.inv_period_x));
         }
         switch (s_.fractal) {
           case Fractal::None:
           case Fractal::Fbm: acc[i] = acc[i] + a * v; break;
           case Fractal::Ridged: {
-            const float r = 1.0f - std::fabs(v);
-            acc[i] = acc[i] + a * (r * r);
+            const float r = sc - std::fabs(v);  // v ≈ sc·n: r·r ≈ a·(1 − |n|)²
+            acc[i] = acc[i] + r * r;
             break;
           }
           case Fractal::Billow: acc[i] = acc[i] + a * (2.0f * std::fabs(v) - 1.0f); break;
         }
       }
     }
+    const float inv2 = 2.0f * inv;  // ridged: 2·(acc·inv) = acc·(2·inv), ×2 being exact
     for (int i = 0; i < m; ++i) {
-      float v = s_.fractal == Fractal::Ridged ? 2.0f * (acc[i] * inv) - 1.0f : acc[i] * inv;
+      float v = ridged ? acc[i] * inv2 - 1.0f : acc[i] * inv;
       v = v > -1.0f ? v : -1.0f;  // float rounding of Σ aₖ could step past ±1 by an ulp
       out[start + i] = v < 1.0f ? v : 1.0f;
     }

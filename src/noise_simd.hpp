@@ -1,6 +1,7 @@
 #pragma once
 // Internal: the Highway row kernels behind Noise::row (src/noise_simd.cpp) and the constants they
 // share with the scalar reference (src/noise.cpp). Not installed, not an API.
+#include <cmath>
 #include <cstdint>
 #include <string>
 #include <vector>
@@ -50,6 +51,14 @@ alignas(64) constexpr float kGradDirY[16] = {
 constexpr double kTwo32 = 4294967296.0;
 constexpr std::uint32_t kDyadicOne = 0x3FC00000u;
 
+// Gradient basis, ridged fractal: octave k's amplitude aₖ enters as sₖ = float(√aₖ) scaling the
+// corner offsets (fx, fx − 1, fy, fy − 1 → s·fx, s·fx − s, s·fy, s·fy − s; the fades stay on the
+// unscaled fractions), so the octave's value is n' ≈ s·n and the fold is acc += (s − |n'|)²
+// ≈ aₖ·(1 − |n|)²: abs, sub, mul, add instead of abs, sub, mul, mul, add. The normalisation
+// 2·(acc·inv) − 1 is evaluated as acc·(2·inv) − 1 (the same bits: ×2 is exact). Kept in
+// NoiseOctave::ridge_scale (computed once per Noise).
+inline float ridged_scale(double amp) { return float(std::sqrt(amp)); }
+
 // Shared with noise.cpp, which defines the tables from its constexpr generators.
 constexpr std::uint64_t kLatticePx = 0x9E3779B97F4A7C15ull;  // Value / Simplex / Cellular hashing
 constexpr std::uint64_t kLatticePz = 0xC2B2AE3D27D4EB4Full;
@@ -83,8 +92,9 @@ void noise_row_simd(const NoiseKernelArgs& a, double z_m, std::int64_t i0, doubl
 
 // Per-column terms (Noise::columns): only the Gradient basis without warp has x-only terms.
 // Layout: for octave k and array f (kColumnArrays of them: i0·Pₓ, i1·Pₓ as uint32; fx, fx − 1 and
-// fade(fx) as float bits), entry i is at cols[(k·kColumnArrays + f)·stride + i]; stride is a
-// multiple of 16, cols 64-byte aligned. Target-independent (natural lane order, exact values).
+// fade(fx) as float bits; ridged: s·fx and s·fx − s, see ridged_scale), entry i is at
+// cols[(k·kColumnArrays + f)·stride + i]; stride is a multiple of 16, cols 64-byte aligned.
+// Target-independent (natural lane order, exact values).
 constexpr int kColumnArrays = 5;
 inline bool noise_columns_supported(const NoiseKernelArgs& a) {
   return a.basis == NoiseBasis::Gradient && !a.warp;

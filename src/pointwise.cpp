@@ -9,10 +9,12 @@
 #include <hwy/foreach_target.h>  // IWYU pragma: keep
 
 #include <hwy/contrib/math/math-inl.h>
+#include <hwy/cache_control.h>
 #include <hwy/highway.h>
 
 #include <algorithm>
 #include <cmath>
+#include <cstdint>
 #include <limits>
 #include <numbers>
 #include <type_traits>
@@ -28,12 +30,12 @@ using D = hn::ScalableTag<float>;
 using V = hn::Vec<D>;
 using DI = hn::RebindToSigned<D>;
 
-// Minimax coefficients of Pow01 (fitted with a Remez exchange in double, rounded to float):
-// log2 m = t·(kLog2[0] + s·(kLog2[1] + s·(kLog2[2] + s·kLog2[3]))), s = t², |t| ≤ 3 − 2√2;
-// 2^g = 1 + g·(kExp2[0] + g·(… + g·kExp2[4])), |g| ≤ ½.
-constexpr float kLog2[4] = {2.8853900797889254f, 0.9617988476418026f, 0.5767143839736395f, 0.4317358787542477f};
-constexpr float kExp2[5] = {0.6931469775991949f, 0.24022242085377893f, 0.055507337431893136f, 0.009671512639580928f,
-                            0.0013264727217737718f};
+// Pow01's 2^g = (P + Q)/(P − Q), P = 1 + kExp2R[1]·g², Q = kExp2R[0]·g, |g| ≤ ½ + 2^−14: a [2/2]
+// rational of the symmetric form exp itself has (R(−g) = 1/R(g)), minimax relative error 5.6e-7
+// among those with R(½) = √2 (so 2^n·R(½) = 2^(n+1)·R(−½): the result is continuous where n steps).
+// Three operations fewer than the degree-5 polynomial it replaces. Its log2 polynomial is kPowLog2
+// (pointwise.hpp).
+constexpr float kExp2R[2] = {0.3465709434903669f, 0.03992697537626633f};
 
 HWY_INLINE V Clamp01(D d, V v) { return hn::Min(hn::Max(v, hn::Zero(d)), hn::Set(d, 1.0f)); }
 
@@ -65,94 +67,120 @@ HWY_INLINE V WithLand(D d, const LandOnly& land, V e, G&& g) {
 // x^y for x ∈ [0, 1] and a positive exponent, as exp2(y·log2 x) with our own polynomials, in
 // exactly rounded operations only (no MulAdd, no target-specific rounding), so every target gives
 // the same bits:
-//   x·2^24 = 2^k·m, m ∈ [√½, √2) from the float's bits (the exact scaling makes subnormal x normal);
-//   log2 m = t·P(t²), t = (m − 1)/(m + 1), P a degree-3 minimax fit (relative error 7e-10);
-//   y·log2 x = y_hi·(k − 24) + (y_lo·(k − 24) + y·log2 m), y_hi = y with 12 significant bits, so
-//   y_hi·(k − 24) is exact and the float error is that of a number below ~5 in magnitude — the
-//   result's relative error does not grow for small x;
-//   2^f = 2^n·2^g, n = round(f), g ∈ [−½, ½] (+ 2^−14), 2^g = 1 + g·Q(g), Q a degree-4 minimax
-//   fit (relative error 9e-8); the product with 2^n is an integer add to the exponent bits.
+//   x = 2^k·m, m ∈ [√½, √2) from the float's bits (kTiny: x·2^24 first, an exact scaling that makes
+//   subnormal x normal; only needed when such inputs are kept, i.e. x_min < 2^−126);
+//   y·log2 m = t·Py(t²), t = (m − 1)/(m + 1), Py = y·P (RedistributeRow::log2_y), P the degree-2
+//   fit of kPowLog2 (relative error 1.5e-7, exact at m = √½ and √2);
+//   y·log2 x = y_hi·k + (y_lo·k + y·log2 m), y_hi = y with 12 significant bits, so y_hi·k is exact
+//   and the float error is that of a number below ~5 in magnitude — the result's relative error
+//   does not grow for small x;
+//   2^f = 2^n·2^g, n = round(f), g ∈ [−½, ½] (+ 2^−14), 2^g a [2/2] rational (kExp2R, relative
+//   error 5.6e-7); the product with 2^n is an integer add to the exponent bits.
 // x = 1 gives exactly 1 (t = 0, f = 0, 2^0 = 1). x < x_min (x^y < 2^−125, and x = 0) gives 0:
 // no subnormal results. Rounding to an integer uses the 1.5·2^23 trick (valid for |f| < 2^22),
 // which every target evaluates with the same two IEEE additions.
-// log2 x = kf + log2m (kf an integer, |log2m| ≤ ½), both exact functions of x's bits; kf is
-// offset by −k_offset (an integer) at no cost.
-HWY_INLINE void Log2Parts(D d, V x, V& kf, V& log2m, int k_offset = 0) {
+// log2 x = kf + log2 m (kf an integer, |log2 m| ≤ ½), both exact functions of x's bits; kf is
+// offset by −k_offset (an integer) at no cost. Returns kf and y·log2 m.
+template <bool kTiny>
+HWY_INLINE void Log2Parts(D d, const RedistributeRow& k, V x, V& kf, V& ylog2m, int k_offset = 0) {
   const DI di;
   const V one = hn::Set(d, 1.0f);
+  const V xs = kTiny ? hn::Mul(x, hn::Set(d, 16777216.0f)) : x;
   // Offsetting the bits by 1 − √½ (in the mantissa) moves the split point from 2 to √2.
-  const auto bits = hn::Add(hn::BitCast(di, hn::Mul(x, hn::Set(d, 16777216.0f))), hn::Set(di, 0x004afb0d));
-  kf = hn::ConvertTo(d, hn::Sub(hn::ShiftRight<23>(bits), hn::Set(di, 127 + 24 + k_offset)));
+  const auto bits = hn::Add(hn::BitCast(di, xs), hn::Set(di, 0x004afb0d));
+  kf = hn::ConvertTo(d, hn::Sub(hn::ShiftRight<23>(bits), hn::Set(di, 127 + (kTiny ? 24 : 0) + k_offset)));
   const V m = hn::BitCast(d, hn::Add(hn::And(bits, hn::Set(di, 0x007fffff)), hn::Set(di, 0x3f3504f3)));
   const V t = hn::Div(hn::Sub(m, one), hn::Add(m, one));
   const V s = hn::Mul(t, t);
-  V p = hn::Set(d, kLog2[3]);
-  for (int c = 2; c >= 0; --c) p = hn::Add(hn::Set(d, kLog2[c]), hn::Mul(s, p));
-  log2m = hn::Mul(t, p);
+  const V p = hn::Add(hn::Set(d, k.log2_y[0]), hn::Mul(s, hn::Add(hn::Set(d, k.log2_y[1]), hn::Mul(s, hn::Set(d, k.log2_y[2])))));
+  ylog2m = hn::Mul(t, p);
 }
 
-// 2^(y·(kf + log2m)) for the lanes with keep, 0 elsewhere (see Pow01).
-template <class M>
-HWY_INLINE V Exp2Times(D d, const RedistributeRow& k, V kf, V log2m, M keep) {
+// 2^(y_hi·kf + (y_lo·kf + ylog2m)) (see Pow01), for exponents below 2^22 in magnitude and results
+// of at least 2^−126 (callers mask or lift the others).
+HWY_INLINE V Exp2Times(D d, const RedistributeRow& k, V kf, V ylog2m) {
   const DI di;
   // v + 1.5·2^23 rounds v to an integer n (|v| < 2^22) and holds n in its low mantissa bits: the
   // bits of the sum are those of 1.5·2^23 plus n.
   const V magic = hn::Set(d, 12582912.0f);
   const V hi = hn::Mul(hn::Set(d, k.exponent_hi), kf);  // exact
-  const V lo = hn::Add(hn::Mul(hn::Set(d, k.exponent_lo), kf), hn::Mul(hn::Set(d, k.exponent), log2m));
+  const V lo = hn::Add(hn::Mul(hn::Set(d, k.exponent_lo), kf), ylog2m);
   // n = round(hi + lo) (the rounded sum is close enough: any integer within ½ + 2^−14 of the
   // exponent will do), then g = (hi − n) + lo with hi − n exact: one rounding, |g| ≤ ½ + 2^−14.
   const V r = hn::Add(hn::Add(hi, lo), magic);
   const V g = hn::Add(hn::Sub(hi, hn::Sub(r, magic)), lo);
-  V q = hn::Set(d, kExp2[4]);
-  for (int c = 3; c >= 0; --c) q = hn::Add(hn::Set(d, kExp2[c]), hn::Mul(g, q));
-  const V frac = hn::Add(hn::Set(d, 1.0f), hn::Mul(g, q));  // in [0.7, 1.42]
+  // (P + Q)/(P − Q) as 1 + 2Q/(P − Q): the rounding errors scale with the small term.
+  const V pe = hn::Add(hn::Set(d, 1.0f), hn::Mul(hn::Set(d, kExp2R[1]), hn::Mul(g, g)));
+  const V qo = hn::Mul(hn::Set(d, kExp2R[0]), g), qo2 = hn::Mul(hn::Set(d, 2.0f * kExp2R[0]), g);
+  const V frac = hn::Add(hn::Set(d, 1.0f), hn::Div(qo2, hn::Sub(pe, qo)));  // in [0.7, 1.42]
   // 2^n·frac by adding n to the exponent field: bits(r) << 23 equals n << 23 modulo 2^32, as the
-  // low 9 bits of bits(1.5·2^23) are zero. Lanes that are not kept (where the field could
-  // underflow) are dropped.
+  // low 9 bits of bits(1.5·2^23) are zero.
   const auto n_field = hn::ShiftLeft<23>(hn::BitCast(di, r));
-  return hn::IfThenElseZero(keep, hn::BitCast(d, hn::Add(hn::BitCast(di, frac), n_field)));
+  return hn::BitCast(d, hn::Add(hn::BitCast(di, frac), n_field));
 }
 
-HWY_INLINE V Pow01(D d, const RedistributeRow& k, V x) {
-  V kf, log2m;
-  Log2Parts(d, x, kf, log2m);
-  return Exp2Times(d, k, kf, log2m, hn::Ge(x, hn::Set(d, k.x_min)));
+// Lanes below x_min (where the exponent field could underflow) give 0.
+template <bool kTiny>
+HWY_INLINE V Pow01(D d, const RedistributeRow& k, V x, V x_min) {
+  V kf, ylog2m;
+  Log2Parts<kTiny>(d, k, x, kf, ylog2m);
+  return hn::IfThenElseZero(hn::Ge(x, x_min), Exp2Times(d, k, kf, ylog2m));
+}
+
+template <bool kTiny>
+void RedistributePow(const RedistributeRow& kr, float* HWY_RESTRICT row, int n) {
+  const RedistributeRow k = kr;  // a local copy: its fields are not reloaded in the loops
+  const D d;
+  const V mod = hn::Set(d, k.modifier);
+  const V one = hn::Set(d, 1.0f);
+  if (!k.land.enabled) {
+    // Pow01 gives 0 for x < x_min, so also for negative heights; the power is ≥ 0 and the modifier
+    // too, so only the upper clamps remain.
+    // With modifier 1 (the default) the power is ≤ 1 already (x ≤ 1 gives a non-positive exponent).
+    const V x_min = hn::Set(d, k.x_min);
+    if (k.modifier == 1.0f) InPlace(d, row, n, [&](V v, int) { return Pow01<kTiny>(d, k, hn::Min(v, one), x_min); });
+    else InPlace(d, row, n, [&](V v, int) { return hn::Min(hn::Mul(mod, Pow01<kTiny>(d, k, hn::Min(v, one), x_min)), one); });
+    return;
+  }
+  // ((e − sea)/land)^y without the division: log2(e − sea) − log2(land), with log2(land) split the
+  // same way from the same float (1 − sea, which is e − sea at e = 1), so e = 1 still gives exactly
+  // u^y = 1. The sea floor keeps its height, and so does e = sea (whose u^y = 0 maps back to sea).
+  // Above it, e − sea ≥ one ulp of sea is lifted to land_x_min (u^y ≥ 2^−100) instead of masking
+  // the power: sea + land·u^y is then the sea level itself, as with u^y = 0, for any sea level
+  // ≥ 2^−70 (below that, such samples get a height under 2^−99), and land·u^y is never subnormal.
+  const V sea = hn::Set(d, k.land.sea), span = hn::Set(d, k.land.land);
+  const V floor_max = hn::Set(d, std::max(k.land.sea_floor_max, k.land.sea));
+  V k_land, yl_land;
+  Log2Parts<kTiny>(d, k, hn::Sub(one, sea), k_land, yl_land);
+  const int k_offset = int(hn::GetLane(k_land));
+  const V x_min = hn::Set(d, k.land_x_min);
+  auto land = [&](V v, auto with_modifier) {
+    const V e = Clamp01(d, v);
+    const auto sea_floor = hn::Le(e, floor_max);
+    // A vector wholly under the sea (common: seas are wide) keeps its heights; the same values as
+    // the select below, without the power.
+    if (hn::AllTrue(d, sea_floor)) return e;
+    const V x = hn::Max(hn::Sub(e, sea), x_min);
+    V kf, yl;
+    Log2Parts<kTiny>(d, k, x, kf, yl, k_offset);
+    V p = Exp2Times(d, k, kf, hn::Sub(yl, yl_land));
+    if constexpr (decltype(with_modifier)::value) p = hn::Min(hn::Mul(mod, p), one);  // else p ≤ 1 already
+    return hn::IfThenElse(sea_floor, e, hn::Min(hn::Add(sea, hn::Mul(span, p)), one));
+  };
+  if (k.modifier == 1.0f) InPlace(d, row, n, [&](V v, int) { return land(v, std::false_type()); });
+  else InPlace(d, row, n, [&](V v, int) { return land(v, std::true_type()); });
 }
 
 void RedistributeRowImpl(const RedistributeRow& k, float* HWY_RESTRICT row, int n) {
   const D d;
   const V mod = hn::Set(d, k.modifier);
-  const V one = hn::Set(d, 1.0f);
   if (!k.power) {
     auto g = [&](V u) { return Clamp01(d, hn::Mul(mod, u)); };
     InPlace(d, row, n, [&](V v, int) { return Clamp01(d, WithLand(d, k.land, Clamp01(d, v), g)); });
-  } else if (!k.land.enabled) {
-    // Pow01 gives 0 for x < x_min, so also for negative heights; the power is ≥ 0 and the modifier
-    // too, so only the upper clamps remain.
-    // With modifier 1 (the default) the power is ≤ 1 already (x ≤ 1 gives a non-positive exponent).
-    if (k.modifier == 1.0f) InPlace(d, row, n, [&](V v, int) { return Pow01(d, k, hn::Min(v, one)); });
-    else InPlace(d, row, n, [&](V v, int) { return hn::Min(hn::Mul(mod, Pow01(d, k, hn::Min(v, one))), one); });
+  } else if ((k.land.enabled ? k.land_x_min : k.x_min) < std::numeric_limits<float>::min()) {
+    RedistributePow<true>(k, row, n);
   } else {
-    // ((e − sea)/land)^y without the division: log2(e − sea) − log2(land), with log2(land) split the
-    // same way from the same float (1 − sea, which is e − sea at e = 1), so e = 1 still gives exactly
-    // u^y = 1. Lanes with e − sea < land_x_min (u^y < 2^−125, and the sea floor) give 0 here.
-    const V sea = hn::Set(d, k.land.sea), span = hn::Set(d, k.land.land), floor_max = hn::Set(d, k.land.sea_floor_max);
-    V k_land, l_land;
-    Log2Parts(d, hn::Sub(one, sea), k_land, l_land);
-    const int k_offset = int(hn::GetLane(k_land));
-    const V x_min = hn::Set(d, k.land_x_min);
-    auto land = [&](V v, auto with_modifier) {
-      const V e = Clamp01(d, v);
-      const V x = hn::Sub(e, sea);
-      V kf, log2m;
-      Log2Parts(d, x, kf, log2m, k_offset);
-      V p = Exp2Times(d, k, kf, hn::Sub(log2m, l_land), hn::Ge(x, x_min));
-      if constexpr (decltype(with_modifier)::value) p = hn::Min(hn::Mul(mod, p), one);  // else p ≤ 1 already
-      return hn::IfThenElse(hn::Le(e, floor_max), e, hn::Min(hn::Add(sea, hn::Mul(span, p)), one));
-    };
-    if (k.modifier == 1.0f) InPlace(d, row, n, [&](V v, int) { return land(v, std::false_type()); });
-    else InPlace(d, row, n, [&](V v, int) { return land(v, std::true_type()); });
+    RedistributePow<false>(k, row, n);
   }
 }
 
@@ -453,6 +481,8 @@ struct Spread {
   }
 };
 
+// kStream: rgb is vector-aligned and written with non-temporal stores.
+template <bool kStream = false>
 HWY_INLINE void HillshadeVec(D d, const Spread& spread, const HillshadeRow& k, V e, V fx, V fz,
                              const float* HWY_RESTRICT albedo, float* HWY_RESTRICT shade, float* HWY_RESTRICT rgb) {
   const V one = hn::Set(d, 1.0f);
@@ -467,7 +497,9 @@ HWY_INLINE void HillshadeVec(D d, const Spread& spread, const HillshadeRow& k, V
   const std::size_t N = hn::Lanes(d);
   for (int c = 0; c < 3; ++c) {
     const V sc = hn::TableLookupLanes(s, spread.idx[c]);
-    hn::StoreU(albedo ? hn::Mul(hn::LoadU(d, albedo + c * N), sc) : sc, d, rgb + c * N);
+    const V v = albedo ? hn::Mul(hn::LoadU(d, albedo + c * N), sc) : sc;
+    if constexpr (kStream) hn::Stream(v, d, rgb + c * N);
+    else hn::StoreU(v, d, rgb + c * N);
   }
 }
 
@@ -478,23 +510,38 @@ void HillshadeRowImpl(const HillshadeRow& k, const GradientRows& rows, const flo
   const int N = int(hn::Lanes(d));
   const float* HWY_RESTRICT mid = rows.mid;
   const V central = hn::Set(d, rows.central), kz = hn::Set(d, rows.kz);
-  HaloBlocks(
-      N, n,
-      [&](int i) {
-        const V fx = hn::Mul(hn::Sub(hn::LoadU(d, mid + i + 1), hn::LoadU(d, mid + i - 1)), central);
-        const V fz = hn::Mul(hn::Sub(hn::LoadU(d, rows.down + i), hn::LoadU(d, rows.up + i)), kz);
-        HillshadeVec(d, spread, k, hn::LoadU(d, mid + i), fx, fz, albedo ? albedo + 3 * i : nullptr,
-                     shade ? shade + i : nullptr, rgb + 3 * i);
-      },
-      [&](int i, int m) {
-        HWY_ALIGN float eb[kRowPad] = {}, xb[kRowPad] = {}, zb[kRowPad] = {}, ab[3 * kRowPad] = {};
-        HWY_ALIGN float sb[kRowPad], out[3 * kRowPad];
-        for (int c = 0; c < m; ++c) eb[c] = mid[i + c], xb[c] = GradX(rows, i + c, n), zb[c] = GradZ(rows, i + c);
-        if (albedo) std::copy(albedo + 3 * i, albedo + 3 * (i + m), ab);
-        HillshadeVec(d, spread, k, hn::Load(d, eb), hn::Load(d, xb), hn::Load(d, zb), albedo ? ab : nullptr, sb, out);
-        if (shade) std::copy(sb, sb + m, shade + i);
-        std::copy(out, out + 3 * m, rgb + 3 * i);
-      });
+  auto inner = [&](int i, auto stream) {
+    const V fx = hn::Mul(hn::Sub(hn::LoadU(d, mid + i + 1), hn::LoadU(d, mid + i - 1)), central);
+    const V fz = hn::Mul(hn::Sub(hn::LoadU(d, rows.down + i), hn::LoadU(d, rows.up + i)), kz);
+    HillshadeVec<decltype(stream)::value>(d, spread, k, hn::LoadU(d, mid + i), fx, fz, albedo ? albedo + 3 * i : nullptr,
+                                          shade ? shade + i : nullptr, rgb + 3 * i);
+  };
+  auto padded = [&](int i, int m) {
+    HWY_ALIGN float eb[kRowPad] = {}, xb[kRowPad] = {}, zb[kRowPad] = {}, ab[3 * kRowPad] = {};
+    HWY_ALIGN float sb[kRowPad], out[3 * kRowPad];
+    for (int c = 0; c < m; ++c) eb[c] = mid[i + c], xb[c] = GradX(rows, i + c, n), zb[c] = GradZ(rows, i + c);
+    if (albedo) std::copy(albedo + 3 * i, albedo + 3 * (i + m), ab);
+    HillshadeVec(d, spread, k, hn::Load(d, eb), hn::Load(d, xb), hn::Load(d, zb), albedo ? ab : nullptr, sb, out);
+    if (shade) std::copy(sb, sb + m, shade + i);
+    std::copy(out, out + 3 * m, rgb + 3 * i);
+  };
+  // Streaming: as HaloBlocks, but the first block is p ∈ [1, N] samples long, the p that puts
+  // rgb + 3p on a vector boundary (12 bytes per sample: one exists when rgb is 4-byte aligned, as
+  // floats are), so that the full blocks can be streamed. Same values as the plain path.
+  const std::size_t vb = sizeof(float) * std::size_t(N);
+  int p = 0;
+  if (k.stream && n > 2 * N + 1)
+    for (int c = 1; c <= N && p == 0; ++c)
+      if (reinterpret_cast<std::uintptr_t>(rgb + 3 * c) % vb == 0) p = c;
+  if (p == 0) {
+    HaloBlocks(N, n, [&](int i) { inner(i, std::false_type()); }, padded);
+    return;
+  }
+  padded(0, p);
+  int i = p;
+  for (; i + N < n; i += N) inner(i, std::true_type());
+  for (; i < n; i += N) padded(i, std::min(N, n - i));
+  hwy::FlushStream();
 }
 
 const char* TargetImpl() { return hwy::TargetName(HWY_TARGET); }
@@ -535,11 +582,13 @@ void RedistributeRow::set_exponent(double y) {
   const double scale = std::ldexp(1.0, 12 - e);  // keep 12 significant bits
   exponent_hi = float(std::nearbyint(double(exponent) * scale) / scale);
   exponent_lo = exponent - exponent_hi;  // exact: the low bits of a float
+  for (int c = 0; c < 3; ++c) log2_y[c] = float(double(exponent) * kPowLog2[c]);
   // x^y ≥ 2^−125 ⟺ x ≥ 2^(−125/y); 0 is below it for every y > 0.
   x_min = std::max(float_at_least(std::exp2(-125.0 / double(exponent))), std::numeric_limits<float>::denorm_min());
-  // Land-only: x = e − sea, u = x/land; u^y ≥ 2^−125 ⟸ x ≥ 2^(−125/y)·land (with a margin for
-  // the rounding of x/land).
-  land_x_min = std::max(float_at_least(std::exp2(-125.0 / double(exponent)) * double(land.land) * (1.0 + 1e-6)),
+  // Land-only: x = e − sea, u = x/land; u^y ≥ 2^−100 ⟸ x ≥ 2^(−100/y)·land (with a margin for
+  // the rounding of x/land). Smaller x are lifted to this (RedistributePow): land·u^y stays a
+  // normal float, and sea + land·u^y rounds to the sea level for any sea level ≥ 2^−70.
+  land_x_min = std::max(float_at_least(std::exp2(-100.0 / double(exponent)) * double(land.land) * (1.0 + 1e-6)),
                         std::numeric_limits<float>::denorm_min());
 }
 

@@ -54,14 +54,19 @@ struct LandOnly {
 // ---- result is clamped to [0, 1].
 
 // e' = clamp(modifier · e^exponent); e^1 is exact (no pow), 0^y = 0, 1^y = 1 exactly.
-// e^y is our own exp2(y·log2 e) (pointwise.cpp: Pow01): relative error ≤ 8e-7 against the double
+// e^y is our own exp2(y·log2 e) (pointwise.cpp: Pow01): relative error ≤ 1.5e-6 against the double
 // pow for results ≥ 2^−125 (inputs ≥ x_min), 0 below that; exactly rounded operations only, so every
 // target gives the same bits. Monotone up to that error (tests/test_pointwise.cpp).
+// log2 m = t·P(t²), t = (m − 1)/(m + 1), m ∈ [√½, √2) (|t| ≤ 3 − 2√2), P(s) = c0 + s·(c1 + s·c2):
+// the minimax fit of P's relative error (1.5e-7; Remez exchange in double) among those exact at the
+// interval's ends (t·P = ±½ at m = √2, √½), so that the two sides of a binade's √½ split meet.
+constexpr double kPowLog2[3] = {2.885390504279436, 0.9615568535732026, 0.5971566328734291};
 struct RedistributeRow {
   float exponent = 1.0f, modifier = 1.0f;
   float exponent_hi = 1.0f, exponent_lo = 0.0f;  // exponent = hi + lo exactly, hi with 12 significant bits
+  float log2_y[3] = {};  // exponent·kPowLog2, rounded to float
   float x_min = 0.0f;       // e^exponent is 0 below this (where it would fall under 2^−125)
-  float land_x_min = 0.0f;  // the same for e − sea with land_only
+  float land_x_min = 0.0f;  // land_only: e − sea is lifted to this (u^y ≥ 2^−100, see pointwise.cpp)
   bool power = false;  // exponent ≠ 1
   LandOnly land;
   // Sets exponent, exponent_hi/lo, power and the x_min thresholds from a positive exponent; call
@@ -181,6 +186,9 @@ struct HillshadeRow {
   float lx = 0, ly = 1, lz = 0;
   float ambient = 0.2f, diffuse = 0.8f, flat = 1.0f, water_relief = 0.3f;
   float sea_below = 0.4f;  // e < this is under water (float_at_least(sea_level))
+  // Non-temporal stores for rgb (hillshade.cpp sets it for layers far beyond the caches): the
+  // colour is written without first reading its cache lines. The same values either way.
+  bool stream = false;
 };
 // rows: the height rows (n ≥ 1 values each); albedo: 3n or null; shade: n written (or null: not
 // written); rgb: 3n written. One read of the three rows and the albedo, one write.

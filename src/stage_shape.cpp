@@ -55,7 +55,7 @@ struct RedistributeParams {
 // e' = clamp(modifier · e^exponent); land_only applies it to u = (e − sea)/(1 − sea) above the sea
 // (pointwise.hpp: LandOnly). Heights are clamped to [0, 1] first, so negative heights become 0 and
 // stay 0. pow is our own exp2(exponent · log2 e) in single precision (pointwise.hpp:
-// RedistributeRow; relative error ≤ 1e-6, the same bits on every SIMD target); exponent 1 is exact.
+// RedistributeRow; relative error ≤ 1.5e-6, the same bits on every SIMD target); exponent 1 is exact.
 struct RedistributeKernel final : RowKernel {
   detail::RedistributeRow k;
   int nx = 0;

@@ -64,6 +64,7 @@ struct NoiseOctave {
   std::int64_t period_x = 0, period_z = 0;  // lattice cells per period; 0 = not periodic
   double inv_period_x = 0.0, inv_period_z = 0.0;  // 1 / period (0 when not periodic)
   double amp = 1.0;                         // persistenceᵏ
+  float ridge_scale = 1.0f;                 // float(√amp): ridged Gradient's corner-offset scale
   std::uint64_t key = 0;                    // lattice hash key (Value, Simplex, Cellular)
   std::uint32_t key32 = 0;                  // lattice hash key (Gradient)
   std::array<std::uint8_t, 512> perm{};     // doubled permutation (Perlin)
