@@ -762,6 +762,7 @@ window.studio = {
   readPixels: (step) => view3d.readPixels(step),
   // Screen position (client px) of sample (i, j) on the terrain, for clicking it.
   sampleToScreen(i, j) {
+    view3d.camera.updateMatrixWorld();  // as pick() does: the current view, drawn or not
     const p = groundDisplay(i, j).project(view3d.camera);
     const r = view3d.renderer.domElement.getBoundingClientRect();
     return { x: r.left + ((p.x + 1) / 2) * r.width, y: r.top + ((1 - p.y) / 2) * r.height, visible: Math.abs(p.x) < 0.95 && Math.abs(p.y) < 0.95 && p.z > -1 && p.z < 1 };

@@ -312,6 +312,10 @@ export class View3D {
     const r = this.renderer.domElement.getBoundingClientRect();
     const ndc = new THREE.Vector2(((clientX - r.left) / r.width) * 2 - 1, -((clientY - r.top) / r.height) * 2 + 1);
     const ray = new THREE.Raycaster();
+    // The camera's world matrix is otherwise refreshed only when a frame is drawn: a click between
+    // a camera move and the next frame (about a second apart on a software renderer) would be
+    // picked through the previous view.
+    this.camera.updateMatrixWorld();
     ray.setFromCamera(ndc, this.camera);
     const hit = ray.intersectObject(this.terrain, false)[0];
     if (!hit) return null;

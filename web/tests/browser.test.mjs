@@ -251,6 +251,38 @@ test('walk mode: the walker reaches a clicked point on land along a dry, climbab
   assert.ok(w.dry, 'every path point is on land');
   assert.ok(w.eye > 1 && w.eye < 6, `camera ${w.eye} m above the walker's feet`);
   assert.ok(w.dist < 8, `camera ${w.dist} m behind the walker`);
+  // Clicking the sea is refused with a message. The overview camera eases into place (orbit
+  // damping), so wait until two consecutive frames show the same view before aiming.
+  await page.click('#walk-view');
+  await page.waitForFunction(
+    () => {
+      const v = window.studio.view3d, m = v.camera.matrixWorld.elements.join();
+      const settled = !v.dirty && m === window.__lastView;
+      window.__lastView = m;
+      return settled;
+    },
+    null,
+    { polling: 'raf', timeout: 30000 },
+  );
+  const sea = await page.evaluate(() => {
+    const s = window.studio, g = s.walk.grid, canvas = s.view3d.renderer.domElement;
+    for (let j = 2; j < g.nz - 2; j += 5)
+      for (let i = 2; i < g.nx - 2; i += 5) {
+        if (g.h[j * g.nx + i] >= g.sea - 0.02) continue;
+        const p = s.sampleToScreen(i, j);
+        if (!p.visible || document.elementFromPoint(p.x, p.y) !== canvas) continue;
+        const hit = s.view3d.pick(p.x, p.y);  // the click lands on this sea sample, not on land in front
+        if (!hit || Math.hypot(hit.fi - i, hit.fj - j) > 1) continue;
+        return { i, j, x: p.x, y: p.y };
+      }
+    return null;
+  });
+  assert.ok(sea, 'some sea is in sight');
+  const before = await page.evaluate(() => window.studio.walk.pos.slice());
+  await page.mouse.click(sea.x, sea.y);
+  await page.waitForFunction(() => window.studio.walk.state === 'blocked', null, { timeout: 15000 });
+  assert.match(await page.textContent('#walk-text'), /water/);
+  assert.deepEqual(await page.evaluate(() => window.studio.walk.pos), before, 'the walker stays where it was');
   await page.keyboard.press('Escape');
   assert.equal(await page.evaluate(() => window.studio.walk.active), false);
   await page.close();
