@@ -25,6 +25,7 @@
 #include <tbb/parallel_for.h>
 #include <signal.h>
 #include <spawn.h>
+#include <sys/socket.h>
 #include <sys/wait.h>
 
 #include <algorithm>
@@ -773,6 +774,19 @@ int run_studio(const StudioSettings& s) {
   Studio studio(s);
   studio.routes(svr);
 
+  // The listening socket's options: SO_REUSEADDR (a restart binds again at once, despite
+  // connections in TIME_WAIT) but not httplib's default SO_REUSEPORT, under which a second studio
+  // on the same port would bind as well and take half of the first one's connections instead of
+  // getting the "in use" error below. The socket is remembered so that its listen backlog can be
+  // raised: httplib 0.11 listens with a backlog of 5, so a burst of connections (a page's parallel
+  // requests, the server tests' 48 at once) would be refused or reset while the workers are busy.
+  int listen_fd = -1;
+  bool binding = true;
+  svr.set_socket_options([&](socket_t sock) {
+    int yes = 1;
+    setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
+    if (binding) listen_fd = sock;  // the last socket made while binding is the one that bound
+  });
   int port = s.port;
   if (port == 0) {
     port = svr.bind_to_any_port(s.host);
@@ -780,6 +794,8 @@ int run_studio(const StudioSettings& s) {
   } else if (!svr.bind_to_port(s.host, port)) {
     throw Error("--port", "cannot listen on " + s.host + ":" + std::to_string(port) + " (in use? try --port 0)");
   }
+  binding = false;
+  if (listen_fd >= 0) ::listen(listen_fd, SOMAXCONN);  // Linux: listen() again sets the new backlog
   const std::string url = "http://" + (s.host.find(':') != std::string::npos ? "[" + s.host + "]" : s.host) + ":" +
                           std::to_string(port) + "/";
   std::printf("Relief Studio: %s  (Ctrl-C stops it)\n", url.c_str());

@@ -67,7 +67,9 @@ async function goodGenerate(headers = {}) {
 }
 
 test('a port or host it cannot use is a clear error with exit code 2', async () => {
-  for (const args of [['--host', '203.0.113.77', '--port', '0'], ['--port', '70000']]) {
+  // The running test server's port is taken: a second studio there must not share it.
+  const taken = new URL(server.url).port;
+  for (const args of [['--host', '203.0.113.77', '--port', '0'], ['--port', '70000'], ['--port', taken]]) {
     let code = 0, stderr = '';
     try {
       execFileSync(RELIEF, ['studio', ...args], { encoding: 'utf8', stdio: ['ignore', 'pipe', 'pipe'], timeout: 10000 });
@@ -76,6 +78,7 @@ test('a port or host it cannot use is a clear error with exit code 2', async () 
     }
     assert.equal(code, 2, `${args}: ${stderr}`);
     assert.match(stderr, /--host|--port/);
+    if (args[1] === taken) assert.match(stderr, /in use/);
   }
 });
 
