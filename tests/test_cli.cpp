@@ -372,3 +372,43 @@ TEST(CliSaveRecipe, BadExportBlockNamesTheField) {
   EXPECT_FALSE(fs::exists(d.path / "out"));
 }
 
+
+// `relief bench` on tiny sizes: every entry has the fields the speed issue asks for (name, grid
+// size, threads, median/min/max over the runs, million samples per second), noise entries carry
+// libnoise measured in the same run and the ratio, and the file says which machine it came from.
+TEST(CliBench, JsonEntriesNameTheCaseTheMachineAndThePeer) {
+  TempDir dir;
+  const std::string out = dir / "bench.json";
+  Result r = cli("bench --cases noise,regenerate --runs 1 --threads 1,2 --noise-size 64 --peer-size 32 --json " + out);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("machine: "), std::string::npos) << r.out;
+  const nlohmann::json doc = nlohmann::json::parse(slurp(out));
+  EXPECT_EQ(doc["runs"], 1);
+  EXPECT_FALSE(doc["cpu"].get<std::string>().empty());
+  EXPECT_FALSE(doc["simd_target"].get<std::string>().empty());
+  int noise = 0, regenerate = 0;
+  std::map<int, int> per_threads;
+  for (const auto& e : doc["entries"]) {
+    const std::string name = e["name"];
+    for (const char* key : {"size", "threads", "median_ms", "min_ms", "max_ms", "msamples_per_s"})
+      ASSERT_TRUE(e.contains(key)) << name << " has no " << key;
+    EXPECT_LE(e["min_ms"].get<double>(), e["median_ms"].get<double>()) << name;
+    EXPECT_LE(e["median_ms"].get<double>(), e["max_ms"].get<double>()) << name;
+    EXPECT_GT(e["msamples_per_s"].get<double>(), 0.0) << name;
+    ++per_threads[e["threads"].get<int>()];
+    if (e.contains("peer")) {
+      ++noise;
+      EXPECT_EQ(e["size"][0], 64) << name;
+      EXPECT_NE(e["peer"]["name"].get<std::string>().find("libnoise"), std::string::npos) << name;
+      EXPECT_NEAR(e["ratio"].get<double>(), e["msamples_per_s"].get<double>() / e["peer"]["msamples_per_s"].get<double>(),
+                  1e-6 * e["ratio"].get<double>())
+          << name;
+    }
+    if (name.find("regenerate") != std::string::npos) ++regenerate;
+  }
+  // Single-octave gradient, Perlin, simplex, value and cellular; 6-octave fBm and ridged of the
+  // gradient, Perlin and simplex bases: 11 noise cases per thread count.
+  EXPECT_EQ(noise, 2 * 11);
+  EXPECT_GE(regenerate, 2);
+  EXPECT_EQ(per_threads.size(), 2u);
+}

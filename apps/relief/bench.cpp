@@ -108,8 +108,25 @@ std::string bench_group_list() {
   return out;
 }
 
+// The processor's name as the kernel reports it ("model name" in /proc/cpuinfo), or "unknown":
+// figures differ several-fold between machines (SIMD width, how wide the vector units really
+// are), so every table and JSON file says where it was measured.
+std::string cpu_model() {
+  std::ifstream in("/proc/cpuinfo");
+  std::string line;
+  while (std::getline(in, line))
+    if (line.rfind("model name", 0) == 0) {
+      const auto colon = line.find(':');
+      if (colon != std::string::npos && colon + 2 <= line.size()) return line.substr(colon + 2);
+    }
+  return "unknown";
+}
+
 int run_bench(const BenchSettings& s) {
   json entries = json::array();
+  const std::string cpu = cpu_model(), simd = detail::noise_simd_current_target();
+  std::printf("machine: %s, %u hardware threads, SIMD target %s\n", cpu.c_str(), std::thread::hardware_concurrency(),
+              simd.c_str());
   auto print_row = [](const json& e) {
     std::printf("%-28s %6s %3d %10.2f %10.2f %10.2f %9.1f", e["name"].get<std::string>().c_str(),
                 (std::to_string(e["size"][0].get<int>()) + "²").c_str(), e["threads"].get<int>(), e["median_ms"].get<double>(),
@@ -774,6 +791,8 @@ int run_bench(const BenchSettings& s) {
     json doc;
     doc["runs"] = s.runs;
     doc["hardware_threads"] = int(std::thread::hardware_concurrency());
+    doc["cpu"] = cpu;
+    doc["simd_target"] = simd;
     doc["entries"] = entries;
     doc["peak_memory_bytes"] = peak_rss();
     write_file_atomic(s.json_path, doc.dump(2) + "\n");
