@@ -36,7 +36,7 @@ struct BiomeType {
   double aridity = 0.5, ruggedness = 0.5, weight = 1.0;  // assignment preferences
   std::vector<std::string> avoid;                        // types that must not border this one
   double protect_above = 1.0;  // selective blending leaves samples with lift ≥ this untouched
-  std::string basis = "perlin", fractal = "fbm";
+  std::string basis = "gradient", fractal = "fbm";
   int octaves = 5;
   double wavelength_m = 600, persistence = 0.5, lacunarity = 2.0, scale_x = 1.0, scale_z = 1.0;
   double contrast = 1.6;  // n = clamp(0.5 + contrast · noise / 2, 0, 1)

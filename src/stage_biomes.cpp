@@ -68,7 +68,7 @@ std::uint64_t name_hash(const std::string& s) {  // FNV-1a: a type's noise follo
 
 NoiseSettings climate_noise(double wavelength_m, std::uint64_t seed) {
   NoiseSettings s;
-  s.basis = NoiseBasis::Perlin;
+  s.basis = NoiseBasis::Gradient;
   s.fractal = Fractal::Fbm;
   s.octaves = 3;
   s.frequency = 1.0 / wavelength_m;
@@ -112,7 +112,6 @@ std::vector<BiomeType> default_biome_types() {
   v.push_back(plateau);
   BiomeType desert = type("desert", 0.9, 0.2, {"forest", "mountains"}, 1.0, "billow", 3, 260,
                           {{0.0, 0.02}, {1.0, 0.09}}, {lv(0.2, 0xe6cf96), lv(0.8, 0xcfae6c)});
-  desert.basis = "simplex";
   desert.scale_x = 0.35;  // long dune ridges across x
   desert.persistence = 0.4;
   v.push_back(desert);
@@ -254,7 +253,10 @@ struct TypeEval {
 
 NoiseSettings type_noise(const BiomeType& t, std::uint64_t seed) {
   NoiseSettings s;
-  s.basis = t.basis == "perlin" ? NoiseBasis::Perlin : t.basis == "simplex" ? NoiseBasis::Simplex : NoiseBasis::Value;
+  s.basis = t.basis == "gradient" ? NoiseBasis::Gradient
+            : t.basis == "perlin"  ? NoiseBasis::Perlin
+            : t.basis == "simplex" ? NoiseBasis::Simplex
+                                   : NoiseBasis::Value;
   s.fractal = t.fractal == "none" ? Fractal::None : t.fractal == "fbm" ? Fractal::Fbm
               : t.fractal == "ridged" ? Fractal::Ridged : Fractal::Billow;
   s.octaves = t.octaves;
@@ -531,7 +533,8 @@ Table<BiomeType> type_table() {
       names(&T::avoid, "avoid", "Types that must never border this one (symmetric)"),
       param(&T::protect_above, "protect_above", 0.0, 1.0, "",
             "Selective blending leaves samples with lift ≥ this untouched (0 = the whole biome, 1 = none)"),
-      choice(&T::basis, "basis", {"perlin", "simplex", "value"}, "Noise basis of this biome's terrain"),
+      choice(&T::basis, "basis", {"gradient", "perlin", "simplex", "value"},
+             "Noise basis of this biome's terrain (gradient: Perlin-equivalent, hashed, fastest)"),
       choice(&T::fractal, "fractal", {"none", "fbm", "ridged", "billow"}, "How the octaves combine"),
       param(&T::octaves, "octaves", 1, 12, "", "Noise octaves"),
       param(&T::wavelength_m, "wavelength_m", 1.0, 1e6, "m", "Wavelength of the first octave"),

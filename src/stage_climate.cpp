@@ -158,7 +158,7 @@ double smoothstep01(double s) {
 
 Noise field(double wavelength, std::uint64_t seed) {
   NoiseSettings s;
-  s.basis = NoiseBasis::Perlin;
+  s.basis = NoiseBasis::Gradient;
   s.fractal = Fractal::Fbm;
   s.octaves = 4;
   s.frequency = 1.0 / wavelength;
