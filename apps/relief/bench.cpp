@@ -645,15 +645,30 @@ int run_bench(const BenchSettings& s) {
     for (int threads : s.threads) {
       tbb::task_arena arena(threads);
       const float sea = float(big.frame.sea_level);
+      // Each part's time too (medians over the same runs): where the time goes.
+      std::vector<double> part_ms[3];
       Sample t = time_runs(std::max(3, s.runs / 2 + 1), [&] {
         b = b0;
         arena.execute([&] {
+          auto t0 = std::chrono::steady_clock::now();
+          auto lap = [&](int k) {
+            const auto t1 = std::chrono::steady_clock::now();
+            part_ms[k].push_back(std::chrono::duration<double, std::milli>(t1 - t0).count());
+            t0 = t1;
+          };
           hydro::fill_depressions<float>(b.data(), m, m, sea, 0.0f);
+          lap(0);
           hydro::d8_receivers<float>(b.data(), m, m, sea, rec.data());
+          lap(1);
           hydro::flow_order(rec.data(), b.size(), order, count.data());
+          lap(2);
         });
       });
-      record("fill + d8 + accumulation", m, threads, t, json::object());
+      record("fill + d8 + accumulation", m, threads, t,
+             {{"fill_median_ms", median_of(part_ms[0])}, {"d8_median_ms", median_of(part_ms[1])},
+              {"accumulation_median_ms", median_of(part_ms[2])}});
+      std::printf("    parts (median ms): fill %.1f, d8 %.1f, accumulation %.1f\n", median_of(part_ms[0]),
+                  median_of(part_ms[1]), median_of(part_ms[2]));
     }
   }
   if (want("islands")) {
