@@ -253,12 +253,8 @@ struct TypeEval {
 
 NoiseSettings type_noise(const BiomeType& t, std::uint64_t seed) {
   NoiseSettings s;
-  s.basis = t.basis == "gradient" ? NoiseBasis::Gradient
-            : t.basis == "perlin"  ? NoiseBasis::Perlin
-            : t.basis == "simplex" ? NoiseBasis::Simplex
-                                   : NoiseBasis::Value;
-  s.fractal = t.fractal == "none" ? Fractal::None : t.fractal == "fbm" ? Fractal::Fbm
-              : t.fractal == "ridged" ? Fractal::Ridged : Fractal::Billow;
+  s.basis = noise_basis_named(t.basis, "basis");
+  s.fractal = fractal_named(t.fractal, "fractal");
   s.octaves = t.octaves;
   s.frequency = 1.0 / t.wavelength_m;
   s.persistence = t.persistence;

@@ -63,11 +63,8 @@ Table<NoiseParams> table() {
 
 NoiseSettings settings_for(const NoiseParams& p, const Frame& f, std::uint64_t seed) {
   NoiseSettings s;
-  s.basis = p.basis == "gradient" ? NoiseBasis::Gradient : p.basis == "perlin" ? NoiseBasis::Perlin
-            : p.basis == "simplex" ? NoiseBasis::Simplex : p.basis == "value" ? NoiseBasis::Value
-                                                                : NoiseBasis::Cellular;
-  s.fractal = p.fractal == "none" ? Fractal::None : p.fractal == "fbm" ? Fractal::Fbm
-              : p.fractal == "ridged" ? Fractal::Ridged : Fractal::Billow;
+  s.basis = noise_basis_named(p.basis, "basis");
+  s.fractal = fractal_named(p.fractal, "fractal");
   s.octaves = p.octaves;
   s.frequency = p.frequency / f.world_width_m;
   s.lacunarity = p.lacunarity;

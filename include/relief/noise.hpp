@@ -21,12 +21,20 @@
 #include <cstddef>
 #include <cstdint>
 #include <memory>
+#include <string>
+#include <string_view>
 #include <vector>
 
 namespace relief {
 
 enum class NoiseBasis { Perlin, Simplex, Value, Cellular, Gradient };
 enum class Fractal { None, Fbm, Ridged, Billow };
+
+// The names recipes use ("gradient", "perlin", "simplex", "value", "cellular"; "none", "fbm",
+// "ridged", "billow"). Parameter tables validate them first; an unknown name throws
+// Error(path, …) naming the field.
+NoiseBasis noise_basis_named(std::string_view name, const std::string& path);
+Fractal fractal_named(std::string_view name, const std::string& path);
 enum class CellularReturn { F1, F2, F2MinusF1, CellValue };
 
 struct NoiseSettings {
