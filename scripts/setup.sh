@@ -19,6 +19,8 @@ packages=(
   tiled
   # relief studio: HTTP server, zip archives for exports, the browser its tests drive
   libcpp-httplib-dev libarchive-dev chromium
+  # tests: which system calls a run makes (generate --sync flushes each file before its rename)
+  strace
 )
 # Node and npm: any install that provides the commands will do (Debian's nodejs + npm by default).
 command -v node >/dev/null 2>&1 || packages+=(nodejs)

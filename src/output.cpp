@@ -1,7 +1,8 @@
 // Outputs (FileOutput, atomic file writes) and the byte encoders: PNG (via libspng) and raw r16.
 //
 // Atomic writes: the bytes go to a temporary file `.NAME.tmp-XXXXXX` in the target directory
-// (same file system, so rename(2) is atomic), are flushed with fsync, then renamed onto NAME.
+// (same file system, so rename(2) is atomic), are flushed with fsync (unless the output is
+// Sync::Atomic), then renamed onto NAME.
 // Any failure removes the temporary file and leaves a previous NAME untouched. FileOutput's
 // OnCommit mode writes every temporary file as soon as it is encoded (overlapping the encoding of
 // the others) and renames them all at the end, so that a failed run changes no file at all.
@@ -150,7 +151,16 @@ namespace {
 struct TempFile {
   std::string path, tmp;
   int fd = -1;
+  bool preallocated = false;  // blocks reserved past the end (FALLOC_FL_KEEP_SIZE): trim at close
 };
+
+// Files whose size is known (put) or estimated (streams) from this size on get their blocks
+// allocated before the first write (fallocate). The blocks are then not "delayed allocation", so
+// on ext4 replacing a previous file of the same name does not flush the new one to disk inside
+// rename(2) (auto_da_alloc: 0.29 s for the island's 214 MB OBJ here); the data is written back
+// later, or before the rename with Sync::Durable. Also one extent instead of many. File systems
+// without fallocate (tmpfs, some network ones) simply skip it.
+constexpr std::size_t kPreallocateMin = std::size_t(1) << 20;
 
 TempFile create_temp(const std::string& path) {
   const fs::path target(path);
@@ -190,14 +200,15 @@ int write_all(int fd, const char* p, std::size_t left) {
   return 0;
 }
 
-// fsync, close, rename onto the real name; on failure the temporary file is removed and an Error
-// naming the path is thrown. Data must be on disk before the rename makes it visible.
-void finish_now(int& fd, const std::string& tmp, const std::string& path) {
+// (fsync,) close, rename onto the real name; on failure the temporary file is removed and an
+// Error naming the path is thrown. When durable, the data is on disk before the rename makes it
+// visible.
+void finish_now(int& fd, const std::string& tmp, const std::string& path, bool durable) {
   auto fail = [&](const std::string& what, int e) {
     discard(fd, tmp);
     throw Error("output", what + " '" + path + "': " + errno_text(e));
   };
-  if (::fsync(fd) != 0) fail("cannot write", errno);
+  if (durable && ::fsync(fd) != 0) fail("cannot write", errno);
   const int closed = ::close(fd);
   fd = -1;
   if (closed != 0) fail("cannot write", errno);
@@ -234,7 +245,7 @@ void write_file_atomic(const std::string& path, std::string_view bytes) {
     discard(t.fd, t.tmp);
     throw Error("output", "cannot write '" + path + "': " + errno_text(e));
   }
-  finish_now(t.fd, t.tmp, path);
+  finish_now(t.fd, t.tmp, path, true);
 }
 
 // A FileOutput's stream: the pieces go straight into the temporary file.
@@ -253,6 +264,12 @@ class FileOutputStream final : public OutputStream {
   }
   void close() override {
     if (t_.fd < 0) return;
+    // Give back the blocks reserved past what was written (an estimate may be too large).
+    if (t_.preallocated && ::ftruncate(t_.fd, off_t(bytes_)) != 0) {
+      const int e = errno;
+      discard(t_.fd, t_.tmp);
+      throw Error("output", "cannot write '" + t_.path + "': " + errno_text(e));
+    }
     FileOutput::Pending p{filename_, std::move(t_.tmp), t_.path, t_.fd, bytes_};
     t_.fd = -1;  // the FileOutput owns the file from here on
     t_.tmp.clear();
@@ -266,7 +283,7 @@ class FileOutputStream final : public OutputStream {
   std::uint64_t bytes_ = 0;
 };
 
-FileOutput::FileOutput(std::string dir, Mode mode) : dir_(std::move(dir)), mode_(mode) {
+FileOutput::FileOutput(std::string dir, Mode mode, Sync sync) : dir_(std::move(dir)), mode_(mode), sync_(sync) {
   if (dir_.empty()) dir_.push_back('.');  // (not `= "."`: GCC 12 -Wrestrict false positive, PR 105329)
   // Nothing is created here, so that a run which fails before its first file leaves the file
   // system as it was: check that the directory, or else its nearest existing ancestor (where the
@@ -326,7 +343,7 @@ std::string FileOutput::checked_path(const std::string& filename) const {
   return (fs::path(dir_) / filename).string();
 }
 
-std::unique_ptr<OutputStream> FileOutput::open(const std::string& filename, std::size_t) {
+std::unique_ptr<OutputStream> FileOutput::open(const std::string& filename, std::size_t size_hint) {
   const std::string path = checked_path(filename);
   create_directory();
   if (mode_ == Mode::OnCommit) {
@@ -335,7 +352,9 @@ std::unique_ptr<OutputStream> FileOutput::open(const std::string& filename, std:
       throw Error("output", "two outputs named '" + filename + "' in one run");
     reserved_.push_back(filename);
   }
-  return std::make_unique<FileOutputStream>(*this, filename, create_temp(path));
+  TempFile t = create_temp(path);
+  if (size_hint >= kPreallocateMin) t.preallocated = ::fallocate(t.fd, FALLOC_FL_KEEP_SIZE, 0, off_t(size_hint)) == 0;
+  return std::make_unique<FileOutputStream>(*this, filename, std::move(t));
 }
 
 void FileOutput::put(const std::string& filename, std::string bytes) {
@@ -346,15 +365,15 @@ void FileOutput::put(const std::string& filename, std::string bytes) {
 
 void FileOutput::finished(Pending p) {
   if (mode_ == Mode::Immediate) {
-    finish_now(p.fd, p.tmp, p.path);
+    finish_now(p.fd, p.tmp, p.path, sync_ == Sync::Durable);
     std::lock_guard<std::mutex> lock(mutex_);
     written_.push_back(p.path);
     bytes_ += p.bytes;
     return;
   }
-  // Start the write-back now (asynchronous), so that commit()'s fsync finds little left to do.
-  // Only a hint: its failure is caught by the fsync.
-  ::sync_file_range(p.fd, 0, 0, SYNC_FILE_RANGE_WRITE);
+  // Durable: start the write-back now (asynchronous), so that commit()'s fsync finds little left
+  // to do. Only a hint: its failure is caught by the fsync.
+  if (sync_ == Sync::Durable) ::sync_file_range(p.fd, 0, 0, SYNC_FILE_RANGE_WRITE);
   std::lock_guard<std::mutex> lock(mutex_);
   pending_.push_back(std::move(p));
 }
@@ -362,9 +381,9 @@ void FileOutput::finished(Pending p) {
 void FileOutput::commit() {
   std::lock_guard<std::mutex> lock(mutex_);
   std::sort(pending_.begin(), pending_.end(), [](const Pending& a, const Pending& b) { return a.filename < b.filename; });
-  // Every file durable first; only then does any real name change.
+  // Every file written (and, when durable, on disk) first; only then does any real name change.
   for (Pending& p : pending_) {
-    int e = ::fsync(p.fd) != 0 ? errno : 0;
+    int e = sync_ == Sync::Durable && ::fsync(p.fd) != 0 ? errno : 0;
     if (::close(p.fd) != 0 && !e) e = errno;
     p.fd = -1;
     if (e) {

@@ -311,6 +311,55 @@ std::string report_without_performance(const std::string& text) {
 }
 }  // namespace
 
+// The fsync and rename calls of one `relief generate` run, in order, as strace saw them: "F" for a
+// flush (fsync or fdatasync), "R:NAME" for a rename onto NAME (the file name only).
+std::vector<std::string> sync_trace(const TempDir& d, const std::string& args) {
+  const fs::path log = d.path / "strace.log";
+  Result r = relief::test::sh("strace -f -qq -e trace=fsync,fdatasync,rename,renameat,renameat2 -o " + log.string() + " " +
+                              RELIEF_BINARY + " " + args);
+  EXPECT_EQ(r.code, 0) << r.out;
+  std::vector<std::string> calls;
+  std::istringstream in(slurp(log));
+  for (std::string line; std::getline(in, line);) {
+    if (line.find(" = 0") == std::string::npos) continue;  // only calls that succeeded
+    if (line.find("fsync(") != std::string::npos || line.find("fdatasync(") != std::string::npos) {
+      calls.push_back("F");
+    } else if (line.find("rename") != std::string::npos) {
+      // rename("…/.height.png.tmp-abc123", "…/height.png") = 0: the last quoted path is the target.
+      const auto close = line.rfind('"'), open = line.rfind('"', close - 1);
+      calls.push_back("R:" + fs::path(line.substr(open + 1, close - open - 1)).filename().string());
+    }
+  }
+  return calls;
+}
+
+TEST(CliSync, GeneratedFilesAreFlushedOnlyWithSyncAndTheSavedRecipeAlways) {
+  if (relief::test::sh("strace -qq -e trace=none true").code != 0) GTEST_SKIP() << "strace cannot trace here";
+  const std::vector<std::string> files = {"albedo.png", "color.png",   "height.json",  "height.png",
+                                          "height.r16", "report.json", "terrain.mtl", "terrain.obj"};
+  TempDir plain, synced;
+  // Default: every generated file is renamed into place (atomic) but none is flushed; the saved
+  // recipe, which the user may have edited by hand next, is flushed before its rename.
+  const std::string common = "generate --preset island --seed 3 --size 33 -q ";
+  std::vector<std::string> a = sync_trace(plain, common + "-o " + (plain / "out") + " --save-recipe " + (plain / "r.json"));
+  std::vector<std::string> expect_a;
+  for (auto& f : files) expect_a.push_back("R:" + f);  // commit() renames in name order
+  expect_a.push_back("F");
+  expect_a.push_back("R:r.json");
+  EXPECT_EQ(a, expect_a);
+  // --sync: all files are flushed before the first of them becomes visible (so a power cut leaves
+  // the old set or the new set on disk), then renamed in name order.
+  std::vector<std::string> b = sync_trace(synced, common + "--sync -o " + (synced / "out"));
+  std::vector<std::string> expect_b(files.size(), "F");
+  for (auto& f : files) expect_b.push_back("R:" + f);
+  EXPECT_EQ(b, expect_b);
+  // Same bytes either way.
+  for (auto& f : files) {
+    if (f == "report.json") continue;  // its timings differ
+    EXPECT_EQ(slurp(plain.path / "out" / f), slurp(synced.path / "out" / f)) << f;
+  }
+}
+
 TEST(CliSaveRecipe, ReplayReproducesEveryExportFileByteForByte) {
   TempDir a, b, c;
   const std::string flags =

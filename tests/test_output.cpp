@@ -6,6 +6,7 @@
 #include <signal.h>
 #include <spng.h>
 #include <sys/resource.h>
+#include <sys/stat.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -886,10 +887,15 @@ TEST(FileOutput, WriteFileAtomicIntoMissingDirectoryFails) {
   EXPECT_EQ(read_file(dir.path / "f.txt"), "atomic");
 }
 
-TEST(FileOutput, OnCommitShowsNothingUntilCommit) {
+// Both durability modes keep the same visibility contract (Atomic only skips the fsync).
+class FileOutputSync : public ::testing::TestWithParam<FileOutput::Sync> {};
+INSTANTIATE_TEST_SUITE_P(BothModes, FileOutputSync, ::testing::Values(FileOutput::Sync::Durable, FileOutput::Sync::Atomic),
+                         [](const auto& info) { return info.param == FileOutput::Sync::Durable ? "Durable" : "Atomic"; });
+
+TEST_P(FileOutputSync, OnCommitShowsNothingUntilCommit) {
   TempDir dir;
   write_file(dir.path / "a.txt", "old a");
-  FileOutput out(dir.path.string(), FileOutput::Mode::OnCommit);
+  FileOutput out(dir.path.string(), FileOutput::Mode::OnCommit, GetParam());
   out.put("b.txt", "new b");
   auto s = out.open("a.txt");
   s->write("new ");
@@ -909,11 +915,11 @@ TEST(FileOutput, OnCommitShowsNothingUntilCommit) {
   EXPECT_EQ(out.bytes_written(), 10u);
 }
 
-TEST(FileOutput, OnCommitWithoutCommitChangesNoFile) {
+TEST_P(FileOutputSync, OnCommitWithoutCommitChangesNoFile) {
   TempDir dir;
   write_file(dir.path / "height.png", "old");
   {
-    FileOutput out(dir.path.string(), FileOutput::Mode::OnCommit);
+    FileOutput out(dir.path.string(), FileOutput::Mode::OnCommit, GetParam());
     out.put("height.png", "new");
     out.put("color.png", "new");
     auto open_stream = out.open("terrain.obj");
@@ -923,6 +929,37 @@ TEST(FileOutput, OnCommitWithoutCommitChangesNoFile) {
   EXPECT_EQ(read_file(dir.path / "height.png"), "old");
   EXPECT_FALSE(fs::exists(dir.path / "color.png"));
   EXPECT_FALSE(fs::exists(dir.path / "terrain.obj"));
+  EXPECT_TRUE(temp_leftovers(dir.path).empty());
+}
+
+// A stream whose size estimate is too large (the OBJ writer's is an upper bound) gets its blocks
+// allocated up front; the file ends exactly at what was written and keeps no reserved block past it.
+TEST_P(FileOutputSync, OverestimatedStreamEndsAtWhatWasWrittenAndKeepsNoSpareBlocks) {
+  TempDir dir;
+  const std::string piece(256 * 1024, 'x');
+  FileOutput out(dir.path.string(), FileOutput::Mode::OnCommit, GetParam());
+  auto s = out.open("big.obj", 64u << 20);  // 64 MiB estimate
+  for (int k = 0; k < 6; ++k) s->write(piece);  // 1.5 MiB written
+  s->close();
+  out.commit();
+  const fs::path f = dir.path / "big.obj";
+  EXPECT_EQ(fs::file_size(f), 6u * piece.size());
+  struct stat st {};
+  ASSERT_EQ(::stat(f.c_str(), &st), 0);
+  EXPECT_LE(std::uint64_t(st.st_blocks) * 512u, 2u << 20) << "blocks reserved past the end were not given back";
+  EXPECT_EQ(read_file(f), [&] {
+    std::string all;
+    for (int k = 0; k < 6; ++k) all += piece;
+    return all;
+  }());
+}
+
+TEST_P(FileOutputSync, ImmediatePutReplacesAtOnce) {
+  TempDir dir;
+  write_file(dir.path / "f.txt", "old");
+  FileOutput out(dir.path.string(), FileOutput::Mode::Immediate, GetParam());
+  out.put("f.txt", "new");
+  EXPECT_EQ(read_file(dir.path / "f.txt"), "new");
   EXPECT_TRUE(temp_leftovers(dir.path).empty());
 }
 

@@ -46,6 +46,7 @@ struct GenerateSettings {
   bool seed_given = false;
   int threads = 0;
   bool quiet = false;
+  bool sync = false;  // --sync: fsync every generated file before renaming it into place
   // Tilemap shortcuts: they set parameters of the recipe's "tilemap" stage (added when missing).
   std::string tile_size;  // --tile-size N
   std::string map_tiles;  // --map-tiles N or NxM
@@ -282,9 +283,12 @@ int cmd_generate(const GenerateSettings& s) {
                                   human_bytes(have) + "; choose a smaller --size" + (with_mesh ? " or drop the meshes from --formats" : ""));
 
   // Check the output directories before spending time on generation.
-  FileOutput files(s.out_dir, FileOutput::Mode::OnCommit);
+  // Generated files are reproducible from report.json (recipe and seed), so by default they are
+  // atomic but not flushed (FileOutput::Sync); --save-recipe's file is always flushed.
+  const FileOutput::Sync sync = s.sync ? FileOutput::Sync::Durable : FileOutput::Sync::Atomic;
+  FileOutput files(s.out_dir, FileOutput::Mode::OnCommit, sync);
   std::unique_ptr<FileOutput> step_files;
-  if (!s.steps_dir.empty()) step_files = std::make_unique<FileOutput>(s.steps_dir);
+  if (!s.steps_dir.empty()) step_files = std::make_unique<FileOutput>(s.steps_dir, FileOutput::Mode::Immediate, sync);
 
   Progress prog{is_tty() && !s.quiet};
   RunOptions opt;
@@ -483,6 +487,9 @@ int main(int argc, char** argv) {
   gen->add_option("--steps", gs.steps_dir,
                   "Also write one hillshaded picture per stage (NN-STAGE.png) and a captioned contact sheet steps.png into DIR");
   gen->add_flag("--quiet,-q", gs.quiet, "Print nothing but errors");
+  gen->add_flag("--sync", gs.sync,
+                "Flush every file to disk (fsync) before renaming it into place, so it survives a power cut; without it "
+                "each file is still all-old or all-new if the run fails, and the kernel writes it back later");
   gen->add_option("--tile-size", gs.tile_size,
                   "Tilemap: tile size in pixels (16, 32, 64 …); sets the tilemap stage's tile_size and implies --formats tilemap");
   gen->add_option("--map-tiles", gs.map_tiles,
