@@ -249,6 +249,34 @@ void CurveRowImpl(const CurveRow& k, float* HWY_RESTRICT row, int n) {
   const D d;
   const V first_x = hn::Set(d, k.first_x), first_y = hn::Set(d, k.first_y);
   const V last_x = hn::Set(d, k.last_x), last_y = hn::Set(d, k.last_y);
+  const int N = int(hn::Lanes(d));
+  auto finish = [&](V x, V x0, V h, V c0, V c1, V c2, V c3, V lo, V hi) {
+    const V s = Clamp01(d, hn::Div(hn::Sub(x, x0), h));
+    V y = hn::Add(c0, hn::Mul(s, hn::Add(c1, hn::Mul(s, hn::Add(c2, hn::Mul(s, c3))))));
+    y = hn::Min(hn::Max(y, lo), hi);  // exact no-overshoot guarantee
+    y = hn::IfThenElse(hn::Le(x, first_x), first_y, y);
+    y = hn::IfThenElse(hn::Ge(x, last_x), last_y, y);
+    return Clamp01(d, y);
+  };
+  if (k.segments > 1 && k.segments <= N && k.readable >= N) {
+    // Up to one vector of segments: the segment index is the number of interior knots ≤ x (the
+    // knots are non-decreasing, so that is the last one, as the select chain below picks), and
+    // each coefficient one lane permutation of its array: the same values, fewer operations.
+    const DI di;
+    const V tx0 = hn::LoadU(d, k.x0), th = hn::LoadU(d, k.h), tc0 = hn::LoadU(d, k.c0), tc1 = hn::LoadU(d, k.c1);
+    const V tc2 = hn::LoadU(d, k.c2), tc3 = hn::LoadU(d, k.c3), tlo = hn::LoadU(d, k.lo), thi = hn::LoadU(d, k.hi);
+    InPlace(d, row, n, [&](V v, int) {
+      const V x = Clamp01(d, v);
+      auto seg = hn::Zero(di);
+      for (int m = 1; m < k.segments; ++m)
+        seg = hn::Sub(seg, hn::BitCast(di, hn::VecFromMask(d, hn::Ge(x, hn::Set(d, k.x0[m])))));  // + 1 where x ≥ knot
+      const auto idx = hn::IndicesFromVec(d, seg);
+      return finish(x, hn::TableLookupLanes(tx0, idx), hn::TableLookupLanes(th, idx), hn::TableLookupLanes(tc0, idx),
+                    hn::TableLookupLanes(tc1, idx), hn::TableLookupLanes(tc2, idx), hn::TableLookupLanes(tc3, idx),
+                    hn::TableLookupLanes(tlo, idx), hn::TableLookupLanes(thi, idx));
+    });
+    return;
+  }
   InPlace(d, row, n, [&](V v, int) {
     const V x = Clamp01(d, v);
     // Segment selection without branches: later knots override earlier ones.
@@ -265,12 +293,7 @@ void CurveRowImpl(const CurveRow& k, float* HWY_RESTRICT row, int n) {
       lo = hn::IfThenElse(in, hn::Set(d, k.lo[m]), lo);
       hi = hn::IfThenElse(in, hn::Set(d, k.hi[m]), hi);
     }
-    const V s = Clamp01(d, hn::Div(hn::Sub(x, x0), h));
-    V y = hn::Add(c0, hn::Mul(s, hn::Add(c1, hn::Mul(s, hn::Add(c2, hn::Mul(s, c3))))));
-    y = hn::Min(hn::Max(y, lo), hi);  // exact no-overshoot guarantee
-    y = hn::IfThenElse(hn::Le(x, first_x), first_y, y);
-    y = hn::IfThenElse(hn::Ge(x, last_x), last_y, y);
-    return Clamp01(d, y);
+    return finish(x, x0, h, c0, c1, c2, c3, lo, hi);
   });
 }
 

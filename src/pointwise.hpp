@@ -109,6 +109,7 @@ void island_row(const IslandRow& k, float row_term, float* row, int n);
 // Arrays have `segments` entries (≥ 1); knot[m] (m = 1 .. segments − 1) is the left end of segment m.
 struct CurveRow {
   int segments = 1;
+  int readable = 1;  // entries readable in each array (≥ segments; padding beyond is never selected)
   const float *x0 = nullptr, *h = nullptr, *c0 = nullptr, *c1 = nullptr, *c2 = nullptr, *c3 = nullptr, *lo = nullptr,
               *hi = nullptr;
   float first_x = 0.0f, first_y = 0.0f, last_x = 1.0f, last_y = 1.0f;

@@ -219,8 +219,10 @@ struct CurveParams {
 // then clamped to [min, max] of y_k, y_k+1 — an exact no-overshoot guarantee (the tangents make it
 // hold mathematically; the clamp removes rounding). Knots are compared in float exactly as the
 // double comparison would decide (pointwise.hpp: float_at_least / float_at_most), so a control
-// point's own x maps to its own y. Cost per sample grows with the number of control points
-// (one compare and eight selects per interior point and vector).
+// point's own x maps to its own y. Up to one vector's lanes of segments (8 on AVX2, 16 on
+// AVX-512), the segment's coefficients are looked up by lane permutation (one compare and one add
+// per interior point, eight permutations); beyond that, one compare and eight selects per interior
+// point. AVX2, 4096², 1 thread: 7 points 76 → 52 ms, 4 points 49 → 44 ms.
 struct CurveKernel final : RowKernel {
   detail::CurveRow k;
   std::vector<float> x0, h, c0, c1, c2, c3, lo, hi;
@@ -247,6 +249,10 @@ std::unique_ptr<RowKernel> prepare_curve(Terrain& t, const CurveParams& p, const
     r->hi.push_back(float(std::max(c[k].y, c[k + 1].y)));
   }
   r->k.segments = int(r->x0.size());
+  // Padded to a vector of the widest target, so that up to kLevelLanes segments are looked up by
+  // lane permutation (curve_row); the padding is never selected.
+  r->k.readable = std::max(r->k.segments, detail::kLevelLanes);
+  for (auto* a : {&r->x0, &r->h, &r->c0, &r->c1, &r->c2, &r->c3, &r->lo, &r->hi}) a->resize(std::size_t(r->k.readable), 0.0f);
   r->k.x0 = r->x0.data(), r->k.h = r->h.data(), r->k.c0 = r->c0.data(), r->k.c1 = r->c1.data();
   r->k.c2 = r->c2.data(), r->k.c3 = r->c3.data(), r->k.lo = r->lo.data(), r->k.hi = r->hi.data();
   r->k.first_x = detail::float_at_most(c.front().x);

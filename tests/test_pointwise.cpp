@@ -80,6 +80,14 @@ std::vector<Case> cases() {
       {"terrace", {{"levels", 7}}, {"height"}, true},
       {"terrace", {{"levels", 5}, {"mode", "smooth"}, {"wall", 0.4}, {"land_only", true}}, {"height"}, true},
       {"curve", {{"points", {{0.0, 0.1}, {0.2, 0.15}, {0.45, 0.8}, {0.8, 0.85}, {1.0, 1.0}}}}, {"height"}, true},
+      // 6 and 11 segments: the lane-permutation lookup on targets with at least that many lanes
+      // (AVX2: 8, AVX-512: 16), the select chain on narrower ones (curve_row).
+      {"curve", {{"points", {{0.05, 0.0}, {0.1, 0.3}, {0.3, 0.35}, {0.5, 0.7}, {0.6, 0.6}, {0.75, 0.9}, {0.95, 1.0}}}}, {"height"}, true},
+      {"curve",
+       {{"points",
+         {{0.0, 0.0}, {0.1, 0.2}, {0.2, 0.1}, {0.3, 0.4}, {0.4, 0.35}, {0.5, 0.6}, {0.6, 0.5}, {0.7, 0.8}, {0.8, 0.7}, {0.9, 0.95}, {0.95, 0.9}, {1.0, 1.0}}}},
+       {"height"},
+       true},
       {"color", {{"variation", 0.1}, {"rock_blend_deg", 8.0}, {"rock_slope_deg", 20.0}}, {"albedo"}, false},
       {"color", {{"mode", "gradient"}, {"relative_to_max", true}, {"rock_blend_deg", 0.0}}, {"albedo"}, true},
       {"hillshade", {{"z_factor", 3.0}}, {"shade", "color"}, true},

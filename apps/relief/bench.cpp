@@ -349,6 +349,9 @@ int run_bench(const BenchSettings& s) {
           {{"stage", "island"}, {"distance", "squircle"}},
           {{"stage", "island"}, {"distance", "circular"}, {"shaping", "subtract"}},
           {{"stage", "curve"}, {"points", json::array({json::array({0, 0}), json::array({0.4, 0.2}), json::array({0.7, 0.8}), json::array({1, 1})})}},
+          {{"stage", "curve"},
+           {"points", json::array({json::array({0, 0}), json::array({0.1, 0.3}), json::array({0.3, 0.35}), json::array({0.5, 0.7}),
+                                   json::array({0.6, 0.6}), json::array({0.75, 0.9}), json::array({1, 1})})}},
           {{"stage", "color"}, {"mode", "bands"}},
           {{"stage", "color"}, {"mode", "gradient"}},
           {{"stage", "hillshade"}},
@@ -366,7 +369,8 @@ int run_bench(const BenchSettings& s) {
             [&] { std::copy(original.begin(), original.end(), t.get("height").data.begin()); });
         std::string name = stage;
         for (auto it = c.begin(); it != c.end(); ++it)
-          if (it.key() != "stage" && it.key() != "points") name += " " + (it.value().is_string() ? it.value().get<std::string>() : it.key());
+          if (it.key() == "points") name += " " + std::to_string(it.value().size()) + " points";
+          else if (it.key() != "stage") name += " " + (it.value().is_string() ? it.value().get<std::string>() : it.key());
         const double floor = fl.median;
         json e;
         e["name"] = name;
