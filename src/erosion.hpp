@@ -7,6 +7,7 @@
 // horizontally. Every parameter is in world units, so a 513² preview and a 2049² build of the same
 // world erode alike. Results are identical for any thread count.
 #include <cstdint>
+#include <functional>
 
 #include "relief/terrain.hpp"
 
@@ -58,7 +59,9 @@ struct HydraulicStats {
 // 2·reach (reach = lifetime·step + brush radius, in cells, + 2), which are processed in 4 phases
 // (a 2×2 checkerboard) and 4 rounds; tiles of one phase touch disjoint cells, and each tile runs
 // its droplets sequentially in index order. The result depends on the parameters and the seed only.
-HydraulicStats hydraulic_erosion(float* e, const Frame& f, const HydraulicSettings& s, std::uint64_t seed);
+// progress(fraction), if given, is called on the calling thread as the work advances (16 times).
+HydraulicStats hydraulic_erosion(float* e, const Frame& f, const HydraulicSettings& s, std::uint64_t seed,
+                                 const std::function<void(double)>& progress = {});
 
 // ---- thermal erosion (Musgrave, Kolb, Mace 1989; Olsen 2004) --------------------------------
 // One iteration on the von Neumann neighbourhood: with d_k the height difference (metres) to each
@@ -97,6 +100,8 @@ struct StreamPowerStats {
 // layer drains too. Each step: D8 direction codes and donor masks (SIMD, row-parallel), then every
 // drainage basin walked depth-first from its outlet (receivers first), in parallel across basins;
 // bit-identical to one global Braun–Willett stack for any thread count.
-StreamPowerStats stream_power(float* e, const Frame& f, const StreamPowerSettings& s);
+// progress(fraction), if given, is called on the calling thread after every step.
+StreamPowerStats stream_power(float* e, const Frame& f, const StreamPowerSettings& s,
+                              const std::function<void(double)>& progress = {});
 
 }  // namespace relief::erosion

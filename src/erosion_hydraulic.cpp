@@ -476,7 +476,8 @@ void run_batch(const Kernel& k, const TileJob* jobs, std::size_t njobs, std::ato
 }
 }  // namespace kernel
 
-HydraulicStats hydraulic_erosion(float* e, const Frame& f, const HydraulicSettings& s, std::uint64_t seed) {
+HydraulicStats hydraulic_erosion(float* e, const Frame& f, const HydraulicSettings& s, std::uint64_t seed,
+                                 const std::function<void(double)>& progress) {
   HydraulicStats total;
   if (f.nx < 2 || f.nz < 2) return total;
   const double cell = f.cell_m();
@@ -575,6 +576,7 @@ HydraulicStats hydraulic_erosion(float* e, const Frame& f, const HydraulicSettin
       std::stable_sort(jobs.begin(), jobs.end(), [](const kernel::TileJob& a, const kernel::TileJob& b) { return a.n > b.n; });
       std::atomic<std::size_t> next{0};
       tbb::parallel_for(0, workers, [&](int) { kernel::run_batch(k, jobs.data(), jobs.size(), &next); });
+      if (progress) progress(double(round * 4 + phase + 1) / (4.0 * kRounds));
     }
   for (const auto& st : per_tile) {
     total.eroded_m3 += st.eroded_m3;

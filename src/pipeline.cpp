@@ -134,7 +134,12 @@ RunResult run(const Recipe& r, const RunOptions& opt) {
     Context ctx;
     ctx.seed = res.seed;
     ctx.stage_index = int(i);
-    ctx.progress = opt.progress;
+    // A stage reports the fraction of its own work; the run's listener gets the run's fraction
+    // (each stage one equal share), never going backwards.
+    if (opt.progress)
+      ctx.progress = [&opt, i, n = double(r.stages.size())](std::string_view name, double f) {
+        opt.progress(name, (double(i) + std::clamp(f, 0.0, 1.0)) / n);
+      };
     return ctx;
   };
   // Stage errors about layers name the stage that failed.

@@ -21,6 +21,7 @@
 //     cell size, anti-aliased), which the "color" stage paints with its water_color.
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <numbers>
 #include <string>
 #include <vector>
@@ -36,6 +37,13 @@ namespace {
 
 constexpr double kSecondsPerYear = 365.25 * 24 * 3600;
 
+// The context's progress callback for this stage as a function of the fraction done (empty when
+// nobody listens): the long stages below report after each step, phase or iteration.
+std::function<void(double)> stage_progress(const Context& ctx, const char* name) {
+  if (!ctx.progress) return {};
+  return [&ctx, name](double f) { ctx.progress(name, f); };
+}
+
 Layer& height_layer(Terrain& t) {
   Layer& h = t.get("height");
   if (h.channels != 1 || h.data.size() != t.frame.count())
@@ -49,7 +57,7 @@ using HydraulicParams = erosion::HydraulicSettings;
 
 void apply_hydraulic(Terrain& t, const HydraulicParams& p, const Context& ctx) {
   Layer& h = height_layer(t);
-  erosion::hydraulic_erosion(h.data.data(), t.frame, p, ctx.stage_seed(0x6879647261756cull));
+  erosion::hydraulic_erosion(h.data.data(), t.frame, p, ctx.stage_seed(0x6879647261756cull), stage_progress(ctx, "hydraulic"));
 }
 
 void validate_hydraulic(const HydraulicParams& p, const std::string& path) {
@@ -66,13 +74,15 @@ struct ThermalParams {
   double distance_m = 60.0;
 };
 
-void apply_thermal(Terrain& t, const ThermalParams& p, const Context&) {
+void apply_thermal(Terrain& t, const ThermalParams& p, const Context& ctx) {
   Layer& h = height_layer(t);
   const int iterations = int(std::ceil(p.distance_m / t.frame.cell_m() - 1e-9));
   std::vector<float> next(h.data.size());
+  const auto progress = stage_progress(ctx, "thermal");
   for (int it = 0; it < iterations; ++it) {
     erosion::thermal_iteration(h.data.data(), next.data(), t.frame, p.talus_deg, p.rate);
     h.data.swap(next);
+    if (progress) progress(double(it + 1) / iterations);
   }
   for (float& v : h.data) v = std::clamp(v, 0.0f, 1.0f);
 }
@@ -104,7 +114,7 @@ struct FlowParams {
   double carve_depth_coeff = 0.0;
 };
 
-void apply_flow(Terrain& t, const FlowParams& p, const Context&) {
+void apply_flow(Terrain& t, const FlowParams& p, const Context& ctx) {
   Layer& hl = height_layer(t);
   const Frame& f = t.frame;
   const int nx = f.nx, nz = f.nz;
@@ -115,10 +125,13 @@ void apply_flow(Terrain& t, const FlowParams& p, const Context&) {
 
   // Filled surface, receivers, topological order and drainage area (in cells).
   std::vector<float> filled(e);
+  const auto progress = stage_progress(ctx, "flow");
   hydro::fill_depressions<float>(filled.data(), nx, nz, sea, float(p.epsilon_m / H));
+  if (progress) progress(0.7);  // the fill is most of the stage's time (bench: fill + d8 + accumulation)
   std::vector<std::uint32_t> rec(n), order, count(n);
   hydro::d8_receivers<float>(filled.data(), nx, nz, sea, rec.data());
   hydro::flow_order(rec.data(), n, order, count.data());
+  if (progress) progress(0.85);
 
   // Depressions: connected cells raised by the fill. Keep the big, deep ones as lakes.
   t.lakes.clear();
@@ -303,7 +316,7 @@ struct StreamPowerParams {
   double max_slope_deg = 40.0;
 };
 
-void apply_stream_power(Terrain& t, const StreamPowerParams& p, const Context&) {
+void apply_stream_power(Terrain& t, const StreamPowerParams& p, const Context& ctx) {
   Layer& h = height_layer(t);
   erosion::StreamPowerSettings s;
   s.uplift_mm_per_year = p.uplift_mm_per_year;
@@ -315,7 +328,7 @@ void apply_stream_power(Terrain& t, const StreamPowerParams& p, const Context&) 
   s.steps = p.steps;
   s.rainfall = p.rainfall;
   s.max_slope_deg = p.max_slope_deg;
-  erosion::stream_power(h.data.data(), t.frame, s);
+  erosion::stream_power(h.data.data(), t.frame, s, stage_progress(ctx, "stream_power"));
 }
 
 }  // namespace

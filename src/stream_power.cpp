@@ -28,7 +28,8 @@
 
 namespace relief::erosion {
 
-StreamPowerStats stream_power(float* e, const Frame& f, const StreamPowerSettings& s) {
+StreamPowerStats stream_power(float* e, const Frame& f, const StreamPowerSettings& s,
+                              const std::function<void(double)>& progress) {
   StreamPowerStats stats;
   const int nx = f.nx, nz = f.nz;
   const std::size_t n = f.count();
@@ -196,6 +197,7 @@ StreamPowerStats stream_power(float* e, const Frame& f, const StreamPowerSetting
           }
         }
     });
+    if (progress) progress(double(step + 1) / double(s.steps));
   }
   detail::parallel_rows(nz, [&](int j) {
     for (int i = 0; i < nx; ++i) {

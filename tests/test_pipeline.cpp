@@ -6,6 +6,10 @@
 #include <algorithm>
 #include <cmath>
 #include <cstring>
+#include <map>
+#include <string>
+#include <utility>
+#include <vector>
 
 #include "relief/pipeline.hpp"
 #include "relief/recipe.hpp"
@@ -96,6 +100,44 @@ TEST(Pipeline, SameSeedSameBytesForAnyThreadCount) {
     }
     EXPECT_FALSE(ref.empty());
   }
+}
+
+// Long stages report their own progress; the run's listener sees one fraction that never goes
+// back, stays within each stage's share, and ends at 1 ("done").
+TEST(Pipeline, ProgressAdvancesWithinLongStagesAndNeverGoesBack) {
+  Recipe r = preset("eroded-mountains", 129);
+  std::vector<std::pair<std::string, double>> calls;
+  RunOptions o;
+  o.progress = [&](std::string_view stage, double f) { calls.emplace_back(std::string(stage), f); };
+  run(r, o);
+  ASSERT_FALSE(calls.empty());
+  EXPECT_EQ(calls.back(), std::make_pair(std::string("done"), 1.0));
+  const double n = double(r.stages.size());
+  std::map<std::string, int> reports;
+  for (std::size_t k = 0; k < calls.size(); ++k) {
+    if (k > 0) {
+      EXPECT_GE(calls[k].second, calls[k - 1].second) << k << ": " << calls[k].first;
+    }
+    ++reports[calls[k].first];
+  }
+  for (std::size_t i = 0; i < r.stages.size(); ++i) {
+    const std::string name = r.stages[i].def->name;
+    if (std::count_if(r.stages.begin(), r.stages.end(), [&](const RecipeStage& s) { return s.def->name == name; }) > 1)
+      continue;  // two noise stages: the name does not say which share
+    for (auto& [stage, f] : calls)
+      if (stage == name) {
+        EXPECT_GE(f, double(i) / n - 1e-12) << name;
+        EXPECT_LE(f, double(i + 1) / n + 1e-12) << name;
+      }
+  }
+  // stream_power: the start, then one report per step; hydraulic: 16 phases; thermal: one per
+  // iteration (at least one); flow: two phases.
+  const json sp = load_preset("eroded-mountains")["stages"][4];
+  ASSERT_EQ(sp["stage"], "stream_power");
+  EXPECT_EQ(reports["stream_power"], 1 + sp["steps"].get<int>());
+  EXPECT_EQ(reports["hydraulic"], 1 + 16);
+  EXPECT_GE(reports["thermal"], 2);
+  EXPECT_EQ(reports["flow"], 1 + 2);  // after the fill and after the flow order
 }
 
 TEST(Pipeline, DifferentSeedsDiffer) {

@@ -357,7 +357,9 @@ TEST(Redistribute, LandOnlySeaFloorVectorsMatchMixedOnes) {
     for (int i = 0; i < 64; ++i) {
       const int src = i % 2 ? 63 - i / 2 : i / 2;
       EXPECT_EQ(to_bits(b[std::size_t(i)]), to_bits(a[std::size_t(src)])) << "height " << mixed[std::size_t(i)];
-      if (sea_first[std::size_t(src)] <= 0.4f) EXPECT_EQ(a[std::size_t(src)], std::max(sea_first[std::size_t(src)], 0.0f));
+      if (sea_first[std::size_t(src)] <= 0.4f) {
+        EXPECT_EQ(a[std::size_t(src)], std::max(sea_first[std::size_t(src)], 0.0f));
+      }
     }
   }
 }

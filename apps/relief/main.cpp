@@ -107,13 +107,22 @@ std::uint64_t peak_rss_bytes() {
 // Progress on a terminal only: one rewritten line on stderr.
 struct Progress {
   bool on = false;
-  void operator()(std::string_view what, double f) const {
+  int last_pct = -1;
+  std::string last_what;
+  // Redraws the line only when what it says changes (long stages report after every step).
+  void operator()(std::string_view what, double f) {
     if (!on) return;
-    std::fprintf(stderr, "\r\033[K[%3d%%] %.*s", int(std::lround(f * 100)), int(what.size()), what.data());
+    const int pct = int(std::lround(f * 100));
+    if (pct == last_pct && what == last_what) return;
+    last_pct = pct;
+    last_what = std::string(what);
+    std::fprintf(stderr, "\r\033[K[%3d%%] %.*s", pct, int(what.size()), what.data());
     std::fflush(stderr);
   }
-  void done() const {
+  // Clears the line (before other output, and at the end); the next call draws it again.
+  void done() {
     if (on) std::fprintf(stderr, "\r\033[K");
+    last_pct = -1;
   }
 };
 
@@ -320,6 +329,7 @@ int cmd_generate(const GenerateSettings& s) {
       if (w == report || std::find(encoders.begin(), encoders.end(), w) != encoders.end()) ran += (ran.empty() ? "" : ",") + w->name;
     recipe.export_settings = ExportSettings{ran, export_options};
   }
+  prog.done();  // the seed line gets a line of its own
   if (!s.quiet) std::printf("seed %llu (reproduce with --seed %llu)\n", (unsigned long long)res.seed, (unsigned long long)res.seed);
 
   WriteContext wc;

@@ -22,8 +22,8 @@ namespace relief {
 struct Context {
   std::uint64_t seed = 0;   // the recipe's seed, 0..2^53−1
   int stage_index = 0;      // position of the running stage in the recipe
-  // Progress of long work: (stage name, fraction 0..1). May be empty. Called from the calling
-  // thread only.
+  // Progress of long work: (stage name, fraction 0..1 of this stage's work). May be empty. Called
+  // from the calling thread only. run() (pipeline.hpp) turns it into the run's overall fraction.
   std::function<void(std::string_view, double)> progress;
   // Seed for this stage: mixes the recipe seed with the stage index (and a per-stage salt).
   std::uint64_t stage_seed(std::uint64_t salt = 0) const;
