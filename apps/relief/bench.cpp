@@ -52,6 +52,22 @@ double median_of(std::vector<double> v) {
   return v.size() % 2 ? v[v.size() / 2] : 0.5 * (v[v.size() / 2 - 1] + v[v.size() / 2]);
 }
 
+// The fields every JSON entry has: name, grid size, threads, the median, min and max wall time,
+// the median CPU time and the throughput (million samples per second, over `samples`, by default
+// the grid's cells).
+json timing_entry(const std::string& name, int nx, int nz, int threads, const Sample& t, double samples = 0) {
+  json e;
+  e["name"] = name;
+  e["size"] = json::array({nx, nz});
+  e["threads"] = threads;
+  e["median_ms"] = t.median;
+  e["min_ms"] = t.min;
+  e["max_ms"] = t.max;
+  e["cpu_median_ms"] = t.cpu_median;
+  e["msamples_per_s"] = (samples > 0 ? samples : double(nx) * nz) / (t.median * 1e3);
+  return e;
+}
+
 // Runs setup() then f() once to warm up (page faults, caches, lazy init), then `runs` timed f()
 // calls, each after an untimed setup().
 template <class F, class S>
@@ -190,16 +206,8 @@ int run_bench(const BenchSettings& s) {
             }, 1);
           });
         });
-        json e;
-        e["name"] = c.name;
-        e["size"] = json::array({n, n});
-        e["threads"] = threads;
+        json e = timing_entry(c.name, n, n, threads, t);
         e["simd_target"] = detail::noise_simd_current_target();
-        e["median_ms"] = t.median;
-        e["min_ms"] = t.min;
-        e["max_ms"] = t.max;
-        e["cpu_median_ms"] = t.cpu_median;
-        e["msamples_per_s"] = double(n) * n / (t.median * 1e3);
         if (c.peer) {
           std::unique_ptr<noise::module::Module> m;
           std::string peer = c.peer;
@@ -292,15 +300,7 @@ int run_bench(const BenchSettings& s) {
             detail::parallel_rows(n, [&](int j) { std::copy_n(src.data() + j * w, w, dst.data() + j * w); });
           });
         });
-        json ce;
-        ce["name"] = name;
-        ce["size"] = json::array({n, n});
-        ce["threads"] = threads;
-        ce["median_ms"] = copy.median;
-        ce["min_ms"] = copy.min;
-        ce["max_ms"] = copy.max;
-        ce["msamples_per_s"] = double(n) * n / (copy.median * 1e3);
-        ce["median_cpu_ms"] = copy.cpu_median;
+        const json ce = timing_entry(name, n, n, threads, copy);
         std::printf("%-28s %6s %3d %10.2f %10.2f %10.2f %9.1f   cpu %.2f ms\n", name, (std::to_string(n) + "²").c_str(), threads,
                     copy.median, copy.min, copy.max, ce["msamples_per_s"].get<double>(), copy.cpu_median);
         std::fflush(stdout);
@@ -320,15 +320,7 @@ int run_bench(const BenchSettings& s) {
             });
           });
         });
-        json ce;
-        ce["name"] = "copy 1+3 channels (floor)";
-        ce["size"] = json::array({n, n});
-        ce["threads"] = threads;
-        ce["median_ms"] = c.median;
-        ce["min_ms"] = c.min;
-        ce["max_ms"] = c.max;
-        ce["msamples_per_s"] = double(n) * n / (c.median * 1e3);
-        ce["median_cpu_ms"] = c.cpu_median;
+        const json ce = timing_entry("copy 1+3 channels (floor)", n, n, threads, c);
         std::printf("%-28s %6s %3d %10.2f %10.2f %10.2f %9.1f   cpu %.2f ms\n", "copy 1+3 channels (floor)",
                     (std::to_string(n) + "²").c_str(), threads, c.median, c.min, c.max, ce["msamples_per_s"].get<double>(),
                     c.cpu_median);
@@ -369,18 +361,10 @@ int run_bench(const BenchSettings& s) {
             [&] { std::copy(original.begin(), original.end(), t.get("height").data.begin()); });
         std::string name = stage;
         for (auto it = c.begin(); it != c.end(); ++it)
-          if (it.key() == "points") name += " " + std::to_string(it.value().size()) + " points";
+          if (it.key() == "points") name.append(" ").append(std::to_string(it.value().size())).append(" points");
           else if (it.key() != "stage") name += " " + (it.value().is_string() ? it.value().get<std::string>() : it.key());
         const double floor = fl.median;
-        json e;
-        e["name"] = name;
-        e["size"] = json::array({n, n});
-        e["threads"] = threads;
-        e["median_ms"] = ts.median;
-        e["min_ms"] = ts.min;
-        e["max_ms"] = ts.max;
-        e["median_cpu_ms"] = ts.cpu_median;
-        e["msamples_per_s"] = double(n) * n / (ts.median * 1e3);
+        json e = timing_entry(name, n, n, threads, ts);
         e["vs_copy"] = ts.median / floor;
         e["vs_copy_min"] = ts.min / fl.min;
         e["copy_channels"] = shade ? json("1+3") : json(colour ? 3 : 1);
@@ -423,15 +407,7 @@ int run_bench(const BenchSettings& s) {
           for (std::size_t k = 0; k < res.timings.size() && k < stage_ms.size(); ++k) stage_ms[k].push_back(res.timings[k].ms);
           if (v.recycle) previous = std::move(res.terrain);
         });
-        json e;
-        e["name"] = v.name;
-        e["size"] = json::array({513, 513});
-        e["threads"] = threads;
-        e["median_ms"] = t.median;
-        e["min_ms"] = t.min;
-        e["max_ms"] = t.max;
-        e["median_cpu_ms"] = t.cpu_median;
-        e["msamples_per_s"] = 513.0 * 513.0 / (t.median * 1e3);
+        json e = timing_entry(v.name, 513, 513, threads, t);
         json per = json::array();
         std::string line = "    stages (median ms):";
         for (std::size_t k = 0; k < stage_ms.size(); ++k) {
@@ -481,14 +457,7 @@ int run_bench(const BenchSettings& s) {
                   tbb::simple_partitioner());
             });
           });
-          json e;
-          e["name"] = "preset " + p.name + (size > 1025 ? " (no obj)" : "");
-          e["size"] = json::array({size, size});
-          e["threads"] = threads;
-          e["median_ms"] = t.median;
-          e["min_ms"] = t.min;
-          e["max_ms"] = t.max;
-          e["msamples_per_s"] = double(size) * size / (t.median * 1e3);
+          json e = timing_entry("preset " + p.name + (size > 1025 ? " (no obj)" : ""), size, size, threads, t);
           e["peak_memory_bytes"] = peak_rss();
           print_row(e);
           entries.push_back(e);
@@ -523,14 +492,7 @@ int run_bench(const BenchSettings& s) {
       tbb::task_arena arena(threads);
       auto stage = def->parse(doc["stages"].back(), "stages[5]");
       auto row = [&](const std::string& name, const Sample& t) {
-        json e;
-        e["name"] = name;
-        e["size"] = json::array({256, 256});
-        e["threads"] = threads;
-        e["median_ms"] = t.median;
-        e["min_ms"] = t.min;
-        e["max_ms"] = t.max;
-        e["msamples_per_s"] = 256.0 * 256.0 / (t.median * 1e3);  // tiles per µs
+        json e = timing_entry(name, 256, 256, threads, t);  // msamples_per_s: tiles per µs
         e["peak_memory_bytes"] = peak_rss();
         print_row(e);
         entries.push_back(e);
@@ -585,15 +547,7 @@ int run_bench(const BenchSettings& s) {
       return run(parse_recipe(doc), o).terrain;
     };
     auto record = [&](const std::string& name, int size, int threads, const Sample& t, json extra) {
-      json e;
-      e["name"] = name;
-      e["size"] = json::array({size, size});
-      e["threads"] = threads;
-      e["median_ms"] = t.median;
-      e["min_ms"] = t.min;
-      e["max_ms"] = t.max;
-      e["msamples_per_s"] = double(size) * size / (t.median * 1e3);
-      e["cpu_median_ms"] = t.cpu_median;
+      json e = timing_entry(name, size, size, threads, t);
       for (auto it = extra.begin(); it != extra.end(); ++it) e[it.key()] = it.value();
       e["peak_memory_bytes"] = peak_rss();
       print_row(e);
@@ -705,14 +659,7 @@ int run_bench(const BenchSettings& s) {
             if (w.in_default_set && (!w.applies || w.applies(res.terrain))) w.write(res.terrain, wc, mem);
         });
       });
-      json e;
-      e["name"] = "islands volcanic-island";
-      e["size"] = json::array({1025, 1025});
-      e["threads"] = threads;
-      e["median_ms"] = t.median;
-      e["min_ms"] = t.min;
-      e["max_ms"] = t.max;
-      e["msamples_per_s"] = 1025.0 * 1025.0 / (t.median * 1e3);
+      json e = timing_entry("islands volcanic-island", 1025, 1025, threads, t);
       json stages = json::array();
       std::string line;
       for (std::size_t k = 0; k < stage_ms.size(); ++k) {
@@ -795,15 +742,8 @@ int run_bench(const BenchSettings& s) {
           bytes = 0;
           for (auto& [n, b] : mem.files) bytes += b.size();
         });
-        json e;
-        e["name"] = "export " + c.name;
-        e["size"] = json::array({size, size});
-        e["threads"] = threads;
-        e["median_ms"] = tm.median;
-        e["min_ms"] = tm.min;
-        e["max_ms"] = tm.max;
+        json e = timing_entry("export " + c.name, size, size, threads, tm);
         e["bytes"] = bytes;
-        e["msamples_per_s"] = double(size) * size / (tm.median * 1e3);
         e["peak_memory_bytes"] = peak_rss();
         std::printf("%-28s %6s %3d %10.1f %10.1f %10.1f %12llu\n", c.name.c_str(), (std::to_string(size) + "²").c_str(), threads,
                     tm.median, tm.min, tm.max, (unsigned long long)bytes);
