@@ -378,11 +378,12 @@ void FileOutput::finished(Pending p) {
   pending_.push_back(std::move(p));
 }
 
-void FileOutput::commit() {
+void FileOutput::prepare() {
   std::lock_guard<std::mutex> lock(mutex_);
   std::sort(pending_.begin(), pending_.end(), [](const Pending& a, const Pending& b) { return a.filename < b.filename; });
   // Every file written (and, when durable, on disk) first; only then does any real name change.
   for (Pending& p : pending_) {
+    if (p.fd < 0) continue;  // prepared before
     int e = sync_ == Sync::Durable && ::fsync(p.fd) != 0 ? errno : 0;
     if (::close(p.fd) != 0 && !e) e = errno;
     p.fd = -1;
@@ -393,6 +394,10 @@ void FileOutput::commit() {
       throw Error("output", "cannot write '" + path + "': " + errno_text(e));
     }
   }
+}
+
+void FileOutput::publish() {
+  std::lock_guard<std::mutex> lock(mutex_);
   for (std::size_t k = 0; k < pending_.size(); ++k) {
     std::error_code ec;
     fs::rename(pending_[k].tmp, pending_[k].path, ec);
@@ -408,6 +413,11 @@ void FileOutput::commit() {
     bytes_ += pending_[k].bytes;
   }
   pending_.clear();
+}
+
+void commit_all(const std::vector<Output*>& outputs) {
+  for (Output* o : outputs) o->prepare();
+  for (Output* o : outputs) o->publish();
 }
 
 // ---- encoders -----------------------------------------------------------------------------

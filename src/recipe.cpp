@@ -1,4 +1,5 @@
 #include "relief/recipe.hpp"
+#include "relief/generate.hpp"
 
 #include <algorithm>
 #include <cstdlib>
@@ -69,23 +70,8 @@ ExportSettings parse_export_settings(const json& block, const std::string& path)
     const std::string fp = path + ".formats";
     if (!f.is_string()) throw Error(fp, "expected \"default\", \"all\" or comma-separated format names, got " + describe(f));
     const std::string text = f.get<std::string>();
-    if (text != "default" && text != "all") {
-      std::vector<std::string> names;
-      for (auto& w : writer_registry()) names.push_back(w.name);
-      std::stringstream ss(text);
-      std::string name;
-      int count = 0;
-      while (std::getline(ss, name, ',')) {
-        if (name.empty()) continue;
-        ++count;
-        if (!find_writer(name)) {
-          const std::string near = nearest_name(name, names);
-          throw Error(fp, "unknown format \"" + name + "\"" + (near.empty() ? "" : " (did you mean '" + near + "'?)"));
-        }
-      }
-      if (count == 0) throw Error(fp, "expected at least one format, got \"" + text + "\"");
-      e.formats = text;
-    }
+    select_writers(text, ExportOptions{}, fp);  // validates the names (the one parser of format lists)
+    if (text != "default") e.formats = text;  // "all" stays "all"
   }
   e.options = export_options_table().read(block, path, {"formats"});
   validate_export_options(e.options, [&](const std::string& n) { return path + "." + n; });

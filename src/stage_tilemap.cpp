@@ -258,6 +258,7 @@ WriterDef tilemap() {
           false,
           write_tilemap};
   w.applies = [](const Terrain& t) { return t.tilemap != nullptr; };
+  w.needs = "a tilemap: add a tilemap stage to the recipe";
   return w;
 }
 

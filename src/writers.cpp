@@ -506,6 +506,7 @@ std::vector<WriterDef> make_registry() {
                }});
   w.push_back({"obj", "Wavefront OBJ mesh (Y up, metres) with normals and UVs, plus its MTL using albedo.png",
                {"terrain.obj", "terrain.mtl"}, true, write_obj});
+  w.back().implies = {"albedo"};  // terrain.mtl names albedo.png
   for (auto& ww : water_writers()) w.push_back(std::move(ww));
   w.push_back(detail::biomes_writer());
   w.push_back(detail::features_writer());

@@ -166,6 +166,7 @@ std::vector<WriterDef> export_writers() {
                  out.put("terrain.fbx", encode_fbx(t, ctx.options));
                  progress(ctx, "fbx", 1.0);
                }});
+  w.back().implies = {"albedo"};  // the FBX's texture names albedo.png
   w.push_back({"stl", "binary STL of a closed printable relief (mm): --stl-size-mm, --stl-exaggeration, --stl-base-mm",
                {"terrain.stl"}, false, [](const Terrain& t, const WriteContext& ctx, Output& out) {
                  out.put("terrain.stl", encode_stl(t, ctx.options));

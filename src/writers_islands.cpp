@@ -147,6 +147,7 @@ WriterDef biomes_writer() {
   WriterDef w{"biomes", "biome.png in the legend's colours and biomes.json (id, name, colour, share of the map)",
               {"biome.png", "biomes.json"}, true, write_biomes};
   w.applies = [](const Terrain& t) { return t.has("biome") && !t.biomes.empty(); };
+  w.needs = "a 'biome' layer: add a biomes or climate stage to the recipe";
   return w;
 }
 

@@ -1,7 +1,7 @@
 // rivers.json and lakes.json: the rivers and lakes traced by the "flow" stage, in world metres.
 //
-// Both writers belong to the default set and write nothing when the recipe has no "flow" stage
-// (no "flow" layer), so every recipe can keep the default formats.
+// Both writers belong to the default set, which skips them when the recipe has no "flow" stage
+// (no "flow" layer); named in --formats without one they are an error (relief::generate).
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
@@ -78,12 +78,17 @@ void write_lakes(const Terrain& t, const WriteContext& ctx, Output& out) {
 }  // namespace
 
 std::vector<WriterDef> water_writers() {
-  return {
+  std::vector<WriterDef> w = {
       {"rivers", "rivers.json: river polylines in world metres with discharge and width (recipes with a flow stage)",
        {"rivers.json"}, true, write_rivers},
       {"lakes", "lakes.json: lakes with water level, area, volume, depth and outlet (recipes with a flow stage)",
        {"lakes.json"}, true, write_lakes},
   };
+  for (WriterDef& d : w) {
+    d.applies = [](const Terrain& t) { return t.has("flow"); };
+    d.needs = "a 'flow' layer: add a flow stage to the recipe";
+  }
+  return w;
 }
 
 }  // namespace relief

@@ -43,6 +43,11 @@ inline std::string slurp(const std::filesystem::path& p) {
   return s.str();
 }
 
+// Writes `text` to `p` (replacing it).
+inline void write_text(const std::filesystem::path& p, const std::string& text) {
+  std::ofstream(p, std::ios::binary) << text;
+}
+
 // A fresh, empty folder under the system's temporary directory, named after `prefix`, this
 // process and a counter; removed with everything in it when the object goes.
 struct TempDir {

@@ -344,9 +344,11 @@ TEST(CliSync, GeneratedFilesAreFlushedOnlyWithSyncAndTheSavedRecipeAlways) {
   // recipe, which the user may have edited by hand next, is flushed before its rename.
   const std::string common = "generate --preset island --seed 3 --size 33 -q ";
   std::vector<std::string> a = sync_trace(plain, common + "-o " + (plain / "out") + " --save-recipe " + (plain / "r.json"));
-  std::vector<std::string> expect_a;
-  for (auto& f : files) expect_a.push_back("R:" + f);  // commit() renames in name order
-  expect_a.push_back("F");
+  // One commit for every file of the run: the saved recipe is flushed while every file is being
+  // prepared, before any of them is renamed; then the output folder's files in name order, then
+  // the recipe.
+  std::vector<std::string> expect_a = {"F"};
+  for (auto& f : files) expect_a.push_back("R:" + f);
   expect_a.push_back("R:r.json");
   EXPECT_EQ(a, expect_a);
   // --sync: all files are flushed before the first of them becomes visible (so a power cut leaves
@@ -403,7 +405,8 @@ TEST(CliSaveRecipe, DefaultRunSavesTheWritersThatRan) {
   TempDir a, b;
   ASSERT_EQ(cli("generate island --seed 3 --size 33 -q -o " + a.path.string() + " --save-recipe " + (a / "r.json")).code, 0);
   const auto saved = nlohmann::json::parse(slurp(a.path / "r.json"));
-  EXPECT_EQ(saved["export"]["formats"], "heightmap,color,albedo,obj,rivers,lakes,report");  // the island has a flow stage
+  // The island has no flow stage, so the default set's rivers and lakes writers did not run.
+  EXPECT_EQ(saved["export"]["formats"], "heightmap,color,albedo,obj,report");
   EXPECT_EQ(saved["export"]["engine"], "none");
   ASSERT_EQ(cli("generate " + (a / "r.json") + " -q -o " + b.path.string()).code, 0);
   auto fa = files_of(a.path, "r.json"), fb = files_of(b.path);
@@ -462,4 +465,51 @@ TEST(CliBench, JsonEntriesNameTheCaseTheMachineAndThePeer) {
   EXPECT_EQ(noise, 2 * 11);
   EXPECT_GE(regenerate, 2);
   EXPECT_EQ(per_threads.size(), 2u);
+}
+
+// Issue 16 §3: every file a run writes — the output folder, the step pictures, the saved recipe —
+// is one commit, checked before anything is renamed.
+TEST(CliOneCommit, BadSaveRecipeOrStepsTargetWritesNothing) {
+  TempDir d;
+  const std::string out = d / "rr1";
+  ASSERT_EQ(cli("generate island --seed 1 --size 33 -q -o " + out).code, 0);
+  const std::string before = slurp(d.path / "rr1" / "height.png");
+  const std::string base = "generate island --seed 2 --size 33 -q -o " + out + " ";
+  relief::test::write_text(d.path / "afile", "x");
+  expect_bad_input(base + "--save-recipe " + (d.path / "afile" / "x.json").string(), "--save-recipe: ");
+  fs::create_directories(d.path / "afolder");
+  expect_bad_input(base + "--save-recipe " + (d / "afolder"), "--save-recipe: expected a file name");
+  expect_bad_input(base + "--steps /proc/x", "--steps: ");
+  expect_bad_input(base + "--save-recipe " + (d.path / "rr1" / "report.json").string(), "--save-recipe: ");
+  EXPECT_EQ(slurp(d.path / "rr1" / "height.png"), before);  // the earlier run's files stand
+  // A recipe saved into the output folder under its own name is fine, and written with the rest.
+  ASSERT_EQ(cli(base + "--save-recipe " + (d.path / "rr1" / "saved.json").string()).code, 0);
+  EXPECT_NE(slurp(d.path / "rr1" / "height.png"), before);
+  EXPECT_TRUE(fs::exists(d.path / "rr1" / "saved.json"));
+}
+
+// Issue 16 §6: a writer named in --formats whose input the recipe lacks is an error naming what
+// is missing, not a silent run that writes nothing.
+TEST(CliBadInput, FormatWhoseInputIsMissingNamesIt) {
+  TempDir d;
+  expect_bad_input("generate island --seed 1 --size 33 -q --formats rivers -o " + (d / "a"), "--formats: rivers needs a 'flow' layer");
+  expect_bad_input("generate island --seed 1 --size 33 -q --formats heightmap,lakes -o " + (d / "a"), "--formats: lakes needs a 'flow' layer");
+  EXPECT_FALSE(fs::exists(d.path / "a"));
+  // With a flow stage they write their files.
+  ASSERT_EQ(cli("generate river-island --seed 1 --size 65 -q --formats rivers,lakes -o " + (d / "b")).code, 0);
+  EXPECT_TRUE(fs::exists(d.path / "b" / "rivers.json"));
+  EXPECT_TRUE(fs::exists(d.path / "b" / "lakes.json"));
+}
+
+// --formats accepts the default set plus or minus writers.
+TEST(Cli, FormatsCombineTheDefaultSetWithNamesAndExclusions) {
+  TempDir d;
+  ASSERT_EQ(cli("generate island --seed 1 --size 33 -q --formats default,-obj,glb -o " + (d / "a")).code, 0);
+  EXPECT_TRUE(fs::exists(d.path / "a" / "terrain.glb"));
+  EXPECT_TRUE(fs::exists(d.path / "a" / "height.png"));
+  EXPECT_FALSE(fs::exists(d.path / "a" / "terrain.obj"));
+  EXPECT_FALSE(fs::exists(d.path / "a" / "terrain.mtl"));
+  // --formats all includes the tilemap (a tilemap stage is added, as for --formats tilemap).
+  ASSERT_EQ(cli("generate island --seed 1 --size 65 -q --formats all -o " + (d / "b")).code, 0);
+  EXPECT_TRUE(fs::exists(d.path / "b" / "tilemap.tmx"));
 }

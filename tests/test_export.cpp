@@ -924,8 +924,16 @@ TEST(Engine, LegalSizes) {
     check_engine_size(o, 1025, 1025);
     ADD_FAILURE();
   } catch (const Error& e) {
-    EXPECT_EQ(e.path(), "--engine");
+    EXPECT_EQ(e.path(), "export.engine");  // the library names the recipe's field by default
     EXPECT_NE(std::string(e.what()).find("1009x1009"), std::string::npos);
+    EXPECT_NE(std::string(e.what()).find("(use world.size)"), std::string::npos);
+  }
+  try {
+    check_engine_size(o, 1025, 1025, "--engine", "--size");  // as the CLI names its flags
+    ADD_FAILURE();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.path(), "--engine");
+    EXPECT_NE(std::string(e.what()).find("(use --size)"), std::string::npos);
   }
   o.split = "2x2";
   EXPECT_NO_THROW(check_engine_size(o, 1009, 1009));  // tiles of 505

@@ -22,6 +22,7 @@
 #include "../../src/noise_simd.hpp"
 #include "../../src/parallel.hpp"
 #include "relief/export.hpp"
+#include "relief/generate.hpp"
 #include "relief/noise.hpp"
 #include "relief/random.hpp"
 #include "relief/output.hpp"
@@ -438,23 +439,14 @@ int run_bench(const BenchSettings& s) {
           // Whole pipeline: stages, then every default writer except the OBJ above 1025²
           // (gigabytes of text), encoded in memory, the writers running concurrently as in
           // `relief generate` (one task each, into an output of its own).
+          // relief::generate, as `relief generate` runs it, into memory.
+          GenerateSettings gs;
+          gs.recipe = r;
+          gs.formats = size > 1025 ? "default,-obj" : "default";  // no OBJ above 1025² (gigabytes of text)
+          gs.threads = threads;
           Sample t = time_runs(s.runs, [&] {
-            RunResult res = run(r, o);
-            WriteContext wc;
-            wc.seed = res.seed;
-            std::vector<const WriterDef*> writers;
-            for (auto& w : writer_registry()) {
-              if (!w.in_default_set || (w.name == "obj" && size > 1025)) continue;
-              if (w.applies && !w.applies(res.terrain)) continue;
-              writers.push_back(&w);
-            }
-            std::vector<MemoryOutput> mem(writers.size());
-            tbb::task_arena arena(threads);
-            arena.execute([&] {
-              tbb::parallel_for(
-                  std::size_t(0), writers.size(), [&](std::size_t k) { writers[k]->write(res.terrain, wc, mem[k]); },
-                  tbb::simple_partitioner());
-            });
+            MemoryOutput mem;
+            generate(gs, mem);
           });
           json e = timing_entry("preset " + p.name + (size > 1025 ? " (no obj)" : ""), size, size, threads, t);
           e["peak_memory_bytes"] = peak_rss();

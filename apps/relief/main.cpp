@@ -24,6 +24,7 @@
 #include "relief/export.hpp"
 #include "studio.hpp"
 #include "relief/explain.hpp"
+#include "relief/generate.hpp"
 #include "relief/output.hpp"
 #include "relief/pipeline.hpp"
 #include "relief/recipe.hpp"
@@ -33,7 +34,7 @@ using namespace relief;
 
 namespace {
 
-struct GenerateSettings {
+struct CliGenerate {
   std::string recipe;  // preset name or recipe file
   std::string preset;
   std::string out_dir = "out";
@@ -65,7 +66,7 @@ std::string option_flag(const std::string& name) {
 
 // Writer options: the recipe's "export" block (`base`), then the command line's flags over it,
 // validated (errors name the flag).
-ExportOptions parse_export_options(const GenerateSettings& s, ExportOptions o) {
+ExportOptions parse_export_options(const CliGenerate& s, ExportOptions o) {
   for (const std::string& name : s.export_given) {
     json v;
     if (auto it = s.export_flags.find(name); it != s.export_flags.end()) {
@@ -126,7 +127,7 @@ struct Progress {
   }
 };
 
-json read_recipe_doc(const GenerateSettings& s) {
+json read_recipe_doc(const CliGenerate& s) {
   std::string src = !s.preset.empty() ? s.preset : s.recipe.empty() ? "island" : s.recipe;
   const bool file_like = s.preset.empty() && !s.recipe.empty() &&
                          (src.find('/') != std::string::npos || src.ends_with(".json") || std::filesystem::exists(src));
@@ -167,9 +168,9 @@ bool formats_name(const std::string& formats, const std::string& name) {
 // --formats tilemap, --tile-size and --map-tiles: make sure the recipe has a "tilemap" stage and
 // write the flags into it, so that the stage's parameter table validates them. Returns the
 // stage's path ("stages[N]"), or "" when no tilemap is wanted.
-std::string apply_tilemap_shortcuts(const GenerateSettings& s, const std::string& formats, json& doc) {
+std::string apply_tilemap_shortcuts(const CliGenerate& s, const std::string& formats, json& doc) {
   const bool flags = !s.tile_size.empty() || !s.map_tiles.empty();
-  if (!flags && !formats_name(formats, "tilemap")) return "";
+  if (!flags && !formats_name(formats, "tilemap") && !formats_name(formats, "all")) return "";
   if (!doc.contains("stages") || !doc["stages"].is_array()) return "";  // parse_recipe reports it
   json& st = doc["stages"];
   std::size_t at = st.size();
@@ -194,7 +195,7 @@ std::string apply_tilemap_shortcuts(const GenerateSettings& s, const std::string
   return "stages[" + std::to_string(at) + "]";
 }
 
-int cmd_generate(const GenerateSettings& s) {
+int cmd_generate(const CliGenerate& s) {
   const auto t_start = std::chrono::steady_clock::now();
   json doc = read_recipe_doc(s);
   if (!doc.is_object()) throw Error("recipe", "expected a JSON object, got " + describe(doc));
@@ -243,164 +244,109 @@ int cmd_generate(const GenerateSettings& s) {
     throw;
   }
 
-  // Writers: validated before any work is done.
-  std::vector<const WriterDef*> writers;
-  const bool default_set = formats.empty();
-  if (formats == "all") {
-    for (auto& w : writer_registry())
-      if (w.name != "engine" || engine) writers.push_back(&w);
-  } else if (default_set) {
-    for (auto& w : writer_registry())
-      if (w.in_default_set) writers.push_back(&w);
-  } else {
-    std::stringstream ss(formats);
-    std::string name;
-    std::vector<std::string> names;
-    for (auto& w : writer_registry()) names.push_back(w.name);
-    while (std::getline(ss, name, ',')) {
-      if (name.empty()) continue;
-      const WriterDef* w = find_writer(name);
-      if (!w) {
-        std::string near = nearest_name(name, names), list;
-        for (auto& n : names) list += (list.empty() ? "" : ", ") + n;
-        throw Error("--formats", "unknown format \"" + name + "\"" + (near.empty() ? "" : " (did you mean '" + near + "'?)") +
-                                     "; available: " + list);
-      }
-      writers.push_back(w);
-    }
-    if (writers.empty()) throw Error("--formats", "expected at least one format, got \"" + formats + "\"");
-  }
-  // The tilemap flags imply the tilemap writer.
-  if (!tilemap_stage.empty() && std::find_if(writers.begin(), writers.end(), [](auto* w) { return w->name == "tilemap"; }) == writers.end())
-    writers.push_back(find_writer("tilemap"));
-  bool with_mesh = false, with_albedo = false, with_engine = false, textured = false;
-  for (auto* w : writers) {
-    with_mesh = with_mesh || w->name == "obj" || w->name == "glb" || w->name == "fbx" || w->name == "stl";
-    textured = textured || w->name == "obj" || w->name == "fbx";
-    with_albedo = with_albedo || w->name == "albedo";
-    with_engine = with_engine || w->name == "engine";
-  }
-  // terrain.mtl and the FBX name albedo.png: those meshes are never written without the file.
-  if (textured && !with_albedo) writers.push_back(find_writer("albedo"));
-  // --engine asks for the engine files.
-  if (engine && !with_engine) writers.push_back(find_writer("engine")), with_engine = true;
-  if (with_engine) check_engine_size(export_options, recipe.world.nx, recipe.world.nz);
-  const std::uint64_t need = estimate_memory_bytes(recipe, with_mesh), have = physical_memory_bytes();
-  if (have && need > have * 8 / 10)
-    throw Error("world.size", "a " + std::to_string(recipe.world.nx) + "x" + std::to_string(recipe.world.nz) +
-                                  " terrain with these formats needs about " + human_bytes(need) + ", but this machine has " +
-                                  human_bytes(have) + "; choose a smaller --size" + (with_mesh ? " or drop the meshes from --formats" : ""));
+  // Everything else — which writers, engine legality, memory, running, encoding, the report and
+  // the one commit of every file — is relief::generate's (relief/generate.hpp).
+  relief::GenerateSettings g;
+  g.recipe = std::move(recipe);
+  // The tilemap flags imply the tilemap writer, on top of whatever set was asked for.
+  std::string fmt = formats;
+  if (!tilemap_stage.empty() && !formats_name(fmt, "tilemap") && !formats_name(fmt, "all"))
+    fmt = (fmt.empty() ? "default" : fmt) + ",tilemap";
+  g.formats = fmt;
+  g.formats_path = s.formats.empty() ? "export.formats" : "--formats";
+  g.options = export_options;
+  g.option_path = option_flag;
+  g.size_path = "--size";
+  g.threads = s.threads;
 
-  // Check the output directories before spending time on generation.
-  // Generated files are reproducible from report.json (recipe and seed), so by default they are
-  // atomic but not flushed (FileOutput::Sync); --save-recipe's file is always flushed.
+  // Outputs, checked before any work: generated files are reproducible from report.json (recipe
+  // and seed), so by default they are atomic but not flushed (FileOutput::Sync); --save-recipe's
+  // file is always flushed. Every file of the run — the output folder, the step pictures, the saved
+  // recipe — is part of one commit: a failed run changes none of them.
   const FileOutput::Sync sync = s.sync ? FileOutput::Sync::Durable : FileOutput::Sync::Atomic;
   FileOutput files(s.out_dir, FileOutput::Mode::OnCommit, sync);
-  std::unique_ptr<FileOutput> step_files;
-  if (!s.steps_dir.empty()) step_files = std::make_unique<FileOutput>(s.steps_dir, FileOutput::Mode::Immediate, sync);
+  std::unique_ptr<FileOutput> step_files, recipe_file;
+  std::string recipe_name;
+  if (!s.steps_dir.empty()) {
+    try {
+      step_files = std::make_unique<FileOutput>(s.steps_dir, FileOutput::Mode::OnCommit, sync);
+    } catch (const Error& e) {
+      throw Error("--steps", std::string(e.what()).substr(e.path().empty() ? 0 : e.path().size() + 2));
+    }
+  }
+  if (!s.save_recipe.empty()) {
+    namespace fs = std::filesystem;
+    const fs::path target(s.save_recipe);
+    std::error_code ec;
+    if (fs::is_directory(target, ec) || target.filename().empty() || target.filename() == "." || target.filename() == "..")
+      throw Error("--save-recipe", "expected a file name, got the folder \"" + s.save_recipe + "\"");
+    recipe_name = target.filename().string();
+    const fs::path dir = target.parent_path().empty() ? fs::path(".") : target.parent_path();
+    // The saved recipe must not replace a file of this run (e.g. --save-recipe out/report.json -o out).
+    if (fs::weakly_canonical(dir, ec) == fs::weakly_canonical(fs::path(s.out_dir), ec)) {
+      const WriterPlan plan = select_writers(fmt, export_options, "--formats");
+      for (const WriterDef* w : plan.writers)
+        for (const std::string& f : w->files)
+          if (f == recipe_name)
+            throw Error("--save-recipe", "\"" + s.save_recipe + "\" is a file this run writes (" + w->name + "); choose another name");
+    }
+    try {
+      recipe_file = std::make_unique<FileOutput>(dir.string(), FileOutput::Mode::OnCommit, FileOutput::Sync::Durable);
+    } catch (const Error& e) {
+      throw Error("--save-recipe", std::string(e.what()).substr(e.path().empty() ? 0 : e.path().size() + 2));
+    }
+  }
 
   Progress prog{is_tty() && !s.quiet};
-  RunOptions opt;
-  opt.threads = s.threads;
-  opt.progress = [&](std::string_view st, double f) { prog(std::string("stage ") + std::string(st), f * 0.7); };
+  g.progress = [&](std::string_view what, double f) { prog(what, f); };
   std::vector<StepImage> steps;
   if (step_files)
-    opt.after_stage = [&](const Terrain& t, const RecipeStage& st, int index) {
+    g.after_stage = [&](const Terrain& t, const RecipeStage& st, int index) {
       StepImage im = render_step(t, 512);
       im.file = step_file_name(index, st.def->name);
       im.caption = std::to_string(index + 1) + ". " + st.def->name + (st.label.empty() ? "" : " \u2014 " + st.label);
       steps.push_back(std::move(im));
     };
-  if (!recipe.seed && !s.quiet) std::fprintf(stderr, "relief: no seed given; using a random one\n");
-  RunResult res = run(recipe, opt);
-  recipe.seed = res.seed;
-  const WriterDef* report = nullptr;
-  std::vector<const WriterDef*> encoders;
-  for (auto* w : writers) {
-    if (w->name == "report") report = w;
-    else if ((default_set || formats == "all") && w->applies && !w->applies(res.terrain)) continue;  // e.g. no props here
-    else encoders.push_back(w);
-  }
-  // What is written, in full (the writers that run, by name, and every writer option), so that the
-  // saved recipe and report.json reproduce these files.
-  {
-    std::string ran;
-    for (auto* w : writers)
-      if (w == report || std::find(encoders.begin(), encoders.end(), w) != encoders.end()) ran += (ran.empty() ? "" : ",") + w->name;
-    recipe.export_settings = ExportSettings{ran, export_options};
-  }
-  prog.done();  // the seed line gets a line of its own
-  if (!s.quiet) std::printf("seed %llu (reproduce with --seed %llu)\n", (unsigned long long)res.seed, (unsigned long long)res.seed);
-
-  WriteContext wc;
-  wc.seed = res.seed;
-  wc.recipe = recipe.to_json();
-  wc.options = export_options;
-  wc.progress = [&](std::string_view what, double f) { prog(what, 0.7 + 0.3 * f); };
-  // Writers run in parallel, one task each (the OBJ's rows spread over the threads as well). Each
-  // writes its files straight into temporary files as soon as they are encoded, so the writes
-  // overlap the encoding; commit() below renames them all into place only when every writer has
-  // succeeded, so a failed run changes no file. The bytes never depend on scheduling.
-  json write_ms = json::object();
-  {
-    std::vector<double> ms(encoders.size());
-    std::mutex progress_mutex;
-    wc.progress = [&](std::string_view what, double f) {
-      std::lock_guard<std::mutex> lock(progress_mutex);
-      prog(what, 0.7 + 0.25 * f);
+  bool seed_printed = false;
+  auto print_seed = [&](std::uint64_t seed) {
+    if (seed_printed || s.quiet) return;
+    seed_printed = true;
+    prog.done();  // the seed line gets a line of its own
+    std::printf("seed %llu (reproduce with --seed %llu)\n", (unsigned long long)seed, (unsigned long long)seed);
+  };
+  if (!g.recipe.seed && !s.quiet) std::fprintf(stderr, "relief: no seed given; using a random one\n");
+  g.before_commit = [&](const Terrain&, const Recipe& resolved) {
+    print_seed(*resolved.seed);
+    // Errors of these files name the flag that chose their place.
+    auto as = [](const char* flag, const std::function<void()>& f) {
+      try {
+        f();
+      } catch (const Error& e) {
+        if (e.path() != "output") throw;
+        throw Error(flag, std::string(e.what()).substr(e.path().size() + 2));
+      }
     };
-    tbb::task_arena arena(s.threads > 0 ? s.threads : tbb::task_arena::automatic);
-    arena.execute([&] {
-      tbb::parallel_for(
-          std::size_t(0), encoders.size(),
-          [&](std::size_t k) {
-            const auto t0 = std::chrono::steady_clock::now();
-            encoders[k]->write(res.terrain, wc, files);
-            ms[k] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t0).count();
-          },
-          tbb::simple_partitioner());  // one task per writer, whatever their number
-    });
-    for (std::size_t k = 0; k < encoders.size(); ++k) write_ms[encoders[k]->name] = ms[k];
-  }
-  if (report) {
-    json perf;
-    perf["threads"] = s.threads;
-    json st = json::array();
-    for (auto& t : res.timings) {
-      json e = {{"stage", t.name}, {"label", t.label}, {"ms", t.ms}};
-      if (t.fused) e["fused"] = true;  // ran in one row pass with the stages before it
-      st.push_back(e);
-    }
-    perf["stages"] = st;
-    perf["generate_ms"] = res.total_ms;
-    perf["encode_ms"] = write_ms;  // per writer: encoding and writing its temporary files
-    perf["peak_memory_bytes"] = peak_rss_bytes();
-    perf["total_ms"] = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_start).count();
-    wc.report["performance"] = perf;
-    report->write(res.terrain, wc, files);
-  }
-  MemoryOutput step_mem;
-  if (step_files) {
-    for (auto& im : steps) step_mem.put(im.file, encode_step_png(im));
-    step_mem.put("steps.png", contact_sheet_png(steps, recipe.name + " \u2014 seed " + std::to_string(res.seed) + ", " +
-                                                          std::to_string(recipe.world.nx) + "x" +
-                                                          std::to_string(recipe.world.nz) + ", step by step"));
-  }
-  prog("writing files", 0.95);
-  files.commit();
-  if (step_files)
-    for (auto& [name, bytes] : step_mem.files) step_files->put(name, std::move(bytes));
-  if (!s.save_recipe.empty()) {
-    write_file_atomic(s.save_recipe, recipe.to_json().dump(2) + "\n");
-  }
+    if (step_files)
+      as("--steps", [&] {
+        for (auto& im : steps) step_files->put(im.file, encode_step_png(im));
+        step_files->put("steps.png", contact_sheet_png(steps, resolved.name + " \u2014 seed " + std::to_string(*resolved.seed) + ", " +
+                                                                  std::to_string(resolved.world.nx) + "x" +
+                                                                  std::to_string(resolved.world.nz) + ", step by step"));
+      });
+    if (recipe_file) as("--save-recipe", [&] { recipe_file->put(recipe_name, resolved.to_json().dump(2) + "\n"); });
+  };
+  if (step_files) g.also_commit.push_back(step_files.get());
+  if (recipe_file) g.also_commit.push_back(recipe_file.get());
+
+  const GenerateReport rep = generate(std::move(g), files);
   prog.done();
   if (!s.quiet) {
     for (auto& p : files.written()) std::printf("wrote %s (%s)\n", p.c_str(), human_bytes(std::filesystem::file_size(p)).c_str());
     if (step_files) std::printf("wrote %zu stage pictures and steps.png into %s\n", steps.size(), s.steps_dir.c_str());
     if (!s.save_recipe.empty()) std::printf("wrote %s (resolved recipe)\n", s.save_recipe.c_str());
     const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
-    std::printf("%s %dx%d in %.2f s (generate %.0f ms), peak memory %s\n", recipe.name.c_str(), recipe.world.nx,
-                recipe.world.nz, total, res.total_ms, human_bytes(peak_rss_bytes()).c_str());
+    std::printf("%s %dx%d in %.2f s (generate %.0f ms), peak memory %s\n", rep.recipe.name.c_str(), rep.recipe.world.nx,
+                rep.recipe.world.nz, total, rep.generate_ms, human_bytes(peak_rss_bytes()).c_str());
   }
   return 0;
 }
@@ -482,7 +428,7 @@ int main(int argc, char** argv) {
   app.set_version_flag("--version", std::string("relief ") + RELIEF_VERSION);
   app.require_subcommand(1);
 
-  GenerateSettings gs;
+  CliGenerate gs;
   auto* gen = app.add_subcommand("generate", "Generate a terrain from a preset or recipe file and write its files");
   gen->add_option("recipe", gs.recipe, "Preset name or recipe JSON file (default: island)");
   gen->add_option("--preset,-p", gs.preset, "Preset name (see `relief presets`)");

@@ -42,6 +42,7 @@
 #include <unordered_map>
 
 #include "relief/explain.hpp"
+#include "relief/generate.hpp"
 #include "relief/output.hpp"
 #include "relief/pipeline.hpp"
 #include "relief/random.hpp"
@@ -572,32 +573,21 @@ void Studio::api_export(const httplib::Request& req, httplib::Response& res) {
   const std::string& file = r.file;
   with_run(req, [&](const std::function<bool()>& cancelled) {
     Generated g = generate(r.recipe, r.frame, cancelled, false);
-    WriteContext wc;
-    wc.seed = *r.recipe.seed;
-    wc.recipe = r.recipe.to_json();
-    if (r.recipe.export_settings) wc.options = r.recipe.export_settings->options;  // the recipe's writer options
-    json perf;
-    perf["threads"] = s_.threads;
-    perf["stages"] = g.timings;
-    perf["generate_ms"] = g.run_ms;
-    wc.report["performance"] = perf;
+    // The writing policy is relief::generate's, as on the command line: the format and the writers
+    // it implies (the OBJ's MTL names albedo.png, so the archive holds it), engine legality, the
+    // memory policy; the stages come from this studio's cache.
+    relief::GenerateSettings gs;
+    gs.recipe = r.recipe;
+    gs.formats = fmt;
+    gs.formats_path = "format";
+    gs.threads = s_.threads;
+    gs.cancelled = cancelled;
+    gs.terrain = g.terrain.get();
+    for (const json& t : g.timings)
+      gs.timings.push_back({t.value("stage", std::string()), t.value("label", std::string()), t.value("ms", 0.0), false});
     MemoryOutput mem;
-    writer->write(*g.terrain, wc, mem);
-    // Companions: files this format's small text files name that another writer produces (the
-    // OBJ's MTL names albedo.png), so the archive is complete — the CLI's rule, found generically.
-    std::map<std::string, std::string> files = mem.files;
-    for (auto& [name, bytes] : mem.files) {
-      if (bytes.size() > (64u << 10)) continue;
-      for (auto& other : writer_registry()) {
-        if (&other == writer) continue;
-        bool named = false;
-        for (auto& f : other.files) named = named || (!files.count(f) && bytes.find(f) != std::string::npos);
-        if (!named) continue;
-        MemoryOutput extra;
-        other.write(*g.terrain, wc, extra);
-        for (auto& [n2, b2] : extra.files) files.emplace(n2, std::move(b2));
-      }
-    }
+    relief::generate(std::move(gs), mem);
+    std::map<std::string, std::string>& files = mem.files;
     const std::string stem = r.recipe.name + "-" + std::to_string(*r.recipe.seed) + "-" + std::to_string(r.frame.nx);
     if (!file.empty()) {
       auto it = files.find(file);

@@ -1,5 +1,7 @@
 #include "studio_request.hpp"
 
+#include "relief/generate.hpp"
+
 #include <algorithm>
 #include <cctype>
 
@@ -79,9 +81,15 @@ StudioRequest parse_studio_request(Endpoint e, std::string_view text, const Stud
       if (!r.body["file"].is_string()) throw ApiError{400, "file", "expected a file name, got " + describe(r.body["file"])};
       r.file = r.body["file"].get<std::string>();
     }
-    const std::uint64_t need = estimate_memory_bytes(r.recipe, true), have = physical_memory_bytes();
-    if (have && need > have / 2)
-      throw ApiError{400, "world.size", "this export needs about " + std::to_string(need >> 20) + " MiB; choose a smaller size"};
+    // The one memory policy (relief/generate.hpp), for this format's writers and those it implies.
+    try {
+      const ExportOptions options = r.recipe.export_settings ? r.recipe.export_settings->options : ExportOptions{};
+      check_memory(r.recipe, select_writers(fmt, options, "format").with_mesh());
+    } catch (const ApiError&) {
+      throw;
+    } catch (const Error& e) {
+      throw ApiError{400, e.path(), std::string(e.what()).substr(e.path().empty() ? 0 : e.path().size() + 2)};
+    }
   }
   return r;
 }

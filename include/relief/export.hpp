@@ -78,8 +78,10 @@ void validate_export_options(const ExportOptions& o, const std::function<std::st
 std::vector<int> engine_tile_sizes(const std::string& engine);
 // The legal total size for `tiles` tiles closest to `wanted` (ties: the larger).
 int engine_legal_size(const std::string& engine, int wanted, int tiles);
-// Throws Error("--engine", …) unless nx and nz are legal for the options' engine and split.
-void check_engine_size(const ExportOptions& o, int nx, int nz);
+// Throws Error(path, …) unless nx and nz are legal for the options' engine and split; the message
+// names `size_path` as the thing to change (the CLI: "--engine" and "--size").
+void check_engine_size(const ExportOptions& o, int nx, int nz, const std::string& path = "export.engine",
+                       const std::string& size_path = "world.size");
 
 // ---- meshes ------------------------------------------------------------------------------------
 struct MeshData {

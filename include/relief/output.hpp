@@ -37,7 +37,23 @@ class Output {
   // A file written in pieces. `size_hint` (bytes, 0 = unknown) lets an in-memory output reserve
   // room once. The default collects the pieces in memory and put()s them at close().
   virtual std::unique_ptr<OutputStream> open(const std::string& filename, std::size_t size_hint = 0);
+
+  // Committing, in two phases, so that several outputs can change together (relief::generate
+  // commits the output folder, the step pictures and a saved recipe as one): prepare() finishes
+  // every pending file (and, when durable, flushes it) and throws Error if one cannot be written —
+  // then no file has been replaced; publish() makes the prepared files visible. Outputs that
+  // write at once (MemoryOutput, FileOutput in Immediate mode) do nothing in either.
+  virtual void prepare() {}
+  virtual void publish() {}
+  void commit() {
+    prepare();
+    publish();
+  }
 };
+
+// Commits several outputs as one: prepares every one of them, then publishes every one. An Error
+// while preparing leaves every output's visible files as they were.
+void commit_all(const std::vector<Output*>& outputs);
 
 class MemoryOutput final : public Output {
  public:
@@ -76,10 +92,12 @@ class FileOutput final : public Output {
 
   void put(const std::string& filename, std::string bytes) override;
   std::unique_ptr<OutputStream> open(const std::string& filename, std::size_t size_hint = 0) override;
-  // OnCommit: makes every finished file visible (Durable: fsync all, then rename, in name order).
-  // Streams still open are not part of it. Throws Error("output", …) if a file cannot be written
-  // or made durable; then no file has been replaced. Immediate: does nothing.
-  void commit();
+  // OnCommit: commit() (Output) makes every finished file visible: prepare() closes (Durable:
+  // fsyncs) them all and throws Error("output", …) if a file cannot be written or made durable —
+  // then no file has been replaced and the temporary files are gone; publish() renames them into
+  // place in name order. Streams still open are not part of it. Immediate: both do nothing.
+  void prepare() override;
+  void publish() override;
   const std::vector<std::string>& written() const { return written_; }  // visible paths, in order
   std::uint64_t bytes_written() const { return bytes_; }
 
@@ -128,6 +146,14 @@ struct WriterDef {
   // When set and false for a terrain (e.g. no biome layer, no props), runs of the default set skip
   // the writer; named in --formats it runs anyway and its Error names what is missing.
   std::function<bool(const Terrain&)> applies = nullptr;
+  // What the writer reads that not every terrain has: when it is named (not the default set or
+  // "all") and applies() is false, relief::generate refuses with an Error saying this (e.g. "a flow
+  // stage in the recipe (the 'flow' layer)"). Empty: the writer runs anyway (an empty props list is
+  // a valid props.json).
+  std::string needs;
+  // Writers whose files this one's files name (the OBJ's MTL and the FBX name albedo.png): choosing
+  // this writer chooses them too (relief::select_writers), so a written set is never incomplete.
+  std::vector<std::string> implies;
 };
 
 const std::vector<WriterDef>& writer_registry();
