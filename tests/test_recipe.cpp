@@ -255,7 +255,7 @@ TEST(RecipeExport, BlockIsReadAndWrittenInFull) {
   Recipe r = parse_recipe(doc);
   ASSERT_TRUE(r.export_settings.has_value());
   EXPECT_EQ(r.export_settings->formats, "glb,stl");
-  EXPECT_EQ(r.export_settings->options.engine, "godot");
+  EXPECT_EQ(r.export_settings->options.engine, Engine::Godot);
   EXPECT_EQ(r.export_settings->options.chunk_quads, 32);
   EXPECT_EQ(r.export_settings->options.lod_levels, 2);
   const json out = r.to_json()["export"];
@@ -295,7 +295,7 @@ TEST(RecipeExport, OverridesReachTheBlock) {
   apply_override(doc, "export.engine=unity");
   apply_override(doc, "export.formats=engine");
   Recipe r = parse_recipe(doc);
-  EXPECT_EQ(r.export_settings->options.engine, "unity");
+  EXPECT_EQ(r.export_settings->options.engine, Engine::Unity);
   EXPECT_EQ(r.export_settings->formats, "engine");
 }
 

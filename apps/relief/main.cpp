@@ -143,7 +143,7 @@ json read_recipe_doc(const GenerateSettings& s) {
 }
 
 void parse_size(const std::string& text, json& doc) {
-  const std::string expect = "expected N or NxM with 2..32769 samples per axis";
+  const std::string expect = "expected N or NxM with 2.." + std::to_string(kMaxSize) + " samples per axis";
   auto num = [&](const std::string& t) -> long long {
     if (t.empty() || t.size() > 6 || t.find_first_not_of("0123456789") != std::string::npos)
       throw Error("--size", expect + ", got \"" + text + "\"");
@@ -151,7 +151,7 @@ void parse_size(const std::string& text, json& doc) {
   };
   auto x = text.find_first_of("xX");
   long long nx = num(text.substr(0, x)), nz = x == std::string::npos ? nx : num(text.substr(x + 1));
-  if (nx < 2 || nz < 2 || nx > 32769 || nz > 32769) throw Error("--size", expect + ", got \"" + text + "\"");
+  if (nx < 2 || nz < 2 || nx > kMaxSize || nz > kMaxSize) throw Error("--size", expect + ", got \"" + text + "\"");
   if (!doc.contains("world") || !doc["world"].is_object()) doc["world"] = json::object();
   doc["world"]["size"] = json::array({nx, nz});
 }
@@ -217,7 +217,7 @@ int cmd_generate(const GenerateSettings& s) {
   const ExportOptions export_options = parse_export_options(s, from_recipe ? from_recipe->options : ExportOptions{});
   std::string formats = !s.formats.empty() ? s.formats : from_recipe ? from_recipe->formats : "";
   if (formats == "default") formats.clear();
-  const bool engine = export_options.engine != "none";
+  const bool engine = export_options.engine != Engine::None;
   if (engine && s.size.empty()) {
     // Pick the engine's legal size nearest to the recipe's (square tiles, overlapping by one sample).
     Recipe probe = parse_recipe(doc);
@@ -226,7 +226,7 @@ int cmd_generate(const GenerateSettings& s) {
     const int nz = export_options.split_z() * (tile - 1) + 1;
     if (n != probe.world.nx || nz != probe.world.nz) {
       parse_size(std::to_string(n) + "x" + std::to_string(nz), doc);
-      if (!s.quiet) std::fprintf(stderr, "relief: %s: using --size %dx%d (legal for the engine)\n", export_options.engine.c_str(), n, nz);
+      if (!s.quiet) std::fprintf(stderr, "relief: %s: using --size %dx%d (legal for the engine)\n", to_string(export_options.engine).c_str(), n, nz);
     }
   }
   Recipe recipe;
@@ -239,7 +239,7 @@ int cmd_generate(const GenerateSettings& s) {
     const char* flag = field == "tile_size" && !s.tile_size.empty() ? "--tile-size"
                        : (field == "tiles_x" || field == "tiles_z") && !s.map_tiles.empty() ? "--map-tiles"
                                                                                             : nullptr;
-    if (flag) throw Error(std::string(flag) + " (" + p + ")", std::string(e.what()).substr(p.size() + 2));
+    if (flag) throw Error(std::string(flag) + " (" + p + ")", e.message());
     throw;
   }
 
@@ -284,7 +284,14 @@ int cmd_generate(const GenerateSettings& s) {
   if (textured && !with_albedo) writers.push_back(find_writer("albedo"));
   // --engine asks for the engine files.
   if (engine && !with_engine) writers.push_back(find_writer("engine")), with_engine = true;
-  if (with_engine) check_engine_size(export_options, recipe.world.nx, recipe.world.nz);
+  // Writer errors about an option name it as the user gave it: the recipe's path when only the
+  // recipe's "export" block sets it, else the flag.
+  const OptionPath option_path = [&s, &doc](const std::string& name) {
+    const bool flag = std::find(s.export_given.begin(), s.export_given.end(), name) != s.export_given.end();
+    const bool in_recipe = doc.contains("export") && doc["export"].is_object() && doc["export"].contains(name);
+    return !flag && in_recipe ? "export." + name : option_flag(name);
+  };
+  if (with_engine) check_engine_size(export_options, recipe.world.nx, recipe.world.nz, option_path);
   const std::uint64_t need = estimate_memory_bytes(recipe, with_mesh), have = physical_memory_bytes();
   if (have && need > have * 8 / 10)
     throw Error("world.size", "a " + std::to_string(recipe.world.nx) + "x" + std::to_string(recipe.world.nz) +
@@ -336,6 +343,7 @@ int cmd_generate(const GenerateSettings& s) {
   wc.seed = res.seed;
   wc.recipe = recipe.to_json();
   wc.options = export_options;
+  wc.option_path = option_path;
   wc.progress = [&](std::string_view what, double f) { prog(what, 0.7 + 0.3 * f); };
   // Writers run in parallel, one task each (the OBJ's rows spread over the threads as well). Each
   // writes its files straight into temporary files as soon as they are encoded, so the writes
