@@ -443,7 +443,8 @@ json rock_params(double slope_deg = 35.0) {
           {"rock_blend_deg", 0.0},
           {"rock_min", 0.0},
           {"rock_max", 1.0},
-          {"variation", 0.0}};
+          {"variation", 0.0},
+          {"sea_relative", false}};  // rock_min/rock_max as written (these frames have sea level 0)
 }
 const relief::Rgb kRock{128 / 255.0f, 128 / 255.0f, 128 / 255.0f};
 // A 60° plane: dy/dx = √3 with 8 m cells and 640 m per unit elevation.
