@@ -1137,6 +1137,18 @@ TEST(Maps, SplatFromTheBiomeLayerSpansSeveralImages) {
   ExportOptions biome;
   biome.splat_source = SplatSource::Biome;
   EXPECT_THROW(encode_splat(t, biome), Error);
+  // The error names the option as the caller says the user gave it (recipe path by default).
+  auto path_of = [&](const OptionPath& f) {
+    try {
+      encode_splat(t, biome, f);
+    } catch (const Error& e) {
+      EXPECT_EQ(e.message(), "\"biome\" needs a 'biome' layer in the terrain");
+      return e.path();
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(path_of({}), "export.splat_source");
+  EXPECT_EQ(path_of([](const std::string& n) { return n == "splat_source" ? "--splat-source" : "?"; }), "--splat-source");
 }
 
 TEST(Maps, HillshadeIsBrightOnSlopesFacingTheLight) {
