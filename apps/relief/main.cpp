@@ -143,7 +143,7 @@ json read_recipe_doc(const GenerateSettings& s) {
 }
 
 void parse_size(const std::string& text, json& doc) {
-  const std::string expect = "expected N or NxM with 2.." + std::to_string(kMaxSize) + " samples per axis";
+  const std::string expect = "expected N or NxM with " + std::to_string(kMinSize) + ".." + std::to_string(kMaxSize) + " samples per axis";
   auto num = [&](const std::string& t) -> long long {
     if (t.empty() || t.size() > 6 || t.find_first_not_of("0123456789") != std::string::npos)
       throw Error("--size", expect + ", got \"" + text + "\"");
@@ -151,7 +151,7 @@ void parse_size(const std::string& text, json& doc) {
   };
   auto x = text.find_first_of("xX");
   long long nx = num(text.substr(0, x)), nz = x == std::string::npos ? nx : num(text.substr(x + 1));
-  if (nx < 2 || nz < 2 || nx > kMaxSize || nz > kMaxSize) throw Error("--size", expect + ", got \"" + text + "\"");
+  if (nx < kMinSize || nz < kMinSize || nx > kMaxSize || nz > kMaxSize) throw Error("--size", expect + ", got \"" + text + "\"");
   if (!doc.contains("world") || !doc["world"].is_object()) doc["world"] = json::object();
   doc["world"]["size"] = json::array({nx, nz});
 }
@@ -564,7 +564,7 @@ int main(int argc, char** argv) {
   stu->add_option("--max-preview", ss.max_preview, "Largest preview size accepted (samples per axis)")
       ->check(CLI::Range(2, 8193))->capture_default_str();
   stu->add_option("--max-export", ss.max_export, "Largest export size accepted (samples per axis)")
-      ->check(CLI::Range(2, 32769))->capture_default_str();
+      ->check(CLI::Range(kMinSize, kMaxSize))->capture_default_str();
   stu->add_option("--cache-mib", ss.cache_mib, "Memory for cached stage outputs, MiB")->check(CLI::Range(16, 1 << 20))->capture_default_str();
   stu->add_option("--threads,-j", ss.threads, "Generation threads (0 = all cores)")->check(CLI::Range(0, 1024));
 
@@ -610,7 +610,7 @@ int main(int argc, char** argv) {
         return v;
       };
       bs.threads = ints(bench_threads, "--threads", 1, 1024);
-      bs.preset_sizes = ints(bench_sizes, "--preset-sizes", 2, 32769);
+      bs.preset_sizes = ints(bench_sizes, "--preset-sizes", kMinSize, kMaxSize);
       std::stringstream ss(bench_cases);
       std::string c;
       while (std::getline(ss, c, ',')) {
