@@ -109,9 +109,15 @@ std::unique_ptr<RowKernel> prepare(Terrain& t, const NoiseParams& p, const Conte
     try {
       return Noise(settings_for(p, f, ctx.stage_seed(std::uint64_t(p.salt))));
     } catch (const Error& e) {
-      // Settings derived from the world (frequency per metre, period) are checked here; the
-      // error names the stage's field (`stages[0].octaves`).
-      throw Error("stages[" + std::to_string(ctx.stage_index) + "]" + (e.path().empty() ? "" : "." + e.path()), e.message());
+      // Settings derived from the world (frequency per metre, period) are checked here. The error
+      // names the stage's field when the library's field is one (`stages[0].lacunarity`); the
+      // others (period_x_m, warp_m: derived from the world) name the stage and keep the field
+      // in the message.
+      static const std::vector<ParamInfo> fields = table().infos();
+      const std::string stage = "stages[" + std::to_string(ctx.stage_index) + "]";
+      const bool ours = std::any_of(fields.begin(), fields.end(), [&](const ParamInfo& i) { return i.name == e.path(); });
+      if (ours) throw Error(stage + "." + e.path(), e.message());
+      throw Error(stage, e.what());
     }
   }();
   const bool existed = t.has(p.layer) && t.layers[p.layer].channels == 1;
