@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "relief/params.hpp"
+#include "shared_tables.hpp"
 
 namespace relief::detail {
 
@@ -32,13 +33,17 @@ namespace relief::detail {
 // animation-curve remap from n to the lift above sea level (a fraction of the land range
 // 1 − sea_level), and a colour gradient on n — or a tiled texture for the whole type.
 struct BiomeType {
+  static NoiseFields default_noise() {
+    NoiseFields n;
+    n.octaves = 5;
+    n.wavelength_m = 600;
+    return n;
+  }
   std::string name = "plains";
   double aridity = 0.5, ruggedness = 0.5, weight = 1.0;  // assignment preferences
   std::vector<std::string> avoid;                        // types that must not border this one
   double protect_above = 1.0;  // selective blending leaves samples with lift ≥ this untouched
-  std::string basis = "gradient", fractal = "fbm";
-  int octaves = 5;
-  double wavelength_m = 600, persistence = 0.5, lacunarity = 2.0, scale_x = 1.0, scale_z = 1.0;
+  NoiseFields noise = default_noise();  // the type's terrain noise (wavelength_m 600, 5 octaves)
   double contrast = 1.6;  // n = clamp(0.5 + contrast · noise / 2, 0, 1)
   std::vector<CurvePoint> curve{{0.0, 0.02}, {1.0, 0.1}};
   std::vector<Level> colors;
@@ -59,13 +64,11 @@ struct BiomesParams {
   double flatten_keep = 0.03;
   double coast_rise = 0.0;
   double coast_m = 150;
-  std::string blend = "interpolate";
+  enum class Blend { Interpolate, Selective, None } blend = Blend::Interpolate;
   double border_m = 220;
   double selective_radius_m = 40;
   int selective_passes = 1;
-  Rgb sea_shallow{0.25f, 0.55f, 0.72f}, sea_deep{0.07f, 0.22f, 0.42f};
-  double sea_deep_depth = 0.25;
-  Rgb beach_color{0.87f, 0.80f, 0.58f};
+  SeaColors sea;  // sea_shallow, sea_deep, sea_deep_depth, beach_color
   double beach_lift = 0.012;
 };
 

@@ -12,6 +12,9 @@ namespace {
 
 using O = ExportOptions;
 
+const ChoiceNames<Engine> kEngineNames{
+    {Engine::None, "none"}, {Engine::Unity, "unity"}, {Engine::Unreal, "unreal"}, {Engine::Godot, "godot"}};
+
 Table<O> make_table() {
   Table<O> t;
   auto& f = t.fields;
@@ -25,21 +28,23 @@ Table<O> make_table() {
   f.push_back(param(&O::lod_error_m, "lod_error_m", 0.001, 10000, "m",
                     "glb: LOD k allows an error of lod_error_m·2^(k-1) and keeps at least 1/4^k of the triangles"));
   f.push_back(param(&O::lod_msft, "lod_msft", 0, 1, "", "glb: also put the LOD chain into terrain.glb through MSFT_lod"));
-  f.push_back(choice(&O::style, "style", {"smooth", "lowpoly"},
+  f.push_back(choice(&O::style, "style", {{MeshStyle::Smooth, "smooth"}, {MeshStyle::Lowpoly, "lowpoly"}},
                      "glb/fbx: smooth (textured) or lowpoly (flat-shaded faces coloured from the albedo)"));
-  f.push_back(choice(&O::instancing, "instancing", {"nodes", "gpu"},
+  f.push_back(choice(&O::instancing, "instancing", {{Instancing::Nodes, "nodes"}, {Instancing::Gpu, "gpu"}},
                      "glb: props as nodes sharing one mesh per type, or EXT_mesh_gpu_instancing (used, not required)"));
   f.push_back(param(&O::stl_size_mm, "stl_size_mm", 10, 2000, "mm", "stl: print size of the longer horizontal side"));
   f.push_back(param(&O::stl_exaggeration, "stl_exaggeration", 0.1, 50, "x", "stl: vertical exaggeration"));
   f.push_back(param(&O::stl_base_mm, "stl_base_mm", 0.5, 100, "mm", "stl: base thickness under the lowest point"));
-  f.push_back(choice(&O::engine, "engine", {"none", "unity", "unreal", "godot"},
+  f.push_back(choice(&O::engine, "engine", kEngineNames,
                      "engine heightmap profile: legal size, format, orientation, sidecar and import settings"));
   f.push_back(text(&O::split, "split", "engine: tiles along x and z, NxM (overlapping by one sample, named _x0_y0)"));
-  f.push_back(choice(&O::godot_format, "godot_format", {"exr", "r16"}, "engine godot: 32-bit float EXR (metres) or r16"));
+  f.push_back(choice(&O::godot_format, "godot_format", {{GodotFormat::Exr, "exr"}, {GodotFormat::R16, "r16"}},
+                     "engine godot: 32-bit float EXR (metres) or r16"));
   f.push_back(param(&O::normal_bits, "normal_bits", 8, 16, "bits", "normalmap: 8 or 16 bits per channel"));
-  f.push_back(choice(&O::normal_convention, "normal_convention", {"auto", "opengl", "directx"},
+  f.push_back(choice(&O::normal_convention, "normal_convention",
+                     {{NormalConvention::Auto, "auto"}, {NormalConvention::OpenGl, "opengl"}, {NormalConvention::DirectX, "directx"}},
                      "normalmap: green channel +Y up (opengl) or down (directx); auto = directx for unreal"));
-  f.push_back(choice(&O::splat_source, "splat_source", {"auto", "biome", "rules"},
+  f.push_back(choice(&O::splat_source, "splat_source", {{SplatSource::Auto, "auto"}, {SplatSource::Biome, "biome"}, {SplatSource::Rules, "rules"}},
                      "splat: weights from the biome layer or from height/slope rules (auto: biome if present)"));
   f.push_back(param(&O::splat_rock_slope_deg, "splat_rock_slope_deg", 1, 89, "deg", "splat rules: rock from this slope"));
   f.push_back(param(&O::splat_rock_elevation, "splat_rock_elevation", 0, 1, "",
@@ -66,10 +71,17 @@ std::pair<int, int> parse_split(const std::string& s) {
 
 }  // namespace
 
+const std::string& to_string(Engine e) { return choice_name(kEngineNames, e); }
+
+std::string option_path(const OptionPath& path_of, const std::string& name) {
+  return path_of ? path_of(name) : "export." + name;
+}
+
 int ExportOptions::split_x() const { return std::max(1, parse_split(split).first); }
 int ExportOptions::split_z() const { return std::max(1, parse_split(split).second); }
 bool ExportOptions::directx_normals() const {
-  return normal_convention == "directx" || (normal_convention == "auto" && engine == "unreal");
+  return normal_convention == NormalConvention::DirectX ||
+         (normal_convention == NormalConvention::Auto && engine == Engine::Unreal);
 }
 
 const Table<ExportOptions>& export_options_table() {
@@ -95,7 +107,7 @@ void validate_export_options(const ExportOptions& o, const std::function<std::st
   auto [sx, sz] = parse_split(o.split);
   if (sx < 1 || sz < 1 || sx > 64 || sz > 64)
     throw Error(path_of("split"), "expected NxM with 1..64 tiles per axis, e.g. 4x4, got \"" + o.split + "\"");
-  if ((sx > 1 || sz > 1) && o.engine == "none")
+  if ((sx > 1 || sz > 1) && o.engine == Engine::None)
     throw Error(path_of("split"), "splitting writes engine tiles: choose an engine (unity, unreal or godot)");
   if (o.normal_bits != 8 && o.normal_bits != 16)
     throw Error(path_of("normal_bits"), "expected 8 or 16, got " + std::to_string(o.normal_bits));
@@ -103,19 +115,22 @@ void validate_export_options(const ExportOptions& o, const std::function<std::st
     throw Error(path_of("lod_msft"), "MSFT_lod needs a chain: set lod_levels to 1 or more");
 }
 
-std::vector<int> engine_tile_sizes(const std::string& engine) {
+std::vector<int> engine_tile_sizes(Engine engine) {
   std::vector<int> v;
-  if (engine == "unity") {
-    for (int n = 32; n <= 4096; n *= 2) v.push_back(n + 1);
-  } else if (engine == "unreal") {
-    v = {127, 253, 505, 1009, 2017, 4033, 8129};
-  } else if (engine == "godot") {
-    for (int n = 32; n <= 16384; n *= 2) v.push_back(n + 1);
+  switch (engine) {
+    case Engine::Unity:
+      for (int n = 32; n <= 4096; n *= 2) v.push_back(n + 1);
+      break;
+    case Engine::Unreal: v = {127, 253, 505, 1009, 2017, 4033, 8129}; break;
+    case Engine::Godot:
+      for (int n = 32; n <= 16384; n *= 2) v.push_back(n + 1);
+      break;
+    case Engine::None: break;
   }
   return v;
 }
 
-int engine_legal_size(const std::string& engine, int wanted, int tiles) {
+int engine_legal_size(Engine engine, int wanted, int tiles) {
   int best = 0;
   for (int t : engine_tile_sizes(engine)) {
     const int n = tiles * (t - 1) + 1;
@@ -126,8 +141,9 @@ int engine_legal_size(const std::string& engine, int wanted, int tiles) {
   return best;
 }
 
-void check_engine_size(const ExportOptions& o, int nx, int nz, const std::string& path, const std::string& size_path) {
+void check_engine_size(const ExportOptions& o, int nx, int nz, const OptionPath& path_of, const std::string& size_path) {
   const auto sizes = engine_tile_sizes(o.engine);
+  const std::string path = option_path(path_of, "engine");
   if (sizes.empty()) throw Error(path, "the engine writer needs an engine: unity, unreal or godot");
   const int kx = o.split_x(), kz = o.split_z();
   auto tile = [&](int n, int k) { return (n - 1) % k == 0 ? (n - 1) / k + 1 : 0; };
@@ -136,7 +152,7 @@ void check_engine_size(const ExportOptions& o, int nx, int nz, const std::string
   if (ok) return;
   std::string list;
   for (int t : sizes) list += (list.empty() ? "" : ", ") + std::to_string(kx * (t - 1) + 1) + "x" + std::to_string(kz * (t - 1) + 1);
-  throw Error(path, o.engine + " needs " + (kx * kz > 1 ? "tiles of a legal square size; with split " + o.split + " that is " : "one of ") +
+  throw Error(path, to_string(o.engine) + " needs " + (kx * kz > 1 ? "tiles of a legal square size; with split " + o.split + " that is " : "one of ") +
                         list + "; got " + std::to_string(nx) + "x" + std::to_string(nz) + " (use " + size_path + ")");
 }
 

@@ -109,7 +109,7 @@ bool WriterPlan::has(std::string_view name) const {
 bool WriterPlan::is_named(const WriterDef* w) const { return std::find(named.begin(), named.end(), w) != named.end(); }
 
 WriterPlan select_writers(const std::string& formats, const ExportOptions& options, const std::string& path) {
-  const bool engine = options.engine != "none";
+  const bool engine = options.engine != Engine::None;
   std::vector<const WriterDef*> chosen;
   WriterPlan plan;
   auto add_set = [&](bool all) {
@@ -176,12 +176,13 @@ Generated generate_keep(GenerateSettings s, Output& out) {
 
   // 1. Plan: every refusal before any work.
   const ExportOptions options = s.options ? *s.options : recipe.export_settings ? recipe.export_settings->options : ExportOptions{};
-  auto option_path = s.option_path ? s.option_path : [](const std::string& name) { return "export." + name; };
+  const OptionPath option_path =
+      s.option_path ? OptionPath(s.option_path) : OptionPath([](const std::string& name) { return "export." + name; });
   validate_export_options(options, option_path);
   std::string formats = s.formats ? *s.formats : recipe.export_settings ? recipe.export_settings->formats : "";
   if (formats == "default") formats.clear();
   const WriterPlan plan = select_writers(formats, options, s.formats ? s.formats_path : "export.formats");
-  if (plan.has("engine")) check_engine_size(options, recipe.world.nx, recipe.world.nz, option_path("engine"), s.size_path);
+  if (plan.has("engine")) check_engine_size(options, recipe.world.nx, recipe.world.nz, option_path, s.size_path);
   check_memory(recipe, plan.with_mesh(), s.memory_budget_bytes);
   if (s.terrain && !recipe.seed) throw Error("seed", "a terrain given to generate() needs the recipe's seed");
   const Frame whole = recipe.world.frame();
@@ -251,6 +252,7 @@ Generated generate_keep(GenerateSettings s, Output& out) {
   wc.seed = rep.seed;
   wc.recipe = recipe.to_json();
   wc.options = options;
+  wc.option_path = option_path;
   std::mutex progress_mutex, files_mutex;
   wc.progress = [&](std::string_view what, double f) {
     std::lock_guard<std::mutex> lock(progress_mutex);

@@ -214,7 +214,7 @@ std::vector<TerrainChunk> build_terrain_chunks(const Terrain& t, const ExportOpt
           o.triangle_budget > 0 ? std::size_t(std::llround(double(o.triangle_budget) * double(c.mesh.triangle_count()) / total_tris)) : 0;
       simplify_mesh(c.mesh, o.simplify_error_m, target);
     }
-    if (o.style == "lowpoly") unweld_flat(c.mesh, t, colour);
+    if (o.style == MeshStyle::Lowpoly) unweld_flat(c.mesh, t, colour);
   });
   return chunks;
 }
@@ -238,7 +238,7 @@ std::vector<std::vector<TerrainChunk>> build_terrain_lod_chain(const Terrain& t,
       c.cx = cx;
       c.cz = cz;
       c.mesh = m;
-      if (o.style == "lowpoly") unweld_flat(c.mesh, t, colour);
+      if (o.style == MeshStyle::Lowpoly) unweld_flat(c.mesh, t, colour);
     }
   });
   return chain;

@@ -600,30 +600,13 @@ std::array<std::uint8_t, 512> seeded_permutation(std::uint64_t seed) {
 
 // ---- Noise ----------------------------------------------------------------------------------------
 
-NoiseBasis noise_basis_named(std::string_view name, const std::string& path) {
-  if (name == "gradient") return NoiseBasis::Gradient;
-  if (name == "perlin") return NoiseBasis::Perlin;
-  if (name == "simplex") return NoiseBasis::Simplex;
-  if (name == "value") return NoiseBasis::Value;
-  if (name == "cellular") return NoiseBasis::Cellular;
-  throw Error(path, "expected one of gradient, perlin, simplex, value, cellular, got \"" + std::string(name) + "\"");
-}
-
-Fractal fractal_named(std::string_view name, const std::string& path) {
-  if (name == "none") return Fractal::None;
-  if (name == "fbm") return Fractal::Fbm;
-  if (name == "ridged") return Fractal::Ridged;
-  if (name == "billow") return Fractal::Billow;
-  throw Error(path, "expected one of none, fbm, ridged, billow, got \"" + std::string(name) + "\"");
-}
-
 Noise::Noise(const NoiseSettings& s) : s_(s) {
   if (unsigned(s.basis) > unsigned(NoiseBasis::Gradient)) throw Error("basis", "unknown noise basis");
   if (unsigned(s.fractal) > unsigned(Fractal::Billow)) throw Error("fractal", "unknown fractal mode");
   if (unsigned(s.cellular) > unsigned(CellularReturn::CellValue))
     throw Error("cellular", "unknown cellular return");
-  if (s.octaves < 1 || s.octaves > 16)
-    throw Error("octaves", "expected an integer in 1..16, got " + std::to_string(s.octaves));
+  if (s.octaves < 1 || s.octaves > kMaxOctaves)
+    throw Error("octaves", "expected an integer in 1.." + std::to_string(kMaxOctaves) + ", got " + std::to_string(s.octaves));
   require_positive("frequency", s.frequency);
   require_positive("lacunarity", s.lacunarity);
   require_positive("persistence", s.persistence);

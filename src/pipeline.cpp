@@ -147,7 +147,7 @@ RunResult run(const Recipe& r, const RunOptions& opt) {
     try {
       f();
     } catch (const Error& e) {
-      if (e.path().empty()) throw Error("stages[" + std::to_string(i) + "]", std::string(e.what()));
+      if (e.path().empty()) throw Error("stages[" + std::to_string(i) + "]", e.message());
       throw;
     }
   };

@@ -16,23 +16,37 @@ const std::vector<std::pair<std::string_view, std::string_view>>& builtin_preset
 
 namespace {
 
-// `size` is special (an integer or [nx, nz]); the rest of the world block is a plain table.
-struct WorldScalars {
-  double width_m = 4000, height_m = 600, sea_level = 0.4;
-};
-Table<WorldScalars> world_table() {
-  using W = WorldScalars;
+int read_size(const json& v, const std::string& path) { return int(read_int(v, path, kMinSize, kMaxSize)); }
+
+// `size`: N (square) or [nx, nz]; written as [nx, nz].
+Field<World> size_field() {
+  Field<World> f;
+  f.info.name = "size";
+  f.info.type = ParamType::Int;
+  f.info.min = kMinSize;
+  f.info.max = kMaxSize;
+  f.info.description = "Samples per axis, corners included: N or [nx, nz] (2^n+1 suits engines)";
+  f.read = [](World& w, const json& s, const std::string& path) {
+    if (s.is_array()) {
+      if (s.size() != 2) throw Error(path, "expected N or [nx, nz], got " + describe(s));
+      w.nx = read_size(s[0], path + "[0]");
+      w.nz = read_size(s[1], path + "[1]");
+    } else {
+      w.nx = w.nz = read_size(s, path);
+    }
+  };
+  f.write = [](const World& w) { return json::array({w.nx, w.nz}); };
+  return f;
+}
+
+Table<World> make_world_table() {
+  using W = World;
   return {{
+      size_field(),
       param(&W::width_m, "width_m", 1, 1e7, "m", "World extent along x; depth follows the sample aspect"),
       param(&W::height_m, "height_m", 0.01, 1e5, "m", "Metres between elevation 0 and elevation 1"),
       param(&W::sea_level, "sea_level", 0, 1, "", "Normalised elevation of the sea surface"),
   }};
-}
-
-constexpr int kMaxSamples = 32769;
-
-int read_size(const json& v, const std::string& path) {
-  return int(read_int(v, path, 2, kMaxSamples));
 }
 
 }  // namespace
@@ -49,18 +63,12 @@ Frame World::frame() const {
   return f;
 }
 
-std::vector<ParamInfo> world_params() {
-  ParamInfo size;
-  size.name = "size";
-  size.type = ParamType::Int;
-  size.default_value = json::array({513, 513});
-  size.min = 2;
-  size.max = kMaxSamples;
-  size.description = "Samples per axis, corners included: N or [nx, nz] (2^n+1 suits engines)";
-  std::vector<ParamInfo> out{size};
-  for (auto& i : world_table().infos()) out.push_back(i);
-  return out;
+const Table<World>& world_table() {
+  static const Table<World> t = make_world_table();
+  return t;
 }
+
+std::vector<ParamInfo> world_params() { return world_table().infos(); }
 
 ExportSettings parse_export_settings(const json& block, const std::string& path) {
   if (!block.is_object()) throw Error(path, "expected an object of writer options, got " + describe(block));
@@ -89,12 +97,7 @@ json Recipe::to_json() const {
   o["name"] = name;
   if (!description.empty()) o["description"] = description;
   if (seed) o["seed"] = *seed;
-  json w;
-  w["size"] = json::array({world.nx, world.nz});
-  w["width_m"] = world.width_m;
-  w["height_m"] = world.height_m;
-  w["sea_level"] = world.sea_level;
-  o["world"] = w;
+  o["world"] = world_table().write(world);
   json st = json::array();
   for (auto& s : stages) {
     json e;
@@ -121,21 +124,7 @@ Recipe parse_recipe(const json& doc) {
     } else if (k == "seed") {
       r.seed = std::uint64_t(read_int(v, "seed", 0, double(kMaxSeed)));
     } else if (k == "world") {
-      if (!v.is_object()) throw Error("world", "expected an object, got " + describe(v));
-      WorldScalars ws = world_table().read(v, "world", {"size"});
-      r.world.width_m = ws.width_m;
-      r.world.height_m = ws.height_m;
-      r.world.sea_level = ws.sea_level;
-      if (v.contains("size")) {
-        const json& s = v["size"];
-        if (s.is_array()) {
-          if (s.size() != 2) throw Error("world.size", "expected N or [nx, nz], got " + describe(s));
-          r.world.nx = read_size(s[0], "world.size[0]");
-          r.world.nz = read_size(s[1], "world.size[1]");
-        } else {
-          r.world.nx = r.world.nz = read_size(s, "world.size");
-        }
-      }
+      r.world = world_table().read(v, "world");
     } else if (k == "stages") {
       if (!v.is_array()) throw Error("stages", "expected a list of stages, got " + describe(v));
       for (std::size_t i = 0; i < v.size(); ++i) {

@@ -80,7 +80,7 @@ NoiseSettings climate_noise(double wavelength_m, std::uint64_t seed) {
 
 std::vector<BiomeType> default_biome_types() {
   auto type = [](const char* name, double a, double r, std::vector<std::string> avoid, double protect,
-                 const char* fractal, int octaves, double wavelength, std::vector<CurvePoint> curve,
+                 Fractal fractal, int octaves, double wavelength, std::vector<CurvePoint> curve,
                  std::vector<Level> colors) {
     BiomeType t;
     t.name = name;
@@ -88,34 +88,34 @@ std::vector<BiomeType> default_biome_types() {
     t.ruggedness = r;
     t.avoid = std::move(avoid);
     t.protect_above = protect;
-    t.fractal = fractal;
-    t.octaves = octaves;
-    t.wavelength_m = wavelength;
+    t.noise.fractal = fractal;
+    t.noise.octaves = octaves;
+    t.noise.wavelength_m = wavelength;
     t.curve = std::move(curve);
     t.colors = std::move(colors);
     return t;
   };
   std::vector<BiomeType> v;
-  v.push_back(type("plains", 0.45, 0.15, {}, 1.0, "fbm", 4, 700, {{0.0, 0.015}, {1.0, 0.07}},
+  v.push_back(type("plains", 0.45, 0.15, {}, 1.0, Fractal::Fbm, 4, 700, {{0.0, 0.015}, {1.0, 0.07}},
                    {lv(0.3, 0x8fba5a), lv(0.7, 0x6e9f45)}));
-  v.push_back(type("hills", 0.4, 0.45, {}, 1.0, "fbm", 5, 550, {{0.0, 0.03}, {0.5, 0.12}, {1.0, 0.28}},
+  v.push_back(type("hills", 0.4, 0.45, {}, 1.0, Fractal::Fbm, 5, 550, {{0.0, 0.03}, {0.5, 0.12}, {1.0, 0.28}},
                    {lv(0.3, 0x79a64c), lv(0.6, 0x5a8a3c), lv(0.9, 0x8c8a62)}));
-  v.push_back(type("mountains", 0.3, 0.8, {"desert"}, 1.0, "ridged", 6, 1000,
+  v.push_back(type("mountains", 0.3, 0.8, {"desert"}, 1.0, Fractal::Ridged, 6, 1000,
                    {{0.0, 0.06}, {0.4, 0.2}, {0.75, 0.55}, {1.0, 0.8}},
                    {lv(0.3, 0x5f8a42), lv(0.5, 0x7a7066), lv(0.8, 0x8d857c), lv(0.9, 0xf1f2f4)}));
-  v.push_back(type("spiky_mountains", 0.6, 0.9, {}, 0.35, "ridged", 4, 420,
+  v.push_back(type("spiky_mountains", 0.6, 0.9, {}, 0.35, Fractal::Ridged, 4, 420,
                    {{0.0, 0.04}, {0.55, 0.09}, {0.8, 0.45}, {1.0, 0.85}},
                    {lv(0.4, 0x6e8f46), lv(0.6, 0x8c8378), lv(0.85, 0xc9c2ba)}));
-  BiomeType plateau = type("plateau", 0.7, 0.6, {}, 0.0, "fbm", 3, 800,
+  BiomeType plateau = type("plateau", 0.7, 0.6, {}, 0.0, Fractal::Fbm, 3, 800,
                            {{0.0, 0.05}, {0.47, 0.07}, {0.53, 0.3}, {1.0, 0.3}},
                            {lv(0.43, 0x7d9a4c), lv(0.49, 0xa4563c), lv(0.54, 0x94729f)});
   v.push_back(plateau);
-  BiomeType desert = type("desert", 0.9, 0.2, {"forest", "mountains"}, 1.0, "billow", 3, 260,
+  BiomeType desert = type("desert", 0.9, 0.2, {"forest", "mountains"}, 1.0, Fractal::Billow, 3, 260,
                           {{0.0, 0.02}, {1.0, 0.09}}, {lv(0.2, 0xe6cf96), lv(0.8, 0xcfae6c)});
-  desert.scale_x = 0.35;  // long dune ridges across x
-  desert.persistence = 0.4;
+  desert.noise.scale_x = 0.35;  // long dune ridges across x
+  desert.noise.persistence = 0.4;
   v.push_back(desert);
-  v.push_back(type("forest", 0.15, 0.35, {"desert"}, 1.0, "fbm", 5, 450, {{0.0, 0.025}, {1.0, 0.14}},
+  v.push_back(type("forest", 0.15, 0.35, {"desert"}, 1.0, Fractal::Fbm, 5, 450, {{0.0, 0.025}, {1.0, 0.14}},
                    {lv(0.3, 0x3f6f35), lv(0.7, 0x2d5628)}));
   return v;
 }
@@ -144,7 +144,7 @@ RegionMap::RegionMap(const BiomesParams& p, std::uint64_t seed, double x0_m, dou
   bridge_ = std::max(0, find_type(p.types, p.bridge));
   // Queries search ±search cells; the repair of those looks ±4 further (3·size reaches 4 cells).
   // A point in a cell k cells away is at least (k − 1)·size from any position of the centre cell.
-  search_ = std::max(2, int(std::ceil(std::sqrt(2.0) + (p.blend == "interpolate" ? p.border_m : 0.0) / size_)));
+  search_ = std::max(2, int(std::ceil(std::sqrt(2.0) + (p.blend == BiomesParams::Blend::Interpolate ? p.border_m : 0.0) / size_)));
   margin_ = search_ + 4;
   cx0_ = cell(x0_m) - margin_;
   cz0_ = cell(z0_m) - margin_;
@@ -251,27 +251,18 @@ struct TypeEval {
   }
 };
 
-NoiseSettings type_noise(const BiomeType& t, std::uint64_t seed) {
-  NoiseSettings s;
-  s.basis = noise_basis_named(t.basis, "basis");
-  s.fractal = fractal_named(t.fractal, "fractal");
-  s.octaves = t.octaves;
-  s.frequency = 1.0 / t.wavelength_m;
-  s.persistence = t.persistence;
-  s.lacunarity = t.lacunarity;
-  s.scale_x = t.scale_x;
-  s.scale_z = t.scale_z;
-  s.seed = seed;
-  return s;
+// `world_width_m` gives `frequency` its meaning (cycles across the world) when wavelength_m is 0.
+NoiseSettings type_noise(const BiomeType& t, double world_width_m, std::uint64_t seed) {
+  return t.noise.settings(world_width_m, seed);
 }
 
-std::vector<TypeEval> prepare_types(const BiomesParams& p, std::uint64_t seed, const std::string& path) {
+std::vector<TypeEval> prepare_types(const BiomesParams& p, double world_width_m, std::uint64_t seed, const std::string& path) {
   std::vector<TypeEval> out(p.types.size());
   for (std::size_t k = 0; k < p.types.size(); ++k) {
     const BiomeType& t = p.types[k];
     const std::string tp = path + ".types[" + std::to_string(k) + "]";
     out[k].rules = &t;
-    out[k].noise = std::make_unique<Noise>(type_noise(t, hash64(seed, detail::name_hash(t.name))));
+    out[k].noise = std::make_unique<Noise>(type_noise(t, world_width_m, hash64(seed, detail::name_hash(t.name))));
     out[k].curve = std::make_unique<detail::Curve>(t.curve);
     out[k].level_textures = detail::load_level_textures(t.colors, tp + ".colors");
     if (!t.texture.empty()) out[k].texture = detail::load_texture(t.texture, tp + ".texture");
@@ -331,9 +322,10 @@ void apply_biomes(Terrain& t, const BiomesParams& p, const Context& ctx) {
   if (h.channels != 1 || h.data.size() != fr.count()) throw Error("", "layer 'height' does not match the frame");
   const double sea = fr.sea_level, land = 1.0 - sea;
   const std::uint64_t seed = ctx.stage_seed();
-  const std::vector<TypeEval> types = prepare_types(p, seed, path);
+  const std::vector<TypeEval> types = prepare_types(p, fr.world_width_m, seed, path);
   const detail::RegionMap map(p, seed, fr.x_m(0), fr.z_m(0), fr.x_m(fr.nx - 1), fr.z_m(fr.nz - 1));
-  const int mode = p.blend == "interpolate" ? 0 : p.blend == "selective" ? 1 : 2;
+  using Blend = BiomesParams::Blend;
+  const int mode = p.blend == Blend::Interpolate ? 0 : p.blend == Blend::Selective ? 1 : 2;
   const double keep = p.flatten_land ? p.flatten_keep : 1.0;
   const std::size_t nt = types.size();
 
@@ -427,11 +419,10 @@ void apply_biomes(Terrain& t, const BiomesParams& p, const Context& ctx) {
       const double x = fr.x_m(i);
       const double e0 = hrow[i];
       if (e0 <= sea) {
-        const double depth = sea > 0 ? (sea - e0) / sea : 0.0;
-        const double w = smoothstep01(depth / p.sea_deep_depth);
-        arow[3 * i + 0] = float(p.sea_shallow.r + (p.sea_deep.r - p.sea_shallow.r) * w);
-        arow[3 * i + 1] = float(p.sea_shallow.g + (p.sea_deep.g - p.sea_shallow.g) * w);
-        arow[3 * i + 2] = float(p.sea_shallow.b + (p.sea_deep.b - p.sea_shallow.b) * w);
+        const Rgb c = p.sea.sea_at(e0, sea);
+        arow[3 * i + 0] = c.r;
+        arow[3 * i + 1] = c.g;
+        arow[3 * i + 2] = c.b;
         brow[i] = 0.0f;
         continue;
       }
@@ -459,9 +450,9 @@ void apply_biomes(Terrain& t, const BiomesParams& p, const Context& ctx) {
       const double e = std::clamp(sea + land * u, sea + 1e-5, 1.0);
       hrow[i] = float(e);
       const double bw = p.beach_lift > 0 ? 1.0 - smoothstep01((u - 0.5 * p.beach_lift) / (0.5 * p.beach_lift)) : 0.0;
-      arow[3 * i + 0] = float(r + (p.beach_color.r - r) * bw);
-      arow[3 * i + 1] = float(g + (p.beach_color.g - g) * bw);
-      arow[3 * i + 2] = float(b + (p.beach_color.b - b) * bw);
+      arow[3 * i + 0] = float(r + (p.sea.beach_color.r - r) * bw);
+      arow[3 * i + 1] = float(g + (p.sea.beach_color.g - g) * bw);
+      arow[3 * i + 2] = float(b + (p.sea.beach_color.b - b) * bw);
       brow[i] = bw > 0.5 ? 1.0f : float(2 + m.nearest);
       if (mode == 1) movable[std::size_t(j) * nx + i] = lift * taper < types[std::size_t(m.nearest)].rules->protect_above;
     }
@@ -473,8 +464,8 @@ void apply_biomes(Terrain& t, const BiomesParams& p, const Context& ctx) {
   }
 
   t.biomes.clear();
-  t.biomes.push_back({"ocean", p.sea_shallow.r, p.sea_shallow.g, p.sea_shallow.b});
-  t.biomes.push_back({"beach", p.beach_color.r, p.beach_color.g, p.beach_color.b});
+  t.biomes.push_back({"ocean", p.sea.sea_shallow.r, p.sea.sea_shallow.g, p.sea.sea_shallow.b});
+  t.biomes.push_back({"beach", p.sea.beach_color.r, p.sea.beach_color.g, p.sea.beach_color.b});
   for (auto& te : types) {
     const Rgb c = te.texture ? Rgb{te.texture->rgb[0], te.texture->rgb[1], te.texture->rgb[2]}
                              : detail::level_color(te.rules->colors, {}, true, 0.5f, 0, 0);
@@ -496,9 +487,9 @@ void validate_biomes(const BiomesParams& p, const std::string& path) {
         throw Error(tp + ".avoid[" + std::to_string(a) + "]", "unknown type \"" + t.avoid[a] + "\"");
     any = any || t.weight > 0;
     try {
-      Noise n(type_noise(t, 0));
+      Noise n(type_noise(t, 1.0, 0));  // frequency checked as cycles per metre of a 1 m world
     } catch (const Error& e) {
-      throw Error(tp + "." + e.path(), e.what());
+      throw Error(e.path().empty() ? tp : tp + "." + e.path(), e.message());
     }
     detail::load_level_textures(t.colors, tp + ".colors");
     if (!t.texture.empty()) detail::load_texture(t.texture, tp + ".texture");
@@ -521,7 +512,7 @@ void validate_biomes(const BiomesParams& p, const std::string& path) {
 
 Table<BiomeType> type_table() {
   using T = BiomeType;
-  return {{
+  Table<T> t{{
       text(&T::name, "name", "Type name (shown in biomes.json; props name it)"),
       param(&T::aridity, "aridity", 0.0, 1.0, "", "Preferred aridity of the climate field (0 wet, 1 dry)"),
       param(&T::ruggedness, "ruggedness", 0.0, 1.0, "", "Preferred ruggedness of the climate field (0 flat, 1 rugged)"),
@@ -529,15 +520,9 @@ Table<BiomeType> type_table() {
       names(&T::avoid, "avoid", "Types that must never border this one (symmetric)"),
       param(&T::protect_above, "protect_above", 0.0, 1.0, "",
             "Selective blending leaves samples with lift ≥ this untouched (0 = the whole biome, 1 = none)"),
-      choice(&T::basis, "basis", {"gradient", "perlin", "simplex", "value"},
-             "Noise basis of this biome's terrain (gradient: Perlin-equivalent, hashed, fastest)"),
-      choice(&T::fractal, "fractal", {"none", "fbm", "ridged", "billow"}, "How the octaves combine"),
-      param(&T::octaves, "octaves", 1, 12, "", "Noise octaves"),
-      param(&T::wavelength_m, "wavelength_m", 1.0, 1e6, "m", "Wavelength of the first octave"),
-      param(&T::persistence, "persistence", 0.0, 1.0, "", "Amplitude ratio between octaves"),
-      param(&T::lacunarity, "lacunarity", 1.0, 4.0, "", "Frequency ratio between octaves"),
-      param(&T::scale_x, "scale_x", 0.05, 20.0, "", "Anisotropy: frequency multiplier along x"),
-      param(&T::scale_z, "scale_z", 0.05, 20.0, "", "Anisotropy: frequency multiplier along z"),
+  }};
+  embed(t.fields, &T::noise, detail::noise_fields_table());
+  for (auto& f : std::vector<Field<T>>{
       param(&T::contrast, "contrast", 0.1, 10.0, "", "n = clamp(0.5 + contrast · noise / 2): spreads the noise over 0..1"),
       relief::curve(&T::curve, "curve", 0.0, 1.0,
                     "Animation curve [[n, lift], …]: noise n (0..1) to lift above sea level as a fraction of the land "
@@ -545,7 +530,9 @@ Table<BiomeType> type_table() {
       levels(&T::colors, "colors", 0.0, 1.0, "Colour gradient on the noise value n (levels may name a texture)"),
       text(&T::texture, "texture", "PNG file tiled over the whole biome instead of its colours (\"\" = none)", Effect::Recolour),
       param(&T::tile_m, "tile_m", 0.01, 1e6, "m", "Texture repeat", Effect::Recolour),
-  }};
+       })
+    t.fields.push_back(std::move(f));
+  return t;
 }
 
 }  // namespace
@@ -568,19 +555,17 @@ StageDef biomes() {
             "Biome relief fades in over this distance from the sea (smoothstep): no sea cliffs; 0 = off"),
       param(&P::coast_rise, "coast_rise", 0.0, 1.0, "",
             "Also fade it in over this much of the island shape's own land height (0 = off)"),
-      choice(&P::blend, "blend", {"interpolate", "selective", "none"},
+      choice(&P::blend, "blend",
+             {{P::Blend::Interpolate, "interpolate"}, {P::Blend::Selective, "selective"}, {P::Blend::None, "none"}},
              "interpolate: mix region terrains within border_m; selective: seed 003's masked averaging; none: hard borders"),
       param(&P::border_m, "border_m", 0.0, 1e6, "m", "interpolate: width of the transition between two regions"),
       param(&P::selective_radius_m, "selective_radius_m", 0.0, 1e5, "m",
             "selective: half-width of the averaging square (at least one sample)"),
       param(&P::selective_passes, "selective_passes", 1, 16, "", "selective: averaging passes"),
-      color(&P::sea_shallow, "sea_shallow", "Colour of shallow sea"),
-      color(&P::sea_deep, "sea_deep", "Colour of deep sea"),
-      param(&P::sea_deep_depth, "sea_deep_depth", 0.01, 1.0, "", "Depth (fraction of sea_level) where the sea is deep",
-            Effect::Recolour),
-      color(&P::beach_color, "beach_color", "Colour of the coast"),
-      param(&P::beach_lift, "beach_lift", 0.0, 1.0, "", "Land lower than this (fraction of the land range) is beach"),
   }};
+  embed(table.fields, &P::sea, detail::sea_colors_table());
+  table.fields.push_back(
+      param(&P::beach_lift, "beach_lift", 0.0, 1.0, "", "Land lower than this (fraction of the land range) is beach"));
   return make_stage<P>("biomes",
                        "Voronoi biome regions with their own noise, curve and colours, blended; writes height, albedo, "
                        "biome",

@@ -23,6 +23,7 @@
 #include "parallel.hpp"
 #include "relief/error.hpp"
 #include "relief/noise.hpp"
+#include "shared_tables.hpp"
 #include "stages.hpp"
 #include "texture.hpp"
 
@@ -145,16 +146,9 @@ struct ClimateParams {
   double temperature_base = 0.8, temperature_noise = 0.25, lapse = 0.9, latitude = 0.0;
   double moisture_base = 0.3, moisture_noise = 0.45, sea_moisture = 0.35, coast_m = 250;
   std::vector<ClimateBiome> table = detail::whittaker_table();
-  Rgb sea_shallow{0.25f, 0.55f, 0.72f}, sea_deep{0.07f, 0.22f, 0.42f};
-  double sea_deep_depth = 0.25;
-  Rgb beach_color{0.87f, 0.80f, 0.58f};
+  detail::SeaColors sea;  // sea_shallow, sea_deep, sea_deep_depth, beach_color
   double beach_height = 0.006;
 };
-
-double smoothstep01(double s) {
-  s = std::clamp(s, 0.0, 1.0);
-  return s * s * (3.0 - 2.0 * s);
-}
 
 Noise field(double wavelength, std::uint64_t seed) {
   NoiseSettings s;
@@ -175,8 +169,8 @@ void apply_climate(Terrain& t, const ClimateParams& p, const Context& ctx) {
   // Legend: ocean, beach, then the table's names in order of first appearance.
   std::vector<int> id_of_row(p.table.size());
   t.biomes.clear();
-  t.biomes.push_back({"ocean", p.sea_shallow.r, p.sea_shallow.g, p.sea_shallow.b});
-  t.biomes.push_back({"beach", p.beach_color.r, p.beach_color.g, p.beach_color.b});
+  t.biomes.push_back({"ocean", p.sea.sea_shallow.r, p.sea.sea_shallow.g, p.sea.sea_shallow.b});
+  t.biomes.push_back({"beach", p.sea.beach_color.r, p.sea.beach_color.g, p.sea.beach_color.b});
   for (std::size_t k = 0; k < p.table.size(); ++k) {
     int id = -1;
     for (std::size_t b = 0; b < t.biomes.size(); ++b)
@@ -224,13 +218,10 @@ void apply_climate(Terrain& t, const ClimateParams& p, const Context& ctx) {
       Rgb c;
       int id;
       if (e <= sea) {
-        const double w = smoothstep01((sea > 0 ? (sea - e) / sea : 0.0) / p.sea_deep_depth);
-        c = Rgb{float(p.sea_shallow.r + (p.sea_deep.r - p.sea_shallow.r) * w),
-                float(p.sea_shallow.g + (p.sea_deep.g - p.sea_shallow.g) * w),
-                float(p.sea_shallow.b + (p.sea_deep.b - p.sea_shallow.b) * w)};
+        c = p.sea.sea_at(e, sea);
         id = 0;
       } else if (e - sea < p.beach_height) {
-        c = p.beach_color;
+        c = p.sea.beach_color;
         id = 1;
       } else {
         const int r = std::max(0, detail::classify(p.table, T, M));  // validated: every (t, m) is covered
@@ -299,13 +290,10 @@ StageDef climate() {
       param(&P::sea_moisture, "sea_moisture", 0.0, 2.0, "", "Moisture added at the coast, fading inland"),
       param(&P::coast_m, "coast_m", 1.0, 1e6, "m", "Distance over which the sea's moisture falls by e"),
       records(&P::table, "table", row_table(), 1, 62, "Whittaker-style table: rectangles of (temperature, moisture)"),
-      color(&P::sea_shallow, "sea_shallow", "Colour of shallow sea"),
-      color(&P::sea_deep, "sea_deep", "Colour of deep sea"),
-      param(&P::sea_deep_depth, "sea_deep_depth", 0.01, 1.0, "", "Depth (fraction of sea_level) where the sea is deep",
-            Effect::Recolour),
-      color(&P::beach_color, "beach_color", "Colour of beaches"),
-      param(&P::beach_height, "beach_height", 0.0, 1.0, "", "Land less than this above sea level (normalised) is beach"),
   }};
+  embed(table.fields, &P::sea, detail::sea_colors_table());
+  table.fields.push_back(
+      param(&P::beach_height, "beach_height", 0.0, 1.0, "", "Land less than this above sea level (normalised) is beach"));
   return make_stage<P>("climate",
                        "Climate biomes: moisture (rising near the sea) and temperature (cooling with height) classified "
                        "by a Whittaker table; writes temperature, moisture, biome, albedo",

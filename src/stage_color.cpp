@@ -29,6 +29,7 @@
 #include "pointwise.hpp"
 #include "relief/error.hpp"
 #include "relief/random.hpp"
+#include "shared_tables.hpp"
 #include "stages.hpp"
 #include "texture.hpp"
 
@@ -61,8 +62,10 @@ void require_nonempty(const Terrain& t, const Layer& h, const char* name) {
 
 // ======================================================================================= slope
 
+enum class SlopeBorder { Mean, Eight };
+
 struct SlopeParams {
-  std::string border = "mean";
+  SlopeBorder border = SlopeBorder::Mean;
 };
 
 void apply_slope(Terrain& t, const SlopeParams& p, const Context&) {
@@ -71,7 +74,7 @@ void apply_slope(Terrain& t, const SlopeParams& p, const Context&) {
   require_nonempty(t, h, "height");
   Layer& s = t.layer("slope", 1);
   Layer& sd = t.layer("slope_deg", 1);
-  const bool eight = p.border == "eight";
+  const bool eight = p.border == SlopeBorder::Eight;
   detail::parallel_rows(fr.nz, [&](int j) {
     for (int i = 0; i < fr.nx; ++i) {
       const double e = h.data[(std::size_t(j) * fr.nx + i) * h.channels];
@@ -102,7 +105,8 @@ Level level(double at, Rgb color, const char* name) {
 }
 
 std::vector<Level> default_palette() {
-  // For the default sea_level 0.4: water below, beach just above it.
+  // Written for sea level 0.4 (detail::kReferenceSea): water below, beach just above it. With
+  // sea_relative (the default) they follow the world's sea level.
   return {
       level(0.30, hex(0x1d4877), "deep water"), level(0.40, hex(0x3a7cb8), "shallow water"),
       level(0.43, hex(0xd8c88e), "sand"),       level(0.58, hex(0x6b9b45), "grass"),
@@ -111,10 +115,13 @@ std::vector<Level> default_palette() {
   };
 }
 
+enum class ColorMode { Bands, Gradient };
+
 struct ColorParams {
   std::vector<Level> levels = default_palette();
-  std::string mode = "bands";
+  ColorMode mode = ColorMode::Bands;
   bool relative_to_max = false;
+  bool sea_relative = true;
   Rgb rock_color = hex(0x6f6861);
   double rock_slope_deg = 35.0;
   double rock_blend_deg = 5.0;
@@ -130,6 +137,12 @@ struct ColorParams {
 //           below the first `at`, the last colour above the last `at`.
 // Comparisons are made in single precision, the precision of the layers, so that a height of
 // 0.3f counts as "at" a level written as 0.3.
+//
+// sea_relative (default): the levels' `at` and rock_min/rock_max are written for sea level 0.4
+// (detail::kReferenceSea) and placed in the world piecewise linearly, so that 0.4 lands on the
+// world's sea level and 0 and 1 stay put (detail::from_reference_elevation; exactly the written
+// values when the world's sea level is 0.4). `--set world.sea_level=0.3` thus moves the beach with
+// the coast. false pins them to the elevations written.
 //
 // Rock: where rock_min < e < rock_max and the slope exceeds rock_slope_deg, the colour turns to
 // rock_color with weight smoothstep((slope − rock_slope_deg)/rock_blend_deg). The slope is the
@@ -150,8 +163,14 @@ void require_single(const Terrain& t, const Layer& h, const char* name) {
     throw Error("", std::string("layer '") + name + "' must have one channel and one value per sample");
 }
 
-void apply_color(Terrain& t, const ColorParams& p, const Context& ctx) {
+void apply_color(Terrain& t, const ColorParams& params, const Context& ctx) {
   const Frame& fr = t.frame;
+  ColorParams p = params;
+  if (p.sea_relative) {
+    for (Level& l : p.levels) l.at = detail::from_reference_elevation(l.at, fr.sea_level);
+    p.rock_min = detail::from_reference_elevation(p.rock_min, fr.sea_level);
+    p.rock_max = detail::from_reference_elevation(p.rock_max, fr.sea_level);
+  }
   const Layer& h = t.get("height");
   require_single(t, h, "height");
   const int nx = fr.nx;
@@ -160,7 +179,7 @@ void apply_color(Terrain& t, const ColorParams& p, const Context& ctx) {
   for (const Level& l : p.levels) at.push_back(float(l.at)), r.push_back(l.color.r), g.push_back(l.color.g), b.push_back(l.color.b);
   k.levels = int(at.size());
   k.at = at.data(), k.r = r.data(), k.g = g.data(), k.b = b.data();
-  k.gradient = p.mode == "gradient";
+  k.gradient = p.mode == ColorMode::Gradient;
   const std::vector<float> level_tables = detail::color_level_tables(k);
   k.tables = level_tables.empty() ? nullptr : level_tables.data();
   // Per-map normalisation (seed 000): the only non-local step; off by default.
@@ -355,7 +374,7 @@ void apply_hillshade(Terrain& t, const HillshadeParams& p, const Context&) {
 StageDef slope() {
   using P = SlopeParams;
   Table<P> table{{
-      choice(&P::border, "border", {"mean", "eight"},
+      choice(&P::border, "border", {{SlopeBorder::Mean, "mean"}, {SlopeBorder::Eight, "eight"}},
              "slope = Σ|e − neighbour| over the in-bounds neighbours, divided by their count (mean) or by 8 "
              "always (eight: seed 001, darker border)"),
   }};
@@ -372,10 +391,14 @@ StageDef colorize() {
       levels(&P::levels, "levels", 0.0, 1.0,
              "Colour levels [{at, color, name}] on normalised elevation; bands: first level with e ≤ at, the last "
              "level above all"),
-      choice(&P::mode, "mode", {"bands", "gradient"}, "bands: flat colour per level; gradient: interpolate between levels",
-             R),
+      choice(&P::mode, "mode", {{ColorMode::Bands, "bands"}, {ColorMode::Gradient, "gradient"}},
+             "bands: flat colour per level; gradient: interpolate between levels", R),
       param(&P::relative_to_max, "relative_to_max", 0, 1, "",
             "Divide elevation by the map's highest sample first (seed 000); breaks preview = build and tiling", R),
+      param(&P::sea_relative, "sea_relative", 0, 1, "",
+            "Levels and rock_min/rock_max are written for sea level 0.4 and follow the world's sea level (piecewise "
+            "linear remap); false pins them",
+            R),
       color(&P::rock_color, "rock_color", "Colour of steep ground (seed 001's rock rule)"),
       param(&P::rock_slope_deg, "rock_slope_deg", 0.0, 90.0, "deg",
             "Slope above which ground turns to rock (uses layer slope_deg if present); 90 disables the rule", R),

@@ -101,8 +101,10 @@ void apply_fill(Terrain& t, const FillParams& p, const Context&) {
 
 // ======================================================================================= flow
 
+enum class Depressions { Lakes, Fill };
+
 struct FlowParams {
-  std::string depressions = "lakes";
+  Depressions depressions = Depressions::Lakes;
   double epsilon_m = 0.0;
   double lake_min_depth_m = 1.0;
   double lake_min_area_m2 = 5000.0;
@@ -136,7 +138,7 @@ void apply_flow(Terrain& t, const FlowParams& p, const Context& ctx) {
   // Depressions: connected cells raised by the fill. Keep the big, deep ones as lakes.
   t.lakes.clear();
   std::vector<std::int32_t> lake_id(n, -1);
-  if (p.depressions == "lakes") {
+  if (p.depressions == Depressions::Lakes) {
     std::vector<std::uint8_t> seen(n, 0);
     std::vector<std::uint32_t> cells, stack;
     for (std::size_t s = 0; s < n; ++s) {
@@ -304,9 +306,11 @@ void apply_flow(Terrain& t, const FlowParams& p, const Context& ctx) {
 
 // =============================================================================== stream power
 
+enum class UpliftPattern { Height, Uniform };
+
 struct StreamPowerParams {
   double uplift_mm_per_year = 2.0;
-  std::string uplift_pattern = "height";
+  UpliftPattern uplift_pattern = UpliftPattern::Height;
   double k = 1e-5;
   double m = 0.45;
   double n = 1.0;
@@ -320,7 +324,7 @@ void apply_stream_power(Terrain& t, const StreamPowerParams& p, const Context& c
   Layer& h = height_layer(t);
   erosion::StreamPowerSettings s;
   s.uplift_mm_per_year = p.uplift_mm_per_year;
-  s.uplift_follows_height = p.uplift_pattern == "height";
+  s.uplift_follows_height = p.uplift_pattern == UpliftPattern::Height;
   s.k = p.k;
   s.m = p.m;
   s.n = p.n;
@@ -383,7 +387,7 @@ StageDef fill() {
 StageDef flow() {
   using P = FlowParams;
   Table<P> table{{
-      choice(&P::depressions, "depressions", {"lakes", "fill"},
+      choice(&P::depressions, "depressions", {{Depressions::Lakes, "lakes"}, {Depressions::Fill, "fill"}},
              "lakes: keep deep, large depressions as lakes at their spill level (fill the rest); fill: fill all"),
       param(&P::epsilon_m, "epsilon_m", 0, 10, "m", "Gradient given to filled flats, metres per sample (0: smallest float step)"),
       param(&P::lake_min_depth_m, "lake_min_depth_m", 0, 10000, "m", "A depression becomes a lake if at least this deep"),
@@ -407,7 +411,7 @@ StageDef stream_power() {
   using P = StreamPowerParams;
   Table<P> table{{
       param(&P::uplift_mm_per_year, "uplift_mm_per_year", 0, 100, "mm/yr", "Tectonic uplift rate U"),
-      choice(&P::uplift_pattern, "uplift_pattern", {"height", "uniform"},
+      choice(&P::uplift_pattern, "uplift_pattern", {{UpliftPattern::Height, "height"}, {UpliftPattern::Uniform, "uniform"}},
              "height: U scaled by the input land height (the input relief is the uplift map); uniform: U everywhere on land"),
       param(&P::k, "k", 0, 0.01, "m^(1-2m)/yr", "Erodibility K in dh/dt = U − K·A^m·S^n"),
       param(&P::m, "m", 0.1, 1.5, "", "Drainage-area exponent m (channel concavity θ = m/n)"),

@@ -128,8 +128,10 @@ double land_score(const Frame& fr, const Layer& h, double x, double z, double r)
 
 // ===================================================================================== volcano
 
+enum class VolcanoPlacement { Land, Fixed };
+
 struct VolcanoParams {
-  std::string placement = "land";
+  VolcanoPlacement placement = VolcanoPlacement::Land;
   double x_m = 2000, z_m = 2000;
   double radius_m = 650;
   double rim_radius_m = 200;
@@ -155,7 +157,7 @@ void apply_volcano(Terrain& t, const VolcanoParams& p, const Context& ctx) {
   const std::uint64_t seed = ctx.stage_seed();
   // 1. Position: fixed, or the most "landy" of 96 hashed candidates inside the window.
   double cx = p.x_m, cz = p.z_m;
-  if (p.placement == "land") {
+  if (p.placement == VolcanoPlacement::Land) {
     const double mx = std::min(p.radius_m, 0.45 * fr.width_m()), mz = std::min(p.radius_m, 0.45 * fr.depth_m());
     double best = -1;
     for (int k = 0; k < 96; ++k) {
@@ -261,8 +263,10 @@ void validate_volcano(const VolcanoParams& p, const std::string& path) {
 
 // =================================================================================== features
 
+enum class FeaturePlacement { Land, Anywhere };
+
 struct FeaturesParams {
-  std::string placement = "land";
+  FeaturePlacement placement = FeaturePlacement::Land;
   int craters = 2;
   double crater_radius_min_m = 60, crater_radius_max_m = 130;
   double crater_depth = 0.08;
@@ -299,7 +303,7 @@ void apply_features(Terrain& t, const FeaturesParams& p, const Context& ctx) {
         const double r = crater ? p.crater_radius_min_m + (p.crater_radius_max_m - p.crater_radius_min_m) * unit_double(mix64(mix64(hk)))
                                 : p.peak_radius_m;
         const double x = fr.x0_m() + unit_double(hk) * fr.width_m(), z = fr.z0_m() + unit_double(mix64(hk)) * fr.depth_m();
-        if (p.placement == "land" && land_score(fr, h, x, z, crater ? 1.5 * r : r) < 1.0) continue;
+        if (p.placement == FeaturePlacement::Land && land_score(fr, h, x, z, crater ? 1.5 * r : r) < 1.0) continue;
         bool clear = true;
         for (auto& f : placed) clear = clear && std::hypot(f.x - x, f.z - z) >= f.r + r + p.clearance_m;
         if (volcano)
@@ -414,7 +418,7 @@ StageDef volcano() {
   using P = VolcanoParams;
   constexpr Effect R = Effect::Recolour;
   Table<P> table{{
-      choice(&P::placement, "placement", {"land", "fixed"},
+      choice(&P::placement, "placement", {{VolcanoPlacement::Land, "land"}, {VolcanoPlacement::Fixed, "fixed"}},
              "land: the most land-covered of 96 seeded candidates; fixed: at x_m, z_m"),
       param(&P::x_m, "x_m", -1e7, 1e7, "m", "fixed placement: centre x"),
       param(&P::z_m, "z_m", -1e7, 1e7, "m", "fixed placement: centre z"),
@@ -442,7 +446,8 @@ StageDef volcano() {
 StageDef features() {
   using P = FeaturesParams;
   Table<P> table{{
-      choice(&P::placement, "placement", {"land", "anywhere"}, "land: whole feature on land, off the volcano"),
+      choice(&P::placement, "placement", {{FeaturePlacement::Land, "land"}, {FeaturePlacement::Anywhere, "anywhere"}},
+             "land: whole feature on land, off the volcano"),
       param(&P::craters, "craters", 0, 256, "", "Impact craters to place"),
       param(&P::crater_radius_min_m, "crater_radius_min_m", 1.0, 1e6, "m", "Smallest crater radius"),
       param(&P::crater_radius_max_m, "crater_radius_max_m", 1.0, 1e6, "m", "Largest crater radius"),

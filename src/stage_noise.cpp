@@ -7,24 +7,21 @@
 #include <vector>
 
 #include "relief/noise.hpp"
+#include "shared_tables.hpp"
 #include "stages.hpp"
 
 namespace relief::stages {
 namespace {
 
+enum class Blend { Set, Add, Multiply, Max, Min };
+
 struct NoiseParams {
   std::string layer = "height";
-  std::string basis = "gradient";
-  std::string fractal = "fbm";
-  int octaves = 6;
-  double frequency = 4.0;  // cycles across the world width (first octave)
-  double lacunarity = 2.0;
-  double persistence = 0.5;
+  detail::NoiseFields noise;  // basis, fractal, octaves, frequency (or wavelength_m), lacunarity, …
   double amplitude = 1.0;
   double offset = 0.0;
-  std::string blend = "set";
-  double scale_x = 1.0, scale_z = 1.0;
-  std::string cellular = "f1";
+  Blend blend = Blend::Set;
+  CellularReturn cellular = CellularReturn::F1;
   double jitter = 1.0;
   bool periodic = false;
   double warp = 0.0;             // in wavelengths of the first octave
@@ -34,45 +31,31 @@ struct NoiseParams {
 
 Table<NoiseParams> table() {
   using P = NoiseParams;
-  return {{
-      text(&P::layer, "layer", "Layer to write (height, moisture, temperature, …)"),
-      choice(&P::basis, "basis", {"gradient", "perlin", "simplex", "value", "cellular"},
-             "Noise basis: gradient (Perlin-equivalent, hashed, fastest), improved Perlin (seeded permutation), "
-             "OpenSimplex2, value or cellular (Worley)"),
-      choice(&P::fractal, "fractal", {"none", "fbm", "ridged", "billow"},
-             "How octaves combine: none (one octave), fBm, ridged (sharp crests), billow (puffy)"),
-      param(&P::octaves, "octaves", 1, 16, "", "Number of octaves summed"),
-      param(&P::frequency, "frequency", 0.01, 1000, "cycles/world", "Cycles of the first octave across the world width"),
-      param(&P::lacunarity, "lacunarity", 1, 4, "", "Frequency ratio between successive octaves"),
-      param(&P::persistence, "persistence", 0, 1, "", "Amplitude ratio between successive octaves (gain)"),
-      param(&P::amplitude, "amplitude", 0, 4, "", "Scale of the noise around its mid value"),
-      param(&P::offset, "offset", -1, 1, "", "Added to the result (set: 0 puts the mid value at 0.5)"),
-      choice(&P::blend, "blend", {"set", "add", "multiply", "max", "min"},
-             "How the noise combines with the layer's current values"),
-      param(&P::scale_x, "scale_x", 0.05, 20, "", "Anisotropy: frequency multiplier along x"),
-      param(&P::scale_z, "scale_z", 0.05, 20, "", "Anisotropy: frequency multiplier along z"),
-      choice(&P::cellular, "cellular", {"f1", "f2", "f2_minus_f1", "cell_value"},
-             "Cellular basis output: distance to nearest (F1), second nearest (F2), F2−F1 or cell value"),
-      param(&P::jitter, "jitter", 0, 1, "", "Cellular feature point jitter within its cell"),
-      param(&P::periodic, "periodic", 0, 1, "", "Make the noise tile across the world extent (gradient, perlin, value, cellular)"),
-      param(&P::warp, "warp", 0, 4, "wavelengths", "Domain warp strength in first-octave wavelengths (0 = off)"),
-      param(&P::warp_frequency, "warp_frequency", 0.1, 16, "", "Warp noise frequency relative to the first octave"),
-      param(&P::salt, "salt", 0, 1000000, "", "Varies this stage's noise without changing the recipe seed"),
-  }};
+  Table<P> t{{text(&P::layer, "layer", "Layer to write (height, moisture, temperature, …)")}};
+  embed(t.fields, &P::noise, detail::noise_fields_table());
+  for (auto& f : std::vector<Field<P>>{
+           param(&P::amplitude, "amplitude", 0, 4, "", "Scale of the noise around its mid value"),
+           param(&P::offset, "offset", -1, 1, "", "Added to the result (set: 0 puts the mid value at 0.5)"),
+           choice(&P::blend, "blend",
+                  {{Blend::Set, "set"}, {Blend::Add, "add"}, {Blend::Multiply, "multiply"}, {Blend::Max, "max"}, {Blend::Min, "min"}},
+                  "How the noise combines with the layer's current values"),
+           choice(&P::cellular, "cellular",
+                  {{CellularReturn::F1, "f1"}, {CellularReturn::F2, "f2"}, {CellularReturn::F2MinusF1, "f2_minus_f1"},
+                   {CellularReturn::CellValue, "cell_value"}},
+                  "Cellular basis output: distance to nearest (F1), second nearest (F2), F2−F1 or cell value"),
+           param(&P::jitter, "jitter", 0, 1, "", "Cellular feature point jitter within its cell"),
+           param(&P::periodic, "periodic", 0, 1, "", "Make the noise tile across the world extent (gradient, perlin, value, cellular)"),
+           param(&P::warp, "warp", 0, 4, "wavelengths", "Domain warp strength in first-octave wavelengths (0 = off)"),
+           param(&P::warp_frequency, "warp_frequency", 0.1, 16, "", "Warp noise frequency relative to the first octave"),
+           param(&P::salt, "salt", 0, 1000000, "", "Varies this stage's noise without changing the recipe seed"),
+       })
+    t.fields.push_back(std::move(f));
+  return t;
 }
 
 NoiseSettings settings_for(const NoiseParams& p, const Frame& f, std::uint64_t seed) {
-  NoiseSettings s;
-  s.basis = noise_basis_named(p.basis, "basis");
-  s.fractal = fractal_named(p.fractal, "fractal");
-  s.octaves = p.octaves;
-  s.frequency = p.frequency / f.world_width_m;
-  s.lacunarity = p.lacunarity;
-  s.persistence = p.persistence;
-  s.scale_x = p.scale_x;
-  s.scale_z = p.scale_z;
-  s.cellular = p.cellular == "f1" ? CellularReturn::F1 : p.cellular == "f2" ? CellularReturn::F2
-               : p.cellular == "f2_minus_f1" ? CellularReturn::F2MinusF1 : CellularReturn::CellValue;
+  NoiseSettings s = p.noise.settings(f.world_width_m, seed);
+  s.cellular = p.cellular;
   s.jitter = p.jitter;
   if (p.periodic) {
     s.period_x_m = f.world_width_m;
@@ -80,13 +63,12 @@ NoiseSettings settings_for(const NoiseParams& p, const Frame& f, std::uint64_t s
   }
   s.warp_m = p.warp / s.frequency;
   s.warp_frequency = s.frequency * p.warp_frequency;
-  s.seed = seed;
   return s;
 }
 
 void validate(const NoiseParams& p, const std::string& path) {
   if (p.layer.empty()) throw Error(path + ".layer", "expected a layer name, got \"\"");
-  if (p.periodic && p.basis == "simplex")
+  if (p.periodic && p.noise.basis == NoiseBasis::Simplex)
     throw Error(path + ".periodic", "periodic noise needs basis gradient, perlin, value or cellular, got simplex");
 }
 
@@ -98,7 +80,7 @@ struct NoiseKernel final : RowKernel {
   NoiseColumns columns;
   Frame frame;
   float amp = 1.0f, off = 0.0f;
-  int mode = 0;  // set, add, multiply, max, min
+  Blend mode = Blend::Set;
   NoiseKernel(std::string layer, Noise n) : RowKernel(std::move(layer)), noise(std::move(n)) {}
   void apply_row(int j, float* row) const override {
     const int nx = frame.nx;
@@ -110,11 +92,11 @@ struct NoiseKernel final : RowKernel {
       const float u = off + amp * (0.5f + 0.5f * v);  // [-1,1] → [0,1], scaled and offset
       float h;
       switch (mode) {
-        case 0: h = u; break;
-        case 1: h = row[i] + off + 0.5f * amp * v; break;
-        case 2: h = row[i] * u; break;
-        case 3: h = std::max(row[i], u); break;
-        default: h = std::min(row[i], u); break;
+        case Blend::Set: h = u; break;
+        case Blend::Add: h = row[i] + off + 0.5f * amp * v; break;
+        case Blend::Multiply: h = row[i] * u; break;
+        case Blend::Max: h = std::max(row[i], u); break;
+        case Blend::Min: default: h = std::min(row[i], u); break;
       }
       row[i] = std::clamp(h, 0.0f, 1.0f);
     }
@@ -127,8 +109,15 @@ std::unique_ptr<RowKernel> prepare(Terrain& t, const NoiseParams& p, const Conte
     try {
       return Noise(settings_for(p, f, ctx.stage_seed(std::uint64_t(p.salt))));
     } catch (const Error& e) {
-      // Settings derived from the world (frequency per metre, period) are checked here.
-      throw Error("stages[" + std::to_string(ctx.stage_index) + "]", e.what());
+      // Settings derived from the world (frequency per metre, period) are checked here. The error
+      // names the stage's field when the library's field is one (`stages[0].lacunarity`); the
+      // others (period_x_m, warp_m: derived from the world) name the stage and keep the field
+      // in the message.
+      static const std::vector<ParamInfo> fields = table().infos();
+      const std::string stage = "stages[" + std::to_string(ctx.stage_index) + "]";
+      const bool ours = std::any_of(fields.begin(), fields.end(), [&](const ParamInfo& i) { return i.name == e.path(); });
+      if (ours) throw Error(stage + "." + e.path(), e.message());
+      throw Error(stage, e.what());
     }
   }();
   const bool existed = t.has(p.layer) && t.layers[p.layer].channels == 1;
@@ -138,9 +127,9 @@ std::unique_ptr<RowKernel> prepare(Terrain& t, const NoiseParams& p, const Conte
   k->columns = k->noise.columns(f.ix0, f.cell_m(), f.nx);
   k->amp = float(p.amplitude);
   k->off = float(p.offset);
-  k->mode = p.blend == "set" ? 0 : p.blend == "add" ? 1 : p.blend == "multiply" ? 2 : p.blend == "max" ? 3 : 4;
+  k->mode = p.blend;
   // Multiplying a layer that did not exist multiplies by 1: that is `set` (same bits).
-  if (!existed && k->mode == 2) k->mode = 0;
+  if (!existed && k->mode == Blend::Multiply) k->mode = Blend::Set;
   return k;
 }
 

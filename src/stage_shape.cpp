@@ -75,9 +75,11 @@ std::unique_ptr<RowKernel> prepare_redistribute(Terrain& t, const RedistributePa
 
 // ===================================================================================== terrace
 
+enum class TerraceMode { Round, Smooth };
+
 struct TerraceParams {
   int levels = 8;
-  std::string mode = "round";
+  TerraceMode mode = TerraceMode::Round;
   double wall = 0.3;
   bool land_only = false;
 };
@@ -101,7 +103,7 @@ std::unique_ptr<RowKernel> prepare_terrace(Terrain& t, const TerraceParams& p, c
   require_height(t);
   auto r = std::make_unique<TerraceKernel>();
   r->k.levels = float(p.levels);
-  r->k.smooth = p.mode == "smooth" && p.wall > 0.0;
+  r->k.smooth = p.mode == TerraceMode::Smooth && p.wall > 0.0;
   r->k.wall = float(p.wall);
   r->k.wall_lo = float(0.5 * (1.0 - p.wall));
   r->k.land = detail::LandOnly::make(p.land_only, t.frame.sea_level);
@@ -111,9 +113,11 @@ std::unique_ptr<RowKernel> prepare_terrace(Terrain& t, const TerraceParams& p, c
 
 // ====================================================================================== island
 
+enum class Distance { SquareBump, Euclidean2, Hyperboloid, TrigProduct, Squircle, Circular };
+
 struct IslandParams {
-  std::string distance = "square_bump";
-  std::string shaping = "lerp";
+  Distance distance = Distance::SquareBump;
+  detail::IslandShaping shaping = detail::IslandShaping::Lerp;
   double mix = 0.5;
   double falloff_rate = 1.0;
   double radius = 1.0;
@@ -139,8 +143,6 @@ struct IslandParams {
 // Sea-floor guarantee: with mix = 1, `lerp` and `multiply` give exactly 0 wherever d = 1, below any
 // sea_level > 0; `subtract` gives e − rate there, below sea level for every e ≤ 1 when
 // rate > 1 − sea_level.
-enum class Distance { SquareBump, Euclidean2, Hyperboloid, TrigProduct, Squircle, Circular };
-
 struct IslandKernel final : RowKernel {
   detail::IslandRow k;
   std::vector<float> col;  // per-column term, padded
@@ -180,19 +182,14 @@ std::unique_ptr<RowKernel> prepare_island(Terrain& t, const IslandParams& p, con
   r->a = p.hyperboloid_a;
   r->radius_m = p.radius * 0.5 * std::min(W, D);
   using detail::IslandForm;
-  static const std::pair<const char*, std::pair<Distance, IslandForm>> kDistances[] = {
-      {"square_bump", {Distance::SquareBump, IslandForm::Product}},
-      {"euclidean2", {Distance::Euclidean2, IslandForm::Sum}},
-      {"hyperboloid", {Distance::Hyperboloid, IslandForm::RootAffine}},
-      {"trig_product", {Distance::TrigProduct, IslandForm::Product}},
-      {"squircle", {Distance::Squircle, IslandForm::Root}},
-      {"circular", {Distance::Circular, IslandForm::Root}},
-  };
-  for (auto& [name, kind] : kDistances)
-    if (p.distance == name) r->distance = kind.first, r->k.form = kind.second;
-  r->k.shaping = p.shaping == "lerp"       ? detail::IslandShaping::Lerp
-                 : p.shaping == "multiply" ? detail::IslandShaping::Multiply
-                                           : detail::IslandShaping::Subtract;
+  r->distance = p.distance;
+  switch (p.distance) {
+    case Distance::SquareBump: case Distance::TrigProduct: r->k.form = IslandForm::Product; break;
+    case Distance::Euclidean2: r->k.form = IslandForm::Sum; break;
+    case Distance::Hyperboloid: r->k.form = IslandForm::RootAffine; break;
+    case Distance::Squircle: case Distance::Circular: r->k.form = IslandForm::Root; break;
+  }
+  r->k.shaping = p.shaping;
   r->k.mix = float(p.mix);
   r->k.rate = float(p.falloff_rate);
   r->k.a = float(p.hyperboloid_a);
@@ -282,7 +279,7 @@ StageDef terrace() {
   using P = TerraceParams;
   Table<P> table{{
       param(&P::levels, "levels", 1, 256, "", "Number of terrace steps n: round gives the n + 1 levels 0, 1/n, …, 1"),
-      choice(&P::mode, "mode", {"round", "smooth"},
+      choice(&P::mode, "mode", {{TerraceMode::Round, "round"}, {TerraceMode::Smooth, "smooth"}},
              "round: round(e·n)/n with vertical walls; smooth: the same plateaus joined by sloped walls"),
       param(&P::wall, "wall", 0.0, 1.0, "",
             "Smooth mode: fraction of each step taken by the sloped wall (0 = vertical, 1 = no flat plateau)"),
@@ -296,9 +293,14 @@ StageDef terrace() {
 StageDef island() {
   using P = IslandParams;
   Table<P> table{{
-      choice(&P::distance, "distance", {"square_bump", "euclidean2", "hyperboloid", "trig_product", "squircle", "circular"},
+      choice(&P::distance, "distance",
+             {{Distance::SquareBump, "square_bump"}, {Distance::Euclidean2, "euclidean2"},
+              {Distance::Hyperboloid, "hyperboloid"}, {Distance::TrigProduct, "trig_product"},
+              {Distance::Squircle, "squircle"}, {Distance::Circular, "circular"}},
              "Distance d from the world centre (0) to the border (1); circular uses `radius`"),
-      choice(&P::shaping, "shaping", {"lerp", "multiply", "subtract"},
+      choice(&P::shaping, "shaping",
+             {{detail::IslandShaping::Lerp, "lerp"}, {detail::IslandShaping::Multiply, "multiply"},
+              {detail::IslandShaping::Subtract, "subtract"}},
              "Target elevation: lerp 1 − d; multiply e·(1 − d); subtract e − falloff_rate·d (seed 003)"),
       param(&P::mix, "mix", 0.0, 1.0, "", "Island modifier: e' = lerp(e, target, mix); 0 leaves the terrain unchanged"),
       param(&P::falloff_rate, "falloff_rate", -4.0, 4.0, "",

@@ -19,25 +19,32 @@
 #include "relief/error.hpp"
 #include "relief/output.hpp"
 #include "relief/tilemap.hpp"
+#include "shared_tables.hpp"
 #include "stages.hpp"
 #include "writer_defs.hpp"
 
 namespace relief {
+namespace {
+// The stage's `classify` strings; the sidecar (tilemap.json) writes the same ones.
+const ChoiceNames<TileMap::Classify> kClassifyNames{{TileMap::Classify::Elevation, "elevation"},
+                                                    {TileMap::Classify::Biome, "biome"}};
+
+}  // namespace
+
 namespace stages {
 namespace {
 
-constexpr double kReferenceSea = 0.4;    // the sea level the `types` thresholds are written for
 constexpr int kMaxRenderSide = 16384;    // pixels per side of tilemap.png
 constexpr double kMaxRenderPixels = double(1 << 28);
 
 struct TilemapParams {
   int tiles_x = 128, tiles_z = 128;
   int tile_size = 32;
-  std::string classify = "elevation";
+  TileMap::Classify classify = TileMap::Classify::Elevation;
   std::vector<Level> types = default_tile_types();
   bool sea_relative = true;
   std::vector<int> biome_types;
-  std::string precedence = "lower";
+  Precedence precedence = Precedence::Lower;
   double saddle_variants = 0.5;
   double solid_variants = 0.5;
   double texture = 1.0;
@@ -48,7 +55,7 @@ TileStyle style_of(const TilemapParams& p, std::uint64_t seed) {
   TileStyle s;
   s.tile_px = p.tile_size;
   for (auto& l : p.types) s.types.push_back({l.name, l.color, l.at});
-  s.precedence = p.precedence == "higher" ? Precedence::Higher : Precedence::Lower;
+  s.precedence = p.precedence;
   s.texture = p.texture;
   s.edges = p.edges;
   s.seed = seed;
@@ -70,7 +77,7 @@ void validate_tilemap(const TilemapParams& p, const std::string& path) {
   }
   if (double(p.tiles_x) * p.tiles_z * p.tile_size * p.tile_size > kMaxRenderPixels)
     throw Error(path + ".tiles_x", "the map image would have more than 2^28 pixels; use fewer tiles or a smaller tile_size");
-  if (p.classify == "biome") {
+  if (p.classify == TileMap::Classify::Biome) {
     if (p.biome_types.empty())
       throw Error(path + ".biome_types", "classify \"biome\" needs a type for each biome id, e.g. [0, 1, 2, 2, 3]");
     for (std::size_t i = 0; i < p.biome_types.size(); ++i)
@@ -84,9 +91,7 @@ void validate_tilemap(const TilemapParams& p, const std::string& path) {
 // Elevation as the `types` thresholds see it: with sea_relative, piecewise linear so that the
 // world's sea level lands on 0.4 (0 and 1 stay put); otherwise unchanged.
 double reference_elevation(double e, double sea, bool sea_relative) {
-  if (!sea_relative || sea == kReferenceSea) return e;
-  if (e <= sea) return sea > 0 ? e * (kReferenceSea / sea) : kReferenceSea;
-  return sea < 1 ? kReferenceSea + (e - sea) * ((1.0 - kReferenceSea) / (1.0 - sea)) : 1.0;
+  return sea_relative ? detail::to_reference_elevation(e, sea) : e;
 }
 
 void apply_tilemap(Terrain& t, const TilemapParams& p, const Context& ctx) {
@@ -100,7 +105,7 @@ void apply_tilemap(Terrain& t, const TilemapParams& p, const Context& ctx) {
   const std::int64_t sx = f.nx - 1, sz = f.nz - 1;
   m->corner_v.assign(std::size_t(W + 1) * std::size_t(H + 1), 0);
 
-  if (p.classify == "biome") {
+  if (p.classify == TileMap::Classify::Biome) {
     if (!t.has("biome"))
       throw Error("", "classify is \"biome\" but the terrain has no 'biome' layer (add a biome stage before the "
                       "tilemap, or use classify \"elevation\")");
@@ -158,7 +163,7 @@ StageDef tilemap() {
       param(&P::tiles_z, "tiles_z", 1, 4096, "tiles", "Tiles down (z)"),
       param(&P::tile_size, "tile_size", 8, 128, "px", "Tile size in pixels in the tileset and the map render (16, 32, 64 …)",
             Effect::Recolour),
-      choice(&P::classify, "classify", {"elevation", "biome"},
+      choice(&P::classify, "classify", kClassifyNames,
              "Corner types from elevation thresholds (types[].at) or from the 'biome' layer through biome_types"),
       levels(&P::types, "types", 0.0, 1.0,
              "2..8 ordered terrain types [{\"at\", \"color\", \"name\"}]: a corner takes the first type with "
@@ -168,7 +173,7 @@ StageDef tilemap() {
             "Thresholds are written for sea level 0.4 and follow the world's sea level (piecewise linear remap)"),
       int_list(&P::biome_types, "biome_types", 0, kMaxTileTypes - 1,
                "classify biome: the type of each biome id (entry i is the type of id i)"),
-      choice(&P::precedence, "precedence", {"lower", "higher"},
+      choice(&P::precedence, "precedence", {{Precedence::Lower, "lower"}, {Precedence::Higher, "higher"}},
              "Which type wins inside a tile where types meet: lower (water wins, seed 002) or higher (land wins)"),
       param(&P::saddle_variants, "saddle_variants", 0.0, 1.0, "",
             "Share of ambiguous saddle tiles drawn with the other type connected (chosen from the seed per tile)"),
@@ -216,12 +221,12 @@ void write_tilemap(const Terrain& t, const WriteContext& ctx, Output& out) {
   json j;
   j["tiles"] = json::array({m.tiles_x, m.tiles_z});
   j["tile_size"] = s.tile_px;
-  j["classify"] = m.classify;
+  j["classify"] = choice_name(kClassifyNames, m.classify);
   json types = json::array();
   for (int i = 0; i < k; ++i) {
     const TileType& ty = s.types[std::size_t(i)];
     json o{{"id", i}, {"wang_color", i + 1}, {"name", ty.name}, {"color", write_color(ty.color)}};
-    if (m.classify == "elevation") o["max_elevation"] = ty.max_elevation;
+    if (m.classify == TileMap::Classify::Elevation) o["max_elevation"] = ty.max_elevation;
     types.push_back(o);
   }
   j["types"] = types;

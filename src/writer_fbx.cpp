@@ -278,12 +278,12 @@ std::string encode_fbx(const Terrain& t, const ExportOptions& o) {
   const std::int64_t terrain = b.model("terrain", "Null", origin, 0, 1);
   b.connect(terrain, 0);
   const std::int64_t tmat = b.material("terrain");
-  if (albedo && o.style != "lowpoly")
+  if (albedo && o.style != MeshStyle::Lowpoly)
     b.connect_prop(b.texture("albedo.png", encode_png_rgb8(*albedo, t.frame.nx, t.frame.nz)), tmat, "DiffuseColor");
   for (const TerrainChunk& c : chunks) {
     const std::string name = "terrain_x" + std::to_string(c.cx) + "_z" + std::to_string(c.cz);
     MeshData m = c.mesh;
-    if (!albedo || o.style == "lowpoly") m.uvs.clear();
+    if (!albedo || o.style == MeshStyle::Lowpoly) m.uvs.clear();
     const std::int64_t g = b.geometry(name, m);
     const std::int64_t mdl = b.model(name, "Mesh", origin, 0, 1);
     b.connect(mdl, terrain);

@@ -187,7 +187,7 @@ struct TerrainMaterial {
 
 TerrainMaterial terrain_material(GltfBuilder& g, const Terrain& t, const ExportOptions& o) {
   const Layer* albedo = albedo_layer(t);
-  if (o.style == "lowpoly" || !albedo) return {g.material("terrain", -1), false};
+  if (o.style == MeshStyle::Lowpoly || !albedo) return {g.material("terrain", -1), false};
   const int tex = g.png_texture("albedo", encode_png_rgb8(*albedo, t.frame.nx, t.frame.nz));
   return {g.material("terrain", tex), true};
 }
@@ -209,7 +209,7 @@ void add_props(GltfBuilder& g, const Terrain& t, const ExportOptions& o, std::ve
       if (p->type == type) mine.push_back(p);
     if (mine.empty()) continue;
     const int mesh = g.mesh(type, prop_mesh(type), mat, false);
-    if (o.instancing == "gpu") {
+    if (o.instancing == Instancing::Gpu) {
       std::vector<float> tr, rot, sc;
       for (const Point* p : mine) {
         tr.insert(tr.end(), {float(p->x_m), float(p->y_m), float(p->z_m)});
@@ -240,7 +240,7 @@ void add_props(GltfBuilder& g, const Terrain& t, const ExportOptions& o, std::ve
       }
     }
   }
-  if (o.instancing == "gpu") g.model.extensionsUsed.push_back("EXT_mesh_gpu_instancing");
+  if (o.instancing == Instancing::Gpu) g.model.extensionsUsed.push_back("EXT_mesh_gpu_instancing");
   scene.push_back(g.node(std::move(root)));
 }
 

@@ -174,13 +174,14 @@ std::string encode_hillshade(const Terrain& t, double azimuth_deg, double altitu
   return encode_png_pixels(px.data(), px.size(), f.nx, f.nz, 8, 1);
 }
 
-SplatMaps encode_splat(const Terrain& t, const ExportOptions& o) {
+SplatMaps encode_splat(const Terrain& t, const ExportOptions& o, const OptionPath& path_of) {
   const Frame& f = t.frame;
   const Layer& h = height_of(t, "splat");
   const Layer* biome = nullptr;
   if (auto it = t.layers.find("biome"); it != t.layers.end()) biome = &it->second;
-  const bool use_biome = o.splat_source == "biome" || (o.splat_source == "auto" && biome);
-  if (o.splat_source == "biome" && !biome) throw Error("splat_source", "\"biome\" needs a 'biome' layer in the terrain");
+  const bool use_biome = o.splat_source == SplatSource::Biome || (o.splat_source == SplatSource::Auto && biome);
+  if (o.splat_source == SplatSource::Biome && !biome)
+    throw Error(option_path(path_of, "splat_source"), "\"biome\" needs a 'biome' layer in the terrain");
 
   SplatMaps out;
   int layers = 4;

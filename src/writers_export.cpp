@@ -35,18 +35,24 @@ std::vector<float> tile_of(const Terrain& t, int i0, int j0, int w, int d, bool 
 
 }  // namespace
 
-void write_engine_files(const Terrain& t, const ExportOptions& o, Output& out) {
+void write_engine_files(const Terrain& t, const ExportOptions& o, Output& out, const OptionPath& path_of) {
   const Frame& f = t.frame;
   const Layer& h = t.get("height");
   if (h.channels != 1 || h.data.size() != f.count()) throw Error("height", "layer size does not match the frame");
-  check_engine_size(o, f.nx, f.nz);
-  const std::string& e = o.engine;
+  check_engine_size(o, f.nx, f.nz, path_of);
+  const Engine engine = o.engine;
+  const std::string& e = to_string(engine);
   const int kx = o.split_x(), kz = o.split_z();
   const int ts = (f.nx - 1) / kx + 1;  // samples per tile side (square)
   const double tile_m = (ts - 1) * f.cell_m();
   const double min_m = f.y_m(0.0), max_m = f.y_m(1.0);
-  const bool flip = e == "unity";
-  const std::string ext = e == "unity" ? ".raw" : e == "unreal" ? ".png" : o.godot_format == "exr" ? ".exr" : ".r16";
+  const bool flip = engine == Engine::Unity;
+  enum class Format { Raw16, Png16, Exr, R16 };
+  const Format format = engine == Engine::Unity    ? Format::Raw16
+                        : engine == Engine::Unreal ? Format::Png16
+                        : o.godot_format == GodotFormat::Exr ? Format::Exr
+                                                             : Format::R16;
+  const char* ext = format == Format::Raw16 ? ".raw" : format == Format::Png16 ? ".png" : format == Format::Exr ? ".exr" : ".r16";
 
   json tiles = json::array();
   for (int tz = 0; tz < kz; ++tz)
@@ -55,11 +61,11 @@ void write_engine_files(const Terrain& t, const ExportOptions& o, Output& out) {
           e + "_height" + (kx * kz > 1 ? "_x" + std::to_string(tx) + "_y" + std::to_string(tz) : std::string()) + ext;
       const std::vector<float> v = tile_of(t, tx * (ts - 1), tz * (ts - 1), ts, ts, flip);
       std::string bytes;
-      if (ext == ".exr") {
+      if (format == Format::Exr) {
         std::vector<float> m(v.size());
         for (std::size_t k = 0; k < v.size(); ++k) m[k] = float(f.y_m(v[k]));
         bytes = encode_exr_gray32(m, ts, ts);
-      } else if (ext == ".png") {
+      } else if (format == Format::Png16) {
         std::vector<std::uint16_t> px(v.size());
         for (std::size_t k = 0; k < v.size(); ++k) px[k] = to_u16(v[k]);
         bytes = encode_png_pixels(px.data(), px.size() * 2, ts, ts, 16, 1);
@@ -74,9 +80,9 @@ void write_engine_files(const Terrain& t, const ExportOptions& o, Output& out) {
       out.put(name, std::move(bytes));
       const double x0 = f.x0_m() + tx * tile_m, z0 = f.z0_m() + tz * tile_m;
       json tile = {{"file", name}, {"x", tx}, {"y", tz}, {"x0_m", x0}, {"z0_m", z0}};
-      if (e == "unity") tile["unity_position"] = {x0, min_m, -(z0 + tile_m)};
-      if (e == "unreal") tile["unreal_location_cm"] = {x0 * 100, z0 * 100};
-      if (e == "godot") tile["godot_position"] = {x0, 0.0, z0};
+      if (engine == Engine::Unity) tile["unity_position"] = {x0, min_m, -(z0 + tile_m)};
+      if (engine == Engine::Unreal) tile["unreal_location_cm"] = {x0 * 100, z0 * 100};
+      if (engine == Engine::Godot) tile["godot_position"] = {x0, 0.0, z0};
       tiles.push_back(tile);
     }
 
@@ -95,7 +101,7 @@ void write_engine_files(const Terrain& t, const ExportOptions& o, Output& out) {
   std::string txt;
   auto line = [&](const std::string& l) { txt += l + "\n"; };
   char buf[512];
-  if (e == "unity") {
+  if (engine == Engine::Unity) {
     s["format"] = "RAW 16-bit unsigned, little-endian (Windows byte order), no header";
     s["value_to_metres"] = "y_m = min_m + value / 65535 * (max_m - min_m)";
     s["orientation"] = "file row 0 = our z-max edge (rows flipped): Unity's RAW import puts row 0 at terrain z = 0; "
@@ -112,7 +118,7 @@ void write_engine_files(const Terrain& t, const ExportOptions& o, Output& out) {
     std::snprintf(buf, sizeof buf, "  Position each terrain at y = %.3f m (so the sea surface is y = 0); x, z per tile in %s_height.json.",
                   min_m, e.c_str());
     line(buf);
-  } else if (e == "unreal") {
+  } else if (engine == Engine::Unreal) {
     const double zscale = f.height_m * 100.0 * 128.0 / 65535.0;  // cm per 128 steps
     const double loc_z = min_m * 100.0 + 32768.0 * zscale / 128.0;
     s["format"] = "PNG 16-bit greyscale";
@@ -130,7 +136,7 @@ void write_engine_files(const Terrain& t, const ExportOptions& o, Output& out) {
     line(buf);
     if (kx * kz > 1) line("  Tiles are named _x<col>_y<row> as the tiled import expects; neighbours share their border samples.");
   } else {
-    const bool exr = ext == ".exr";
+    const bool exr = format == Format::Exr;
     s["format"] = exr ? "OpenEXR, one 32-bit float channel Y, ZIP compression, values in metres (sea = 0)"
                       : "r16: 16-bit unsigned little-endian, no header";
     s["value_to_metres"] = exr ? "y_m = value" : "y_m = min_m + value / 65535 * (max_m - min_m)";
@@ -175,7 +181,7 @@ std::vector<WriterDef> export_writers() {
   w.push_back({"engine", "engine heightmap (--engine unity|unreal|godot, --split NxM) with sidecar JSON and import settings",
                {"<engine>_height.*", "<engine>_height.json", "<engine>_import.txt"}, false,
                [](const Terrain& t, const WriteContext& ctx, Output& out) {
-                 write_engine_files(t, ctx.options, out);
+                 write_engine_files(t, ctx.options, out, ctx.option_path);
                  progress(ctx, "engine", 1.0);
                }});
   w.push_back({"normalmap", "tangent-space normal map PNG (8/16-bit, OpenGL green up; DirectX for unreal)", {"normal.png"}, false,
@@ -185,7 +191,7 @@ std::vector<WriterDef> export_writers() {
                }});
   w.push_back({"splat", "RGBA weight maps (4 layers per image, summing to 255) from the biome layer or height/slope rules",
                {"splat0.png …", "splat.json"}, false, [](const Terrain& t, const WriteContext& ctx, Output& out) {
-                 SplatMaps s = encode_splat(t, ctx.options);
+                 SplatMaps s = encode_splat(t, ctx.options, ctx.option_path);
                  for (std::size_t k = 0; k < s.images.size(); ++k) out.put("splat" + std::to_string(k) + ".png", std::move(s.images[k]));
                  out.put("splat.json", s.description.dump(2) + "\n");
                  progress(ctx, "splat", 1.0);

@@ -252,7 +252,7 @@ TEST(CliIslands, DefaultSetSkipsIslandWritersWithNothingToWrite) {
 TEST(CliIslands, BadIslandParametersExit2NamingTheField) {
   TempDir d;
   const std::string g = "generate volcanic-island --size 33 -q -o " + d / "out" + " ";
-  expect_bad_input(g + "--set 'stages[2].types[1].octaves=40'", "stages[2].types[1].octaves: expected an integer in 1..12");
+  expect_bad_input(g + "--set 'stages[2].types[1].octaves=40'", "stages[2].types[1].octaves: expected an integer in 1..16");
   expect_bad_input(g + "--set 'stages[2].types[0].texture=\"no-such.png\"'", "stages[2].types[0].texture: cannot read texture 'no-such.png'");
   expect_bad_input(g + "--set 'stages[3].rim_radius_m=5000'", "stages[3].rim_radius_m");
   expect_bad_input(g + "--set 'stages[2].blend=\"average\"'", "stages[2].blend");

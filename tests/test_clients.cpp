@@ -96,13 +96,13 @@ class Clients : public ::testing::Test {
     };
     ExportOptions o;
     o.chunk_quads = kChunk;
-    o.instancing = "gpu";
+    o.instancing = Instancing::Gpu;
     glb("gpu", o);
-    o.instancing = "nodes";
-    o.style = "lowpoly";
+    o.instancing = Instancing::Nodes;
+    o.style = MeshStyle::Lowpoly;
     o.simplify_error_m = 2.0;
     glb("lowpoly", o);
-    o.style = "smooth";
+    o.style = MeshStyle::Smooth;
     o.simplify_error_m = 0;
     o.lod_levels = 2;
     o.lod_msft = true;
@@ -125,7 +125,7 @@ class Clients : public ::testing::Test {
     unreal["seed"] = 5;
     Terrain t127 = run(parse_recipe(unreal)).terrain;
     o = ExportOptions{};
-    o.engine = "unreal";
+    o.engine = Engine::Unreal;
     write_engine_files(t127, o, out);
     out.put("normal16.png", encode_normal_map(terrain, 16, false));
   }

@@ -336,12 +336,12 @@ TEST(ExportOptions, BadValuesNameTheOption) {
     return std::string("no error");
   };
   ExportOptions s;
-  s.engine = "unreal";
+  s.engine = Engine::Unreal;
   s.split = "4by4";
   EXPECT_EQ(invalid(s).rfind("--split: ", 0), 0u) << invalid(s);
   s.split = "4x4";
   EXPECT_EQ(invalid(s), "no error");
-  s.engine = "none";
+  s.engine = Engine::None;
   EXPECT_EQ(invalid(s).rfind("--split: ", 0), 0u);
   ExportOptions nb;
   nb.normal_bits = 12;
@@ -531,7 +531,7 @@ TEST(Mesh, LodChainLosesDetailLevelByLevel) {
 TEST(Mesh, LowpolyIsFlatShadedAndColouredFromTheAlbedo) {
   Terrain t = terrain(17, 17);
   ExportOptions o;
-  o.style = "lowpoly";
+  o.style = MeshStyle::Lowpoly;
   const MeshData m = build_terrain_chunks(t, o)[0].mesh;
   ASSERT_EQ(m.vertex_count(), 3 * m.triangle_count());
   ASSERT_EQ(m.colors.size(), m.positions.size());
@@ -714,7 +714,7 @@ TEST(Glb, GpuInstancingAccessorsMatchTheProps) {
   Terrain t = terrain(17, 17);
   add_props(t);
   ExportOptions o;
-  o.instancing = "gpu";
+  o.instancing = Instancing::Gpu;
   const tinygltf::Model m = load_glb(encode_glb(t, o).base);
   EXPECT_EQ(m.extensionsUsed, std::vector<std::string>{"EXT_mesh_gpu_instancing"});
   EXPECT_TRUE(m.extensionsRequired.empty());  // viewers without it still show the terrain
@@ -787,7 +787,7 @@ TEST(Glb, LodChainAsFilesAndThroughMsftLod) {
 TEST(Glb, LowpolyHasVertexColoursAndNoTexture) {
   Terrain t = terrain(17, 17);
   ExportOptions o;
-  o.style = "lowpoly";
+  o.style = MeshStyle::Lowpoly;
   const tinygltf::Model m = load_glb(encode_glb(t, o).base);
   EXPECT_TRUE(m.textures.empty());
   EXPECT_EQ(m.meshes[0].primitives[0].attributes.count("COLOR_0"), 1u);
@@ -911,14 +911,14 @@ TEST(Stl, StaysClosedWithVertexJiggleAndKeepsStraightSides) {
 // ---- engine profiles ---------------------------------------------------------------------------
 
 TEST(Engine, LegalSizes) {
-  EXPECT_EQ(engine_legal_size("unity", 1000, 1), 1025);
-  EXPECT_EQ(engine_legal_size("unity", 5000, 1), 4097);
-  EXPECT_EQ(engine_legal_size("unreal", 1025, 1), 1009);
-  EXPECT_EQ(engine_legal_size("unreal", 2017, 4), 2017);  // 4 tiles of 505
-  EXPECT_EQ(engine_legal_size("unity", 1025, 4), 1025);   // 4 tiles of 257
-  EXPECT_EQ(engine_legal_size("godot", 600, 1), 513);
+  EXPECT_EQ(engine_legal_size(Engine::Unity, 1000, 1), 1025);
+  EXPECT_EQ(engine_legal_size(Engine::Unity, 5000, 1), 4097);
+  EXPECT_EQ(engine_legal_size(Engine::Unreal, 1025, 1), 1009);
+  EXPECT_EQ(engine_legal_size(Engine::Unreal, 2017, 4), 2017);  // 4 tiles of 505
+  EXPECT_EQ(engine_legal_size(Engine::Unity, 1025, 4), 1025);   // 4 tiles of 257
+  EXPECT_EQ(engine_legal_size(Engine::Godot, 600, 1), 513);
   ExportOptions o;
-  o.engine = "unreal";
+  o.engine = Engine::Unreal;
   EXPECT_NO_THROW(check_engine_size(o, 1009, 1009));
   try {
     check_engine_size(o, 1025, 1025);
@@ -929,7 +929,7 @@ TEST(Engine, LegalSizes) {
     EXPECT_NE(std::string(e.what()).find("(use world.size)"), std::string::npos);
   }
   try {
-    check_engine_size(o, 1025, 1025, "--engine", "--size");  // as the CLI names its flags
+    check_engine_size(o, 1025, 1025, [](const std::string& n) { return "--" + n; }, "--size");  // as the CLI names its flags
     ADD_FAILURE();
   } catch (const Error& e) {
     EXPECT_EQ(e.path(), "--engine");
@@ -952,9 +952,9 @@ Terrain engine_fixture() {
 MemoryOutput engine_files(const Terrain& t, const std::string& engine, const std::string& split = "1x1",
                           const std::string& godot = "exr") {
   WriteContext ctx;
-  ctx.options.engine = engine;
+  set_export_option(ctx.options, "engine", engine, "engine");  // the strings, through the table
   ctx.options.split = split;
-  ctx.options.godot_format = godot;
+  set_export_option(ctx.options, "godot_format", godot, "godot_format");
   MemoryOutput out;
   find_writer("engine")->write(t, ctx, out);
   return out;
@@ -1139,12 +1139,24 @@ TEST(Maps, SplatFromTheBiomeLayerSpansSeveralImages) {
   EXPECT_EQ(a.bytes[(5 * 30 + 4) * 4 + 0], 170);
   EXPECT_EQ(a.bytes[(5 * 30 + 4) * 4 + 1], 85);
   ExportOptions rules;
-  rules.splat_source = "rules";
+  rules.splat_source = SplatSource::Rules;
   EXPECT_EQ(encode_splat(t, rules).images.size(), 1u);
   t.layers.erase("biome");
   ExportOptions biome;
-  biome.splat_source = "biome";
+  biome.splat_source = SplatSource::Biome;
   EXPECT_THROW(encode_splat(t, biome), Error);
+  // The error names the option as the caller says the user gave it (recipe path by default).
+  auto path_of = [&](const OptionPath& f) {
+    try {
+      encode_splat(t, biome, f);
+    } catch (const Error& e) {
+      EXPECT_EQ(e.message(), "\"biome\" needs a 'biome' layer in the terrain");
+      return e.path();
+    }
+    return std::string("no error");
+  };
+  EXPECT_EQ(path_of({}), "export.splat_source");
+  EXPECT_EQ(path_of([](const std::string& n) { return n == "splat_source" ? "--splat-source" : "?"; }), "--splat-source");
 }
 
 TEST(Maps, HillshadeIsBrightOnSlopesFacingTheLight) {

@@ -58,7 +58,7 @@ TEST(SelectWriters, DefaultAllAndExclusions) {
   EXPECT_TRUE(contains(all, "glb"));
   EXPECT_FALSE(contains(all, "engine"));  // no engine chosen
   ExportOptions unity;
-  unity.engine = "unity";
+  unity.engine = Engine::Unity;
   EXPECT_TRUE(contains(names(select_writers("all", unity)), "engine"));
   EXPECT_TRUE(contains(names(select_writers("heightmap", unity)), "engine"));  // an engine asks for its files
   const auto no_obj = names(select_writers("default,-obj", {}));
@@ -145,7 +145,7 @@ TEST(Generate, RefusalsComeBeforeAnyWork) {
   {
     GenerateSettings s = settings();
     ExportOptions o;
-    o.engine = "unreal";  // 65² is not one of Unreal's sizes
+    o.engine = Engine::Unreal;  // 65² is not one of Unreal's sizes
     s.options = o;
     FileOutput files(out.string(), FileOutput::Mode::OnCommit);
     EXPECT_NE(error_of([&] { generate(s, files); }).find("export.engine: unreal needs one of"), std::string::npos);

@@ -97,7 +97,9 @@ relief::detail::BiomesParams parse_biomes(const json& params) {
   p.climate_wavelength_m = resolved["climate_wavelength_m"];
   p.variety = resolved["variety"];
   p.bridge = resolved["bridge"];
-  p.blend = resolved["blend"];
+  using Blend = relief::detail::BiomesParams::Blend;
+  const std::string blend = resolved["blend"];
+  p.blend = blend == "interpolate" ? Blend::Interpolate : blend == "selective" ? Blend::Selective : Blend::None;
   p.border_m = resolved["border_m"];
   p.types.clear();
   for (auto& tj : resolved["types"]) {

@@ -5,6 +5,7 @@
 #include <filesystem>
 #include <fstream>
 
+#include "relief/noise.hpp"
 #include "relief/pipeline.hpp"
 #include "relief/recipe.hpp"
 
@@ -255,7 +256,7 @@ TEST(RecipeExport, BlockIsReadAndWrittenInFull) {
   Recipe r = parse_recipe(doc);
   ASSERT_TRUE(r.export_settings.has_value());
   EXPECT_EQ(r.export_settings->formats, "glb,stl");
-  EXPECT_EQ(r.export_settings->options.engine, "godot");
+  EXPECT_EQ(r.export_settings->options.engine, Engine::Godot);
   EXPECT_EQ(r.export_settings->options.chunk_quads, 32);
   EXPECT_EQ(r.export_settings->options.lod_levels, 2);
   const json out = r.to_json()["export"];
@@ -295,7 +296,7 @@ TEST(RecipeExport, OverridesReachTheBlock) {
   apply_override(doc, "export.engine=unity");
   apply_override(doc, "export.formats=engine");
   Recipe r = parse_recipe(doc);
-  EXPECT_EQ(r.export_settings->options.engine, "unity");
+  EXPECT_EQ(r.export_settings->options.engine, Engine::Unity);
   EXPECT_EQ(r.export_settings->formats, "engine");
 }
 
@@ -336,4 +337,127 @@ TEST(RecipeRoundTrip, EveryPresetResolvedGivesTheSameTerrain) {
     for (auto& [name, layer] : a.layers) EXPECT_TRUE(layer.data == b.get(name).data) << p.name << ": layer " << name;
     EXPECT_EQ(a.points.size(), b.points.size()) << p.name;
   }
+}
+
+// ---- typed tables (issue 15 §2) -------------------------------------------------------------------
+
+namespace {
+enum class Shade { Light, Dark };
+struct Shaded {
+  Shade shade = Shade::Dark;
+};
+Table<Shaded> shaded_table() {
+  return {{choice(&Shaded::shade, "shade", {{Shade::Light, "light"}, {Shade::Dark, "dark"}}, "A choice")}};
+}
+std::string error_path(const json& doc) {
+  try {
+    parse_recipe(doc);
+  } catch (const Error& e) {
+    return e.path();
+  }
+  return "no error";
+}
+}  // namespace
+
+TEST(Tables, ChoiceIsReadIntoItsEnumAndWrittenBackAsItsString) {
+  const Table<Shaded> t = shaded_table();
+  EXPECT_EQ(t.read(json{{"shade", "light"}}, "x").shade, Shade::Light);
+  EXPECT_EQ(t.read(json::object(), "x").shade, Shade::Dark);  // the default
+  EXPECT_EQ(t.write(t.read(json{{"shade", "light"}}, "x")), (json{{"shade", "light"}}));
+  const auto infos = t.infos();
+  EXPECT_EQ(infos[0].choices, (std::vector<std::string>{"light", "dark"}));
+  EXPECT_EQ(infos[0].default_value, "dark");
+  // A stage's choice through a recipe: resolved JSON keeps the recipe's string.
+  const Recipe r = parse_recipe(json{{"stages", {{{"stage", "noise"}, {"basis", "simplex"}, {"blend", "max"}}}}});
+  EXPECT_EQ(r.stages[0].stage->params()["basis"], "simplex");
+  EXPECT_EQ(r.stages[0].stage->params()["blend"], "max");
+  EXPECT_EQ(r.stages[0].stage->params()["fractal"], "fbm");
+}
+
+TEST(Tables, UnknownChoiceIsRefusedWithItsFullPath) {
+  try {
+    shaded_table().read(json{{"shade", "drak"}}, "stages[3]");
+    ADD_FAILURE();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.path(), "stages[3].shade");
+    EXPECT_EQ(e.message(), "expected one of light, dark, got \"drak\" (did you mean 'dark'?)");
+  }
+  EXPECT_EQ(error_path(json{{"stages", {{{"stage", "noise"}, {"basis", "simplx"}}}}}), "stages[0].basis");
+  json types = json::array({json::object(), {{"name", "b"}, {"fractal", "ridge"}}});
+  EXPECT_EQ(error_path(json{{"stages", {{{"stage", "biomes"}, {"types", types}}}}}), "stages[0].types[1].fractal");
+  EXPECT_EQ(error_path(json{{"export", {{"engine", "cryengine"}}}}), "export.engine");
+}
+
+TEST(Tables, DeepErrorsCarryTheFullPathAndMessageHasNone) {
+  const Error plain("stages[0].octaves", "expected an integer in 1..16, got 40");
+  EXPECT_STREQ(plain.what(), "stages[0].octaves: expected an integer in 1..16, got 40");
+  EXPECT_EQ(plain.message(), "expected an integer in 1..16, got 40");
+  EXPECT_EQ(Error("", "no path").message(), "no path");
+  // The noise library names its own field; stages prefix their path to it.
+  NoiseSettings s;
+  s.octaves = kMaxOctaves + 1;
+  try {
+    Noise n(s);
+    ADD_FAILURE();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.path(), "octaves");
+    EXPECT_EQ(e.message(), "expected an integer in 1.." + std::to_string(kMaxOctaves) + ", got " + std::to_string(kMaxOctaves + 1));
+  }
+  json types = json::array({json::object(), {{"name", "b"}, {"octaves", 40}}});
+  try {
+    parse_recipe(json{{"stages", {{{"stage", "noise"}}, {{"stage", "biomes"}, {"types", types}}}}});
+    ADD_FAILURE();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.path(), "stages[1].types[1].octaves");
+    EXPECT_EQ(e.message().find("octaves"), std::string::npos) << e.message();
+  }
+  types[1] = {{"name", "b"}, {"texture", "no-such.png"}};
+  EXPECT_EQ(error_path(json{{"stages", {{{"stage", "biomes"}, {"types", types}}}}}), "stages[0].types[1].texture");
+}
+
+TEST(Tables, WorldIsATableWithOneDefaultPerField) {
+  const auto infos = world_params();
+  ASSERT_EQ(infos.size(), 4u);
+  EXPECT_EQ(infos[0].name, "size");
+  EXPECT_EQ(infos[0].default_value, json::array({513, 513}));
+  EXPECT_EQ(infos[0].max, kMaxSize);
+  EXPECT_EQ(infos[3].name, "sea_level");
+  EXPECT_EQ(infos[3].default_value, 0.4);
+  // Written back in full, defaults filled in, size as [nx, nz].
+  const Recipe r = parse_recipe(json{{"world", {{"size", 65}, {"sea_level", 0.3}}}, {"stages", json::array()}});
+  EXPECT_EQ(r.to_json()["world"], (json{{"size", {65, 65}}, {"width_m", 4000.0}, {"height_m", 600.0}, {"sea_level", 0.3}}));
+  EXPECT_EQ(world_table().read(world_table().write(r.world), "world").nx, 65);
+  EXPECT_EQ(error_path(json{{"world", {{"size", {65, kMaxSize + 1}}}}}), "world.size[1]");
+  EXPECT_EQ(error_path(json{{"world", {{"sea_levle", 0.3}}}}), "world.sea_levle");
+}
+
+TEST(Tables, NoiseFieldsAreSharedWithOneMeaningOfFrequency) {
+  const StageDef* noise = find_stage("noise");
+  const StageDef* biomes = find_stage("biomes");
+  ASSERT_TRUE(noise && biomes);
+  auto field = [](const std::vector<ParamInfo>& ps, const std::string& name) {
+    for (auto& p : ps)
+      if (p.name == name) return p.to_json();
+    return json();
+  };
+  const std::vector<ParamInfo>* type_fields = nullptr;
+  for (auto& p : biomes->params)
+    if (p.name == "types") type_fields = &p.fields;
+  ASSERT_TRUE(type_fields);
+  for (const char* n : {"basis", "fractal", "octaves", "frequency", "wavelength_m", "lacunarity", "persistence", "scale_x", "scale_z"}) {
+    json a = field(noise->params, n), b = field(*type_fields, n);
+    ASSERT_FALSE(a.is_null()) << n;
+    a.erase("default"), b.erase("default");
+    EXPECT_EQ(a, b) << n;
+  }
+  for (const char* n : {"sea_shallow", "sea_deep", "sea_deep_depth", "beach_color"})
+    EXPECT_EQ(field(biomes->params, n), field(find_stage("climate")->params, n)) << n;
+  // wavelength_m is the stated alternative to frequency: 4 cycles across 4000 m = 1000 m.
+  auto heights = [](const json& stage) {
+    Recipe r = parse_recipe(json{{"seed", 3}, {"world", {{"size", 33}, {"width_m", 4000}}}, {"stages", {stage}}});
+    return run(r).terrain.get("height").data;
+  };
+  const auto by_frequency = heights({{"stage", "noise"}, {"frequency", 4}});
+  EXPECT_EQ(heights({{"stage", "noise"}, {"frequency", 9}, {"wavelength_m", 1000}}), by_frequency);
+  EXPECT_NE(heights({{"stage", "noise"}, {"frequency", 9}}), by_frequency);
 }

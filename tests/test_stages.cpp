@@ -435,6 +435,30 @@ TEST(Color, GradientInterpolatesBetweenLevels) {
   EXPECT_EQ(albedo(t, 4, 0), (relief::Rgb{1, 1, 1}));
 }
 
+// Issue 15 §5: the default levels are written for sea level 0.4 and follow the world's sea level
+// (sea_relative), so `--set world.sea_level=0.3` moves the beach with the coast.
+TEST(Color, MovingTheSeaLevelMovesTheBeach) {
+  auto hex = [](std::uint32_t v) {
+    return relief::Rgb{float((v >> 16) & 255) / 255.0f, float((v >> 8) & 255) / 255.0f, float(v & 255) / 255.0f};
+  };
+  const relief::Rgb sand = hex(0xd8c88e), shallow = hex(0x3a7cb8);
+  auto colour_at = [](double sea, double e, bool sea_relative) {
+    Terrain t = grid(square(5, 4000.0, 600.0, sea), [&](int, int) { return e; });
+    run(st::colorize(), {{"variation", 0.0}, {"rock_slope_deg", 90.0}, {"sea_relative", sea_relative}}, t);
+    return albedo(t, 2, 2);
+  };
+  // Just above the coast: sand, wherever the coast is.
+  EXPECT_EQ(colour_at(0.4, 0.41, true), sand);
+  EXPECT_EQ(colour_at(0.3, 0.31, true), sand);
+  EXPECT_EQ(colour_at(0.6, 0.61, true), sand);
+  // Just below it: shallow water.
+  EXPECT_EQ(colour_at(0.3, 0.29, true), shallow);
+  EXPECT_EQ(colour_at(0.6, 0.59, true), shallow);
+  // Pinned levels stay where they are written: 0.31 is in the 0.30..0.40 water band.
+  EXPECT_EQ(colour_at(0.3, 0.31, false), shallow);
+  EXPECT_EQ(colour_at(0.4, 0.41, false), sand);
+}
+
 namespace {
 json rock_params(double slope_deg = 35.0) {
   return {{"levels", json::array({{{"at", 1.0}, {"color", "#00ff00"}}})},
@@ -443,7 +467,8 @@ json rock_params(double slope_deg = 35.0) {
           {"rock_blend_deg", 0.0},
           {"rock_min", 0.0},
           {"rock_max", 1.0},
-          {"variation", 0.0}};
+          {"variation", 0.0},
+          {"sea_relative", false}};  // rock_min/rock_max as written (these frames have sea level 0)
 }
 const relief::Rgb kRock{128 / 255.0f, 128 / 255.0f, 128 / 255.0f};
 // A 60° plane: dy/dx = √3 with 8 m cells and 640 m per unit elevation.

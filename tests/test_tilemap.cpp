@@ -418,7 +418,7 @@ TEST(Classify, BiomeLayerThroughTheMapping) {
   apply_tilemap(t, {{"tiles_x", 4}, {"tiles_z", 4}, {"tile_size", 8}, {"types", types_json(3)}, {"classify", "biome"},
                     {"biome_types", {2, 0, 1, 1}}});
   const TileMap& m = *t.tilemap;
-  EXPECT_EQ(m.classify, "biome");
+  EXPECT_EQ(m.classify, TileMap::Classify::Biome);
   for (int v = 0; v <= 4; ++v)
     EXPECT_EQ(std::vector<int>(m.corner_v.begin() + v * 5, m.corner_v.begin() + v * 5 + 5), (std::vector<int>{2, 0, 1, 1, 1}));
   // Ids are not interpolated: 3 tiles over 5 samples put the vertices at samples 0, 4/3, 8/3, 4,

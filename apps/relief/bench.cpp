@@ -706,8 +706,8 @@ int run_bench(const BenchSettings& s) {
           {"glb", "glb", nullptr},
           {"glb lod 3 + msft_lod", "glb", [](ExportOptions& e) { e.lod_levels = 3, e.lod_msft = true; }},
           {"glb simplify 1 m", "glb", [](ExportOptions& e) { e.simplify_error_m = 1.0; }},
-          {"glb lowpoly 2 m", "glb", [](ExportOptions& e) { e.simplify_error_m = 2.0, e.style = "lowpoly"; }},
-          {"glb gpu instancing", "glb", [](ExportOptions& e) { e.instancing = "gpu"; }},
+          {"glb lowpoly 2 m", "glb", [](ExportOptions& e) { e.simplify_error_m = 2.0, e.style = MeshStyle::Lowpoly; }},
+          {"glb gpu instancing", "glb", [](ExportOptions& e) { e.instancing = Instancing::Gpu; }},
           {"fbx", "fbx", nullptr},
           {"stl", "stl", nullptr},
           {"obj", "obj", nullptr},
@@ -717,8 +717,8 @@ int run_bench(const BenchSettings& s) {
           {"normalmap 16-bit", "normalmap", [](ExportOptions& e) { e.normal_bits = 16; }},
           {"splat", "splat", nullptr},
           {"hillshade", "hillshade", nullptr},
-          {"engine unity raw", "engine", [](ExportOptions& e) { e.engine = "unity"; }},
-          {"engine godot exr", "engine", [](ExportOptions& e) { e.engine = "godot"; }},
+          {"engine unity raw", "engine", [](ExportOptions& e) { e.engine = Engine::Unity; }},
+          {"engine godot exr", "engine", [](ExportOptions& e) { e.engine = Engine::Godot; }},
       };
       for (auto& c : cases) {
         if (c.writer == "obj" && size > 1025) continue;

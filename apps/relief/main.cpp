@@ -144,7 +144,7 @@ json read_recipe_doc(const CliGenerate& s) {
 }
 
 void parse_size(const std::string& text, json& doc) {
-  const std::string expect = "expected N or NxM with 2..32769 samples per axis";
+  const std::string expect = "expected N or NxM with " + std::to_string(kMinSize) + ".." + std::to_string(kMaxSize) + " samples per axis";
   auto num = [&](const std::string& t) -> long long {
     if (t.empty() || t.size() > 6 || t.find_first_not_of("0123456789") != std::string::npos)
       throw Error("--size", expect + ", got \"" + text + "\"");
@@ -152,7 +152,7 @@ void parse_size(const std::string& text, json& doc) {
   };
   auto x = text.find_first_of("xX");
   long long nx = num(text.substr(0, x)), nz = x == std::string::npos ? nx : num(text.substr(x + 1));
-  if (nx < 2 || nz < 2 || nx > 32769 || nz > 32769) throw Error("--size", expect + ", got \"" + text + "\"");
+  if (nx < kMinSize || nz < kMinSize || nx > kMaxSize || nz > kMaxSize) throw Error("--size", expect + ", got \"" + text + "\"");
   if (!doc.contains("world") || !doc["world"].is_object()) doc["world"] = json::object();
   doc["world"]["size"] = json::array({nx, nz});
 }
@@ -218,7 +218,7 @@ int cmd_generate(const CliGenerate& s) {
   const ExportOptions export_options = parse_export_options(s, from_recipe ? from_recipe->options : ExportOptions{});
   std::string formats = !s.formats.empty() ? s.formats : from_recipe ? from_recipe->formats : "";
   if (formats == "default") formats.clear();
-  const bool engine = export_options.engine != "none";
+  const bool engine = export_options.engine != Engine::None;
   if (engine && s.size.empty()) {
     // Pick the engine's legal size nearest to the recipe's (square tiles, overlapping by one sample).
     Recipe probe = parse_recipe(doc);
@@ -227,7 +227,7 @@ int cmd_generate(const CliGenerate& s) {
     const int nz = export_options.split_z() * (tile - 1) + 1;
     if (n != probe.world.nx || nz != probe.world.nz) {
       parse_size(std::to_string(n) + "x" + std::to_string(nz), doc);
-      if (!s.quiet) std::fprintf(stderr, "relief: %s: using --size %dx%d (legal for the engine)\n", export_options.engine.c_str(), n, nz);
+      if (!s.quiet) std::fprintf(stderr, "relief: %s: using --size %dx%d (legal for the engine)\n", to_string(export_options.engine).c_str(), n, nz);
     }
   }
   Recipe recipe;
@@ -240,7 +240,7 @@ int cmd_generate(const CliGenerate& s) {
     const char* flag = field == "tile_size" && !s.tile_size.empty() ? "--tile-size"
                        : (field == "tiles_x" || field == "tiles_z") && !s.map_tiles.empty() ? "--map-tiles"
                                                                                             : nullptr;
-    if (flag) throw Error(std::string(flag) + " (" + p + ")", std::string(e.what()).substr(p.size() + 2));
+    if (flag) throw Error(std::string(flag) + " (" + p + ")", e.message());
     throw;
   }
 
@@ -255,7 +255,13 @@ int cmd_generate(const CliGenerate& s) {
   g.formats = fmt;
   g.formats_path = s.formats.empty() ? "export.formats" : "--formats";
   g.options = export_options;
-  g.option_path = option_flag;
+  // Writer errors about an option name it as the user gave it: the recipe's path when only the
+  // recipe's "export" block sets it, else the flag.
+  g.option_path = [&s, &doc](const std::string& name) {
+    const bool flag = std::find(s.export_given.begin(), s.export_given.end(), name) != s.export_given.end();
+    const bool in_recipe = doc.contains("export") && doc["export"].is_object() && doc["export"].contains(name);
+    return !flag && in_recipe ? "export." + name : option_flag(name);
+  };
   g.size_path = "--size";
   g.threads = s.threads;
 
@@ -502,7 +508,7 @@ int main(int argc, char** argv) {
   stu->add_option("--max-preview", ss.max_preview, "Largest preview size accepted (samples per axis)")
       ->check(CLI::Range(2, 8193))->capture_default_str();
   stu->add_option("--max-export", ss.max_export, "Largest export size accepted (samples per axis)")
-      ->check(CLI::Range(2, 32769))->capture_default_str();
+      ->check(CLI::Range(kMinSize, kMaxSize))->capture_default_str();
   stu->add_option("--cache-mib", ss.cache_mib, "Memory for cached stage outputs, MiB")->check(CLI::Range(16, 1 << 20))->capture_default_str();
   stu->add_option("--threads,-j", ss.threads, "Generation threads (0 = all cores)")->check(CLI::Range(0, 1024));
 
@@ -548,7 +554,7 @@ int main(int argc, char** argv) {
         return v;
       };
       bs.threads = ints(bench_threads, "--threads", 1, 1024);
-      bs.preset_sizes = ints(bench_sizes, "--preset-sizes", 2, 32769);
+      bs.preset_sizes = ints(bench_sizes, "--preset-sizes", kMinSize, kMaxSize);
       std::stringstream ss(bench_cases);
       std::string c;
       while (std::getline(ss, c, ',')) {

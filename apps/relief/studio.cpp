@@ -489,7 +489,7 @@ void Studio::with_run(const httplib::Request& req, F&& work) {
   } catch (const Cancelled&) {
     throw ApiError{409, "", "superseded by a newer request from the same client"};
   } catch (const Error& e) {
-    throw ApiError{400, e.path(), e.path().empty() ? e.what() : std::string(e.what()).substr(e.path().size() + 2)};
+    throw ApiError{400, e.path(), e.message()};
   } catch (const std::bad_alloc&) {
     throw ApiError{413, "world.size", "out of memory; choose a smaller size"};
   }
@@ -621,7 +621,7 @@ void Studio::routes(httplib::Server& svr) {
       } catch (const ApiError& e) {
         send_error(res, e);
       } catch (const Error& e) {
-        send_error(res, ApiError{400, e.path(), e.path().empty() ? e.what() : std::string(e.what()).substr(e.path().size() + 2)});
+        send_error(res, ApiError{400, e.path(), e.message()});
       }
     };
   };
@@ -634,7 +634,7 @@ void Studio::routes(httplib::Server& svr) {
     try {
       send_json(res, 200, load_preset(req.matches[1]));
     } catch (const Error& e) {
-      send_error(res, ApiError{404, e.path(), std::string(e.what()).substr(e.path().size() + 2)});
+      send_error(res, ApiError{404, e.path(), e.message()});
     }
   }));
   svr.Get("/api/params", guard([](const httplib::Request&, httplib::Response& res) {

@@ -42,9 +42,8 @@ StudioRequest parse_studio_request(Endpoint e, std::string_view text, const Stud
     r.recipe = parse_recipe(r.body["recipe"]);
   } catch (const Error& err) {
     // Recipe paths stay relative to the recipe (as on the command line and in the panel).
-    const std::string what = err.what();
-    if (err.path().empty()) throw ApiError{400, "recipe", what};
-    throw ApiError{400, err.path(), what.substr(std::min(what.size(), err.path().size() + 2))};
+    if (err.path().empty()) throw ApiError{400, "recipe", err.message()};
+    throw ApiError{400, err.path(), err.message()};
   }
   const World& w = r.recipe.world;
   if (w.nx > max_size || w.nz > max_size)

@@ -12,12 +12,18 @@ namespace relief {
 class Error : public std::runtime_error {
  public:
   // path: the field ("" when the error is not about one field); message: expected/got text.
-  Error(std::string path, const std::string& message)
-      : std::runtime_error(path.empty() ? message : path + ": " + message), path_(std::move(path)) {}
+  // what() is "PATH: MESSAGE" (just MESSAGE when the path is empty).
+  Error(std::string path, std::string message)
+      : std::runtime_error(path.empty() ? message : path + ": " + message), path_(std::move(path)),
+        message_(std::move(message)) {}
   const std::string& path() const noexcept { return path_; }
+  // The message without the path, for callers that show or re-home the path themselves (an error
+  // from a nested check becomes Error(outer + "." + e.path(), e.message())).
+  const std::string& message() const noexcept { return message_; }
 
  private:
   std::string path_;
+  std::string message_;
 };
 
 }  // namespace relief

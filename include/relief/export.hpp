@@ -29,6 +29,21 @@
 namespace relief {
 
 // ---- writer options ----------------------------------------------------------------------------
+
+// The choices of the writer options, read from their strings by export_options_table() (the
+// strings of the recipe's "export" block and of the CLI flags; to_string gives them back).
+enum class MeshStyle { Smooth, Lowpoly };
+enum class Instancing { Nodes, Gpu };
+enum class Engine { None, Unity, Unreal, Godot };
+enum class GodotFormat { Exr, R16 };
+enum class NormalConvention { Auto, OpenGl, DirectX };
+enum class SplatSource { Auto, Biome, Rules };
+const std::string& to_string(Engine e);  // "none", "unity", "unreal", "godot"
+
+// How a caller names a writer option in errors: the CLI flag the user typed ("--engine") or the
+// recipe path ("export.engine"). An empty OptionPath names it "export.NAME".
+using OptionPath = std::function<std::string(const std::string& name)>;
+std::string option_path(const OptionPath& path_of, const std::string& name);
 struct ExportOptions {
   // Meshes (glb, fbx)
   int chunk_quads = 128;             // cells per chunk side
@@ -37,19 +52,19 @@ struct ExportOptions {
   int lod_levels = 0;                // extra levels terrain_lod1.glb …
   double lod_error_m = 2.0;          // LOD k: error lod_error_m · 2^(k−1), ≥ 1/4^k of the triangles
   bool lod_msft = false;             // also put the chain into terrain.glb through MSFT_lod
-  std::string style = "smooth";      // smooth | lowpoly
-  std::string instancing = "nodes";  // nodes | gpu
+  MeshStyle style = MeshStyle::Smooth;
+  Instancing instancing = Instancing::Nodes;
   // STL
   double stl_size_mm = 150;
   double stl_exaggeration = 2.0;
   double stl_base_mm = 3.0;
   // Engines and maps
-  std::string engine = "none";  // none | unity | unreal | godot
+  Engine engine = Engine::None;
   std::string split = "1x1";    // tiles along x and z, "NxM"
-  std::string godot_format = "exr";
+  GodotFormat godot_format = GodotFormat::Exr;
   int normal_bits = 8;
-  std::string normal_convention = "auto";  // auto | opengl | directx
-  std::string splat_source = "auto";       // auto | biome | rules
+  NormalConvention normal_convention = NormalConvention::Auto;
+  SplatSource splat_source = SplatSource::Auto;
   double splat_rock_slope_deg = 35;
   double splat_rock_elevation = 0.7;
   double splat_snow_elevation = 0.85;
@@ -75,12 +90,13 @@ void validate_export_options(const ExportOptions& o, const std::function<std::st
 // Legal per-tile sample counts: Unity 2ⁿ+1 (33..4097); Unreal's recommended landscape sizes
 // 127, 253, 505, 1009, 2017, 4033, 8129; Godot 2ⁿ+1 (33..16385, the Heightmap Terrain plugin's
 // sizes). A terrain split into k tiles along an axis needs k·(t − 1) + 1 samples on that axis.
-std::vector<int> engine_tile_sizes(const std::string& engine);
+std::vector<int> engine_tile_sizes(Engine engine);
 // The legal total size for `tiles` tiles closest to `wanted` (ties: the larger).
-int engine_legal_size(const std::string& engine, int wanted, int tiles);
-// Throws Error(path, …) unless nx and nz are legal for the options' engine and split; the message
-// names `size_path` as the thing to change (the CLI: "--engine" and "--size").
-void check_engine_size(const ExportOptions& o, int nx, int nz, const std::string& path = "export.engine",
+int engine_legal_size(Engine engine, int wanted, int tiles);
+// Throws Error(path_of("engine"), …) unless nx and nz are legal for the options' engine and split;
+// the message names `size_path` as the thing to change (the CLI passes its flag names: "--engine",
+// "--size").
+void check_engine_size(const ExportOptions& o, int nx, int nz, const OptionPath& path_of = {},
                        const std::string& size_path = "world.size");
 
 // ---- meshes ------------------------------------------------------------------------------------
@@ -138,6 +154,7 @@ struct SplatMaps {
   std::vector<std::string> images;  // splat0.png … RGBA 8-bit, weights summing to 255 across all images
   json description;                 // channel → layer name / biome id
 };
-SplatMaps encode_splat(const Terrain& t, const ExportOptions& o);
+// splat_source "biome" without a 'biome' layer throws Error(path_of("splat_source"), …).
+SplatMaps encode_splat(const Terrain& t, const ExportOptions& o, const OptionPath& path_of = {});
 
 }  // namespace relief

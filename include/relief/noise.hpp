@@ -30,17 +30,14 @@ namespace relief {
 enum class NoiseBasis { Perlin, Simplex, Value, Cellular, Gradient };
 enum class Fractal { None, Fbm, Ridged, Billow };
 
-// The names recipes use ("gradient", "perlin", "simplex", "value", "cellular"; "none", "fbm",
-// "ridged", "billow"). Parameter tables validate them first; an unknown name throws
-// Error(path, …) naming the field.
-NoiseBasis noise_basis_named(std::string_view name, const std::string& path);
-Fractal fractal_named(std::string_view name, const std::string& path);
+// Most octaves a fractal sums (Noise's constructor refuses more; the parameter tables' limit).
+constexpr int kMaxOctaves = 16;
 enum class CellularReturn { F1, F2, F2MinusF1, CellValue };
 
 struct NoiseSettings {
   NoiseBasis basis = NoiseBasis::Perlin;
   Fractal fractal = Fractal::Fbm;
-  int octaves = 6;             // 1..16
+  int octaves = 6;             // 1..kMaxOctaves
   double frequency = 1.0 / 1000.0;  // cycles per metre (first octave)
   double lacunarity = 2.0;     // frequency ratio between octaves
   double persistence = 0.5;    // amplitude ratio between octaves (gain)

@@ -132,6 +132,9 @@ void write_file_atomic(const std::string& path, std::string_view bytes);
 struct WriteContext {
   std::uint64_t seed = 0;
   ExportOptions options;  // writer options (relief/export.hpp), validated by the caller
+  // How the caller names an option in writers' errors: the flag the user typed ("--engine") or
+  // the recipe path ("export.engine", the default when empty).
+  OptionPath option_path;
   json recipe;  // resolved recipe (for report.json)
   json report;  // timings etc. (for report.json)
   std::function<void(std::string_view what, double fraction)> progress;

@@ -16,6 +16,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 #include <type_traits>
+#include <utility>
 #include <vector>
 
 #include "relief/error.hpp"
@@ -113,17 +114,38 @@ Field<P> param(T P::*m, std::string name, double min, double max, std::string un
   return f;
 }
 
-template <class P>
-Field<P> choice(std::string P::*m, std::string name, std::vector<std::string> choices, std::string description,
+// A choice read into an enum: `choices` maps each value to the one string recipes, `--set`, the
+// resolved recipe, `relief explain` and the studio use. Unknown strings are refused at parse time
+// (Error naming `path`, with a "did you mean"), so stage code only ever sees valid enum values and
+// never compares strings.
+template <class E>
+using ChoiceNames = std::vector<std::pair<E, std::string>>;
+
+// The string of `v` in `names` (every enum value a table can hold is listed, so this never fails).
+template <class E>
+const std::string& choice_name(const ChoiceNames<E>& names, E v) {
+  for (auto& [e, s] : names)
+    if (e == v) return s;
+  return names.front().second;  // unreachable for values read through the table
+}
+
+template <class P, class E>
+  requires std::is_enum_v<E>
+Field<P> choice(E P::*m, std::string name, ChoiceNames<E> names, std::string description,
                 Effect effect = Effect::Regenerate) {
   Field<P> f;
   f.info.name = std::move(name);
   f.info.type = ParamType::Choice;
-  f.info.choices = choices;
+  for (auto& n : names) f.info.choices.push_back(n.second);
   f.info.description = std::move(description);
   f.info.effect = effect;
-  f.read = [m, choices](P& p, const json& v, const std::string& path) { p.*m = read_choice(v, path, choices); };
-  f.write = [m](const P& p) { return json(p.*m); };
+  auto shared = std::make_shared<const ChoiceNames<E>>(std::move(names));
+  f.read = [m, shared, strings = f.info.choices](P& p, const json& v, const std::string& path) {
+    const std::string s = read_choice(v, path, strings);
+    for (auto& [e, n] : *shared)
+      if (n == s) p.*m = e;
+  };
+  f.write = [m, shared](const P& p) { return json(choice_name(*shared, p.*m)); };
   return f;
 }
 
@@ -299,6 +321,21 @@ Field<P> records(std::vector<R> P::*m, std::string name, Table<R> table, std::si
     return a;
   };
   return f;
+}
+
+// Shared sub-tables: the fields of a table of S (e.g. the noise fields, the sea colours), bound to
+// member `m` of P and appended flat to `out` (same keys, same paths, e.g. `stages[2].octaves`).
+// Several stages declare the same thing once this way; their defaults are P's (the S member's
+// initialiser), so two stages may share the fields but not their default values.
+template <class P, class S>
+void embed(std::vector<Field<P>>& out, S P::*m, const Table<S>& sub) {
+  for (auto& sf : sub.fields) {
+    Field<P> f;
+    f.info = sf.info;
+    f.read = [m, r = sf.read](P& p, const json& v, const std::string& path) { r(p.*m, v, path); };
+    f.write = [m, w = sf.write](const P& p) { return w(p.*m); };
+    out.push_back(std::move(f));
+  }
 }
 
 }  // namespace relief

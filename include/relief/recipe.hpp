@@ -24,9 +24,12 @@
 namespace relief {
 
 constexpr std::uint64_t kMaxSeed = (std::uint64_t(1) << 53) - 1;  // exact in a JavaScript number
+constexpr int kMinSize = 2;      // samples per axis, corners included (world.size, --size)
+constexpr int kMaxSize = 32769;  // 2^15 + 1
 
+// The "world" block, read and written by world_table() like a stage's parameters.
 struct World {
-  int nx = 513, nz = 513;   // samples per axis (corners included)
+  int nx = 513, nz = 513;   // samples per axis (corners included), kMinSize..kMaxSize
   double width_m = 4000;    // x extent; depth follows the aspect so that cells stay square
   double height_m = 600;    // metres between elevation 0 and 1
   double sea_level = 0.4;   // normalised
@@ -71,7 +74,10 @@ Recipe parse_recipe_text(const std::string& text, const std::string& origin = "r
 // otherwise as a string. PATH uses `a.b[2].c`; the parent must exist. Throws Error on a bad path.
 void apply_override(json& doc, const std::string& assignment);
 
-// World parameter table, for explain and the studio.
+// The world's parameter table: size (N or [nx, nz]; written [nx, nz]), width_m, height_m,
+// sea_level. Errors name `world.FIELD` (`world.size[1]`).
+const Table<World>& world_table();
+// Its ParamInfos, for explain and the studio.
 std::vector<ParamInfo> world_params();
 
 // ---- presets --------------------------------------------------------------------------------

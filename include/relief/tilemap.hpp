@@ -142,7 +142,9 @@ struct TileMap {
   int tiles_x = 0, tiles_z = 0;
   std::vector<std::uint8_t> corner_v;  // (tiles_x+1)·(tiles_z+1) vertex types: vertex (u, v) at v·(tiles_x+1) + u
   std::vector<std::uint32_t> tile_t;   // tiles_x·tiles_z tile indices: tile (u, v) at v·tiles_x + u
-  std::string classify;                // "elevation" or "biome" (for the sidecar)
+  // What decided the corner types: elevation thresholds or the biome layer ("elevation" or
+  // "biome" in the sidecar, as in the stage's `classify`).
+  enum class Classify { Elevation, Biome } classify = Classify::Elevation;
   TileCorners corners(int u, int v) const;
 };
 
