@@ -298,6 +298,17 @@ Generated generate_keep(GenerateSettings s, Output& out) {
     perf["peak_memory_bytes"] = peak_rss_bytes();
     perf["total_ms"] = ms_since(t_start);
     wc.report["performance"] = perf;
+    // The manifest: every file this run writes into the output (report.json included), so that a
+    // front end can tell the next run into the same folder which files were this run's.
+    std::vector<std::string> names;
+    {
+      std::lock_guard<std::mutex> lock(files_mutex);
+      for (auto& f : rep.files) names.push_back(f.name);
+    }
+    for (auto& f : report->files) names.push_back(f);
+    std::sort(names.begin(), names.end());
+    names.erase(std::unique(names.begin(), names.end()), names.end());
+    wc.report["files"] = names;
     RecordingOutput rec(out, report->name, files_mutex, rep.files);
     report->write(*terrain, wc, rec);
   }

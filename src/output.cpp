@@ -1,3 +1,4 @@
+#include <signal.h>
 // Outputs (FileOutput, atomic file writes) and the byte encoders: PNG (via libspng) and raw r16.
 //
 // Atomic writes: the bytes go to a temporary file `.NAME.tmp-XXXXXX` in the target directory
@@ -13,6 +14,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <set>
 #include <atomic>
 #include <cerrno>
 #include <chrono>
@@ -38,6 +40,29 @@ std::string errno_text(int e) { return std::error_code(e, std::generic_category(
 
 // Suffix for temporary names: unique within the process (counter) and across processes (pid,
 // clock). O_EXCL makes a collision an EEXIST, which we retry.
+// Every temporary file this process has open or finished but not yet renamed or removed, so that
+// a signal handler's thread can remove them (remove_live_temporaries) before the process exits.
+std::mutex& live_mutex() {
+  static std::mutex m;
+  return m;
+}
+std::set<std::string>& live_temps() {
+  static std::set<std::string> s;
+  return s;
+}
+std::atomic<int> publishing{0};
+void track(const std::string& tmp) {
+  std::lock_guard<std::mutex> lock(live_mutex());
+  live_temps().insert(tmp);
+}
+void untrack(const std::string& tmp) noexcept {
+  try {
+    std::lock_guard<std::mutex> lock(live_mutex());
+    live_temps().erase(tmp);
+  } catch (...) {
+  }
+}
+
 std::string temp_suffix(unsigned attempt) {
   static std::atomic<std::uint64_t> counter{0};
   std::uint64_t x = std::uint64_t(::getpid()) * 0x9E3779B97F4A7C15ull ^
@@ -170,8 +195,11 @@ TempFile create_temp(const std::string& path) {
   TempFile t;
   t.path = path;
   for (unsigned attempt = 0; attempt < 100 && t.fd < 0; ++attempt) {
-    t.tmp = (dir / ("." + base + ".tmp-" + temp_suffix(attempt))).string();
+    // ".NAME.tmp-PID-XXXXXX": the PID tells a later run whether the writer is still alive
+    // (remove_dead_temporaries).
+    t.tmp = (dir / ("." + base + ".tmp-" + std::to_string(::getpid()) + "-" + temp_suffix(attempt))).string();
     t.fd = ::open(t.tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
+    if (t.fd >= 0) track(t.tmp);
     if (t.fd < 0 && errno != EEXIST) throw Error("output", "cannot write to '" + path + "': " + errno_text(errno));
   }
   if (t.fd < 0) throw Error("output", "cannot write to '" + path + "': no free temporary name");
@@ -183,7 +211,10 @@ void discard(int& fd, const std::string& tmp) noexcept {
   if (fd >= 0) ::close(fd);
   fd = -1;
   std::error_code ignore;
-  if (!tmp.empty()) fs::remove(tmp, ignore);
+  if (!tmp.empty()) {
+    fs::remove(tmp, ignore);
+    untrack(tmp);
+  }
 }
 
 // Writes everything or returns the errno of the failure (0 on success).
@@ -215,6 +246,7 @@ void finish_now(int& fd, const std::string& tmp, const std::string& path, bool d
   std::error_code ec;
   fs::rename(tmp, path, ec);
   if (ec) fail("cannot replace", ec.value());
+  untrack(tmp);
 }
 
 }  // namespace
@@ -306,6 +338,8 @@ FileOutput::FileOutput(std::string dir, Mode mode, Sync sync) : dir_(std::move(d
   // still reports EROFS.)
   if (::access(existing.c_str(), W_OK | X_OK) != 0)
     throw Error("output", "cannot write to '" + existing.string() + "': " + errno_text(errno));
+  // Temporary files of runs that died (SIGKILL, power cut) before renaming or removing them.
+  if (existing == fs::path(dir_)) remove_dead_temporaries(dir_);
 }
 
 void FileOutput::create_directory() {
@@ -398,6 +432,10 @@ void FileOutput::prepare() {
 
 void FileOutput::publish() {
   std::lock_guard<std::mutex> lock(mutex_);
+  ++publishing;
+  struct Done {
+    ~Done() { --publishing; }
+  } done;
   for (std::size_t k = 0; k < pending_.size(); ++k) {
     std::error_code ec;
     fs::rename(pending_[k].tmp, pending_[k].path, ec);
@@ -409,10 +447,43 @@ void FileOutput::publish() {
       pending_.clear();
       throw Error("output", "cannot replace '" + path + "': " + ec.message());
     }
+    untrack(pending_[k].tmp);
     written_.push_back(pending_[k].path);
     bytes_ += pending_[k].bytes;
   }
   pending_.clear();
+}
+
+void remove_live_temporaries() noexcept {
+  // Never in the middle of a commit's renames: that would leave a mix of old and new files.
+  while (publishing.load() > 0) ::usleep(1000);
+  std::lock_guard<std::mutex> lock(live_mutex());
+  for (const std::string& t : live_temps()) ::unlink(t.c_str());
+  live_temps().clear();
+}
+
+std::size_t remove_dead_temporaries(const std::string& dir) {
+  std::size_t removed = 0;
+  std::error_code ec;
+  for (fs::directory_iterator it(dir, ec), end; !ec && it != end; it.increment(ec)) {
+    const std::string name = it->path().filename().string();
+    // ".NAME.tmp-PID-XXXXXX", a regular file (never a link or a folder).
+    if (name.size() < 2 || name[0] != '.') continue;
+    const auto at = name.rfind(".tmp-");
+    if (at == std::string::npos || at == 0) continue;
+    const std::string rest = name.substr(at + 5);
+    const auto dash = rest.find('-');
+    if (dash == std::string::npos || dash == 0 || dash > 10 || rest.size() - dash - 1 != 6) continue;
+    const std::string pid_text = rest.substr(0, dash);
+    if (pid_text.find_first_not_of("0123456789") != std::string::npos) continue;
+    const long pid = std::stol(pid_text);
+    if (pid <= 0 || pid == long(::getpid())) continue;
+    if (::kill(pid_t(pid), 0) == 0 || errno != ESRCH) continue;  // alive (or not ours to ask): in use
+    std::error_code st;
+    if (!fs::is_regular_file(fs::symlink_status(it->path(), st))) continue;
+    if (fs::remove(it->path(), st)) ++removed;
+  }
+  return removed;
 }
 
 void commit_all(const std::vector<Output*>& outputs) {

@@ -513,3 +513,74 @@ TEST(Cli, FormatsCombineTheDefaultSetWithNamesAndExclusions) {
   ASSERT_EQ(cli("generate island --seed 1 --size 65 -q --formats all -o " + (d / "b")).code, 0);
   EXPECT_TRUE(fs::exists(d.path / "b" / "tilemap.tmx"));
 }
+
+// Issue 16 §4: Ctrl-C (SIGINT) or SIGTERM at any point of a run: exit 130 / 143 with a message,
+// no temporary file left, the previous run's files unchanged. The run is interrupted at several
+// moments: during the stages, during the encoding of the 2049² OBJ, near the commit.
+TEST(CliInterrupt, SignalLeavesNoTemporaryAndNoChangedFile) {
+  TempDir d;
+  const std::string out = d / "out";
+  ASSERT_EQ(cli("generate island --seed 1 --size 65 -q -o " + out).code, 0);
+  std::map<std::string, std::string> before;
+  for (auto& e : fs::directory_iterator(d.path / "out")) before[e.path().filename().string()] = slurp(e.path());
+  int interrupted = 0;
+  for (const char* when : {"0.3", "0.9", "1.4"})
+    for (const char* sig : {"INT", "TERM"}) {
+      Result r = relief::test::sh(std::string("timeout --preserve-status -s ") + sig + " " + when + " " + RELIEF_BINARY +
+                                  " generate island --seed 2 --size 2049 -o " + out);
+      if (r.code == 0) continue;  // finished first on a fast machine: nothing to check
+      ++interrupted;
+      EXPECT_EQ(r.code, std::string(sig) == "INT" ? 130 : 143) << r.out;
+      EXPECT_NE(r.out.find(std::string("relief: interrupted by SIG") + sig + "; no file was changed"), std::string::npos) << r.out;
+      std::map<std::string, std::string> after;
+      for (auto& e : fs::directory_iterator(d.path / "out")) after[e.path().filename().string()] = slurp(e.path());
+      EXPECT_EQ(after, before) << "interrupted at " << when << " s by SIG" << sig;
+    }
+  EXPECT_GT(interrupted, 0);
+}
+
+// Issue 16 §4: temporary files of a run killed outright (SIGKILL) are removed by the next run into
+// that folder; a temporary file of a process that still runs is left alone.
+TEST(CliInterrupt, NextRunRemovesTemporariesOfDeadRuns) {
+  TempDir d;
+  fs::create_directories(d.path / "out");
+  const std::string dead_pid = relief::test::sh("sh -c 'echo $$'").out;  // exited: its pid names no process
+  const std::string dead = ".height.png.tmp-" + dead_pid.substr(0, dead_pid.find('\n')) + "-abc123";
+  const std::string live = ".terrain.obj.tmp-" + std::to_string(::getpid()) + "-abc123";
+  relief::test::write_text(d.path / "out" / dead, "partial");
+  relief::test::write_text(d.path / "out" / live, "partial");
+  relief::test::write_text(d.path / "out" / ".notes.tmp-1-x", "not ours: wrong shape");
+  ASSERT_EQ(cli("generate island --seed 1 --size 33 -q -o " + (d / "out")).code, 0);
+  EXPECT_FALSE(fs::exists(d.path / "out" / dead));
+  EXPECT_TRUE(fs::exists(d.path / "out" / live));
+  EXPECT_TRUE(fs::exists(d.path / "out" / ".notes.tmp-1-x"));
+}
+
+// Issue 16 §5: each run's report.json lists the files it wrote; the next run into the folder
+// removes those of them it does not write (only those), unless --keep-stale.
+TEST(CliStale, NextRunRemovesOnlyThePreviousRunsFilesItDoesNotWrite) {
+  TempDir d;
+  const std::string out = d / "out";
+  ASSERT_EQ(cli("generate volcanic-island --seed 7 --size 65 -q -o " + out).code, 0);
+  const auto manifest = nlohmann::json::parse(slurp(d.path / "out" / "report.json"))["files"];
+  EXPECT_TRUE(std::find(manifest.begin(), manifest.end(), "props.json") != manifest.end()) << manifest.dump();
+  EXPECT_TRUE(std::find(manifest.begin(), manifest.end(), "report.json") != manifest.end()) << manifest.dump();
+  relief::test::write_text(d.path / "out" / "mine.txt", "the user's");
+  // --keep-stale: nothing removed.
+  ASSERT_EQ(cli("generate island --seed 7 --size 65 -q --keep-stale -o " + out).code, 0);
+  EXPECT_TRUE(fs::exists(d.path / "out" / "props.json"));
+  // The island run after the volcano's: its props, biomes and features go; the user's file stays.
+  ASSERT_EQ(cli("generate volcanic-island --seed 7 --size 65 -q -o " + out).code, 0);
+  Result r = cli("generate island --seed 7 --size 65 -o " + out);
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("removed 5 files of the previous run"), std::string::npos) << r.out;
+  for (const char* f : {"props.json", "props.csv", "biomes.json", "biome.png", "features.json"})
+    EXPECT_FALSE(fs::exists(d.path / "out" / f)) << f;
+  EXPECT_TRUE(fs::exists(d.path / "out" / "mine.txt"));
+  EXPECT_TRUE(fs::exists(d.path / "out" / "terrain.obj"));
+  // A failed run removes nothing.
+  relief::test::write_text(d.path / "out" / "props.json", "kept");
+  ASSERT_EQ(cli("generate volcanic-island --seed 7 --size 65 -q -o " + out).code, 0);
+  expect_bad_input("generate island --seed 7 --size 65 -q --set 'stages[0].octaves=99' -o " + out, "stages[0].octaves");
+  EXPECT_TRUE(fs::exists(d.path / "out" / "props.json"));
+}

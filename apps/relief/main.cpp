@@ -1,11 +1,15 @@
 // relief: the command-line tool. Argument parsing fills a settings struct; one function per
 // command does the work through the library. The library never prints or exits: this file owns
 // the terminal, the files and the exit codes (0 ok, 1 internal failure, 2 bad input).
+#include <pthread.h>
+#include <signal.h>
 #include <sys/resource.h>
 #include <unistd.h>
 
 #include <CLI/CLI.hpp>
 #include <algorithm>
+#include <atomic>
+#include <thread>
 #include <chrono>
 #include <cmath>
 #include <cstdio>
@@ -48,6 +52,7 @@ struct CliGenerate {
   int threads = 0;
   bool quiet = false;
   bool sync = false;  // --sync: fsync every generated file before renaming it into place
+  bool keep_stale = false;  // --keep-stale: keep files an earlier run's manifest lists that this run does not write
   // Tilemap shortcuts: they set parameters of the recipe's "tilemap" stage (added when missing).
   std::string tile_size;  // --tile-size N
   std::string map_tiles;  // --map-tiles N or NxM
@@ -195,6 +200,56 @@ std::string apply_tilemap_shortcuts(const CliGenerate& s, const std::string& for
   return "stages[" + std::to_string(at) + "]";
 }
 
+// ---- interruption (SIGINT, SIGTERM) ------------------------------------------------------------
+// The signals are blocked in every thread and taken by one thread with sigwait(), so nothing runs in
+// a signal handler. That thread asks the run to stop (GenerateSettings::cancelled, checked between
+// stages and writers); the run then unwinds, its outputs remove their temporary files, and main()
+// exits 130 (SIGINT) or 143 (SIGTERM) with a message. A stage that runs on for more than 2 s is not
+// waited for: the thread removes this process's temporary files itself (never during a commit's
+// renames) and exits with the same code. Either way no file of the output changes.
+std::atomic<int> g_signal{0};
+std::atomic<bool> g_finished{false};
+
+const char* signal_name(int sig) { return sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "a signal"; }
+
+void take_interrupts() {
+  sigset_t set;
+  sigemptyset(&set);
+  sigaddset(&set, SIGINT);
+  sigaddset(&set, SIGTERM);
+  pthread_sigmask(SIG_BLOCK, &set, nullptr);  // before any other thread exists: they inherit it
+  std::thread([set] {
+    int sig = 0;
+    if (sigwait(&set, &sig) != 0) return;
+    g_signal = sig;
+    for (int k = 0; k < 200 && !g_finished; ++k) ::usleep(10000);
+    if (g_finished) return;
+    remove_live_temporaries();
+    const char* clear = isatty(fileno(stderr)) ? "\r\033[K" : "";
+    dprintf(2, "%srelief: interrupted by %s; no file was changed\n", clear, signal_name(sig));
+    ::_exit(128 + sig);
+  }).detach();
+}
+
+// The files the previous run into `dir` wrote, from its report.json's manifest ("files"): plain
+// names only (no folders, no "..", no hidden files); [] when there is no readable manifest.
+std::vector<std::string> previous_manifest(const std::string& dir) {
+  std::vector<std::string> names;
+  std::ifstream in(std::filesystem::path(dir) / "report.json", std::ios::binary);
+  if (!in) return names;
+  std::stringstream ss;
+  ss << in.rdbuf();
+  const json doc = json::parse(ss.str(), nullptr, false);
+  if (!doc.is_object() || !doc.contains("files") || !doc["files"].is_array()) return names;
+  for (const json& f : doc["files"]) {
+    if (!f.is_string()) continue;
+    const std::string n = f.get<std::string>();
+    if (n.empty() || n[0] == '.' || n.find('/') != std::string::npos || n.find('\0') != std::string::npos) continue;
+    names.push_back(n);
+  }
+  return names;
+}
+
 int cmd_generate(const CliGenerate& s) {
   const auto t_start = std::chrono::steady_clock::now();
   json doc = read_recipe_doc(s);
@@ -305,6 +360,8 @@ int cmd_generate(const CliGenerate& s) {
 
   Progress prog{is_tty() && !s.quiet};
   g.progress = [&](std::string_view what, double f) { prog(what, f); };
+  g.cancelled = [] { return g_signal.load() != 0; };
+  const std::vector<std::string> previous = s.keep_stale ? std::vector<std::string>{} : previous_manifest(s.out_dir);
   std::vector<StepImage> steps;
   if (step_files)
     g.after_stage = [&](const Terrain& t, const RecipeStage& st, int index) {
@@ -346,10 +403,26 @@ int cmd_generate(const CliGenerate& s) {
 
   const GenerateReport rep = generate(std::move(g), files);
   prog.done();
+  // Stale files: those the previous run's manifest lists and this run did not write (only those;
+  // never anything else in the folder). The new manifest is in place, so an interruption here
+  // leaves at worst a stale file that the next run removes.
+  std::vector<std::string> stale;
+  for (const std::string& n : previous) {
+    if (std::any_of(rep.files.begin(), rep.files.end(), [&](const GeneratedFile& f) { return f.name == n; })) continue;
+    const std::filesystem::path p = std::filesystem::path(s.out_dir) / n;
+    std::error_code ec;
+    if (std::filesystem::is_regular_file(std::filesystem::symlink_status(p, ec)) && std::filesystem::remove(p, ec)) stale.push_back(n);
+  }
   if (!s.quiet) {
     for (auto& p : files.written()) std::printf("wrote %s (%s)\n", p.c_str(), human_bytes(std::filesystem::file_size(p)).c_str());
     if (step_files) std::printf("wrote %zu stage pictures and steps.png into %s\n", steps.size(), s.steps_dir.c_str());
     if (!s.save_recipe.empty()) std::printf("wrote %s (resolved recipe)\n", s.save_recipe.c_str());
+    if (!stale.empty()) {
+      std::string list;
+      for (auto& n : stale) list += (list.empty() ? "" : ", ") + n;
+      std::printf("removed %zu file%s of the previous run that this run does not write: %s (--keep-stale keeps them)\n",
+                  stale.size(), stale.size() == 1 ? "" : "s", list.c_str());
+    }
     const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
     std::printf("%s %dx%d in %.2f s (generate %.0f ms), peak memory %s\n", rep.recipe.name.c_str(), rep.recipe.world.nx,
                 rep.recipe.world.nz, total, rep.generate_ms, human_bytes(peak_rss_bytes()).c_str());
@@ -449,6 +522,9 @@ int main(int argc, char** argv) {
   gen->add_option("--steps", gs.steps_dir,
                   "Also write one hillshaded picture per stage (NN-STAGE.png) and a captioned contact sheet steps.png into DIR");
   gen->add_flag("--quiet,-q", gs.quiet, "Print nothing but errors");
+  gen->add_flag("--keep-stale", gs.keep_stale,
+                "Keep the files an earlier run into the output folder wrote (its report.json lists them) that this run "
+                "does not write; by default they are removed, so the folder holds one run's files");
   gen->add_flag("--sync", gs.sync,
                 "Flush every file to disk (fsync) before renaming it into place, so it survives a power cut; without it "
                 "each file is still all-old or all-new if the run fails, and the kernel writes it back later");
@@ -528,7 +604,12 @@ int main(int argc, char** argv) {
   for (auto& [name, opt] : export_cli)
     if (opt->count() > 0) gs.export_given.push_back(name);
   try {
-    if (*gen) return cmd_generate(gs);
+    if (*gen) {
+      take_interrupts();
+      const int code = cmd_generate(gs);
+      g_finished = true;
+      return code;
+    }
     if (*pre) return cmd_presets(presets_json);
     if (*exp) return cmd_explain(explain_stage, explain_json);
     if (*stu) {
@@ -563,7 +644,13 @@ int main(int argc, char** argv) {
       }
       return cli::run_bench(bs);
     }
+  } catch (const Cancelled&) {
+    g_finished = true;
+    const int sig = g_signal.load();
+    std::fprintf(stderr, "%srelief: interrupted by %s; no file was changed\n", is_tty() ? "\r\033[K" : "", signal_name(sig));
+    return sig ? 128 + sig : 1;
   } catch (const Error& e) {
+    g_finished = true;
     std::fprintf(stderr, "%srelief: error: %s\n", is_tty() ? "\r\033[K" : "", e.what());
     return 2;
   } catch (const std::bad_alloc&) {

@@ -9,7 +9,8 @@
 //                  every refusal is a relief::Error naming the field, before any work is done;
 //   2. run       — the recipe's stages (relief::run), or a terrain the caller already has;
 //   3. encode    — the writers, concurrently (one task each), into the Output;
-//   4. report    — report.json (when planned) with per-stage and per-writer timings and peak memory;
+//   4. report    — report.json (when planned) with per-stage and per-writer timings, peak memory
+//                  and "files", the manifest of every file the run writes into `out`;
 //   5. commit    — the Output's files become visible together, and only if every writer succeeded
 //                  (Output::prepare then Output::publish, with any `also_commit` outputs in the same
 //                  two phases): a failed or cancelled run changes no file.

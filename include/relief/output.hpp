@@ -55,6 +55,17 @@ class Output {
 // while preparing leaves every output's visible files as they were.
 void commit_all(const std::vector<Output*>& outputs);
 
+// Temporary files (FileOutput, write_file_atomic) are named ".NAME.tmp-PID-XXXXXX" beside their
+// target. For a front end's signal handling (the CLI on SIGINT/SIGTERM): removes every temporary
+// file this process has not yet renamed into place, waiting first for a commit's renames that are
+// under way, so the folder holds all-old or all-new files and no temporaries. Async-signal-unsafe:
+// call it from a normal thread (e.g. one that sigwait()s), then exit.
+void remove_live_temporaries() noexcept;
+// Removes the temporary files in `dir` left by processes that no longer run (killed, e.g. by
+// SIGKILL, before they could clean up): only regular files named as above whose PID is not a
+// running process. Returns how many it removed. FileOutput calls it on its folder when created.
+std::size_t remove_dead_temporaries(const std::string& dir);
+
 class MemoryOutput final : public Output {
  public:
   void put(const std::string& filename, std::string bytes) override { files[filename] = std::move(bytes); }
@@ -64,7 +75,8 @@ class MemoryOutput final : public Output {
 // Writes into `dir`, created (with missing parents) by the first file, so that a run that fails
 // before writing anything leaves the file system unchanged. The constructor already throws
 // Error("output", …) when the directory could not be created or written (its nearest existing
-// ancestor is not a writable directory). put() and open() may be called from several threads at once.
+// ancestor is not a writable directory), and removes temporary files that dead runs left in it
+// (remove_dead_temporaries). put() and open() may be called from several threads at once.
 //
 // Mode::Immediate: each put() (or stream close()) is atomic on its own: temporary file, (fsync,)
 //   rename. A second file of the same name replaces the first.
