@@ -325,6 +325,11 @@ void apply_color(Terrain& t, const ColorParams& p, const Context& ctx) {
   });
 }
 
+// One sample of halo (the rock rule's central differences); per-map normalisation is global.
+Reach color_reach(const ColorParams& p, const Frame&) {
+  return p.relative_to_max ? global("relative_to_max divides by the highest sample of the whole map") : neighbourhood(1);
+}
+
 void validate_color(const ColorParams& p, const std::string& path) {
   detail::load_level_textures(p.levels, path + ".levels");  // a missing texture fails at parse time
   if (p.rock_min > p.rock_max) {
@@ -359,10 +364,12 @@ StageDef slope() {
              "slope = Σ|e − neighbour| over the in-bounds neighbours, divided by their count (mean) or by 8 "
              "always (eight: seed 001, darker border)"),
   }};
-  return make_stage<P>("slope",
+  StageDef d = make_stage<P>("slope",
                        "Slope layers: 'slope' = mean |Δe| to the 8 neighbours (elevation units), "
                        "'slope_deg' = gradient slope in degrees",
-                       Locality::Neighbourhood, 1, std::move(table), apply_slope);
+                       neighbourhood(1), std::move(table), apply_slope);
+  d.memory = {{{"slope", 1}, {"slope_deg", 1}}, {}, 0, {}};
+  return d;
 }
 
 StageDef colorize() {
@@ -389,9 +396,12 @@ StageDef colorize() {
       color(&P::water_color, "water_color",
             "Colour of rivers and lakes from a 'flow' stage earlier in the recipe (layer 'water', blended by cover)"),
   }};
-  return make_stage<P>("color",
+  StageDef d = make_stage<P>("color",
                        "Colour by elevation levels, with rock on steep ground; writes 'albedo' (3 channels)",
-                       Locality::Neighbourhood, 1, std::move(table), apply_color, validate_color);
+                       neighbourhood(1), std::move(table), apply_color, validate_color, color_reach,
+                       "1 sample (the slope's central differences); global with relative_to_max");
+  d.memory = {{{"albedo", 3}}, {}, 8, {}};
+  return d;
 }
 
 StageDef hillshade() {
@@ -406,9 +416,11 @@ StageDef hillshade() {
       param(&P::water_relief, "water_relief", 0.0, 1.0, "",
             "Under the sea, fraction of the relief shading kept (0 = flat water, 1 = like land)", R),
   }};
-  return make_stage<P>("hillshade",
+  StageDef d = make_stage<P>("hillshade",
                        "Lambertian hillshade: writes 'shade' and 'color' = albedo × shade (white if no albedo)",
-                       Locality::Neighbourhood, 1, std::move(table), apply_hillshade);
+                       neighbourhood(1), std::move(table), apply_hillshade);
+  d.memory = {{{"shade", 1}, {"color", 3}}, {}, 0, {}};
+  return d;
 }
 
 }  // namespace relief::stages

@@ -40,8 +40,14 @@ struct Resume {
 
 struct RunOptions {
   int threads = 0;  // 0 = all hardware threads; results are identical for any count
-  // Optional window of the world (default: the whole world of the recipe). Pointwise stages
-  // give identical samples wherever a window falls, so windows tile seamlessly.
+  // Optional window of the world (default: the whole world of the recipe). Locality is enforced
+  // (Stage::reach, stage.hpp): a window that is not the whole world on its grid (the world's
+  // samples are world_width_m / spacing_m + 1 by world_depth_m / spacing_m + 1) is refused if a
+  // stage is global (relief::Error naming `stages[i]` and why), and is computed on the window grown
+  // by the sum of the stages' halos — each side grows while inside the world and stops at its edge
+  // — then cropped. So every layer of a windowed run holds exactly the bits of the same samples of
+  // a whole-map run, and windows tile seamlessly. after_stage and resume snapshots of a windowed
+  // run cover the grown window (the result alone is cropped).
   std::optional<Frame> window;
   std::function<void(std::string_view stage, double fraction)> progress;
   // Called after each stage with a read-only view (the studio's and `--steps` stage strips).
