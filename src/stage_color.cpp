@@ -6,7 +6,7 @@
 //     is steep between two elevations, elevation bands elsewhere".
 //   * A. Saparov, "A Maya Terrain Generator Based on Perlin Noise" (2021, seed 000): colour levels
 //     (threshold + colour), thresholds optionally relative to the map's highest point.
-//   * Lambertian hillshade (hillshade.hpp): Burrough & McDonnell 1998, GDAL gdaldem hillshade.
+//   * Lambertian hillshade (surface.hpp): Burrough & McDonnell 1998, GDAL gdaldem hillshade.
 //
 // Slopes and shading are metric: elevation differences are converted to metres with
 // frame.height_m and divided by the cell size in metres, so a 257² preview and a 513² build of
@@ -24,7 +24,7 @@
 #include <utility>
 #include <vector>
 
-#include "hillshade.hpp"
+#include "surface.hpp"
 #include "parallel.hpp"
 #include "pointwise.hpp"
 #include "relief/error.hpp"
@@ -46,12 +46,8 @@ double smoothstep01(double s) {
   return s * s * (3.0 - 2.0 * s);
 }
 
-using detail::Gradient;
-using detail::gradient_at;
-
 double slope_deg_at(const Frame& fr, const Layer& h, int i, int j) {
-  const Gradient g = gradient_at(fr, h, i, j);
-  return std::atan(std::hypot(g.dx, g.dz)) * kDeg;
+  return detail::slope_deg_of(detail::gradient_at(fr, h, i, j));
 }
 
 void require_nonempty(const Terrain& t, const Layer& h, const char* name) {
@@ -290,15 +286,7 @@ void apply_color(Terrain& t, const ColorParams& p, const Context& ctx) {
         const float v = k.relative ? e[i] / k.max_height : e[i];
         Rgb c = detail::level_color(p.levels, textures, k.gradient, v, fr.x_m(i), z);
         if (k.rock && v > k.rock_min && v < k.rock_max) {
-          float g2 = 0.0f;
-          if (!given_slope) {
-            const float gx = nx < 2        ? 0.0f
-                             : i == 0      ? (e[1] - e[0]) * rows.edge
-                             : i == nx - 1 ? (e[nx - 1] - e[nx - 2]) * rows.edge
-                                           : (e[i + 1] - e[i - 1]) * rows.central;
-            const float gz = (rows.down[i] - rows.up[i]) * rows.kz;
-            g2 = gx * gx + gz * gz;
-          }
+          const float g2 = given_slope ? 0.0f : detail::gradient2_at(rows, i, nx);
           const double sd = given_slope ? double(slope_row[i]) : std::atan(std::sqrt(double(g2))) * kDeg;
           if (sd > p.rock_slope_deg) {
             const double w = p.rock_blend_deg > 0.0 ? smoothstep_weight(std::min(1.0, (sd - p.rock_slope_deg) / p.rock_blend_deg)) : 1.0;
@@ -352,7 +340,7 @@ void apply_hillshade(Terrain& t, const HillshadeParams& p, const Context&) {
     const Layer& a = t.get("albedo");
     if (a.channels == 3 && a.data.size() == fr.count() * 3) albedo = &a;
   }
-  detail::hillshade(fr, h, albedo, p, &t.layer("shade", 1), t.layer("color", 3));
+  detail::hillshade(fr, h, albedo, p, &t.layer("shade", 1), &t.layer("color", 3));
 }
 
 }  // namespace

@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "features.hpp"
-#include "hillshade.hpp"
+#include "surface.hpp"
 #include "parallel.hpp"
 #include "relief/error.hpp"
 #include "relief/noise.hpp"
