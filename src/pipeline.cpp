@@ -151,7 +151,7 @@ RunResult run(const Recipe& r, const RunOptions& opt) {
   int threads = opt.threads > 0 ? opt.threads : int(std::max(1u, std::thread::hardware_concurrency()));
   tbb::task_arena arena(threads);
   const auto t_all = std::chrono::steady_clock::now();
-  const bool fuse = opt.fuse && !opt.after_stage;
+  const bool fuse = opt.fuse && (!opt.after_stage || opt.after_stage_keeps_fusion);
   auto context = [&](std::size_t i) {
     Context ctx;
     ctx.seed = res.seed;
@@ -219,6 +219,7 @@ RunResult run(const Recipe& r, const RunOptions& opt) {
         const RecipeStage& s = r.stages[k];
         res.timings.push_back({s.def->name, s.label, k == i ? chain_ms : 0.0, k > i});
       }
+      if (opt.after_stage) opt.after_stage(res.terrain, r.stages[end - 1], int(end - 1));
       i = end;
     }
   });

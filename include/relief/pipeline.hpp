@@ -51,11 +51,16 @@ struct RunOptions {
   std::optional<Frame> window;
   std::function<void(std::string_view stage, double fraction)> progress;
   // Called after each stage with a read-only view (the studio's and `--steps` stage strips).
-  // Setting it turns fusion off, so that every stage's own output can be seen.
+  // Setting it turns fusion off, so that every stage's own output can be seen — unless
+  // after_stage_keeps_fusion is set: then it is called only where a fused chain ends (after the
+  // chain's last stage, with that stage's index) and after every stage outside a chain, and fusion
+  // stays on (the studio's stage cache, which keeps snapshots at those boundaries).
   std::function<void(const Terrain&, const RecipeStage&, int index)> after_stage;
+  bool after_stage_keeps_fusion = false;
   // Fusion: consecutive fusable stages (Stage::fusable — noise, island, redistribute, terrace,
   // curve) run in one pass over the rows, each row going through the whole chain while it is in
-  // cache. The bytes are identical with and without fusion; off when after_stage is set.
+  // cache. The bytes are identical with and without fusion; off when after_stage is set (unless
+  // after_stage_keeps_fusion).
   bool fuse = true;
   // Optional: a previous result's terrain whose buffers the new run may reuse (its layers are moved
   // into the new terrain's spare buffers; it is left without layers). Saves the page faults of
