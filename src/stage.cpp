@@ -26,7 +26,7 @@ json StageDef::to_json() const {
   o["name"] = name;
   o["summary"] = summary;
   o["locality"] = locality == Locality::Pointwise ? "pointwise" : locality == Locality::Neighbourhood ? "neighbourhood" : "global";
-  if (locality == Locality::Neighbourhood) o["halo"] = halo;
+  if (locality == Locality::Neighbourhood || halo > 0) o["halo"] = halo;
   if (!halo_rule.empty()) o["halo_rule"] = halo_rule;
   if (locality == Locality::Global && !why_global.empty()) o["why_global"] = why_global;
   json ps = json::array();

@@ -62,6 +62,18 @@ void apply_hydraulic(Terrain& t, const HydraulicParams& p, const Context& ctx) {
   erosion::hydraulic_erosion(h.data.data(), t.frame, p, ctx.stage_seed(0x6879647261756cull), stage_progress(ctx, "hydraulic"));
 }
 
+// Global, but bounded: a droplet moves at most lifetime · step_m from its start and erodes within
+// brush_radius_m of its path. The bound is declared (for a world builder that accepts a measured
+// seam error); run() still refuses the stage on a window, since droplets starting in the halo would
+// not be the whole map's droplets and their order changes the result.
+constexpr const char* kHydraulicWhy =
+    "droplets start anywhere on the map, one after another, each changing the map the next one runs over";
+Reach hydraulic_reach(const HydraulicParams& p, const Frame& f) {
+  Reach r = global(kHydraulicWhy);
+  r.halo = int(std::ceil((double(p.lifetime) * p.step_m + p.brush_radius_m) / f.cell_m()));
+  return r;
+}
+
 void validate_hydraulic(const HydraulicParams& p, const std::string& path) {
   if (p.step_m > 2 * p.brush_radius_m)
     throw Error(path + ".step_m", "expected at most 2 × brush_radius_m (" + std::to_string(2 * p.brush_radius_m) +
@@ -360,9 +372,9 @@ StageDef hydraulic() {
   }};
   StageDef d = make_stage<P>("hydraulic",
                        "Droplet hydraulic erosion (Beyer 2015, Lague's parameters): carves gullies and fills hollows",
-                       global("droplets start anywhere on the map, one after another, each changing the map the next "
-                              "one runs over"),
-                       std::move(table), apply_hydraulic, validate_hydraulic);
+                       global(kHydraulicWhy), std::move(table), apply_hydraulic, validate_hydraulic, hydraulic_reach,
+                       "bounded: lifetime · step_m + brush_radius_m (a droplet's longest reach), not exact on a window");
+  d.halo = hydraulic_reach(P{}, Frame{}).halo;  // with the default params on the default world
   d.memory = {{}, {}, 12, {}};
   return d;
 }
@@ -376,7 +388,7 @@ StageDef thermal() {
             "How far material may slide: runs ceil(distance_m / cell size) iterations, so previews and builds settle alike"),
   }};
   StageDef d = make_stage<P>("thermal", "Thermal erosion (Musgrave 1989, Olsen 2004): slopes relax to the talus angle",
-                       neighbourhood(thermal_halo(P{}.distance_m, 4000.0 / 512)), std::move(table), apply_thermal,
+                       neighbourhood(thermal_halo(P{}.distance_m, Frame{}.cell_m())), std::move(table), apply_thermal,
                        nullptr, thermal_reach, "2 · ceil(distance_m / cell size) samples (two per iteration)");
   d.memory = {{}, {}, 8, {}};
   return d;

@@ -149,6 +149,9 @@ TEST(ErosionStages, AreGlobalAndRegistered) {
     EXPECT_EQ(d->locality, Locality::Global) << name;
     EXPECT_FALSE(d->why_global.empty()) << name;
   }
+  // Hydraulic erosion declares the bound of a droplet's reach, (lifetime · step_m + brush_radius_m)
+  // / cell with its defaults, though it stays global.
+  EXPECT_GT(find_stage("hydraulic")->halo, 0);
   // Thermal erosion is a Jacobi step over four neighbours: two samples of halo per iteration.
   const StageDef* d = find_stage("thermal");
   ASSERT_NE(d, nullptr);

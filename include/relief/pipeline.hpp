@@ -84,7 +84,8 @@ struct RunResult {
 // does), used to refuse sizes the machine cannot hold: the layers its stages leave (height, biome,
 // climate, offset, water, colour, …), the largest stage scratch or encoder buffers (heightmap,
 // colour PNGs, the OBJ text when with_mesh, the tilemap render), and the program itself.
-// tests/test_cli.cpp holds it within a factor of 2 of the measured peak for several presets.
+// The per-stage part comes from each stage's declaration (StageDef::memory, stage.hpp).
+// tests/test_memory.cpp holds it within a factor of 2 of the measured peak for several presets.
 std::uint64_t estimate_memory_bytes(const Recipe& r, bool with_mesh);
 // Physical memory of this machine in bytes (0 if unknown).
 std::uint64_t physical_memory_bytes();

@@ -41,15 +41,18 @@ enum class Locality { Pointwise, Neighbourhood, Global };
 // normalisation); `why` says what, for the error that refuses it on a window.
 struct Reach {
   Locality locality = Locality::Pointwise;
-  int halo = 0;     // samples on each side (Neighbourhood), ≥ 0
+  // Samples on each side (Neighbourhood), ≥ 0. A Global stage may give the bound of its reach
+  // here too (hydraulic erosion: a droplet's longest path), for information: it is still refused
+  // on a window, because its result there would not be the whole map's bits.
+  int halo = 0;
   std::string why;  // Global: one line, e.g. "drainage depends on every sample down to the sea"
 };
 inline Reach pointwise() { return {}; }
 inline Reach neighbourhood(int halo) { return {Locality::Neighbourhood, halo, {}}; }
 inline Reach global(std::string why) { return {Locality::Global, 0, std::move(why)}; }
 
-// What a stage keeps in memory, for estimate_memory_bytes (pipeline.hpp). tests/test_cli.cpp
-// (CliMemory) holds the estimate to the measured peak for the presets, so a stage that starts
+// What a stage keeps in memory, for estimate_memory_bytes (pipeline.hpp). tests/test_memory.cpp
+// (MemoryEstimate) holds the estimate to the measured peak for the presets, so a stage that starts
 // keeping more than declared here shows up there.
 struct StageMemory {
   std::vector<std::pair<std::string, int>> layers;  // layers it leaves: name → channels (float each)
