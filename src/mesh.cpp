@@ -21,6 +21,7 @@
 #include "relief/error.hpp"
 #include "relief/export.hpp"
 #include "relief/random.hpp"
+#include "surface.hpp"
 
 namespace relief {
 namespace {
@@ -91,12 +92,8 @@ void unweld_flat(MeshData& m, const Terrain& t, const Layer* colour) {
   for (std::size_t k = 0; k < nt; ++k) {
     const std::uint32_t* tri = &m.indices[3 * k];
     const float* p[3] = {&m.positions[3 * tri[0]], &m.positions[3 * tri[1]], &m.positions[3 * tri[2]]};
-    const double ux = p[1][0] - p[0][0], uy = p[1][1] - p[0][1], uz = p[1][2] - p[0][2];
-    const double vx = p[2][0] - p[0][0], vy = p[2][1] - p[0][1], vz = p[2][2] - p[0][2];
-    double nx_ = uy * vz - uz * vy, ny_ = uz * vx - ux * vz, nz_ = ux * vy - uy * vx;
-    const double len = std::sqrt(nx_ * nx_ + ny_ * ny_ + nz_ * nz_);
-    if (len > 0) nx_ /= len, ny_ /= len, nz_ /= len;
-    else nx_ = 0, ny_ = 1, nz_ = 0;
+    double n[3] = {0, 1, 0};  // up for a degenerate triangle
+    detail::face_normal(p[0], p[1], p[2], n);
     float rgb[3] = {1, 1, 1};
     if (colour) {
       // Colour of the nearest sample to the triangle's centre in uv space.
@@ -110,9 +107,9 @@ void unweld_flat(MeshData& m, const Terrain& t, const Layer* colour) {
     for (int c = 0; c < 3; ++c) {
       const std::uint32_t vi = tri[c];
       out.positions.insert(out.positions.end(), p[c], p[c] + 3);
-      out.normals.push_back(float(nx_));
-      out.normals.push_back(float(ny_));
-      out.normals.push_back(float(nz_));
+      out.normals.push_back(float(n[0]));
+      out.normals.push_back(float(n[1]));
+      out.normals.push_back(float(n[2]));
       out.uvs.push_back(m.uvs[2 * vi]);
       out.uvs.push_back(m.uvs[2 * vi + 1]);
       if (colour) out.colors.insert(out.colors.end(), rgb, rgb + 3);
@@ -130,7 +127,6 @@ namespace {
 MeshData grid_chunk(const Terrain& t, const Layer& h, const Layer* off, int i0, int j0, int i1, int j1) {
   const Frame& f = t.frame;
   const int nx = f.nx, nz = f.nz;
-  const double cell = f.cell_m();
   auto Y = [&](int i, int j) { return f.y_m(h.data[std::size_t(j) * nx + i]); };
   const int w = i1 - i0 + 1, d = j1 - j0 + 1;
   MeshData m;
@@ -138,7 +134,6 @@ MeshData grid_chunk(const Terrain& t, const Layer& h, const Layer* off, int i0, 
   m.normals.resize(std::size_t(w) * d * 3);
   m.uvs.resize(std::size_t(w) * d * 2);
   for (int j = j0; j <= j1; ++j) {
-    const int ja = j > 0 ? j - 1 : j, jb = j + 1 < nz ? j + 1 : j;
     for (int i = i0; i <= i1; ++i) {
       const std::size_t v = std::size_t(j - j0) * w + (i - i0);
       const std::size_t s = std::size_t(j) * nx + i;
@@ -146,14 +141,11 @@ MeshData grid_chunk(const Terrain& t, const Layer& h, const Layer* off, int i0, 
       m.positions[3 * v] = float(f.x_m(i) + dx);
       m.positions[3 * v + 1] = float(Y(i, j));
       m.positions[3 * v + 2] = float(f.z_m(j) + dz);
-      const int ia = i > 0 ? i - 1 : i, ib = i + 1 < nx ? i + 1 : i;
-      // Surface y = h(x, z) ⇒ normal ∝ (−h_x, 1, −h_z); central differences.
-      const double hx = (Y(ib, j) - Y(ia, j)) / ((ib - ia) * cell);
-      const double hz = (Y(i, jb) - Y(i, ja)) / ((jb - ja) * cell);
-      const double inv = 1.0 / std::sqrt(hx * hx + 1.0 + hz * hz);
-      m.normals[3 * v] = float(-hx * inv);
-      m.normals[3 * v + 1] = float(inv);
-      m.normals[3 * v + 2] = float(-hz * inv);
+      // The surface normal (surface.hpp): central differences, one-sided at the border.
+      const detail::Normal n = detail::normal_at(f, h, i, j);
+      m.normals[3 * v] = float(n.x);
+      m.normals[3 * v + 1] = float(n.y);
+      m.normals[3 * v + 2] = float(n.z);
       m.uvs[2 * v] = float(double(i) / (nx - 1));
       m.uvs[2 * v + 1] = float(double(j) / (nz - 1));
     }

@@ -19,59 +19,21 @@ std::uint64_t physical_memory_bytes() {
   return pages > 0 && size > 0 ? std::uint64_t(pages) * std::uint64_t(size) : 0;
 }
 
-namespace {
-
-// What each stage leaves in the terrain (layer name → channels) and the most scratch memory it
-// holds while it runs (bytes per sample), for estimate_memory_bytes. Kept next to the estimate;
-// tests/test_cli.cpp (CliMemory) holds the estimate to the measured peak for the presets, so a
-// stage that starts keeping more than listed here shows up there.
-struct StageFootprint {
-  std::vector<std::pair<const char*, int>> layers;
-  std::uint64_t scratch = 0;  // bytes per sample, released when the stage ends
-};
-const StageFootprint& footprint(const std::string& stage) {
-  static const std::map<std::string, StageFootprint> table = {
-      {"noise", {{}, 0}},  // writes its `layer` parameter (see below)
-      {"jiggle", {{{"offset", 2}}, 0}},
-      {"slope", {{{"slope", 1}, {"slope_deg", 1}}, 0}},
-      {"color", {{{"albedo", 3}}, 8}},
-      {"hillshade", {{{"shade", 1}, {"color", 3}}, 0}},
-      // h and uplift (double), receivers, stack and donor counts (u32), Priority-Flood's queue
-      {"stream_power", {{}, 16 + 12 + 16}},
-      {"hydraulic", {{}, 12}},
-      {"thermal", {{}, 8}},
-      {"fill", {{}, 16}},
-      // receivers, order, donor counts, lake ids (u32), visit and channel flags, the flood queue
-      {"flow", {{{"flow", 1}, {"water", 1}}, 16 + 2 + 5 + 16}},
-      {"biomes", {{{"albedo", 3}, {"biome", 1}}, 12}},
-      {"climate", {{{"temperature", 1}, {"moisture", 1}, {"biome", 1}, {"albedo", 3}}, 8}},
-      {"volcano", {{{"volcano", 1}}, 4}},
-  };
-  static const StageFootprint none;
-  auto it = table.find(stage);
-  return it == table.end() ? none : it->second;
-}
-
-}  // namespace
-
 std::uint64_t estimate_memory_bytes(const Recipe& r, bool with_mesh) {
   const std::uint64_t n = std::uint64_t(r.world.nx) * std::uint64_t(r.world.nz);
   // Layers the run leaves (each name once, whatever wrote it), float per channel.
   std::map<std::string, int> layers = {{"height", 1}};
-  std::uint64_t scratch = 0, tilemap_render = 0;
+  std::uint64_t scratch = 0, stage_encode = 0;
+  // What each stage leaves and holds: StageDef::memory, declared with the stage.
   for (const RecipeStage& st : r.stages) {
-    const StageFootprint& f = footprint(st.def->name);
-    for (auto& [name, channels] : f.layers) layers[name] = std::max(layers[name], channels);
-    scratch = std::max(scratch, f.scratch * n);
+    const StageMemory& m = st.def->memory;
+    for (auto& [name, channels] : m.layers) layers[name] = std::max(layers[name], channels);
+    scratch = std::max(scratch, m.scratch_per_sample * n);
+    if (m.layer_param.empty() && !m.encode_bytes) continue;
     const json p = st.stage->params();
-    if (st.def->name == "noise" && p.contains("layer") && p["layer"].is_string()) layers[p["layer"].get<std::string>()] =
-        std::max(layers[p["layer"].get<std::string>()], 1);
-    if (st.def->name == "tilemap" && p.contains("tiles_x") && p.contains("tiles_z") && p.contains("tile_size")) {
-      // The tilemap writer's map: tiles × tile_size² RGB pixels, plus its PNG while encoding.
-      const std::uint64_t px = p["tiles_x"].get<std::uint64_t>() * p["tiles_z"].get<std::uint64_t>() *
-                               p["tile_size"].get<std::uint64_t>() * p["tile_size"].get<std::uint64_t>();
-      tilemap_render = px * 3 + px * 3 / 2;
-    }
+    if (!m.layer_param.empty() && p.contains(m.layer_param) && p[m.layer_param].is_string())
+      layers[p[m.layer_param].get<std::string>()] = std::max(layers[p[m.layer_param].get<std::string>()], 1);
+    if (m.encode_bytes) stage_encode = std::max(stage_encode, m.encode_bytes(p));
   }
   std::uint64_t channels = 0;
   for (auto& [name, c] : layers) channels += std::uint64_t(c);
@@ -79,7 +41,7 @@ std::uint64_t estimate_memory_bytes(const Recipe& r, bool with_mesh) {
   // Encoding (writers run concurrently, each file written as it is encoded): heightmap (16-bit
   // pixels, PNG, r16), colour and albedo PNGs (RGB pixels and PNG each). The OBJ streams its text
   // through a small pool of ~256 KiB blocks, so it adds a fixed few MiB, not a per-sample term.
-  const std::uint64_t encode = n * ((2 + 2 + 2) + 2 * (3 + 3)) + (with_mesh ? 8ull << 20 : 0) + tilemap_render;
+  const std::uint64_t encode = n * ((2 + 2 + 2) + 2 * (3 + 3)) + (with_mesh ? 8ull << 20 : 0) + stage_encode;
   // The program itself: code, thread stacks, allocator arenas (a 17² run peaks at ~10 MiB).
   const std::uint64_t base = 12ull << 20;
   return base + kept + std::max(scratch, encode);
@@ -99,10 +61,70 @@ bool same_frame(const Frame& a, const Frame& b) {
 }
 }  // namespace
 
+namespace {
+
+// The frame a run computes on: the whole world, or a window grown by the halo of the recipe's
+// stages (refusing global stages), never beyond the world's edge. `world_nx/nz` are the world's
+// sample counts on the frame's grid.
+Frame work_frame(const Recipe& r, const Frame& frame) {
+  const std::int64_t world_nx = std::llround(frame.world_width_m / frame.spacing_m) + 1;
+  const std::int64_t world_nz = std::llround(frame.world_depth_m / frame.spacing_m) + 1;
+  if (frame.ix0 == 0 && frame.iz0 == 0 && frame.nx == world_nx && frame.nz == world_nz) return frame;
+  std::int64_t halo = 0;
+  for (std::size_t i = 0; i < r.stages.size(); ++i) {
+    const RecipeStage& s = r.stages[i];
+    const Reach re = s.stage->reach(frame);
+    if (re.locality == Locality::Global)
+      throw Error("stages[" + std::to_string(i) + "]",
+                  "'" + s.def->name + "' needs the whole map (" + (re.why.empty() ? "a global stage" : re.why) +
+                      "), so it cannot run on a window of the world; run the whole world instead");
+    if (re.locality == Locality::Neighbourhood) halo += std::max(0, re.halo);
+  }
+  if (halo == 0) return frame;
+  // One side grows by the halo while it lies inside the world, and stops at the world's edge,
+  // where the whole map's neighbourhood stages read clamped samples too.
+  auto grow = [halo](std::int64_t lo, int n, std::int64_t world_n, std::int64_t& out_lo, int& out_n) {
+    std::int64_t a = lo, b = lo + n - 1;
+    if (a > 0) a = std::max<std::int64_t>(0, a - halo);
+    if (b < world_n - 1) b = std::min<std::int64_t>(world_n - 1, b + halo);
+    out_lo = a;
+    out_n = int(b - a + 1);
+  };
+  Frame work = frame;
+  grow(frame.ix0, frame.nx, world_nx, work.ix0, work.nx);
+  grow(frame.iz0, frame.nz, world_nz, work.iz0, work.nz);
+  return work;
+}
+
+// Crops every layer of `t` (on its frame) to `window`, a sub-rectangle of it, and drops the
+// points outside the window.
+void crop(Terrain& t, const Frame& window) {
+  const Frame& f = t.frame;
+  const std::size_t di = std::size_t(window.ix0 - f.ix0), dj = std::size_t(window.iz0 - f.iz0);
+  for (auto& [name, l] : t.layers) {
+    const std::size_t c = std::size_t(l.channels), row = std::size_t(window.nx) * c;
+    std::vector<float> out(window.count() * c);
+    detail::parallel_rows(window.nz, [&](int j) {
+      const float* src = l.data.data() + ((dj + std::size_t(j)) * std::size_t(f.nx) + di) * c;
+      std::copy(src, src + row, out.data() + std::size_t(j) * row);
+    });
+    l.data = std::move(out);
+  }
+  const double x0 = window.x0_m(), x1 = window.x_m(window.nx - 1), z0 = window.z0_m(), z1 = window.z_m(window.nz - 1);
+  std::erase_if(t.points, [&](const Point& p) { return p.x_m < x0 || p.x_m > x1 || p.z_m < z0 || p.z_m > z1; });
+  t.frame = window;
+}
+
+}  // namespace
+
 RunResult run(const Recipe& r, const RunOptions& opt) {
   RunResult res;
   res.seed = r.seed ? *r.seed : random_seed();
-  const Frame frame = opt.window ? *opt.window : r.world.frame();
+  const Frame window = opt.window ? *opt.window : r.world.frame();
+  if (window.nx < 2 || window.nz < 2)
+    throw Error("world.size", "expected at least 2 samples per axis, got " + std::to_string(window.nx) + "x" +
+                                  std::to_string(window.nz));
+  const Frame frame = work_frame(r, window);
   std::size_t first = 0;
   if (opt.resume) {
     const Resume& rs = *opt.resume;
@@ -129,7 +151,7 @@ RunResult run(const Recipe& r, const RunOptions& opt) {
   int threads = opt.threads > 0 ? opt.threads : int(std::max(1u, std::thread::hardware_concurrency()));
   tbb::task_arena arena(threads);
   const auto t_all = std::chrono::steady_clock::now();
-  const bool fuse = opt.fuse && !opt.after_stage;
+  const bool fuse = opt.fuse && (!opt.after_stage || opt.after_stage_keeps_fusion);
   auto context = [&](std::size_t i) {
     Context ctx;
     ctx.seed = res.seed;
@@ -197,9 +219,11 @@ RunResult run(const Recipe& r, const RunOptions& opt) {
         const RecipeStage& s = r.stages[k];
         res.timings.push_back({s.def->name, s.label, k == i ? chain_ms : 0.0, k > i});
       }
+      if (opt.after_stage) opt.after_stage(res.terrain, r.stages[end - 1], int(end - 1));
       i = end;
     }
   });
+  if (!same_frame(res.terrain.frame, window)) crop(res.terrain, window);
   res.terrain.spare.clear();  // unused spare buffers go back to the allocator
   res.terrain.spare.shrink_to_fit();
   if (opt.progress) opt.progress("done", 1.0);

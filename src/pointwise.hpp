@@ -119,7 +119,7 @@ void curve_row(const CurveRow& k, float* row, int n);
 // ---- colour kernels (3-channel interleaved outputs)
 
 // The surface gradient of row j from the rows above and below it, as the neighbourhood stages use
-// it (relief/hillshade.hpp: gradient_at, in single precision): interior columns
+// it (surface.hpp: gradient_at, in single precision): interior columns
 // gx = (mid[i+1] − mid[i−1])·central, the border columns one-sided (mid[1] − mid[0])·edge and
 // (mid[n−1] − mid[n−2])·edge; gz = (down[i] − up[i])·kz (kz = central inside, edge on the first and
 // last row, where up or down is the row itself). central = s·height_m/(2·cell_m), edge = 2·central
@@ -187,7 +187,7 @@ struct HillshadeRow {
   float lx = 0, ly = 1, lz = 0;
   float ambient = 0.2f, diffuse = 0.8f, flat = 1.0f, water_relief = 0.3f;
   float sea_below = 0.4f;  // e < this is under water (float_at_least(sea_level))
-  // Non-temporal stores for rgb (hillshade.cpp sets it for layers far beyond the caches): the
+  // Non-temporal stores for rgb (surface.cpp: hillshade sets it for layers far beyond the caches): the
   // colour is written without first reading its cache lines. The same values either way.
   bool stream = false;
 };

@@ -11,6 +11,7 @@ std::uint64_t Context::stage_seed(std::uint64_t salt) const {
 }
 
 std::unique_ptr<RowKernel> Stage::prepare_rows(Terrain&, const Context&) const { return nullptr; }
+Reach Stage::reach(const Frame&) const { return pointwise(); }
 
 void apply_rows(Terrain& t, const RowKernel& k) {
   const Frame& f = t.frame;
@@ -25,7 +26,9 @@ json StageDef::to_json() const {
   o["name"] = name;
   o["summary"] = summary;
   o["locality"] = locality == Locality::Pointwise ? "pointwise" : locality == Locality::Neighbourhood ? "neighbourhood" : "global";
-  if (locality == Locality::Neighbourhood) o["halo"] = halo;
+  if (locality == Locality::Neighbourhood || halo > 0) o["halo"] = halo;
+  if (!halo_rule.empty()) o["halo_rule"] = halo_rule;
+  if (locality == Locality::Global && !why_global.empty()) o["why_global"] = why_global;
   json ps = json::array();
   for (auto& p : params) ps.push_back(p.to_json());
   o["params"] = ps;

@@ -566,10 +566,13 @@ StageDef biomes() {
   embed(table.fields, &P::sea, detail::sea_colors_table());
   table.fields.push_back(
       param(&P::beach_lift, "beach_lift", 0.0, 1.0, "", "Land lower than this (fraction of the land range) is beach"));
-  return make_stage<P>("biomes",
+  StageDef d = make_stage<P>("biomes",
                        "Voronoi biome regions with their own noise, curve and colours, blended; writes height, albedo, "
                        "biome",
-                       Locality::Global, 0, std::move(table), apply_biomes, validate_biomes);
+                       global("the distance to the coast (coast_m) is a distance transform of the whole map's sea"),
+                       std::move(table), apply_biomes, validate_biomes);
+  d.memory = {{{"albedo", 3}, {"biome", 1}}, {}, 12, {}};
+  return d;
 }
 
 }  // namespace stages

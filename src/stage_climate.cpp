@@ -294,10 +294,13 @@ StageDef climate() {
   embed(table.fields, &P::sea, detail::sea_colors_table());
   table.fields.push_back(
       param(&P::beach_height, "beach_height", 0.0, 1.0, "", "Land less than this above sea level (normalised) is beach"));
-  return make_stage<P>("climate",
+  StageDef d = make_stage<P>("climate",
                        "Climate biomes: moisture (rising near the sea) and temperature (cooling with height) classified "
                        "by a Whittaker table; writes temperature, moisture, biome, albedo",
-                       Locality::Global, 0, std::move(table), apply_climate, validate_climate);
+                       global("the distance to the sea is a distance transform of the whole map"), std::move(table),
+                       apply_climate, validate_climate);
+  d.memory = {{{"temperature", 1}, {"moisture", 1}, {"biome", 1}, {"albedo", 3}}, {}, 8, {}};
+  return d;
 }
 
 }  // namespace stages

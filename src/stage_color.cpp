@@ -6,7 +6,7 @@
 //     is steep between two elevations, elevation bands elsewhere".
 //   * A. Saparov, "A Maya Terrain Generator Based on Perlin Noise" (2021, seed 000): colour levels
 //     (threshold + colour), thresholds optionally relative to the map's highest point.
-//   * Lambertian hillshade (hillshade.hpp): Burrough & McDonnell 1998, GDAL gdaldem hillshade.
+//   * Lambertian hillshade (surface.hpp): Burrough & McDonnell 1998, GDAL gdaldem hillshade.
 //
 // Slopes and shading are metric: elevation differences are converted to metres with
 // frame.height_m and divided by the cell size in metres, so a 257² preview and a 513² build of
@@ -24,7 +24,7 @@
 #include <utility>
 #include <vector>
 
-#include "hillshade.hpp"
+#include "surface.hpp"
 #include "parallel.hpp"
 #include "pointwise.hpp"
 #include "relief/error.hpp"
@@ -47,12 +47,8 @@ double smoothstep01(double s) {
   return s * s * (3.0 - 2.0 * s);
 }
 
-using detail::Gradient;
-using detail::gradient_at;
-
 double slope_deg_at(const Frame& fr, const Layer& h, int i, int j) {
-  const Gradient g = gradient_at(fr, h, i, j);
-  return std::atan(std::hypot(g.dx, g.dz)) * kDeg;
+  return detail::slope_deg_of(detail::gradient_at(fr, h, i, j));
 }
 
 void require_nonempty(const Terrain& t, const Layer& h, const char* name) {
@@ -309,15 +305,7 @@ void apply_color(Terrain& t, const ColorParams& params, const Context& ctx) {
         const float v = k.relative ? e[i] / k.max_height : e[i];
         Rgb c = detail::level_color(p.levels, textures, k.gradient, v, fr.x_m(i), z);
         if (k.rock && v > k.rock_min && v < k.rock_max) {
-          float g2 = 0.0f;
-          if (!given_slope) {
-            const float gx = nx < 2        ? 0.0f
-                             : i == 0      ? (e[1] - e[0]) * rows.edge
-                             : i == nx - 1 ? (e[nx - 1] - e[nx - 2]) * rows.edge
-                                           : (e[i + 1] - e[i - 1]) * rows.central;
-            const float gz = (rows.down[i] - rows.up[i]) * rows.kz;
-            g2 = gx * gx + gz * gz;
-          }
+          const float g2 = given_slope ? 0.0f : detail::gradient2_at(rows, i, nx);
           const double sd = given_slope ? double(slope_row[i]) : std::atan(std::sqrt(double(g2))) * kDeg;
           if (sd > p.rock_slope_deg) {
             const double w = p.rock_blend_deg > 0.0 ? smoothstep_weight(std::min(1.0, (sd - p.rock_slope_deg) / p.rock_blend_deg)) : 1.0;
@@ -344,6 +332,11 @@ void apply_color(Terrain& t, const ColorParams& params, const Context& ctx) {
   });
 }
 
+// One sample of halo (the rock rule's central differences); per-map normalisation is global.
+Reach color_reach(const ColorParams& p, const Frame&) {
+  return p.relative_to_max ? global("relative_to_max divides by the highest sample of the whole map") : neighbourhood(1);
+}
+
 void validate_color(const ColorParams& p, const std::string& path) {
   detail::load_level_textures(p.levels, path + ".levels");  // a missing texture fails at parse time
   if (p.rock_min > p.rock_max) {
@@ -366,7 +359,7 @@ void apply_hillshade(Terrain& t, const HillshadeParams& p, const Context&) {
     const Layer& a = t.get("albedo");
     if (a.channels == 3 && a.data.size() == fr.count() * 3) albedo = &a;
   }
-  detail::hillshade(fr, h, albedo, p, &t.layer("shade", 1), t.layer("color", 3));
+  detail::hillshade(fr, h, albedo, p, &t.layer("shade", 1), &t.layer("color", 3));
 }
 
 }  // namespace
@@ -378,10 +371,12 @@ StageDef slope() {
              "slope = Σ|e − neighbour| over the in-bounds neighbours, divided by their count (mean) or by 8 "
              "always (eight: seed 001, darker border)"),
   }};
-  return make_stage<P>("slope",
+  StageDef d = make_stage<P>("slope",
                        "Slope layers: 'slope' = mean |Δe| to the 8 neighbours (elevation units), "
                        "'slope_deg' = gradient slope in degrees",
-                       Locality::Neighbourhood, 1, std::move(table), apply_slope);
+                       neighbourhood(1), std::move(table), apply_slope);
+  d.memory = {{{"slope", 1}, {"slope_deg", 1}}, {}, 0, {}};
+  return d;
 }
 
 StageDef colorize() {
@@ -412,9 +407,12 @@ StageDef colorize() {
       color(&P::water_color, "water_color",
             "Colour of rivers and lakes from a 'flow' stage earlier in the recipe (layer 'water', blended by cover)"),
   }};
-  return make_stage<P>("color",
+  StageDef d = make_stage<P>("color",
                        "Colour by elevation levels, with rock on steep ground; writes 'albedo' (3 channels)",
-                       Locality::Neighbourhood, 1, std::move(table), apply_color, validate_color);
+                       neighbourhood(1), std::move(table), apply_color, validate_color, color_reach,
+                       "1 sample (the slope's central differences); global with relative_to_max");
+  d.memory = {{{"albedo", 3}}, {}, 8, {}};
+  return d;
 }
 
 StageDef hillshade() {
@@ -429,9 +427,11 @@ StageDef hillshade() {
       param(&P::water_relief, "water_relief", 0.0, 1.0, "",
             "Under the sea, fraction of the relief shading kept (0 = flat water, 1 = like land)", R),
   }};
-  return make_stage<P>("hillshade",
+  StageDef d = make_stage<P>("hillshade",
                        "Lambertian hillshade: writes 'shade' and 'color' = albedo × shade (white if no albedo)",
-                       Locality::Neighbourhood, 1, std::move(table), apply_hillshade);
+                       neighbourhood(1), std::move(table), apply_hillshade);
+  d.memory = {{{"shade", 1}, {"color", 3}}, {}, 0, {}};
+  return d;
 }
 
 }  // namespace relief::stages

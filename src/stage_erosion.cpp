@@ -1,8 +1,10 @@
 // Erosion and water stages: hydraulic, thermal, fill, flow (rivers and lakes), stream_power.
 //
-// All five are Locality::Global: erosion moves material across the whole map and drainage depends
-// on every cell between a sample and the sea, so none of them can run on a window with a finite
-// halo. They read and write the "height" layer (normalised), do their physics in metres through the
+// Four of the five are Locality::Global: droplets start anywhere on the map and carry sediment
+// along their whole path, and drainage depends on every cell between a sample and the sea, so they
+// cannot run on a window with a finite halo. Thermal erosion is a Jacobi step over the four
+// neighbours (each iteration reads two samples away: the neighbours' outflow reads theirs), so it
+// is a neighbourhood stage with a halo of 2 · iterations samples. They read and write the "height" layer (normalised), do their physics in metres through the
 // frame (height_m vertically, cell_m horizontally) and take every parameter in world units, so a
 // 513² preview and a 2049² build of the same recipe erode alike. The algorithms and their sources
 // are in erosion_hydraulic.cpp, erosion_thermal.cpp, stream_power.cpp and hydrology.cpp.
@@ -60,6 +62,18 @@ void apply_hydraulic(Terrain& t, const HydraulicParams& p, const Context& ctx) {
   erosion::hydraulic_erosion(h.data.data(), t.frame, p, ctx.stage_seed(0x6879647261756cull), stage_progress(ctx, "hydraulic"));
 }
 
+// Global, but bounded: a droplet moves at most lifetime · step_m from its start and erodes within
+// brush_radius_m of its path. The bound is declared (for a world builder that accepts a measured
+// seam error); run() still refuses the stage on a window, since droplets starting in the halo would
+// not be the whole map's droplets and their order changes the result.
+constexpr const char* kHydraulicWhy =
+    "droplets start anywhere on the map, one after another, each changing the map the next one runs over";
+Reach hydraulic_reach(const HydraulicParams& p, const Frame& f) {
+  Reach r = global(kHydraulicWhy);
+  r.halo = int(std::ceil((double(p.lifetime) * p.step_m + p.brush_radius_m) / f.cell_m()));
+  return r;
+}
+
 void validate_hydraulic(const HydraulicParams& p, const std::string& path) {
   if (p.step_m > 2 * p.brush_radius_m)
     throw Error(path + ".step_m", "expected at most 2 × brush_radius_m (" + std::to_string(2 * p.brush_radius_m) +
@@ -74,9 +88,14 @@ struct ThermalParams {
   double distance_m = 60.0;
 };
 
+// Iterations read two samples away each (see the top of this file).
+int thermal_iterations(double distance_m, double cell_m) { return int(std::ceil(distance_m / cell_m - 1e-9)); }
+int thermal_halo(double distance_m, double cell_m) { return 2 * std::max(0, thermal_iterations(distance_m, cell_m)); }
+Reach thermal_reach(const ThermalParams& p, const Frame& f) { return neighbourhood(thermal_halo(p.distance_m, f.cell_m())); }
+
 void apply_thermal(Terrain& t, const ThermalParams& p, const Context& ctx) {
   Layer& h = height_layer(t);
-  const int iterations = int(std::ceil(p.distance_m / t.frame.cell_m() - 1e-9));
+  const int iterations = thermal_iterations(p.distance_m, t.frame.cell_m());
   std::vector<float> next(h.data.size());
   const auto progress = stage_progress(ctx, "thermal");
   for (int it = 0; it < iterations; ++it) {
@@ -355,9 +374,13 @@ StageDef hydraulic() {
       param(&P::evaporate, "evaporate", 0, 1, "", "Fraction of the water evaporating per step"),
       param(&P::gravity, "gravity", 0, 100, "m/s²", "Speed² gained per metre of descent"),
   }};
-  return make_stage<P>("hydraulic",
+  StageDef d = make_stage<P>("hydraulic",
                        "Droplet hydraulic erosion (Beyer 2015, Lague's parameters): carves gullies and fills hollows",
-                       Locality::Global, 0, std::move(table), apply_hydraulic, validate_hydraulic);
+                       global(kHydraulicWhy), std::move(table), apply_hydraulic, validate_hydraulic, hydraulic_reach,
+                       "bounded: lifetime · step_m + brush_radius_m (a droplet's longest reach), not exact on a window");
+  d.halo = hydraulic_reach(P{}, Frame{}).halo;  // with the default params on the default world
+  d.memory = {{}, {}, 12, {}};
+  return d;
 }
 
 StageDef thermal() {
@@ -368,8 +391,11 @@ StageDef thermal() {
       param(&P::distance_m, "distance_m", 0, 100000, "m",
             "How far material may slide: runs ceil(distance_m / cell size) iterations, so previews and builds settle alike"),
   }};
-  return make_stage<P>("thermal", "Thermal erosion (Musgrave 1989, Olsen 2004): slopes relax to the talus angle",
-                       Locality::Global, 0, std::move(table), apply_thermal);
+  StageDef d = make_stage<P>("thermal", "Thermal erosion (Musgrave 1989, Olsen 2004): slopes relax to the talus angle",
+                       neighbourhood(thermal_halo(P{}.distance_m, Frame{}.cell_m())), std::move(table), apply_thermal,
+                       nullptr, thermal_reach, "2 · ceil(distance_m / cell size) samples (two per iteration)");
+  d.memory = {{}, {}, 8, {}};
+  return d;
 }
 
 StageDef fill() {
@@ -378,10 +404,13 @@ StageDef fill() {
       param(&P::epsilon_m, "epsilon_m", 0, 10, "m",
             "Gradient given to filled flats, metres per sample towards the spill point (0: the smallest float step)"),
   }};
-  return make_stage<P>("fill",
+  StageDef d = make_stage<P>("fill",
                        "Depression filling (Priority-Flood+ε, Barnes 2014 / Zhou 2016): every land sample drains to the "
                        "sea or the map edge",
-                       Locality::Global, 0, std::move(table), apply_fill);
+                       global("every sample must drain to the sea or the map's edge, through the whole map"),
+                       std::move(table), apply_fill);
+  d.memory = {{}, {}, 16, {}};
+  return d;
 }
 
 StageDef flow() {
@@ -401,10 +430,15 @@ StageDef flow() {
       param(&P::carve_depth_coeff, "carve_depth_coeff", 0, 1000, "m",
             "Carve rivers to depth carve_depth_coeff · discharge^0.4 (0: no carving); channels keep draining downhill"),
   }};
-  return make_stage<P>("flow",
+  StageDef d = make_stage<P>("flow",
                        "D8 flow and accumulation: layers 'flow' (drainage m²) and 'water', rivers (rivers.json) and "
                        "lakes (lakes.json)",
-                       Locality::Global, 0, std::move(table), apply_flow);
+                       global("drainage area accumulates over every sample upstream, and depressions fill "
+                              "through the whole map"),
+                       std::move(table), apply_flow);
+  // receivers, order, donor counts, lake ids (u32), visit and channel flags, the flood queue
+  d.memory = {{{"flow", 1}, {"water", 1}}, {}, 16 + 2 + 5 + 16, {}};
+  return d;
 }
 
 StageDef stream_power() {
@@ -422,10 +456,14 @@ StageDef stream_power() {
       param(&P::max_slope_deg, "max_slope_deg", 1, 89, "deg",
             "Critical hillslope angle: steeper ground fails down to it (bounds the relief uplift can build)"),
   }};
-  return make_stage<P>("stream_power",
+  StageDef d = make_stage<P>("stream_power",
                        "Stream-power uplift and incision (Braun & Willett 2013, Cordonnier 2016): drainage networks "
                        "and ranges, lakes resolved each step",
-                       Locality::Global, 0, std::move(table), apply_stream_power);
+                       global("incision depends on the drainage area, which accumulates over the whole map"),
+                       std::move(table), apply_stream_power);
+  // h and uplift (double), receivers, stack and donor counts (u32), Priority-Flood's queue
+  d.memory = {{}, {}, 16 + 12 + 16, {}};
+  return d;
 }
 
 }  // namespace relief::stages

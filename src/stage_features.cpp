@@ -437,10 +437,13 @@ StageDef volcano() {
       color(&P::ash_color, "ash_color", "Colour near the rim"),
       color(&P::lava_color, "lava_color", "Colour of lava"),
   }};
-  return make_stage<P>("volcano",
+  StageDef d = make_stage<P>("volcano",
                        "Volcano (seed 003): foundation, stacked circles around a rim, crater and lava; writes height, "
                        "albedo, biome, the 'volcano' footprint layer and a feature point",
-                       Locality::Global, 0, std::move(table), apply_volcano, validate_volcano);
+                       global("its place is chosen among candidates on the land of the whole map"), std::move(table),
+                       apply_volcano, validate_volcano);
+  d.memory = {{{"volcano", 1}}, {}, 4, {}};
+  return d;
 }
 
 StageDef features() {
@@ -462,7 +465,8 @@ StageDef features() {
       color(&P::crater_color, "crater_color", "Colour inside craters"),
       color(&P::peak_color, "peak_color", "Colour of the upper peak"),
   }};
-  return make_stage<P>("features", "Craters and single mountains as feature points (seed 003 §2.5)", Locality::Global, 0,
+  return make_stage<P>("features", "Craters and single mountains as feature points (seed 003 §2.5)",
+                       global("their places are chosen among candidates on the land of the whole map"),
                        std::move(table), apply_features, validate_features);
 }
 
@@ -471,10 +475,12 @@ StageDef jiggle() {
   Table<P> table{{
       param(&P::amount, "amount", 0.0, 0.45, "cells", "Largest move along x and along z, in cells (< 0.5: no folds)"),
   }};
-  return make_stage<P>("jiggle",
+  StageDef d = make_stage<P>("jiggle",
                        "Vertex jiggle (seed 003): deterministic x/z offsets within a fraction of a cell, written as the "
                        "2-channel layer 'offset' (dx_m, dz_m) that mesh writers apply",
-                       Locality::Pointwise, 0, std::move(table), apply_jiggle);
+                       pointwise(), std::move(table), apply_jiggle);
+  d.memory = {{{"offset", 2}}, {}, 0, {}};
+  return d;
 }
 
 }  // namespace stages

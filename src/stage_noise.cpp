@@ -136,8 +136,10 @@ std::unique_ptr<RowKernel> prepare(Terrain& t, const NoiseParams& p, const Conte
 }  // namespace
 
 StageDef noise() {
-  return make_row_stage<NoiseParams>("noise", "Fractal noise (gradient, Perlin, simplex, value, cellular) into a layer", table(),
-                                     prepare, validate);
+  StageDef d = make_row_stage<NoiseParams>("noise", "Fractal noise (gradient, Perlin, simplex, value, cellular) into a layer",
+                                           table(), prepare, validate);
+  d.memory.layer_param = "layer";  // writes the layer its `layer` parameter names
+  return d;
 }
 
 }  // namespace relief::stages

@@ -19,7 +19,7 @@
 #include <vector>
 
 #include "features.hpp"
-#include "hillshade.hpp"
+#include "surface.hpp"
 #include "parallel.hpp"
 #include "relief/error.hpp"
 #include "relief/noise.hpp"
@@ -230,7 +230,8 @@ StageDef props() {
   return make_stage<P>("props",
                        "Props (seed 003): seeded attempts, rejected in the sea, on the volcano or too close; clustered by "
                        "per-type noise; appended to the terrain's points",
-                       Locality::Global, 0, std::move(table), apply_props, validate_props);
+                       global("the spacing test couples props across the whole map"), std::move(table), apply_props,
+                       validate_props);
 }
 
 }  // namespace relief::stages

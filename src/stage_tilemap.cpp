@@ -182,10 +182,19 @@ StageDef tilemap() {
       param(&P::texture, "texture", 0.0, 2.0, "", "Strength of the per-type texture (0 = flat colours)", Effect::Recolour),
       param(&P::edges, "edges", 0.0, 1.0, "", "Strength of shore and outline lines where types meet", Effect::Recolour),
   }};
-  return make_stage<P>("tilemap",
+  StageDef d = make_stage<P>("tilemap",
                        "Inside-outside tilemap: corner types at tile vertices → base-k tile indices (seed 002), "
                        "for the tilemap writer",
-                       Locality::Global, 0, std::move(table), apply_tilemap, validate_tilemap);
+                       global("its tile grid stretches over the whole map"), std::move(table), apply_tilemap,
+                       validate_tilemap);
+  // The tilemap writer's map: tiles × tile_size² RGB pixels, plus its PNG while encoding.
+  d.memory.encode_bytes = [](const json& p) -> std::uint64_t {
+    if (!p.contains("tiles_x") || !p.contains("tiles_z") || !p.contains("tile_size")) return 0;
+    const std::uint64_t px = p["tiles_x"].get<std::uint64_t>() * p["tiles_z"].get<std::uint64_t>() *
+                             p["tile_size"].get<std::uint64_t>() * p["tile_size"].get<std::uint64_t>();
+    return px * 3 + px * 3 / 2;
+  };
+  return d;
 }
 
 }  // namespace stages

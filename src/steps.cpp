@@ -15,7 +15,7 @@
 #include <filesystem>
 #include <memory>
 
-#include "hillshade.hpp"
+#include "surface.hpp"
 #include "parallel.hpp"
 #include "relief/error.hpp"
 #include "relief/output.hpp"
@@ -198,7 +198,7 @@ StepImage render_step(const Terrain& t, int max_px) {
     albedo = &preview;
   }
   Layer color;
-  detail::hillshade(fr, h, albedo, detail::Light{}, nullptr, color);
+  detail::hillshade(fr, h, albedo, detail::Light{}, nullptr, &color);
   detail::parallel_rows(out.height, [&](int b) {
     for (int a = 0; a < out.width; ++a) {
       double s[3] = {0, 0, 0};

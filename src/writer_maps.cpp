@@ -10,7 +10,7 @@
 //     y → Z; no flip.
 //   * Godot (right-handed, Y up) and its heightmap terrain plugins map pixel (x, y) to world
 //     (x, z): no flip.
-// Normal maps: the normal of y = h(x, z) is ∝ (−h_x, 1, −h_z) (central differences). In tangent
+// Normal maps: the surface normal of surface.hpp, ∝ (−y_x, 1, −y_z) (central differences). In tangent
 // space the texture's "right" is +x and its "up" (towards row 0) is −z, so R = n_x, G = −n_z
 // (OpenGL, +Y up) or n_z (DirectX, +Y down), B = n_y.
 // Splat weights are quantised with the largest-remainder method so that the 8-bit weights of a
@@ -30,6 +30,7 @@
 #include "relief/error.hpp"
 #include "relief/export.hpp"
 #include "relief/output.hpp"
+#include "surface.hpp"
 
 namespace relief {
 namespace {
@@ -42,21 +43,13 @@ const Layer& height_of(const Terrain& t, const char* writer) {
   return h;
 }
 
-// Unit normal of sample (i, j), metres, central differences (one-sided at the border).
+// Unit normal of sample (i, j) (surface.hpp: central differences, one-sided at the border).
 struct Normals {
   const Frame& f;
   const Layer& h;
-  double y(int i, int j) const { return f.y_m(h.data[std::size_t(j) * f.nx + i]); }
   void at(int i, int j, double n[3]) const {
-    const int ia = i > 0 ? i - 1 : i, ib = i + 1 < f.nx ? i + 1 : i;
-    const int ja = j > 0 ? j - 1 : j, jb = j + 1 < f.nz ? j + 1 : j;
-    const double hx = ib > ia ? (y(ib, j) - y(ia, j)) / ((ib - ia) * f.cell_m()) : 0.0;
-    const double hz = jb > ja ? (y(i, jb) - y(i, ja)) / ((jb - ja) * f.cell_m()) : 0.0;
-    double inv = 1.0 / std::sqrt(hx * hx + 1.0 + hz * hz);
-    if (!std::isfinite(inv)) inv = 0;
-    n[0] = -hx * inv;
-    n[1] = inv;
-    n[2] = -hz * inv;
+    const detail::Normal v = detail::normal_at(f, h, i, j);
+    n[0] = v.x, n[1] = v.y, n[2] = v.z;
   }
 };
 
@@ -158,18 +151,21 @@ std::string encode_normal_map(const Terrain& t, int bits, bool directx) {
 std::string encode_hillshade(const Terrain& t, double azimuth_deg, double altitude_deg) {
   const Frame& f = t.frame;
   const Layer& h = height_of(t, "hillshade");
-  const Normals nm{f, h};
-  const double az = azimuth_deg * M_PI / 180, alt = altitude_deg * M_PI / 180;
-  // Towards the light: north is −z, east is +x.
-  const double L[3] = {std::sin(az) * std::cos(alt), std::sin(alt), -std::cos(az) * std::cos(alt)};
+  // The hillshade of surface.hpp as plain Lambert: max(0, n · l), no ambient light, the sea shaded
+  // like the land.
+  detail::Light light;
+  light.azimuth_deg = azimuth_deg;
+  light.altitude_deg = altitude_deg;
+  light.z_factor = 1.0;
+  light.ambient = 0.0;
+  light.water_relief = 1.0;
+  Layer shade;
+  detail::hillshade(f, h, nullptr, light, &shade, nullptr);
   std::vector<std::uint8_t> px(f.count());
   detail::parallel_rows(f.nz, [&](int j) {
-    for (int i = 0; i < f.nx; ++i) {
-      double n[3];
-      nm.at(i, j, n);
-      const double s = std::max(0.0, n[0] * L[0] + n[1] * L[1] + n[2] * L[2]);
-      px[std::size_t(j) * f.nx + i] = std::uint8_t(std::lround(s * 255));
-    }
+    const float* s = shade.row(j, f.nx);
+    for (int i = 0; i < f.nx; ++i)
+      px[std::size_t(j) * f.nx + i] = std::uint8_t(std::lround(std::clamp(double(s[i]), 0.0, 1.0) * 255));
   });
   return encode_png_pixels(px.data(), px.size(), f.nx, f.nz, 8, 1);
 }

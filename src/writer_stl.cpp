@@ -20,6 +20,7 @@
 
 #include "relief/error.hpp"
 #include "relief/export.hpp"
+#include "surface.hpp"
 
 namespace relief {
 
@@ -89,12 +90,9 @@ std::string encode_stl(const Terrain& t, const ExportOptions& o) {
     const float* A = &v[3 * a];
     const float* B = &v[3 * b];
     const float* C = &v[3 * c];
-    const double ux = B[0] - A[0], uy = B[1] - A[1], uz = B[2] - A[2];
-    const double wx = C[0] - A[0], wy = C[1] - A[1], wz = C[2] - A[2];
-    double nx_ = uy * wz - uz * wy, ny_ = uz * wx - ux * wz, nz_ = ux * wy - uy * wx;
-    const double len = std::sqrt(nx_ * nx_ + ny_ * ny_ + nz_ * nz_);
-    if (len > 0) nx_ /= len, ny_ /= len, nz_ /= len;
-    const float rec[12] = {float(nx_), float(ny_), float(nz_), A[0], A[1], A[2], B[0], B[1], B[2], C[0], C[1], C[2]};
+    double n[3] = {0, 0, 0};  // a degenerate triangle has no normal
+    detail::face_normal(A, B, C, n);
+    const float rec[12] = {float(n[0]), float(n[1]), float(n[2]), A[0], A[1], A[2], B[0], B[1], B[2], C[0], C[1], C[2]};
     std::memcpy(p, rec, 48);  // little-endian floats on every target we build for
     p += 50;                  // + uint16 attribute 0
   };

@@ -21,6 +21,7 @@
 
 #include "relief/error.hpp"
 #include "relief/output.hpp"
+#include "surface.hpp"
 #include "writer_defs.hpp"
 #include "writers_water.hpp"
 #include "writers_islands.hpp"
@@ -267,7 +268,6 @@ void write_obj(const Terrain& t, const WriteContext& ctx, Output& out) {
   if (off)
     for (float v : off->data)
       if (!std::isfinite(v)) throw Error("offset", "non-finite vertex offset");
-  const double dx = f.cell_m(), dz = f.cell_m();  // square cells
   auto Y = [&](int i, int j) { return f.y_m(h.data[std::size_t(j) * nx + i]); };
   const int uv_d = uv_decimals(std::max(nx, nz));
 
@@ -341,19 +341,15 @@ void write_obj(const Terrain& t, const WriteContext& ctx, Output& out) {
           }
           break;
         case 1: {
-          const int j0 = j > 0 ? j - 1 : j, j1 = j + 1 < nz ? j + 1 : j;
           for (int i = 0; i < nx; ++i) {
-            const int i0 = i > 0 ? i - 1 : i, i1 = i + 1 < nx ? i + 1 : i;
-            // Central differences, one-sided at the borders. Surface y = h(x, z) ⇒ normal ∝ (−h_x, 1, −h_z).
-            const double hx = (Y(i1, j) - Y(i0, j)) / ((i1 - i0) * dx);
-            const double hz = (Y(i, j1) - Y(i, j0)) / ((j1 - j0) * dz);
-            const double inv = 1.0 / std::sqrt(hx * hx + 1.0 + hz * hz);
+            // The surface normal (surface.hpp): central differences, one-sided at the borders.
+            const detail::Normal n = detail::normal_at(f, h, i, j);
             std::memcpy(p, "vn ", 3);
-            p = put_unit5(p + 3, -hx * inv);
+            p = put_unit5(p + 3, n.x);
             *p++ = ' ';
-            p = put_unit5(p, inv);
+            p = put_unit5(p, n.y);
             *p++ = ' ';
-            p = put_unit5(p, -hz * inv);
+            p = put_unit5(p, n.z);
             *p++ = '\n';
           }
           break;

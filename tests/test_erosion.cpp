@@ -143,11 +143,20 @@ std::uint64_t fnv1a(const void* data, std::size_t bytes) {
 // ================================================================================ registry
 
 TEST(ErosionStages, AreGlobalAndRegistered) {
-  for (const char* name : {"hydraulic", "thermal", "fill", "flow", "stream_power"}) {
+  for (const char* name : {"hydraulic", "fill", "flow", "stream_power"}) {
     const StageDef* d = find_stage(name);
     ASSERT_NE(d, nullptr) << name;
     EXPECT_EQ(d->locality, Locality::Global) << name;
+    EXPECT_FALSE(d->why_global.empty()) << name;
   }
+  // Hydraulic erosion declares the bound of a droplet's reach, (lifetime · step_m + brush_radius_m)
+  // / cell with its defaults, though it stays global.
+  EXPECT_GT(find_stage("hydraulic")->halo, 0);
+  // Thermal erosion is a Jacobi step over four neighbours: two samples of halo per iteration.
+  const StageDef* d = find_stage("thermal");
+  ASSERT_NE(d, nullptr);
+  EXPECT_EQ(d->locality, Locality::Neighbourhood);
+  EXPECT_EQ(d->halo, 2 * 8);  // default distance_m 60 on the default 7.8125 m cells: 8 iterations
 }
 
 TEST(ErosionStages, BadParametersNameTheField) {

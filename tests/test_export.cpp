@@ -28,6 +28,7 @@
 #include "relief/export.hpp"
 #include "relief/output.hpp"
 #include "relief/random.hpp"
+#include "relief/stage.hpp"
 
 namespace fs = std::filesystem;
 using namespace relief;
@@ -1157,6 +1158,28 @@ TEST(Maps, SplatFromTheBiomeLayerSpansSeveralImages) {
   };
   EXPECT_EQ(path_of({}), "export.splat_source");
   EXPECT_EQ(path_of([](const std::string& n) { return n == "splat_source" ? "--splat-source" : "?"; }), "--splat-source");
+}
+
+// One hillshade (src/surface.hpp): the writer's greyscale is the hillshade stage's shade without
+// ambient light and with the sea shaded like the land, rounded to 8 bits — not a second
+// implementation (it was a double-precision one, which differed in the last bit of a few pixels).
+TEST(Maps, HillshadeWriterIsTheHillshadeStageWithoutAmbient) {
+  // Enough samples that the old double-precision writer hit a rounding boundary somewhere.
+  Terrain t = terrain(513, 385, 10.0);
+  auto& h = t.get("height").data;
+  for (std::size_t k = 0; k < h.size(); ++k) h[k] = float(0.2 + 0.6 * unit_double(hash64(99, k)));  // rough, sea and land
+  const StageDef* def = find_stage("hillshade");
+  ASSERT_NE(def, nullptr);
+  const json p = {{"azimuth_deg", 300.0}, {"altitude_deg", 35.0}, {"ambient", 0.0}, {"water_relief", 1.0}};
+  Terrain shaded = t;
+  def->parse(p, "stages[0]")->apply(shaded, Context{});
+  const auto& shade = shaded.get("shade").data;
+  const Decoded d = decode_png(encode_hillshade(t, 300.0, 35.0));
+  ASSERT_EQ(d.bytes.size(), shade.size());
+  std::size_t differ = 0;
+  for (std::size_t k = 0; k < shade.size(); ++k)
+    differ += d.bytes[k] != std::uint8_t(std::lround(std::clamp(double(shade[k]), 0.0, 1.0) * 255));
+  EXPECT_EQ(differ, 0u);
 }
 
 TEST(Maps, HillshadeIsBrightOnSlopesFacingTheLight) {

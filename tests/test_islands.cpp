@@ -18,7 +18,7 @@
 #include "biomes.hpp"
 #include "climate.hpp"
 #include "features.hpp"
-#include "hillshade.hpp"
+#include "surface.hpp"
 #include "relief/error.hpp"
 #include "relief/output.hpp"
 #include "relief/pipeline.hpp"

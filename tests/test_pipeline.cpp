@@ -13,6 +13,7 @@
 
 #include "relief/pipeline.hpp"
 #include "relief/recipe.hpp"
+#include "relief/stage.hpp"
 
 using namespace relief;
 
@@ -250,5 +251,109 @@ TEST(PresetClaims, DesertIsDryAndHasAlmostNoWater) {
     EXPECT_GT(red / n, blue / n + 0.15) << "seed " << seed;
     EXPECT_GT(red / n, green / n) << "seed " << seed;
     EXPECT_LT(s.mean_blue_excess, 0.0);
+  }
+}
+
+// ======================================================= locality: windows grow by the halo
+
+namespace {
+
+// Neighbourhood stages (slope, colour with its rock rule and speckle, hillshade, thermal erosion)
+// after pointwise noise, on a 65² world of 62.5 m cells: steep enough for rock and for thermal
+// erosion to move material.
+Recipe neighbourhood_recipe(double thermal_m) {
+  json doc = {{"seed", 11},
+              {"world", {{"size", 65}, {"width_m", 4000}, {"height_m", 900}, {"sea_level", 0.35}}},
+              {"stages",
+               {{{"stage", "noise"}, {"octaves", 5}, {"frequency", 4.0}, {"amplitude", 1.0}},
+                {{"stage", "thermal"}, {"talus_deg", 20.0}, {"distance_m", thermal_m}},
+                {{"stage", "slope"}},
+                {{"stage", "color"}, {"variation", 0.1}, {"rock_slope_deg", 25.0}, {"rock_blend_deg", 5.0}},
+                {{"stage", "hillshade"}}}}};
+  return parse_recipe(doc);
+}
+
+// Number of samples of every layer of `part` (a window at (ix0, iz0)) that differ from `whole`.
+std::size_t window_mismatches(const Terrain& whole, const Terrain& part, const std::string& where) {
+  const Frame &w = whole.frame, &p = part.frame;
+  std::size_t bad = 0;
+  EXPECT_EQ(part.layers.size(), whole.layers.size()) << where;
+  for (const auto& [name, l] : part.layers) {
+    const Layer& lw = whole.get(name);
+    EXPECT_EQ(l.data.size(), p.count() * std::size_t(l.channels)) << where << " " << name;
+    std::size_t here = 0;
+    for (int j = 0; j < p.nz; ++j)
+      for (int i = 0; i < p.nx; ++i)
+        for (int c = 0; c < l.channels; ++c) {
+          const std::size_t a = (std::size_t(j) * p.nx + i) * l.channels + c;
+          const std::size_t b = (std::size_t(p.iz0 - w.iz0 + j) * w.nx + std::size_t(p.ix0 - w.ix0 + i)) * l.channels + c;
+          here += std::memcmp(&l.data[a], &lw.data[b], sizeof(float)) != 0;
+        }
+    EXPECT_EQ(here, 0u) << where << " layer " << name;
+    bad += here;
+  }
+  return bad;
+}
+
+}  // namespace
+
+TEST(Locality, FourWindowsOfNeighbourhoodStagesEqualTheWholeMap) {
+  const Recipe r = neighbourhood_recipe(150.0);  // 3 iterations: a halo of 6 samples
+  const Frame world = r.world.frame();
+  const RunResult whole = run(r);
+  // The stages did something worth comparing: rock, thermal moves, shading.
+  ASSERT_TRUE(whole.terrain.has("slope_deg") && whole.terrain.has("albedo") && whole.terrain.has("shade"));
+  // Four windows sharing their borders (each touches two world edges), and one in the interior.
+  for (int wz = 0; wz < 2; ++wz)
+    for (int wx = 0; wx < 2; ++wx) {
+      RunOptions o;
+      o.window = world.window(wx * 32, wz * 32, 33, 33);
+      const RunResult part = run(r, o);
+      ASSERT_TRUE(part.terrain.frame.ix0 == wx * 32 && part.terrain.frame.nx == 33 && part.terrain.frame.nz == 33);
+      window_mismatches(whole.terrain, part.terrain, "window " + std::to_string(wx) + "," + std::to_string(wz));
+    }
+  RunOptions o;
+  o.window = world.window(21, 17, 19, 23);
+  window_mismatches(whole.terrain, run(r, o).terrain, "interior window");
+}
+
+TEST(Locality, ThermalHaloGrowsWithItsDistance) {
+  const Recipe r = neighbourhood_recipe(400.0);  // 7 iterations: 14 samples
+  const Frame f = r.world.frame();
+  EXPECT_EQ(r.stages[1].stage->reach(f).halo, 14);
+  EXPECT_EQ(r.stages[1].stage->reach(f).locality, Locality::Neighbourhood);
+  EXPECT_EQ(r.stages[2].stage->reach(f).halo, 1);
+  RunOptions o;
+  o.window = f.window(20, 24, 17, 9);
+  window_mismatches(run(r).terrain, run(r, o).terrain, "thermal 400 m");
+}
+
+TEST(Locality, GlobalStageOnAWindowIsRefusedWithItsPath) {
+  json doc = {{"seed", 3},
+              {"world", {{"size", 33}}},
+              {"stages", {{{"stage", "noise"}}, {{"stage", "slope"}}, {{"stage", "flow"}}, {{"stage", "hillshade"}}}}};
+  const Recipe r = parse_recipe(doc);
+  RunOptions o;
+  o.window = r.world.frame().window(0, 0, 17, 17);
+  try {
+    run(r, o);
+    FAIL() << "a global stage ran on a window";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.path(), "stages[2]");
+    EXPECT_NE(std::string(e.what()).find("'flow' needs the whole map"), std::string::npos) << e.what();
+    EXPECT_NE(std::string(e.what()).find("drainage"), std::string::npos) << e.what();
+  }
+  // The whole world given as a window is not a window.
+  o.window = r.world.frame();
+  EXPECT_NO_THROW(run(r, o));
+  // Per-map normalisation is global too, whatever the stage's declared reach.
+  doc["stages"] = {{{"stage", "noise"}}, {{"stage", "color"}, {"relative_to_max", true}}};
+  o.window = r.world.frame().window(8, 8, 9, 9);
+  try {
+    run(parse_recipe(doc), o);
+    FAIL() << "colour relative to the map's maximum ran on a window";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.path(), "stages[1]");
+    EXPECT_NE(std::string(e.what()).find("highest sample"), std::string::npos) << e.what();
   }
 }

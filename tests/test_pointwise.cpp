@@ -14,7 +14,7 @@
 #include <string>
 #include <vector>
 
-#include "hillshade.hpp"
+#include "surface.hpp"
 #include "pointwise.hpp"
 #include "relief/stage.hpp"
 #include "relief/terrain.hpp"
@@ -535,7 +535,7 @@ TEST(Hillshade, AgreesWithTheDoubleReferenceIncludingBorders) {
       const relief::Layer& h = t.get("height");
       const relief::Layer& albedo = t.get("albedo");
       relief::Layer shade, color;
-      relief::detail::hillshade(fr, h, &albedo, light, &shade, color);
+      relief::detail::hillshade(fr, h, &albedo, light, &shade, &color);
       const double az = light.azimuth_deg * std::numbers::pi / 180, alt = light.altitude_deg * std::numbers::pi / 180;
       const double lx = std::cos(alt) * std::sin(az), ly = std::sin(alt), lz = -std::cos(alt) * std::cos(az);
       const double flat = light.ambient + (1.0 - light.ambient) * ly;
@@ -562,7 +562,7 @@ TEST(Hillshade, StageIsTheSharedImplementation) {
   run("color", json::object(), t);
   run("hillshade", {{"azimuth_deg", 315.0}, {"altitude_deg", 45.0}, {"z_factor", 1.0}, {"ambient", 0.2}, {"water_relief", 0.3}}, t);
   relief::Layer shade, color;
-  relief::detail::hillshade(t.frame, t.get("height"), &t.get("albedo"), relief::detail::Light{}, &shade, color);
+  relief::detail::hillshade(t.frame, t.get("height"), &t.get("albedo"), relief::detail::Light{}, &shade, &color);
   EXPECT_EQ(shade.data, t.get("shade").data);
   EXPECT_EQ(color.data, t.get("color").data);
 }

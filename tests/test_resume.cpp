@@ -56,6 +56,40 @@ TEST(Resume, FromEverySnapshotEqualsTheFullRun) {
   }
 }
 
+// The studio's cache: snapshots where fused chains end, so the cached run keeps fusion. The island
+// preset is noise, island, redistribute (one fused chain), then color and hillshade.
+TEST(Resume, SnapshotsAtChainEndsKeepFusion) {
+  const Recipe r = parse_recipe(island_doc());
+  const RunResult full = run(r);
+  std::vector<int> at;
+  std::vector<Terrain> snaps;
+  RunOptions opt;
+  opt.after_stage_keeps_fusion = true;
+  opt.after_stage = [&](const Terrain& t, const RecipeStage&, int i) {
+    at.push_back(i);
+    snaps.push_back(t);
+  };
+  const RunResult res = run(r, opt);
+  expect_same_terrain(full.terrain, res.terrain);
+  ASSERT_EQ(r.stages.size(), 5u);
+  EXPECT_EQ(at, (std::vector<int>{2, 3, 4}));  // the chain [0, 3) ends at 2
+  ASSERT_EQ(res.timings.size(), 5u);
+  EXPECT_TRUE(res.timings[1].fused && res.timings[2].fused);  // fusion stayed on
+  for (std::size_t k = 0; k < at.size(); ++k) {
+    RunOptions o;
+    o.resume = Resume{&snaps[k], at[k] + 1};
+    SCOPED_TRACE("resumed after stage " + std::to_string(at[k]));
+    expect_same_terrain(full.terrain, run(r, o).terrain);
+  }
+  // Without the flag, after_stage sees every stage and fusion is off.
+  RunOptions plain;
+  at.clear();
+  plain.after_stage = [&](const Terrain&, const RecipeStage&, int i) { at.push_back(i); };
+  const RunResult unfused = run(r, plain);
+  EXPECT_EQ(at, (std::vector<int>{0, 1, 2, 3, 4}));
+  EXPECT_FALSE(unfused.timings[1].fused);
+}
+
 TEST(Resume, ColourChangeReusesTheHeightsOfTheOldRecipe) {
   // The studio's case: only the colour stage's params change, so the snapshot taken before it by
   // the old recipe is a valid start for the new one.

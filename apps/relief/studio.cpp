@@ -6,6 +6,10 @@
 //     resolved params), key_{−1} = H(seed, frame). A request resumes the pipeline from the
 //     deepest cached key (RunOptions::resume), so moving a colour slider re-runs only the stages
 //     from the colour stage on, and moving nothing re-runs nothing. LRU, bounded in bytes.
+//     Snapshots are taken where a chain of fused row stages ends (RunOptions::
+//     after_stage_keeps_fusion), so a cached run keeps fusion: a change inside a chain re-runs the
+//     chain from its first stage. The stage strip (/api/steps) needs every stage's own output and
+//     runs unfused.
 //   * Superseding: each client (header X-Relief-Client) has a counter; a request takes the next
 //     value and checks it before every stage (RunOptions::cancelled). A newer request makes the
 //     older one stop at the next stage boundary and answer 409. Per client, runs are serialised.
@@ -427,6 +431,7 @@ Studio::Generated Studio::generate(const Recipe& r, const Frame& f, const std::f
   opt.threads = s_.threads;
   opt.window = f;
   opt.cancelled = cancelled;
+  opt.after_stage_keeps_fusion = !all_snapshots;
   if (first > 0) opt.resume = Resume{g.snaps[std::size_t(first - 1)].terrain.get(), first};
   const bool keep = all_snapshots;
   std::vector<double> ms(std::size_t(n), 0.0);
@@ -444,6 +449,8 @@ Studio::Generated Studio::generate(const Recipe& r, const Frame& f, const std::f
   if (first < n || n == 0) {
     stage_t0 = Clock::now();
     RunResult res = run(r, opt);
+    // A fused chain's time is on its first stage, 0 on the others (as in the CLI's report).
+    for (std::size_t k = 0; k < res.timings.size() && first + int(k) < n; ++k) ms[std::size_t(first) + k] = res.timings[k].ms;
     Snapshot last{std::make_shared<const Terrain>(std::move(res.terrain)), n ? ms[std::size_t(n - 1)] : 0.0};
     if (n == 0) {
       g.snaps.push_back(std::move(last));

@@ -40,16 +40,27 @@ struct Resume {
 
 struct RunOptions {
   int threads = 0;  // 0 = all hardware threads; results are identical for any count
-  // Optional window of the world (default: the whole world of the recipe). Pointwise stages
-  // give identical samples wherever a window falls, so windows tile seamlessly.
+  // Optional window of the world (default: the whole world of the recipe). Locality is enforced
+  // (Stage::reach, stage.hpp): a window that is not the whole world on its grid (the world's
+  // samples are world_width_m / spacing_m + 1 by world_depth_m / spacing_m + 1) is refused if a
+  // stage is global (relief::Error naming `stages[i]` and why), and is computed on the window grown
+  // by the sum of the stages' halos — each side grows while inside the world and stops at its edge
+  // — then cropped. So every layer of a windowed run holds exactly the bits of the same samples of
+  // a whole-map run, and windows tile seamlessly. after_stage and resume snapshots of a windowed
+  // run cover the grown window (the result alone is cropped).
   std::optional<Frame> window;
   std::function<void(std::string_view stage, double fraction)> progress;
   // Called after each stage with a read-only view (the studio's and `--steps` stage strips).
-  // Setting it turns fusion off, so that every stage's own output can be seen.
+  // Setting it turns fusion off, so that every stage's own output can be seen — unless
+  // after_stage_keeps_fusion is set: then it is called only where a fused chain ends (after the
+  // chain's last stage, with that stage's index) and after every stage outside a chain, and fusion
+  // stays on (the studio's stage cache, which keeps snapshots at those boundaries).
   std::function<void(const Terrain&, const RecipeStage&, int index)> after_stage;
+  bool after_stage_keeps_fusion = false;
   // Fusion: consecutive fusable stages (Stage::fusable — noise, island, redistribute, terrace,
   // curve) run in one pass over the rows, each row going through the whole chain while it is in
-  // cache. The bytes are identical with and without fusion; off when after_stage is set.
+  // cache. The bytes are identical with and without fusion; off when after_stage is set (unless
+  // after_stage_keeps_fusion).
   bool fuse = true;
   // Optional: a previous result's terrain whose buffers the new run may reuse (its layers are moved
   // into the new terrain's spare buffers; it is left without layers). Saves the page faults of
@@ -73,7 +84,8 @@ struct RunResult {
 // does), used to refuse sizes the machine cannot hold: the layers its stages leave (height, biome,
 // climate, offset, water, colour, …), the largest stage scratch or encoder buffers (heightmap,
 // colour PNGs, the OBJ text when with_mesh, the tilemap render), and the program itself.
-// tests/test_cli.cpp holds it within a factor of 2 of the measured peak for several presets.
+// The per-stage part comes from each stage's declaration (StageDef::memory, stage.hpp).
+// tests/test_memory.cpp holds it within a factor of 2 of the measured peak for several presets.
 std::uint64_t estimate_memory_bytes(const Recipe& r, bool with_mesh);
 // Physical memory of this machine in bytes (0 if unknown).
 std::uint64_t physical_memory_bytes();
