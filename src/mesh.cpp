@@ -325,7 +325,7 @@ const Vec3 kBark{0.36, 0.25, 0.16}, kLeaf{0.23, 0.50, 0.18}, kNeedle{0.12, 0.34,
 }  // namespace
 
 const std::vector<std::string>& prop_types() {
-  static const std::vector<std::string> t = {"tree", "pine", "bush", "rock", "cactus", "mushroom"};
+  static const std::vector<std::string> t = {"tree", "pine", "bush", "rock", "cactus", "mushroom", "palm"};
   return t;
 }
 
@@ -349,6 +349,11 @@ MeshData prop_mesh(const std::string& type) {
     b.frustum({0.7, 1.45, 0}, 1.5, 0.19, 0.15, 6, kCactus);
     b.box({-0.8, 2.05, -0.13}, {-0.2, 2.3, 0.13}, kCactus);  // left elbow
     b.frustum({-0.68, 2.05, 0}, 1.1, 0.17, 0.13, 6, kCactus);
+  } else if (type == "palm") {  // leaning trunk in three tapering pieces and a flat crown of fronds, 8 m
+    b.frustum({0, 0, 0}, 2.6, 0.26, 0.21, 6, kBark);
+    b.frustum({0.25, 2.5, 0}, 2.5, 0.21, 0.17, 6, kBark);
+    b.frustum({0.7, 4.9, 0}, 2.3, 0.17, 0.14, 6, kBark);
+    b.ico({1.05, 7.3, 0}, 2.4, {1.0, 0.28, 1.0}, kLeaf, 0.2, 41);
   } else if (type == "mushroom") {  // 0.5 m
     b.frustum({0, 0, 0}, 0.32, 0.07, 0.06, 6, kStem);
     b.frustum({0, 0.28, 0}, 0.22, 0.28, 0, 8, kCap);

@@ -215,3 +215,17 @@ TEST(Generate, AGivenTerrainIsWrittenWithoutRunningTheStages) {
   s.recipe = small("island", 65);
   EXPECT_NE(error_of([&] { generate(s, given); }).find("world: the terrain given"), std::string::npos);
 }
+
+// Every prop type a built-in preset places has a model, so every preset exports every mesh format
+// (the archipelago's palms made --formats all fail before).
+TEST(Generate, EveryPresetExportsEveryMeshFormat) {
+  for (const PresetInfo& p : list_presets()) {
+    if (p.origin != "built-in") continue;
+    GenerateSettings s;
+    s.recipe = small(p.name, 65);
+    s.formats = "glb,fbx,obj";
+    MemoryOutput mem;
+    EXPECT_NO_THROW(generate(s, mem)) << p.name;
+    EXPECT_TRUE(mem.files.count("terrain.glb")) << p.name;
+  }
+}

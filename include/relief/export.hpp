@@ -125,7 +125,7 @@ std::vector<TerrainChunk> build_terrain_chunks(const Terrain& t, const ExportOpt
 std::vector<std::vector<TerrainChunk>> build_terrain_lod_chain(const Terrain& t, const ExportOptions& o, int levels);
 
 // Prop models: low-poly, flat-shaded, vertex-coloured, base at y = 0, metres at scale 1.
-const std::vector<std::string>& prop_types();  // tree, pine, bush, rock, cactus, mushroom
+const std::vector<std::string>& prop_types();  // tree, pine, bush, rock, cactus, mushroom, palm
 MeshData prop_mesh(const std::string& type);   // throws Error("points", …) for an unknown type
 // The terrain's props (points of kind "prop"), in order. Throws Error("points[k].type") for a type
 // prop_mesh does not know.
