@@ -602,13 +602,13 @@ TEST(Props, EveryTypeIsALowPolyModelStandingOnTheGround) {
       EXPECT_GT(nx * m.normals[9 * k] + ny * m.normals[9 * k + 1] + nz * m.normals[9 * k + 2], 0) << type << " " << k;
     }
   }
-  EXPECT_THROW(prop_mesh("palm"), Error);
+  EXPECT_THROW(prop_mesh("baobab"), Error);
 }
 
 TEST(Props, UnknownTypeOrBadScaleNamesThePoint) {
   Terrain t = terrain(5, 5);
   add_props(t);
-  t.points[1].type = "palm";
+  t.points[1].type = "baobab";
   try {
     terrain_props(t);
     ADD_FAILURE();
