@@ -29,10 +29,6 @@
 #include "relief/recipe.hpp"
 #include "writers_export.hpp"
 
-#ifndef RELIEF_SYSTEM_PYTHON
-#define RELIEF_SYSTEM_PYTHON "/usr/bin/python3"
-#endif
-
 namespace fs = std::filesystem;
 using namespace relief;
 

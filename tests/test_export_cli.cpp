@@ -22,12 +22,9 @@ namespace {
 using Result = relief::test::Shell;
 using relief::test::slurp;
 
-// Runs the relief binary with `args`.
-Result cli(const std::string& args) { return relief::test::sh(std::string(RELIEF_BINARY) + " " + args); }
+Result cli(const std::string& args) { return relief::test::relief_cli(args); }
 
-struct TempDir : relief::test::TempDir {
-  TempDir() : relief::test::TempDir("relief-export-cli") {}
-};
+using relief::test::TempDir;
 void expect_bad(const std::string& args, const std::string& prefix) {
   const Result r = cli(args);
   EXPECT_EQ(r.code, 2) << args << "\n" << r.out;

@@ -19,26 +19,18 @@
 #include "noise_simd.hpp"
 #include "relief/noise.hpp"
 #include "relief/random.hpp"
+#include "support.hpp"
 
 namespace relief {
 namespace {
 
-const NoiseBasis kBases[] = {NoiseBasis::Perlin, NoiseBasis::Simplex, NoiseBasis::Value, NoiseBasis::Cellular,
-                             NoiseBasis::Gradient};
+using test::fnv1a;
+using test::same_bits;
+constexpr auto& kBases = test::kAllBases;
+constexpr auto& kReturns = test::kAllReturns;
+constexpr auto name = test::basis_name;
 const Fractal kFractals[] = {Fractal::None, Fractal::Fbm, Fractal::Ridged, Fractal::Billow};
-const CellularReturn kReturns[] = {CellularReturn::F1, CellularReturn::F2, CellularReturn::F2MinusF1,
-                                   CellularReturn::CellValue};
 
-std::string name(NoiseBasis b) {
-  switch (b) {
-    case NoiseBasis::Perlin: return "perlin";
-    case NoiseBasis::Simplex: return "simplex";
-    case NoiseBasis::Value: return "value";
-    case NoiseBasis::Cellular: return "cellular";
-    case NoiseBasis::Gradient: return "gradient";
-  }
-  return "?";
-}
 
 // Restores automatic dispatch even when an assertion returns early.
 struct ForceTarget {
@@ -46,19 +38,7 @@ struct ForceTarget {
   ~ForceTarget() { detail::noise_simd_force_target(0); }
 };
 
-bool same_bits(const std::vector<float>& a, const std::vector<float>& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
-}
 
-std::uint64_t fnv1a(const std::vector<float>& v) {
-  std::uint64_t h = 0xcbf29ce484222325ull;
-  for (float f : v) {
-    std::uint32_t b;
-    std::memcpy(&b, &f, 4);
-    for (int k = 0; k < 4; ++k) h = (h ^ ((b >> (8 * k)) & 0xFF)) * 0x100000001b3ull;
-  }
-  return h;
-}
 
 struct RowCase {
   double z;
