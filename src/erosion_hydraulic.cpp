@@ -52,7 +52,7 @@
 #include <numbers>
 #include <vector>
 
-#include "erosion.hpp"
+#include "relief/erosion.hpp"
 #include "relief/error.hpp"
 #include "relief/random.hpp"
 

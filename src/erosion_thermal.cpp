@@ -36,7 +36,7 @@
 #include <memory>
 #include <numbers>
 
-#include "erosion.hpp"
+#include "relief/erosion.hpp"
 
 namespace relief::erosion::thermal_kernel {
 

@@ -18,7 +18,7 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "hydrology.hpp"
+#include "relief/hydrology.hpp"
 #include "parallel.hpp"
 
 namespace relief::hydro::d8_kernel {

@@ -13,8 +13,8 @@
 #include <functional>
 #include <vector>
 
-#include "erosion.hpp"
-#include "hydrology.hpp"
+#include "relief/erosion.hpp"
+#include "relief/hydrology.hpp"
 #include "noise_simd.hpp"
 #include "relief/pipeline.hpp"
 #include "relief/random.hpp"
