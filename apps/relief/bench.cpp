@@ -70,7 +70,7 @@ int run_bench(const BenchSettings& s) {
 
   for (const Group& g : kGroups)
     if (s.cases.empty() || std::find(s.cases.begin(), s.cases.end(), g.name) != s.cases.end()) g.run(s, entries);
-  std::printf("peak memory %.1f MiB\n", double(peak_rss()) / (1 << 20));
+  std::printf("peak memory %.1f MiB\n", double(peak_rss_bytes()) / (1 << 20));
   if (!s.json_path.empty()) {
     json doc;
     doc["runs"] = s.runs;
@@ -78,7 +78,7 @@ int run_bench(const BenchSettings& s) {
     doc["cpu"] = cpu;
     doc["simd_target"] = simd;
     doc["entries"] = entries;
-    doc["peak_memory_bytes"] = peak_rss();
+    doc["peak_memory_bytes"] = peak_rss_bytes();
     write_file_atomic(s.json_path, doc.dump(2) + "\n");
     std::printf("wrote %s\n", s.json_path.c_str());
   }

@@ -1,7 +1,6 @@
 #pragma once
 // Internal to `relief bench` (bench.cpp and the bench_*.cpp case groups): timing runs, the JSON
 // entry every case writes, and the row it prints. Only public headers of the library.
-#include <sys/resource.h>
 #include <tbb/blocked_range.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
@@ -16,6 +15,7 @@
 #include <vector>
 
 #include "bench.hpp"
+#include "relief/generate.hpp"
 #include "relief/pipeline.hpp"
 #include "relief/recipe.hpp"
 #include "relief/stage.hpp"
@@ -81,12 +81,6 @@ Sample time_runs(int runs, F&& f, S&& setup) {
 template <class F>
 Sample time_runs(int runs, F&& f) {
   return time_runs(runs, std::forward<F>(f), [] {});
-}
-
-inline std::uint64_t peak_rss() {
-  rusage u{};
-  getrusage(RUSAGE_SELF, &u);
-  return std::uint64_t(u.ru_maxrss) * 1024;
 }
 
 // Calls fn(j) for every row j in [0, rows) on the current task arena, in blocks of `grain` rows

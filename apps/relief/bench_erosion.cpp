@@ -20,7 +20,7 @@ void bench_erosion(const BenchSettings& s, json& entries) {
   auto record = [&](const std::string& name, int size, int threads, const Sample& t, json extra) {
     json e = timing_entry(name, size, size, threads, t);
     for (auto it = extra.begin(); it != extra.end(); ++it) e[it.key()] = it.value();
-    e["peak_memory_bytes"] = peak_rss();
+    e["peak_memory_bytes"] = peak_rss_bytes();
     print_row(e);
     entries.push_back(e);
   };

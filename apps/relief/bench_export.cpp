@@ -74,7 +74,7 @@ void bench_export(const BenchSettings& s, json& entries) {
       });
       json e = timing_entry("export " + c.name, size, size, threads, tm);
       e["bytes"] = bytes;
-      e["peak_memory_bytes"] = peak_rss();
+      e["peak_memory_bytes"] = peak_rss_bytes();
       std::printf("%-28s %6s %3d %10.1f %10.1f %10.1f %12llu\n", c.name.c_str(), (std::to_string(size) + "²").c_str(), threads,
                   tm.median, tm.min, tm.max, (unsigned long long)bytes);
       std::fflush(stdout);

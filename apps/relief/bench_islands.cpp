@@ -38,7 +38,7 @@ void bench_islands(const BenchSettings& s, json& entries) {
       line += buf;
     }
     e["stages"] = stages;
-    e["peak_memory_bytes"] = peak_rss();
+    e["peak_memory_bytes"] = peak_rss_bytes();
     print_row(e);
     std::printf("    stages (median ms, generation only): %s\n", line.c_str());
     entries.push_back(e);

@@ -112,7 +112,7 @@ void bench_noise(const BenchSettings& s, json& entries) {
         // The same ratio by CPU time per sample: robust when other processes share the cores.
         e["cpu_ratio"] = (pt.cpu_median / (double(pn) * pn)) / (t.cpu_median / (double(n) * n));
       }
-      e["peak_memory_bytes"] = peak_rss();
+      e["peak_memory_bytes"] = peak_rss_bytes();
       print_row(e);
       entries.push_back(e);
     }

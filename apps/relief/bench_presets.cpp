@@ -29,7 +29,7 @@ void bench_presets(const BenchSettings& s, json& entries) {
           generate(gs, mem);
         });
         json e = timing_entry("preset " + p.name + (size > 1025 ? " (no obj)" : ""), size, size, threads, t);
-        e["peak_memory_bytes"] = peak_rss();
+        e["peak_memory_bytes"] = peak_rss_bytes();
         print_row(e);
         entries.push_back(e);
       }

@@ -33,7 +33,7 @@ void bench_tilemap(const BenchSettings& s, json& entries) {
     auto stage = def->parse(doc["stages"].back(), "stages[5]");
     auto row = [&](const std::string& name, const Sample& t) {
       json e = timing_entry(name, 256, 256, threads, t);  // msamples_per_s: tiles per µs
-      e["peak_memory_bytes"] = peak_rss();
+      e["peak_memory_bytes"] = peak_rss_bytes();
       print_row(e);
       entries.push_back(e);
     };
