@@ -27,7 +27,7 @@
 #include "relief/pipeline.hpp"
 #include "relief/random.hpp"
 #include "relief/recipe.hpp"
-#include "writers_export.hpp"
+#include "writer_defs.hpp"
 
 namespace fs = std::filesystem;
 using namespace relief;
