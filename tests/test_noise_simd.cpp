@@ -167,6 +167,23 @@ TEST(SimdTargets, NonFiniteCoordinatesDoNotCrashAnyTarget) {
 
 // ---- Gradient: pinned output ------------------------------------------------------------------------
 
+// 64 × 64 samples 9.5 m apart around the origin, by the scalar reference and by the dispatched
+// path.
+struct PinnedGrid {
+  std::vector<float> ref, simd;
+};
+PinnedGrid pinned_grid(const Noise& n) {
+  PinnedGrid g;
+  for (int j = 0; j < 64; ++j) {
+    std::vector<float> a(64), b(64);
+    n.row_reference(j * 9.5, -32, 9.5, 64, a.data());
+    n.row(j * 9.5, -32, 9.5, 64, b.data());
+    g.ref.insert(g.ref.end(), a.begin(), a.end());
+    g.simd.insert(g.simd.end(), b.begin(), b.end());
+  }
+  return g;
+}
+
 TEST(Gradient, GoldenHashOnScalarReference) {
   // 64 × 64 samples of 6-octave fBm, seed 2024 (as the other bases' golden hashes in test_noise.cpp),
   // computed by the scalar reference; the dispatched path must give the same bytes.
@@ -175,14 +192,7 @@ TEST(Gradient, GoldenHashOnScalarReference) {
   s.frequency = 1.0 / 300.0;
   s.seed = 2024;
   const Noise n(s);
-  std::vector<float> ref, simd;
-  for (int j = 0; j < 64; ++j) {
-    std::vector<float> a(64), b(64);
-    n.row_reference(j * 9.5, -32, 9.5, 64, a.data());
-    n.row(j * 9.5, -32, 9.5, 64, b.data());
-    ref.insert(ref.end(), a.begin(), a.end());
-    simd.insert(simd.end(), b.begin(), b.end());
-  }
+  const auto [ref, simd] = pinned_grid(n);
   // Changed deliberately with the dyadic lattice (lacunarity 2: octaves ≥ 1 at 2ᵏ·u₀ + ½).
   EXPECT_EQ(fnv1a(ref), 14297808085583764422ull);
   EXPECT_TRUE(same_bits(ref, simd));
@@ -201,14 +211,7 @@ TEST(Gradient, RidgedGoldenHashesOnScalarReference) {
     s.frequency = 1.0 / 300.0;
     s.seed = 2024;
     const Noise n(s);
-    std::vector<float> ref, simd;
-    for (int j = 0; j < 64; ++j) {
-      std::vector<float> a(64), b(64);
-      n.row_reference(j * 9.5, -32, 9.5, 64, a.data());
-      n.row(j * 9.5, -32, 9.5, 64, b.data());
-      ref.insert(ref.end(), a.begin(), a.end());
-      simd.insert(simd.end(), b.begin(), b.end());
-    }
+    const auto [ref, simd] = pinned_grid(n);
     EXPECT_EQ(fnv1a(ref), golden) << "lacunarity " << lacunarity;
     EXPECT_TRUE(same_bits(ref, simd)) << "lacunarity " << lacunarity;
   }

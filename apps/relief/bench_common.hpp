@@ -92,6 +92,14 @@ void parallel_rows(int rows, F&& fn, int grain = 4) {
   });
 }
 
+// The named preset at size² samples, seed 1: the document every case group starts from.
+inline json preset_doc(const std::string& name, int size) {
+  json doc = load_preset(name);
+  doc["world"]["size"] = size;
+  doc["seed"] = 1;
+  return doc;
+}
+
 // Prints one entry as a row of the table (bench.cpp).
 void print_row(const json& e);
 

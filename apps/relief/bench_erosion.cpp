@@ -9,10 +9,8 @@ void bench_erosion(const BenchSettings& s, json& entries) {
   // Terrains: the island preset's fBm relief at the sizes, with the sea lowered so that
   // almost every droplet starts on land.
   auto terrain = [](int size) {
-    json doc = load_preset("island");
-    doc["world"]["size"] = size;
+    json doc = preset_doc("island", size);
     doc["world"]["sea_level"] = 0.05;
-    doc["seed"] = 1;
     doc["stages"] = json::array({doc["stages"][0], doc["stages"][1]});
     RunOptions o;
     return run(parse_recipe(doc), o).terrain;

@@ -16,9 +16,7 @@ void bench_export(const BenchSettings& s, json& entries) {
   tbb::task_arena arena(threads);
   std::printf("\n%-28s %6s %3s %10s %10s %10s %12s\n", "export case", "size", "thr", "median ms", "min ms", "max ms", "bytes");
   for (int size : s.preset_sizes) {
-    json doc = load_preset("island");
-    doc["world"]["size"] = size;
-    doc["seed"] = 1;
+    json doc = preset_doc("island", size);
     RunOptions o;
     o.threads = threads;
     RunResult res = run(parse_recipe(doc), o);

@@ -7,10 +7,7 @@ namespace relief::cli {
 void bench_islands(const BenchSettings& s, json& entries) {
   // The island systems: volcanic-island at 1025² (whole pipeline and every writer that applies,
   // OBJ included), with the median time of each stage.
-  json doc = load_preset("volcanic-island");
-  doc["world"]["size"] = 1025;
-  doc["seed"] = 1;
-  const Recipe r = parse_recipe(doc);
+  const Recipe r = parse_recipe(preset_doc("volcanic-island", 1025));
   for (int threads : s.threads) {
     RunOptions o;
     o.threads = threads;

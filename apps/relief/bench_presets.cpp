@@ -9,10 +9,7 @@ void bench_presets(const BenchSettings& s, json& entries) {
   for (int size : s.preset_sizes) {
     for (auto& p : list_presets()) {
       if (p.origin != "built-in") continue;
-      json doc = load_preset(p.name);
-      doc["world"]["size"] = size;
-      doc["seed"] = 1;
-      Recipe r = parse_recipe(doc);
+      Recipe r = parse_recipe(preset_doc(p.name, size));
       for (int threads : s.threads) {
         RunOptions o;
         o.threads = threads;

@@ -8,10 +8,7 @@ void bench_regenerate(const BenchSettings& s, json& entries) {
   // writers, handing the previous result back for its buffers (RunOptions::recycle). Target
   // ≤ 15 ms. Also without recycling (fresh allocations) and without fusion, for comparison. The
   // per-stage medians show where the time goes (a fused chain's time sits on its first stage).
-  json doc = load_preset("island");
-  doc["world"]["size"] = 513;
-  doc["seed"] = 1;
-  const Recipe r = parse_recipe(doc);
+  const Recipe r = parse_recipe(preset_doc("island", 513));
   struct Variant {
     const char* name;
     bool recycle, fuse;

@@ -9,9 +9,7 @@ void bench_tilemap(const BenchSettings& s, json& entries) {
   // A 256×256-tile map with k = 5 types and 32 px tiles over the island preset at 1025² (4
   // height samples per tile): the stage (corner classification + tile choice), the atlas, the
   // Tiled/CSV exports, the 8192² map render with its PNG, and all of it end to end.
-  json doc = load_preset("island");
-  doc["world"]["size"] = 1025;
-  doc["seed"] = 1;
+  json doc = preset_doc("island", 1025);
   doc["stages"].push_back({{"stage", "tilemap"},
                            {"tiles_x", 256},
                            {"tiles_z", 256},
