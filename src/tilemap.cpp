@@ -621,12 +621,9 @@ std::string encode_tile_csv(const TileMap& m) {
 }
 
 std::vector<Level> default_tile_types() {
-  auto hex = [](std::uint32_t v) {
-    return Rgb{float((v >> 16) & 255) / 255.0f, float((v >> 8) & 255) / 255.0f, float(v & 255) / 255.0f};
-  };
   return {
-      {0.30, hex(0x1d4877), "deep water"}, {0.40, hex(0x3a7cb8), "water"},  {0.43, hex(0xd8c88e), "sand"},
-      {0.58, hex(0x6b9b45), "grass"},      {0.74, hex(0x3c6b32), "forest"}, {1.00, hex(0x8a8178), "rock"},
+      {0.30, rgb_hex(0x1d4877), "deep water"}, {0.40, rgb_hex(0x3a7cb8), "water"},  {0.43, rgb_hex(0xd8c88e), "sand"},
+      {0.58, rgb_hex(0x6b9b45), "grass"},      {0.74, rgb_hex(0x3c6b32), "forest"}, {1.00, rgb_hex(0x8a8178), "rock"},
   };
 }
 

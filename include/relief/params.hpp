@@ -34,6 +34,10 @@ struct Rgb {
   float r = 0, g = 0, b = 0;  // 0..1
   bool operator==(const Rgb&) const = default;
 };
+// 0xRRGGBB as an Rgb, each channel / 255 (the colour tables of the stages).
+constexpr Rgb rgb_hex(std::uint32_t v) {
+  return Rgb{float((v >> 16) & 255) / 255.0f, float((v >> 8) & 255) / 255.0f, float(v & 255) / 255.0f};
+}
 // A colour level: elevation (or other value) threshold and its colour. Optional texture image:
 // a PNG file (path relative to the working directory) tiled every `tile_m` metres in world x/z,
 // used instead of the flat colour; a missing or undecodable file is an Error naming the level.
