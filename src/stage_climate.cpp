@@ -32,14 +32,8 @@ namespace detail {
 
 namespace {
 ClimateBiome row(const char* name, std::uint32_t color, double t0, double t1, double m0, double m1) {
-  ClimateBiome b;
-  b.name = name;
-  b.color = rgb_hex(color);
-  b.temperature_min = t0;
-  b.temperature_max = t1;
-  b.moisture_min = m0;
-  b.moisture_max = m1;
-  return b;
+  return {.name = name, .color = rgb_hex(color), .temperature_min = t0, .temperature_max = t1, .moisture_min = m0,
+          .moisture_max = m1};
 }
 
 // 1-D squared distance transform of f (Felzenszwalb & Huttenlocher, Algorithm 1), in double
