@@ -45,6 +45,13 @@ inline Shell sh(const std::string& cmd) {
 // Runs the relief binary under test (RELIEF_BINARY, set by tests/CMakeLists.txt) with `args`.
 inline Shell relief_cli(const std::string& args) { return sh(std::string(RELIEF_BINARY) + " " + args); }
 
+// Runs relief with `args` and expects the bad-input exit code (2) with `needle` in what it printed.
+inline void expect_cli_error(const std::string& args, const std::string& needle) {
+  const Shell r = relief_cli(args);
+  EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
+  EXPECT_NE(r.out.find(needle), std::string::npos) << args << "\nexpected to find: " << needle << "\ngot: " << r.out;
+}
+
 // The whole file as bytes ("" if it cannot be read).
 inline std::string slurp(const std::filesystem::path& p) {
   std::ifstream f(p, std::ios::binary);

@@ -27,11 +27,7 @@ Result cli(const std::string& args) { return relief::test::relief_cli(args); }
 
 using relief::test::TempDir;
 
-void expect_bad_input(const std::string& args, const std::string& needle) {
-  Result r = cli(args);
-  EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
-  EXPECT_NE(r.out.find(needle), std::string::npos) << args << "\nexpected to find: " << needle << "\ngot: " << r.out;
-}
+constexpr auto expect_bad_input = relief::test::expect_cli_error;
 
 }  // namespace
 
