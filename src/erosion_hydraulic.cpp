@@ -52,7 +52,7 @@
 #include <numbers>
 #include <vector>
 
-#include "erosion.hpp"
+#include "relief/erosion.hpp"
 #include "relief/error.hpp"
 #include "relief/random.hpp"
 
@@ -109,20 +109,10 @@ inline void start_position(const Kernel& k, std::uint32_t id, float& px, float& 
 #endif  // RELIEF_EROSION_HYDRAULIC_SHARED
 
 // ---- the per-target droplet kernels ------------------------------------------------------------
-#ifndef HWY_DISABLED_TARGETS
-#define HWY_DISABLED_TARGETS HWY_SSSE3  // as noise_simd.cpp: the same target list
-#endif
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "erosion_hydraulic.cpp"
-#include <hwy/foreach_target.h>  // IWYU pragma: keep
+#include "hwy_kernels.hpp"  // the target list, foreach_target.h, highway.h, no FP contraction
 #include <hwy/aligned_allocator.h>
-#include <hwy/highway.h>
-
-#if defined(__clang__)
-#pragma STDC FP_CONTRACT OFF
-#elif defined(__GNUC__)
-#pragma GCC optimize("fp-contract=off")
-#endif
 
 HWY_BEFORE_NAMESPACE();
 namespace relief::erosion::kernel {

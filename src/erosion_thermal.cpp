@@ -36,7 +36,7 @@
 #include <memory>
 #include <numbers>
 
-#include "erosion.hpp"
+#include "relief/erosion.hpp"
 
 namespace relief::erosion::thermal_kernel {
 
@@ -69,19 +69,9 @@ inline float gather_cell(float h, float o, float l, float r, float u, float d, f
 #endif  // RELIEF_EROSION_THERMAL_SHARED
 
 // ---- the per-target row kernels ------------------------------------------------------------------
-#ifndef HWY_DISABLED_TARGETS
-#define HWY_DISABLED_TARGETS HWY_SSSE3  // as noise_simd.cpp: the same target list
-#endif
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "erosion_thermal.cpp"
-#include <hwy/foreach_target.h>  // IWYU pragma: keep
-#include <hwy/highway.h>
-
-#if defined(__clang__)
-#pragma STDC FP_CONTRACT OFF
-#elif defined(__GNUC__)
-#pragma GCC optimize("fp-contract=off")
-#endif
+#include "hwy_kernels.hpp"  // the target list, foreach_target.h, highway.h, no FP contraction
 
 HWY_BEFORE_NAMESPACE();
 namespace relief::erosion::thermal_kernel {

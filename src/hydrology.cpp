@@ -15,7 +15,7 @@
 //     a monotone integer queue keyed on the order-preserving bits of the float replaces the binary
 //     heap.
 //   * A. B. Kahn, "Topological sorting of large networks", CACM 5(11), 1962.
-#include "hydrology.hpp"
+#include "relief/hydrology.hpp"
 
 #include <cmath>
 #include <cstring>

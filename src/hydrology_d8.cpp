@@ -18,7 +18,7 @@
 #include <cstddef>
 #include <cstdint>
 
-#include "hydrology.hpp"
+#include "relief/hydrology.hpp"
 #include "parallel.hpp"
 
 namespace relief::hydro::d8_kernel {
@@ -42,19 +42,9 @@ inline std::uint8_t direction(const T* z, std::size_t c, const std::ptrdiff_t* o
 }  // namespace relief::hydro::d8_kernel
 #endif  // RELIEF_HYDROLOGY_D8_SHARED
 
-#ifndef HWY_DISABLED_TARGETS
-#define HWY_DISABLED_TARGETS HWY_SSSE3  // as noise_simd.cpp: the same target list
-#endif
 #undef HWY_TARGET_INCLUDE
 #define HWY_TARGET_INCLUDE "hydrology_d8.cpp"
-#include <hwy/foreach_target.h>  // IWYU pragma: keep
-#include <hwy/highway.h>
-
-#if defined(__clang__)
-#pragma STDC FP_CONTRACT OFF
-#elif defined(__GNUC__)
-#pragma GCC optimize("fp-contract=off")
-#endif
+#include "hwy_kernels.hpp"  // the target list, foreach_target.h, highway.h, no FP contraction
 
 HWY_BEFORE_NAMESPACE();
 namespace relief::hydro::d8_kernel {

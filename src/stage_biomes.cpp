@@ -44,14 +44,10 @@ namespace relief {
 namespace detail {
 namespace {
 
-constexpr Rgb hex(std::uint32_t v) {
-  return Rgb{float((v >> 16) & 255) / 255.0f, float((v >> 8) & 255) / 255.0f, float(v & 255) / 255.0f};
-}
-
 Level lv(double at, std::uint32_t color) {
   Level l;
   l.at = at;
-  l.color = hex(color);
+  l.color = rgb_hex(color);
   return l;
 }
 

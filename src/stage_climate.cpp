@@ -31,18 +31,9 @@ namespace relief {
 namespace detail {
 
 namespace {
-constexpr Rgb hex(std::uint32_t v) {
-  return Rgb{float((v >> 16) & 255) / 255.0f, float((v >> 8) & 255) / 255.0f, float(v & 255) / 255.0f};
-}
 ClimateBiome row(const char* name, std::uint32_t color, double t0, double t1, double m0, double m1) {
-  ClimateBiome b;
-  b.name = name;
-  b.color = hex(color);
-  b.temperature_min = t0;
-  b.temperature_max = t1;
-  b.moisture_min = m0;
-  b.moisture_max = m1;
-  return b;
+  return {.name = name, .color = rgb_hex(color), .temperature_min = t0, .temperature_max = t1, .moisture_min = m0,
+          .moisture_max = m1};
 }
 
 // 1-D squared distance transform of f (Felzenszwalb & Huttenlocher, Algorithm 1), in double

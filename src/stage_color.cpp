@@ -38,10 +38,6 @@ namespace {
 
 constexpr double kDeg = 180.0 / std::numbers::pi;
 
-constexpr Rgb hex(std::uint32_t v) {
-  return Rgb{float((v >> 16) & 255) / 255.0f, float((v >> 8) & 255) / 255.0f, float(v & 255) / 255.0f};
-}
-
 double smoothstep01(double s) {
   s = std::clamp(s, 0.0, 1.0);
   return s * s * (3.0 - 2.0 * s);
@@ -92,22 +88,14 @@ void apply_slope(Terrain& t, const SlopeParams& p, const Context&) {
 
 // ======================================================================================= color
 
-Level level(double at, Rgb color, const char* name) {
-  Level l;
-  l.at = at;
-  l.color = color;
-  l.name = name;
-  return l;
-}
-
 std::vector<Level> default_palette() {
   // Written for sea level 0.4 (detail::kReferenceSea): water below, beach just above it. With
   // sea_relative (the default) they follow the world's sea level.
   return {
-      level(0.30, hex(0x1d4877), "deep water"), level(0.40, hex(0x3a7cb8), "shallow water"),
-      level(0.43, hex(0xd8c88e), "sand"),       level(0.58, hex(0x6b9b45), "grass"),
-      level(0.72, hex(0x3c6b32), "forest"),     level(0.86, hex(0x7f746a), "rock"),
-      level(1.00, hex(0xf2f2f4), "snow"),
+      Level{0.30, rgb_hex(0x1d4877), "deep water"}, Level{0.40, rgb_hex(0x3a7cb8), "shallow water"},
+      Level{0.43, rgb_hex(0xd8c88e), "sand"},       Level{0.58, rgb_hex(0x6b9b45), "grass"},
+      Level{0.72, rgb_hex(0x3c6b32), "forest"},     Level{0.86, rgb_hex(0x7f746a), "rock"},
+      Level{1.00, rgb_hex(0xf2f2f4), "snow"},
   };
 }
 
@@ -118,14 +106,14 @@ struct ColorParams {
   ColorMode mode = ColorMode::Bands;
   bool relative_to_max = false;
   bool sea_relative = true;
-  Rgb rock_color = hex(0x6f6861);
+  Rgb rock_color = rgb_hex(0x6f6861);
   double rock_slope_deg = 35.0;
   double rock_blend_deg = 5.0;
   double rock_min = 0.4;
   double rock_max = 0.9;
   double variation = 0.04;
   double variation_scale_m = 20.0;
-  Rgb water_color = hex(0x3f7fb5);
+  Rgb water_color = rgb_hex(0x3f7fb5);
 };
 
 // bands:    the colour of the first level with e ≤ at; above the last `at`, the last colour.

@@ -28,8 +28,8 @@
 #include <string>
 #include <vector>
 
-#include "erosion.hpp"
-#include "hydrology.hpp"
+#include "relief/erosion.hpp"
+#include "relief/hydrology.hpp"
 #include "parallel.hpp"
 #include "relief/error.hpp"
 #include "stages.hpp"

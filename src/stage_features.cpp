@@ -92,9 +92,6 @@ namespace {
 using detail::Circle;
 constexpr double kTau = 2.0 * std::numbers::pi;
 
-constexpr Rgb hex(std::uint32_t v) {
-  return Rgb{float((v >> 16) & 255) / 255.0f, float((v >> 8) & 255) / 255.0f, float(v & 255) / 255.0f};
-}
 double smoothstep01(double s) {
   s = std::clamp(s, 0.0, 1.0);
   return s * s * (3.0 - 2.0 * s);
@@ -143,10 +140,10 @@ struct VolcanoParams {
   int foundation_passes = 2;
   double crater_depth = 0.5;
   double lava_height = 0.35;
-  Rgb foundation_color = hex(0x7a5b40);
-  Rgb rock_color = hex(0x4f4540);
-  Rgb ash_color = hex(0x77706a);
-  Rgb lava_color = hex(0xff6a1a);
+  Rgb foundation_color = rgb_hex(0x7a5b40);
+  Rgb rock_color = rgb_hex(0x4f4540);
+  Rgb ash_color = rgb_hex(0x77706a);
+  Rgb lava_color = rgb_hex(0xff6a1a);
 };
 
 void apply_volcano(Terrain& t, const VolcanoParams& p, const Context& ctx) {
@@ -277,8 +274,8 @@ struct FeaturesParams {
   int peak_iterations = 60;
   double clearance_m = 80;
   int attempts = 400;
-  Rgb crater_color = hex(0x6b6055);
-  Rgb peak_color = hex(0x857b70);
+  Rgb crater_color = rgb_hex(0x6b6055);
+  Rgb peak_color = rgb_hex(0x857b70);
 };
 
 struct Feature {

@@ -38,27 +38,14 @@ struct PropType {
   double scale_min = 0.8, scale_max = 1.2;
 };
 
-PropType prop(const char* name, std::vector<std::string> biomes, double wavelength, double tolerance, double spacing,
-              double smin, double smax) {
-  PropType p;
-  p.name = name;
-  p.biomes = std::move(biomes);
-  p.wavelength_m = wavelength;
-  p.tolerance = tolerance;
-  p.spacing_m = spacing;
-  p.scale_min = smin;
-  p.scale_max = smax;
-  return p;
-}
-
 std::vector<PropType> default_props() {
   return {
-      prop("tree", {"forest", "plains", "hills"}, 320, 0.5, 7, 0.8, 1.3),
-      prop("pine", {"mountains", "spiky_mountains", "hills", "forest"}, 260, 0.55, 6, 0.7, 1.2),
-      prop("bush", {"plains", "hills", "forest", "desert"}, 160, 0.6, 3, 0.6, 1.1),
-      prop("rock", {"mountains", "spiky_mountains", "plateau", "desert", "hills", "beach"}, 220, 0.62, 5, 0.5, 1.6),
-      prop("cactus", {"desert"}, 200, 0.5, 8, 0.8, 1.4),
-      prop("mushroom", {"plateau", "forest"}, 120, 0.6, 2.5, 0.5, 1.5),
+      PropType{"tree", {"forest", "plains", "hills"}, 320, 0.5, 7, 0.8, 1.3},
+      PropType{"pine", {"mountains", "spiky_mountains", "hills", "forest"}, 260, 0.55, 6, 0.7, 1.2},
+      PropType{"bush", {"plains", "hills", "forest", "desert"}, 160, 0.6, 3, 0.6, 1.1},
+      PropType{"rock", {"mountains", "spiky_mountains", "plateau", "desert", "hills", "beach"}, 220, 0.62, 5, 0.5, 1.6},
+      PropType{"cactus", {"desert"}, 200, 0.5, 8, 0.8, 1.4},
+      PropType{"mushroom", {"plateau", "forest"}, 120, 0.6, 2.5, 0.5, 1.5},
   };
 }
 

@@ -22,8 +22,8 @@
 #include <cmath>
 #include <vector>
 
-#include "erosion.hpp"
-#include "hydrology.hpp"
+#include "relief/erosion.hpp"
+#include "relief/hydrology.hpp"
 #include "parallel.hpp"
 
 namespace relief::erosion {

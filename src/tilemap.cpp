@@ -555,6 +555,23 @@ std::string encode_tsx(const TileStyle& s, const std::string& image) {
   return o;
 }
 
+namespace {
+
+// The map's tiles as Tiled global ids (index + 1, firstgid 1), one row of the map per line, each
+// line after `indent`, commas between all ids (TMX CSV data and TMJ's data array alike).
+void append_gid_rows(std::string& o, const TileMap& m, const char* indent) {
+  for (int v = 0; v < m.tiles_z; ++v) {
+    o += indent;
+    for (int u = 0; u < m.tiles_x; ++u) {
+      o += std::to_string(m.tile_t[std::size_t(v) * m.tiles_x + u] + 1);
+      if (u + 1 < m.tiles_x || v + 1 < m.tiles_z) o += ',';
+    }
+    o += '\n';
+  }
+}
+
+}  // namespace
+
 std::string encode_tmx(const TileMap& m, const std::string& tsx) {
   check_map(m);
   const std::string W = std::to_string(m.tiles_x), H = std::to_string(m.tiles_z), S = std::to_string(m.style.tile_px);
@@ -566,13 +583,7 @@ std::string encode_tmx(const TileMap& m, const std::string& tsx) {
        S + "\" tileheight=\"" + S + "\" infinite=\"0\" nextlayerid=\"2\" nextobjectid=\"1\">\n";
   o += " <tileset firstgid=\"1\" source=\"" + xml_escape(tsx) + "\"/>\n";
   o += " <layer id=\"1\" name=\"terrain\" width=\"" + W + "\" height=\"" + H + "\">\n  <data encoding=\"csv\">\n";
-  for (int v = 0; v < m.tiles_z; ++v) {
-    for (int u = 0; u < m.tiles_x; ++u) {
-      o += std::to_string(m.tile_t[std::size_t(v) * m.tiles_x + u] + 1);
-      if (u + 1 < m.tiles_x || v + 1 < m.tiles_z) o += ',';
-    }
-    o += '\n';
-  }
+  append_gid_rows(o, m, "");
   o += "</data>\n </layer>\n</map>\n";
   return o;
 }
@@ -590,14 +601,7 @@ std::string encode_tmj(const TileMap& m, const std::string& tsx) {
   o += " \"tilesets\": [{\"firstgid\": 1, \"source\": " + json(tsx).dump() + "}],\n";
   o += " \"layers\": [{\n  \"id\": 1,\n  \"name\": \"terrain\",\n  \"type\": \"tilelayer\",\n  \"x\": 0,\n  \"y\": 0,\n";
   o += "  \"width\": " + W + ",\n  \"height\": " + H + ",\n  \"opacity\": 1,\n  \"visible\": true,\n  \"data\": [\n";
-  for (int v = 0; v < m.tiles_z; ++v) {
-    o += "   ";
-    for (int u = 0; u < m.tiles_x; ++u) {
-      o += std::to_string(m.tile_t[std::size_t(v) * m.tiles_x + u] + 1);
-      if (u + 1 < m.tiles_x || v + 1 < m.tiles_z) o += ',';
-    }
-    o += '\n';
-  }
+  append_gid_rows(o, m, "   ");
   o += "  ]\n }]\n}\n";
   return o;
 }
@@ -617,12 +621,9 @@ std::string encode_tile_csv(const TileMap& m) {
 }
 
 std::vector<Level> default_tile_types() {
-  auto hex = [](std::uint32_t v) {
-    return Rgb{float((v >> 16) & 255) / 255.0f, float((v >> 8) & 255) / 255.0f, float(v & 255) / 255.0f};
-  };
   return {
-      {0.30, hex(0x1d4877), "deep water"}, {0.40, hex(0x3a7cb8), "water"},  {0.43, hex(0xd8c88e), "sand"},
-      {0.58, hex(0x6b9b45), "grass"},      {0.74, hex(0x3c6b32), "forest"}, {1.00, hex(0x8a8178), "rock"},
+      {0.30, rgb_hex(0x1d4877), "deep water"}, {0.40, rgb_hex(0x3a7cb8), "water"},  {0.43, rgb_hex(0xd8c88e), "sand"},
+      {0.58, rgb_hex(0x6b9b45), "grass"},      {0.74, rgb_hex(0x3c6b32), "forest"}, {1.00, rgb_hex(0x8a8178), "rock"},
   };
 }
 

@@ -1,5 +1,5 @@
 // The writer registry: heightmap (PNG + r16 + JSON sidecar), colour/albedo PNGs, OBJ mesh, report,
-// then the export writers of writers_export.cpp (glb, fbx, stl, engine, normalmap, splat, hillshade).
+// then the export writers of writer_export.cpp (glb, fbx, stl, engine, normalmap, splat, hillshade).
 //
 // OBJ: Wavefront OBJ as documented in "Object Files (.obj)", Alias|Wavefront Advanced Visualizer
 // manual, Appendix B1, and MTL in Appendix B2 (indices are 1-based; `vt` v = 0 is the bottom of the
@@ -23,9 +23,6 @@
 #include "relief/output.hpp"
 #include "surface.hpp"
 #include "writer_defs.hpp"
-#include "writers_water.hpp"
-#include "writers_islands.hpp"
-#include "writers_export.hpp"
 
 #ifndef RELIEF_VERSION
 #define RELIEF_VERSION "0.1.0"  // keep in step with project(VERSION) in CMakeLists.txt

@@ -23,18 +23,11 @@ namespace {
 using Result = relief::test::Shell;
 using relief::test::slurp;
 
-// Runs the relief binary with `args`.
-Result cli(const std::string& args) { return relief::test::sh(std::string(RELIEF_BINARY) + " " + args); }
+Result cli(const std::string& args) { return relief::test::relief_cli(args); }
 
-struct TempDir : relief::test::TempDir {
-  TempDir() : relief::test::TempDir("relief-cli") {}
-};
+using relief::test::TempDir;
 
-void expect_bad_input(const std::string& args, const std::string& needle) {
-  Result r = cli(args);
-  EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
-  EXPECT_NE(r.out.find(needle), std::string::npos) << args << "\nexpected to find: " << needle << "\ngot: " << r.out;
-}
+constexpr auto expect_bad_input = relief::test::expect_cli_error;
 
 }  // namespace
 

@@ -27,11 +27,7 @@
 #include "relief/pipeline.hpp"
 #include "relief/random.hpp"
 #include "relief/recipe.hpp"
-#include "writers_export.hpp"
-
-#ifndef RELIEF_SYSTEM_PYTHON
-#define RELIEF_SYSTEM_PYTHON "/usr/bin/python3"
-#endif
+#include "writer_defs.hpp"
 
 namespace fs = std::filesystem;
 using namespace relief;
@@ -280,16 +276,19 @@ TEST_F(Clients, BlenderImportsGlbObjAndFbx) {
   };
 
   const long chunk_verts = 4L * (kChunk + 1) * (kChunk + 1), grid_faces = 2L * (kSize - 1) * (kSize - 1);
-  {
-    const json& f = rep[(dir / "terrain.glb").string()];
+  // GLB and FBX: four textured chunks covering the grid, 12 props sharing one mesh per type.
+  auto check_chunked = [&](const json& f, const char* what) {
     const Totals t = totals(f);
-    EXPECT_EQ(t.terrain_objects, 4);
-    EXPECT_EQ(t.terrain_vertices, chunk_verts);
-    EXPECT_EQ(t.terrain_faces, grid_faces);
-    EXPECT_EQ(t.uv_objects, 4);
-    EXPECT_EQ(t.prop_objects, 12);
-    EXPECT_EQ(t.prop_meshes.size(), 6u);  // instances share their type's mesh
-    check_texture(f, "glb");
+    EXPECT_EQ(t.terrain_objects, 4) << what;
+    EXPECT_EQ(t.terrain_vertices, chunk_verts) << what;
+    EXPECT_EQ(t.terrain_faces, grid_faces) << what;
+    EXPECT_EQ(t.uv_objects, 4) << what;
+    EXPECT_EQ(t.prop_objects, 12) << what;
+    EXPECT_EQ(t.prop_meshes.size(), 6u) << what;  // instances share their type's mesh
+    check_texture(f, what);
+  };
+  {
+    check_chunked(rep[(dir / "terrain.glb").string()], "glb");
   }
   {
     const json& f = rep[(dir / "terrain.obj").string()];
@@ -301,14 +300,7 @@ TEST_F(Clients, BlenderImportsGlbObjAndFbx) {
   }
   {
     const json& f = rep[(dir / "terrain.fbx").string()];
-    const Totals t = totals(f);
-    EXPECT_EQ(t.terrain_objects, 4);
-    EXPECT_EQ(t.terrain_vertices, chunk_verts);
-    EXPECT_EQ(t.terrain_faces, grid_faces);
-    EXPECT_EQ(t.uv_objects, 4);
-    EXPECT_EQ(t.prop_objects, 12);
-    EXPECT_EQ(t.prop_meshes.size(), 6u);
-    check_texture(f, "fbx");
+    check_chunked(f, "fbx");
     // Metres and axes: the FBX terrain has the GLB terrain's bounds in Blender, and spans the
     // world's width (give or take the jiggle of the border vertices).
     auto bounds = [](const json& file) {

@@ -15,8 +15,8 @@
 #include <string>
 #include <vector>
 
-#include "erosion.hpp"
-#include "hydrology.hpp"
+#include "relief/erosion.hpp"
+#include "relief/hydrology.hpp"
 #include "noise_simd.hpp"
 #include "relief/error.hpp"
 #include "relief/output.hpp"

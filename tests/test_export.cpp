@@ -29,8 +29,10 @@
 #include "relief/output.hpp"
 #include "relief/random.hpp"
 #include "relief/stage.hpp"
+#include "support.hpp"
 
 namespace fs = std::filesystem;
+
 using namespace relief;
 
 namespace {
@@ -118,24 +120,8 @@ std::vector<T> accessor_data(const tinygltf::Model& m, int index) {
   std::memcpy(out.data(), b.data.data() + v.byteOffset + a.byteOffset, out.size() * sizeof(T));
   return out;
 }
-
-struct Decoded {
-  spng_ihdr ihdr{};
-  std::vector<std::uint8_t> bytes;
-};
-Decoded decode_png(const std::string& png) {
-  Decoded d;
-  spng_ctx* c = spng_ctx_new(0);
-  EXPECT_EQ(spng_set_png_buffer(c, png.data(), png.size()), 0);
-  EXPECT_EQ(spng_get_ihdr(c, &d.ihdr), 0);
-  size_t len = 0;
-  EXPECT_EQ(spng_decoded_image_size(c, SPNG_FMT_PNG, &len), 0);
-  d.bytes.resize(len);
-  EXPECT_EQ(spng_decode_image(c, d.bytes.data(), len, SPNG_FMT_PNG, 0), 0);
-  spng_ctx_free(c);
-  return d;
-}
-std::uint16_t u16_at(const Decoded& d, std::size_t k) {
+using test::decode_png;
+std::uint16_t u16_at(const test::Png& d, std::size_t k) {
   std::uint16_t v;
   std::memcpy(&v, d.bytes.data() + 2 * k, 2);
   return v;
@@ -991,7 +977,7 @@ TEST(Engine, UnrealPngIsSixteenBitUnflippedWithZScale) {
   auto& h = t.get("height").data;
   for (std::size_t k = 0; k < h.size(); ++k) h[k] = float(k % 127 + 3 * (k / 127)) / 600.0f;
   const MemoryOutput out = engine_files(t, "unreal");
-  const Decoded d = decode_png(out.files.at("unreal_height.png"));
+  const test::Png d = decode_png(out.files.at("unreal_height.png"));
   EXPECT_EQ(d.ihdr.width, 127u);
   EXPECT_EQ(d.ihdr.height, 127u);
   EXPECT_EQ(d.ihdr.bit_depth, 16);
@@ -1069,8 +1055,8 @@ TEST(Maps, NormalMapOfATiltedPlaneInBothConventions) {
     for (int i = 0; i < 9; ++i) h[std::size_t(j) * 9 + i] = float(0.3 + 0.01 * i - 0.02 * j);  // rises east, falls south
   const double len = std::sqrt(0.09 + 1 + 0.36);
   const double n[3] = {-0.3 / len, 1 / len, 0.6 / len};
-  const Decoded gl = decode_png(encode_normal_map(t, 8, false));
-  const Decoded dx = decode_png(encode_normal_map(t, 8, true));
+  const test::Png gl = decode_png(encode_normal_map(t, 8, false));
+  const test::Png dx = decode_png(encode_normal_map(t, 8, true));
   ASSERT_EQ(gl.bytes.size(), 81u * 3);
   for (std::size_t k = 0; k < 81; ++k) {
     EXPECT_EQ(gl.bytes[3 * k], std::lround((n[0] + 1) / 2 * 255));
@@ -1081,7 +1067,7 @@ TEST(Maps, NormalMapOfATiltedPlaneInBothConventions) {
   // The surface falls towards +z (south, the image bottom): its normal leans towards the image
   // bottom, so OpenGL green is below 128.
   EXPECT_LT(gl.bytes[1], 128);
-  const Decoded g16 = decode_png(encode_normal_map(t, 16, false));
+  const test::Png g16 = decode_png(encode_normal_map(t, 16, false));
   EXPECT_EQ(g16.ihdr.bit_depth, 16);
   EXPECT_EQ(u16_at(g16, 0), std::lround((n[0] + 1) / 2 * 65535));
 }
@@ -1101,7 +1087,7 @@ TEST(Maps, SplatRulesWeightsSumTo255AndFollowHeightAndSlope) {
   o.splat_rock_elevation = 1.0;  // rock from slope only here
   const SplatMaps s = encode_splat(t, o);
   ASSERT_EQ(s.images.size(), 1u);
-  const Decoded d = decode_png(s.images[0]);
+  const test::Png d = decode_png(s.images[0]);
   EXPECT_EQ(d.ihdr.color_type, SPNG_COLOR_TYPE_TRUECOLOR_ALPHA);
   for (std::size_t k = 0; k < 33 * 33; ++k)
     EXPECT_EQ(d.bytes[4 * k] + d.bytes[4 * k + 1] + d.bytes[4 * k + 2] + d.bytes[4 * k + 3], 255) << k;
@@ -1114,7 +1100,7 @@ TEST(Maps, SplatRulesWeightsSumTo255AndFollowHeightAndSlope) {
   // High flat ground below the snow line is rock by elevation.
   o.splat_rock_elevation = 0.9;
   o.splat_snow_elevation = 0.99;
-  const Decoded high = decode_png(encode_splat(t, o).images[0]);
+  const test::Png high = decode_png(encode_splat(t, o).images[0]);
   EXPECT_EQ(high.bytes[(std::size_t(16) * 33 + 30) * 4 + 2], 255);
 }
 
@@ -1127,7 +1113,7 @@ TEST(Maps, SplatFromTheBiomeLayerSpansSeveralImages) {
   const SplatMaps s = encode_splat(t, ExportOptions{});
   ASSERT_EQ(s.images.size(), 2u);
   EXPECT_EQ(s.description["source"], "biome");
-  const Decoded a = decode_png(s.images[0]), c = decode_png(s.images[1]);
+  const test::Png a = decode_png(s.images[0]), c = decode_png(s.images[1]);
   for (std::size_t k = 0; k < 300; ++k) {
     int sum = 0;
     for (int ch = 0; ch < 4; ++ch) sum += a.bytes[4 * k + ch] + c.bytes[4 * k + ch];
@@ -1174,7 +1160,7 @@ TEST(Maps, HillshadeWriterIsTheHillshadeStageWithoutAmbient) {
   Terrain shaded = t;
   def->parse(p, "stages[0]")->apply(shaded, Context{});
   const auto& shade = shaded.get("shade").data;
-  const Decoded d = decode_png(encode_hillshade(t, 300.0, 35.0));
+  const relief::test::Png d = relief::test::decode_png(encode_hillshade(t, 300.0, 35.0));
   ASSERT_EQ(d.bytes.size(), shade.size());
   std::size_t differ = 0;
   for (std::size_t k = 0; k < shade.size(); ++k)
@@ -1187,10 +1173,10 @@ TEST(Maps, HillshadeIsBrightOnSlopesFacingTheLight) {
   auto& h = t.get("height").data;
   for (int j = 0; j < 21; ++j)
     for (int i = 0; i < 21; ++i) h[std::size_t(j) * 21 + i] = float(0.5 - 0.02 * std::abs(i - 10));  // a ridge along z
-  const Decoded d = decode_png(encode_hillshade(t, 270, 45));                          // light from the west
+  const test::Png d = decode_png(encode_hillshade(t, 270, 45));                          // light from the west
   EXPECT_EQ(d.ihdr.bit_depth, 8);
   const int west = d.bytes[10 * 21 + 5], east = d.bytes[10 * 21 + 15];
   EXPECT_GT(west, east + 60);
-  const Decoded flat_light = decode_png(encode_hillshade(t, 0, 90));  // overhead: both sides equal
+  const test::Png flat_light = decode_png(encode_hillshade(t, 0, 90));  // overhead: both sides equal
   EXPECT_EQ(flat_light.bytes[10 * 21 + 5], flat_light.bytes[10 * 21 + 15]);
 }

@@ -16,22 +16,15 @@
 #include "support.hpp"
 
 namespace fs = std::filesystem;
+using relief::test::relief_cli;
+using relief::test::slurp;
+using relief::test::TempDir;
+using Result = relief::test::Shell;
 
 namespace {
 
-using Result = relief::test::Shell;
-using relief::test::slurp;
-
-// Runs the relief binary with `args`.
-Result cli(const std::string& args) { return relief::test::sh(std::string(RELIEF_BINARY) + " " + args); }
-
-struct TempDir : relief::test::TempDir {
-  TempDir() : relief::test::TempDir("relief-export-cli") {}
-};
 void expect_bad(const std::string& args, const std::string& prefix) {
-  const Result r = cli(args);
-  EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
-  EXPECT_NE(r.out.find("relief: error: " + prefix), std::string::npos) << args << "\n" << r.out;
+  relief::test::expect_cli_error(args, "relief: error: " + prefix);
 }
 
 }  // namespace
@@ -55,7 +48,7 @@ TEST(ExportCli, BadOptionValuesExit2NamingTheFlag) {
 TEST(ExportCli, EnginePicksALegalSizeAndWritesItsFiles) {
   TempDir d;
   // The island recipe is 513²: Unreal's nearest legal size is 505.
-  const Result r = cli("generate island --seed 2 --engine unreal --formats heightmap -o " + d.path.string());
+  const Result r = relief_cli("generate island --seed 2 --engine unreal --formats heightmap -o " + d.path.string());
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("unreal: using --size 505x505"), std::string::npos) << r.out;
   for (const char* f : {"unreal_height.png", "unreal_height.json", "unreal_import.txt", "height.png"})
@@ -65,7 +58,7 @@ TEST(ExportCli, EnginePicksALegalSizeAndWritesItsFiles) {
   EXPECT_EQ(fs::file_size(d.path / "height.r16"), 505u * 505u * 2u);
 
   TempDir t;
-  const Result tiles = cli("generate island --seed 2 --size 65 --engine unity --split 2x2 -q --formats heightmap -o " + t.path.string());
+  const Result tiles = relief_cli("generate island --seed 2 --size 65 --engine unity --split 2x2 -q --formats heightmap -o " + t.path.string());
   ASSERT_EQ(tiles.code, 0) << tiles.out;
   for (const char* f : {"unity_height_x0_y0.raw", "unity_height_x1_y0.raw", "unity_height_x0_y1.raw", "unity_height_x1_y1.raw"})
     EXPECT_EQ(fs::file_size(t.path / f), 33u * 33u * 2u) << f;
@@ -74,8 +67,8 @@ TEST(ExportCli, EnginePicksALegalSizeAndWritesItsFiles) {
 TEST(ExportCli, FormatsAllWritesEveryFileIdenticallyForAnyThreadCount) {
   TempDir a, b;
   const std::string args = "generate island --seed 9 --size 65 --formats all --engine godot --lod-levels 1 --chunk-quads 32 -q -o ";
-  ASSERT_EQ(cli(args + a.path.string() + " --threads 1").code, 0);
-  const Result r = cli(args + b.path.string() + " --threads 3");
+  ASSERT_EQ(relief_cli(args + a.path.string() + " --threads 1").code, 0);
+  const Result r = relief_cli(args + b.path.string() + " --threads 3");
   ASSERT_EQ(r.code, 0) << r.out;
   for (const char* f : {"terrain.glb", "terrain_lod1.glb", "terrain.fbx", "terrain.stl", "terrain.obj", "normal.png", "splat0.png",
                         "splat.json", "hillshade.png", "godot_height.exr", "godot_height.json", "godot_import.txt", "albedo.png"})
@@ -91,11 +84,11 @@ TEST(ExportCli, FormatsAllWritesEveryFileIdenticallyForAnyThreadCount) {
 }
 
 TEST(ExportCli, ExplainAndHelpListTheWriterOptions) {
-  const Result e = cli("explain");
+  const Result e = relief_cli("explain");
   ASSERT_EQ(e.code, 0);
   for (const char* s : {"writer options", "--stl-size-mm", "--engine", "unity|unreal|godot", "--split", "--instancing"})
     EXPECT_NE(e.out.find(s), std::string::npos) << s;
-  const auto j = nlohmann::json::parse(cli("explain --json").out);
+  const auto j = nlohmann::json::parse(relief_cli("explain --json").out);
   bool found = false;
   for (auto& o : j["writer_options"])
     if (o["name"] == "stl_base_mm") {
@@ -105,7 +98,7 @@ TEST(ExportCli, ExplainAndHelpListTheWriterOptions) {
       EXPECT_EQ(o["default"], 3.0);
     }
   EXPECT_TRUE(found);
-  const Result h = cli("generate --help");
+  const Result h = relief_cli("generate --help");
   EXPECT_NE(h.out.find("--lod-levels"), std::string::npos);
   EXPECT_NE(h.out.find("--stl-exaggeration"), std::string::npos);
 }

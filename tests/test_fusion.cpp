@@ -8,18 +8,14 @@
 #include "relief/error.hpp"
 #include "relief/pipeline.hpp"
 #include "relief/recipe.hpp"
+#include "support.hpp"
 #include "relief/stage.hpp"
 
 using namespace relief;
 
 namespace {
 
-Recipe preset(const std::string& name, int size, std::uint64_t seed = 5) {
-  json doc = load_preset(name);
-  doc["world"]["size"] = size;
-  doc["seed"] = seed;
-  return parse_recipe(doc);
-}
+Recipe preset(const std::string& name, int size, std::uint64_t seed = 5) { return test::preset_recipe(name, size, seed); }
 
 // Every row stage in one chain, on two layers, with blends that read the layer.
 Recipe all_row_stages(int size) {

@@ -14,12 +14,7 @@ namespace fs = std::filesystem;
 
 namespace {
 
-Recipe small(const std::string& preset, int n, std::uint64_t seed = 7) {
-  json doc = load_preset(preset);
-  doc["world"]["size"] = n;
-  doc["seed"] = seed;
-  return parse_recipe(doc);
-}
+Recipe small(const std::string& preset, int n, std::uint64_t seed = 7) { return test::preset_recipe(preset, n, seed); }
 
 std::vector<std::string> names(const WriterPlan& p) {
   std::vector<std::string> v;

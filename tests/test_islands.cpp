@@ -340,8 +340,8 @@ TEST(Biomes, SeaIsUntouchedAndLegendNamesTheTypes) {
 }
 
 TEST(Biomes, TextureReplacesTheColourAndAMissingFileNamesTheField) {
-  const fs::path dir = fs::temp_directory_path() / ("relief-tex-" + std::to_string(::getpid()));
-  fs::create_directories(dir);
+  const relief::test::TempDir tmp("relief-tex");
+  const fs::path& dir = tmp.path;
   relief::Layer px;
   px.channels = 3;
   px.data = {0.2f, 0.4f, 0.6f, 0.2f, 0.4f, 0.6f, 0.2f, 0.4f, 0.6f, 0.2f, 0.4f, 0.6f};
@@ -367,7 +367,6 @@ TEST(Biomes, TextureReplacesTheColourAndAMissingFileNamesTheField) {
   EXPECT_NEAR(at(t, "albedo", 3, 4, 2), 0.6f, 1e-6);
   levels[0]["texture"] = "nope.png";
   EXPECT_THROW(st::colorize().parse({{"stage", "color"}, {"levels", levels}}, "stages[1]"), relief::Error);
-  fs::remove_all(dir);
 }
 
 TEST(Biomes, BadParametersNameTheField) {
@@ -393,22 +392,29 @@ TEST(Biomes, BadParametersNameTheField) {
 
 TEST(Climate, TableGivesTheExpectedBiome) {
   const auto table = relief::detail::whittaker_table();
-  auto name = [&](double t, double m) { return table[std::size_t(relief::detail::classify(table, t, m))].name; };
-  EXPECT_EQ(name(0.9, 0.9), "tropical rainforest");
-  EXPECT_EQ(name(0.9, 0.05), "subtropical desert");
-  EXPECT_EQ(name(0.8, 0.5), "tropical seasonal forest");
-  EXPECT_EQ(name(0.6, 0.3), "grassland");
-  EXPECT_EQ(name(0.6, 0.7), "temperate forest");
-  EXPECT_EQ(name(0.6, 0.95), "temperate rainforest");
-  EXPECT_EQ(name(0.4, 0.2), "temperate desert");
-  EXPECT_EQ(name(0.4, 0.5), "shrubland");
-  EXPECT_EQ(name(0.4, 0.9), "taiga");
-  EXPECT_EQ(name(0.1, 0.05), "scorched");
-  EXPECT_EQ(name(0.1, 0.25), "bare rock");
-  EXPECT_EQ(name(0.1, 0.4), "tundra");
-  EXPECT_EQ(name(0.1, 0.9), "snow");
-  EXPECT_EQ(name(1.0, 1.0), "tropical rainforest");  // the upper edge is included
-  EXPECT_EQ(name(0.0, 0.0), "scorched");
+  // (temperature, moisture) → biome, the corners included.
+  const struct {
+    double t, m;
+    const char* name;
+  } cases[] = {
+      {0.9, 0.9, "tropical rainforest"},
+      {0.9, 0.05, "subtropical desert"},
+      {0.8, 0.5, "tropical seasonal forest"},
+      {0.6, 0.3, "grassland"},
+      {0.6, 0.7, "temperate forest"},
+      {0.6, 0.95, "temperate rainforest"},
+      {0.4, 0.2, "temperate desert"},
+      {0.4, 0.5, "shrubland"},
+      {0.4, 0.9, "taiga"},
+      {0.1, 0.05, "scorched"},
+      {0.1, 0.25, "bare rock"},
+      {0.1, 0.4, "tundra"},
+      {0.1, 0.9, "snow"},
+      {1.0, 1.0, "tropical rainforest"},  // the upper edge is included
+      {0.0, 0.0, "scorched"},
+  };
+  for (const auto& c : cases)
+    EXPECT_EQ(table[std::size_t(relief::detail::classify(table, c.t, c.m))].name, c.name) << c.t << ", " << c.m;
 }
 
 TEST(Climate, DistanceTransformIsExact) {

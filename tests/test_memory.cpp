@@ -1,7 +1,6 @@
 // estimate_memory_bytes (relief/pipeline.hpp), which the CLI and the studio use to refuse sizes the
 // machine cannot hold, against the peak resident memory the CLI measures for real runs.
 #include <gtest/gtest.h>
-#include <unistd.h>
 
 #include <cstdio>
 #include <filesystem>
@@ -14,7 +13,6 @@
 
 namespace fs = std::filesystem;
 using relief::json;
-using relief::test::sh;
 using relief::test::slurp;
 
 // Held within a factor of 2 of the peak resident size (getrusage's ru_maxrss, the measure `relief
@@ -36,10 +34,11 @@ TEST(MemoryEstimate, WithinAFactorOfTwoOfTheMeasuredPeak) {
       {"river-island --size 513 --formats heightmap,color,albedo,rivers,report", false},
       {"island --size 257 --tile-size 32 --map-tiles 256 --formats heightmap,tilemap,report", false},
   };
-  const fs::path dir = fs::temp_directory_path() / ("relief-memory-" + std::to_string(::getpid()));
+  const relief::test::TempDir tmp("relief-memory");
+  const fs::path dir = tmp.path / "out";
   for (const Case& c : cases) {
     fs::remove_all(dir);
-    const auto r = sh(std::string(RELIEF_BINARY) + " generate " + c.args + " --seed 4 -j 2 -q -o '" + dir.string() +
+    const auto r = relief::test::relief_cli("generate " + c.args + " --seed 4 -j 2 -q -o '" + dir.string() +
                       "' --save-recipe '" + (dir / "r.json").string() + "'");
     ASSERT_EQ(r.code, 0) << c.args << "\n" << r.out;
     const double measured = json::parse(slurp(dir / "report.json"))["performance"]["peak_memory_bytes"].get<double>();
@@ -50,5 +49,4 @@ TEST(MemoryEstimate, WithinAFactorOfTwoOfTheMeasuredPeak) {
     EXPECT_GE(estimate, measured / 2) << c.args;
     EXPECT_LE(estimate, measured * 2) << c.args;
   }
-  fs::remove_all(dir);
 }

@@ -14,6 +14,7 @@
 #include "relief/error.hpp"
 #include "relief/noise.hpp"
 #include "relief/random.hpp"
+#include "support.hpp"
 
 namespace relief {
 namespace {
@@ -61,32 +62,13 @@ Stats sample_stats(const NoiseSettings& s, int side = 400) {
   return st;
 }
 
-const NoiseBasis kAllBases[] = {NoiseBasis::Perlin, NoiseBasis::Simplex, NoiseBasis::Value, NoiseBasis::Cellular,
-                                 NoiseBasis::Gradient};
+using test::fnv1a;
+using test::kAllBases;
+using test::kAllReturns;
+constexpr auto name = test::basis_name;
 const NoiseBasis kPeriodicBases[] = {NoiseBasis::Perlin, NoiseBasis::Value, NoiseBasis::Cellular, NoiseBasis::Gradient};
-const CellularReturn kAllReturns[] = {CellularReturn::F1, CellularReturn::F2, CellularReturn::F2MinusF1,
-                                      CellularReturn::CellValue};
 
-std::string name(NoiseBasis b) {
-  switch (b) {
-    case NoiseBasis::Perlin: return "perlin";
-    case NoiseBasis::Simplex: return "simplex";
-    case NoiseBasis::Value: return "value";
-    case NoiseBasis::Cellular: return "cellular";
-    case NoiseBasis::Gradient: return "gradient";
-  }
-  return "?";
-}
 
-std::uint64_t fnv1a(const std::vector<float>& v) {
-  std::uint64_t h = 0xcbf29ce484222325ull;
-  for (float f : v) {
-    std::uint32_t b;
-    std::memcpy(&b, &f, 4);
-    for (int k = 0; k < 4; ++k) h = (h ^ ((b >> (8 * k)) & 0xFF)) * 0x100000001b3ull;
-  }
-  return h;
-}
 
 // ---- Perlin's reference ---------------------------------------------------------------------------
 

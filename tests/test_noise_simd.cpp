@@ -19,26 +19,18 @@
 #include "noise_simd.hpp"
 #include "relief/noise.hpp"
 #include "relief/random.hpp"
+#include "support.hpp"
 
 namespace relief {
 namespace {
 
-const NoiseBasis kBases[] = {NoiseBasis::Perlin, NoiseBasis::Simplex, NoiseBasis::Value, NoiseBasis::Cellular,
-                             NoiseBasis::Gradient};
+using test::fnv1a;
+using test::same_bits;
+constexpr auto& kBases = test::kAllBases;
+constexpr auto& kReturns = test::kAllReturns;
+constexpr auto name = test::basis_name;
 const Fractal kFractals[] = {Fractal::None, Fractal::Fbm, Fractal::Ridged, Fractal::Billow};
-const CellularReturn kReturns[] = {CellularReturn::F1, CellularReturn::F2, CellularReturn::F2MinusF1,
-                                   CellularReturn::CellValue};
 
-std::string name(NoiseBasis b) {
-  switch (b) {
-    case NoiseBasis::Perlin: return "perlin";
-    case NoiseBasis::Simplex: return "simplex";
-    case NoiseBasis::Value: return "value";
-    case NoiseBasis::Cellular: return "cellular";
-    case NoiseBasis::Gradient: return "gradient";
-  }
-  return "?";
-}
 
 // Restores automatic dispatch even when an assertion returns early.
 struct ForceTarget {
@@ -46,19 +38,7 @@ struct ForceTarget {
   ~ForceTarget() { detail::noise_simd_force_target(0); }
 };
 
-bool same_bits(const std::vector<float>& a, const std::vector<float>& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(float)) == 0;
-}
 
-std::uint64_t fnv1a(const std::vector<float>& v) {
-  std::uint64_t h = 0xcbf29ce484222325ull;
-  for (float f : v) {
-    std::uint32_t b;
-    std::memcpy(&b, &f, 4);
-    for (int k = 0; k < 4; ++k) h = (h ^ ((b >> (8 * k)) & 0xFF)) * 0x100000001b3ull;
-  }
-  return h;
-}
 
 struct RowCase {
   double z;
@@ -187,6 +167,23 @@ TEST(SimdTargets, NonFiniteCoordinatesDoNotCrashAnyTarget) {
 
 // ---- Gradient: pinned output ------------------------------------------------------------------------
 
+// 64 × 64 samples 9.5 m apart around the origin, by the scalar reference and by the dispatched
+// path.
+struct PinnedGrid {
+  std::vector<float> ref, simd;
+};
+PinnedGrid pinned_grid(const Noise& n) {
+  PinnedGrid g;
+  for (int j = 0; j < 64; ++j) {
+    std::vector<float> a(64), b(64);
+    n.row_reference(j * 9.5, -32, 9.5, 64, a.data());
+    n.row(j * 9.5, -32, 9.5, 64, b.data());
+    g.ref.insert(g.ref.end(), a.begin(), a.end());
+    g.simd.insert(g.simd.end(), b.begin(), b.end());
+  }
+  return g;
+}
+
 TEST(Gradient, GoldenHashOnScalarReference) {
   // 64 × 64 samples of 6-octave fBm, seed 2024 (as the other bases' golden hashes in test_noise.cpp),
   // computed by the scalar reference; the dispatched path must give the same bytes.
@@ -195,14 +192,7 @@ TEST(Gradient, GoldenHashOnScalarReference) {
   s.frequency = 1.0 / 300.0;
   s.seed = 2024;
   const Noise n(s);
-  std::vector<float> ref, simd;
-  for (int j = 0; j < 64; ++j) {
-    std::vector<float> a(64), b(64);
-    n.row_reference(j * 9.5, -32, 9.5, 64, a.data());
-    n.row(j * 9.5, -32, 9.5, 64, b.data());
-    ref.insert(ref.end(), a.begin(), a.end());
-    simd.insert(simd.end(), b.begin(), b.end());
-  }
+  const auto [ref, simd] = pinned_grid(n);
   // Changed deliberately with the dyadic lattice (lacunarity 2: octaves ≥ 1 at 2ᵏ·u₀ + ½).
   EXPECT_EQ(fnv1a(ref), 14297808085583764422ull);
   EXPECT_TRUE(same_bits(ref, simd));
@@ -221,14 +211,7 @@ TEST(Gradient, RidgedGoldenHashesOnScalarReference) {
     s.frequency = 1.0 / 300.0;
     s.seed = 2024;
     const Noise n(s);
-    std::vector<float> ref, simd;
-    for (int j = 0; j < 64; ++j) {
-      std::vector<float> a(64), b(64);
-      n.row_reference(j * 9.5, -32, 9.5, 64, a.data());
-      n.row(j * 9.5, -32, 9.5, 64, b.data());
-      ref.insert(ref.end(), a.begin(), a.end());
-      simd.insert(simd.end(), b.begin(), b.end());
-    }
+    const auto [ref, simd] = pinned_grid(n);
     EXPECT_EQ(fnv1a(ref), golden) << "lacunarity " << lacunarity;
     EXPECT_TRUE(same_bits(ref, simd)) << "lacunarity " << lacunarity;
   }

@@ -33,10 +33,6 @@
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
 
-#ifndef RELIEF_SYSTEM_PYTHON
-#define RELIEF_SYSTEM_PYTHON "/usr/bin/python3"
-#endif
-
 namespace fs = std::filesystem;
 using namespace relief;
 
@@ -133,22 +129,6 @@ std::vector<long> numbers_after(const std::string& text, const std::string& tag)
   return v;
 }
 
-struct Decoded {
-  spng_ihdr ihdr{};
-  std::vector<std::uint8_t> bytes;  // SPNG_FMT_PNG: 16-bit samples in host order
-};
-Decoded spng_decode(const std::string& png) {
-  Decoded d;
-  spng_ctx* c = spng_ctx_new(0);
-  EXPECT_EQ(spng_set_png_buffer(c, png.data(), png.size()), 0);
-  EXPECT_EQ(spng_get_ihdr(c, &d.ihdr), 0);
-  size_t len = 0;
-  EXPECT_EQ(spng_decoded_image_size(c, SPNG_FMT_PNG, &len), 0);
-  d.bytes.resize(len);
-  EXPECT_EQ(spng_decode_image(c, d.bytes.data(), len, SPNG_FMT_PNG, 0), 0);
-  spng_ctx_free(c);
-  return d;
-}
 
 json parse_json(const std::string& s) { return json::parse(s); }
 
@@ -281,7 +261,7 @@ TEST(Output, R16BytesAreLowByteFirst) {
 
 TEST(Output, Gray16PngRoundTripsThroughSpng) {
   Terrain t = small_terrain();
-  const Decoded d = spng_decode(encode_png_gray16(t.layers["height"], 5, 3));
+  const test::Png d = test::decode_png(encode_png_gray16(t.layers["height"], 5, 3));
   EXPECT_EQ(d.ihdr.width, 5u);
   EXPECT_EQ(d.ihdr.height, 3u);
   EXPECT_EQ(d.ihdr.bit_depth, 16);
@@ -298,7 +278,7 @@ TEST(Output, Gray16PngRoundTripsThroughSpng) {
 TEST(Output, Gray16ClampsAndRounds) {
   Layer l;
   l.data = {-0.5f, 1.5f, std::numeric_limits<float>::quiet_NaN(), 0.5f, 1.0f / 65535.0f, 0.0f};
-  const Decoded d = spng_decode(encode_png_gray16(l, 3, 2));
+  const test::Png d = test::decode_png(encode_png_gray16(l, 3, 2));
   ASSERT_EQ(d.bytes.size(), 12u);
   std::uint16_t v[6];
   std::memcpy(v, d.bytes.data(), 12);
@@ -334,7 +314,7 @@ for j in range(im.size[1]):
 TEST(Output, Gray8PngRoundTripsThroughSpng) {
   Layer l;
   l.data = {0.0f, 0.25f, 1.0f, 2.0f, -1.0f, 0.5f};
-  const Decoded d = spng_decode(encode_png_gray8(l, 2, 3));
+  const test::Png d = test::decode_png(encode_png_gray8(l, 2, 3));
   EXPECT_EQ(d.ihdr.width, 2u);
   EXPECT_EQ(d.ihdr.height, 3u);
   EXPECT_EQ(d.ihdr.bit_depth, 8);

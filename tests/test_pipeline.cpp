@@ -14,17 +14,13 @@
 #include "relief/pipeline.hpp"
 #include "relief/recipe.hpp"
 #include "relief/stage.hpp"
+#include "support.hpp"
 
 using namespace relief;
 
 namespace {
 
-Recipe preset(const std::string& name, int size, std::uint64_t seed = 7) {
-  json doc = load_preset(name);
-  doc["world"]["size"] = size;
-  doc["seed"] = seed;
-  return parse_recipe(doc);
-}
+Recipe preset(const std::string& name, int size, std::uint64_t seed = 7) { return test::preset_recipe(name, size, seed); }
 
 const std::vector<std::string> kCore = {"island", "hills", "mountains", "desert"};
 

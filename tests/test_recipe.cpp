@@ -8,6 +8,7 @@
 #include "relief/noise.hpp"
 #include "relief/pipeline.hpp"
 #include "relief/recipe.hpp"
+#include "support.hpp"
 
 using namespace relief;
 
@@ -223,8 +224,8 @@ TEST(Presets, UnknownPresetSuggestsNearest) {
 }
 
 TEST(Presets, UserFolderFromEnvironmentIsListedAndLoaded) {
-  auto dir = std::filesystem::temp_directory_path() / ("relief-presets-" + std::to_string(::getpid()));
-  std::filesystem::create_directories(dir);
+  const relief::test::TempDir tmp("relief-presets");
+  const std::filesystem::path& dir = tmp.path;
   {
     std::ofstream(dir / "my-valley.json") << R"({"description": "my own valley", "stages": [{"stage": "noise"}]})";
   }
@@ -239,7 +240,6 @@ TEST(Presets, UserFolderFromEnvironmentIsListedAndLoaded) {
   EXPECT_TRUE(found);
   EXPECT_EQ(load_preset("my-valley")["description"], "my own valley");
   ::unsetenv("RELIEF_PRESETS");
-  std::filesystem::remove_all(dir);
 }
 
 // ---- the "export" block ------------------------------------------------------------------------

@@ -83,20 +83,6 @@ void expect_error(const relief::StageDef& def, json params, const std::string& p
 
 // ============================================================================ registry basics
 
-TEST(Stages, FactoriesHaveRecipeNames) {
-  EXPECT_EQ(st::redistribute().name, "redistribute");
-  EXPECT_EQ(st::terrace().name, "terrace");
-  EXPECT_EQ(st::island().name, "island");
-  EXPECT_EQ(st::curve().name, "curve");
-  EXPECT_EQ(st::slope().name, "slope");
-  EXPECT_EQ(st::colorize().name, "color");
-  EXPECT_EQ(st::hillshade().name, "hillshade");
-  EXPECT_EQ(st::slope().locality, relief::Locality::Neighbourhood);
-  EXPECT_EQ(st::slope().halo, 1);
-  EXPECT_EQ(st::hillshade().halo, 1);
-  EXPECT_EQ(st::island().locality, relief::Locality::Pointwise);
-}
-
 TEST(Stages, ParamsResolveDefaults) {
   auto s = st::redistribute().parse(json{{"stage", "redistribute"}, {"exponent", 2.5}}, "stages[0]");
   EXPECT_EQ(s->params(), (json{{"exponent", 2.5}, {"modifier", 1.0}, {"land_only", false}}));

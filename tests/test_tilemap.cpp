@@ -35,14 +35,11 @@ namespace {
 
 // ---- fixtures --------------------------------------------------------------------------------
 
-struct TempDir : relief::test::TempDir {
-  TempDir() : relief::test::TempDir("relief-tilemap") {}
-};
-
+using relief::test::relief_cli;
 using relief::test::slurp;
+using relief::test::TempDir;
 using Proc = relief::test::Shell;
-inline Proc shell(const std::string& cmd) { return relief::test::sh(cmd); }
-Proc relief_cli(const std::string& args) { return shell(std::string(RELIEF_BINARY) + " " + args); }
+constexpr auto shell = relief::test::sh;
 
 // Qt tools headless: offscreen platform and a private runtime directory (mode 0700).
 std::string qt_env(const TempDir& d) {
@@ -58,21 +55,8 @@ struct Rgba {
   const std::uint8_t* at(int x, int y) const { return px.data() + (std::size_t(y) * w + x) * 4; }
 };
 Rgba decode_png(const std::string& png) {
-  Rgba img;
-  spng_ctx* c = spng_ctx_new(0);
-  spng_set_png_buffer(c, png.data(), png.size());
-  spng_ihdr ihdr{};
-  if (spng_get_ihdr(c, &ihdr) == 0) {
-    std::size_t len = 0;
-    spng_decoded_image_size(c, SPNG_FMT_RGBA8, &len);
-    img.px.resize(len);
-    if (spng_decode_image(c, img.px.data(), len, SPNG_FMT_RGBA8, 0) == 0) {
-      img.w = int(ihdr.width);
-      img.h = int(ihdr.height);
-    }
-  }
-  spng_ctx_free(c);
-  return img;
+  test::Png d = test::decode_png(png, SPNG_FMT_RGBA8);
+  return {d.width(), d.height(), std::move(d.bytes)};
 }
 
 // The first k default types (deep water, water, sand, grass, forest, rock), plus snow and lava

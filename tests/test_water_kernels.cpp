@@ -13,27 +13,20 @@
 #include <functional>
 #include <vector>
 
-#include "erosion.hpp"
-#include "hydrology.hpp"
+#include "relief/erosion.hpp"
+#include "relief/hydrology.hpp"
 #include "noise_simd.hpp"
 #include "relief/pipeline.hpp"
 #include "relief/random.hpp"
 #include "relief/recipe.hpp"
+#include "support.hpp"
 
 using namespace relief;
 
 namespace {
 
 Frame frame(int nx, int nz, double cell_m = 10.0, double height_m = 500.0, double sea = 0.3) {
-  Frame f;
-  f.nx = nx;
-  f.nz = nz;
-  f.spacing_m = cell_m;
-  f.world_width_m = cell_m * (nx - 1);
-  f.world_depth_m = cell_m * (nz - 1);
-  f.height_m = height_m;
-  f.sea_level = sea;
-  return f;
+  return test::grid_frame(nx, nz, cell_m, height_m, sea);
 }
 
 // An fBm island from the island preset's first stages.
@@ -55,10 +48,7 @@ std::vector<float> rough(int nx, int nz, std::uint64_t seed) {
   return z;
 }
 
-template <class T>
-bool same_bits(const std::vector<T>& a, const std::vector<T>& b) {
-  return a.size() == b.size() && std::memcmp(a.data(), b.data(), a.size() * sizeof(T)) == 0;
-}
+using test::same_bits;
 
 // ---- references ------------------------------------------------------------------------------
 

@@ -127,4 +127,10 @@ struct Generated {
 };
 Generated generate_keep(GenerateSettings settings, Output& out);
 
+// A byte count for people: "812 B", "3.4 KiB", "1.5 MiB", "2.25 GiB" (the memory-policy errors,
+// the CLI's summary).
+std::string human_bytes(std::uint64_t bytes);
+// This process's peak resident set so far, in bytes (getrusage; GenerateReport::peak_memory_bytes).
+std::uint64_t peak_rss_bytes();
+
 }  // namespace relief

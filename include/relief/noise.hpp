@@ -200,4 +200,9 @@ const std::array<std::uint8_t, 512>& perlin_permutation();
 // A seeded permutation (Fisher–Yates with mix64), doubled to 512 entries.
 std::array<std::uint8_t, 512> seeded_permutation(std::uint64_t seed);
 
+// The name of the Highway target Noise's row kernels dispatch to on this machine (e.g. "AVX2"),
+// for benchmark tables and reports. Thread-safe; the same for the life of the process unless a
+// test forces a target.
+std::string noise_simd_target();
+
 }  // namespace relief

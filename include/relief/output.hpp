@@ -157,6 +157,20 @@ struct WriterDef {
   std::string description;  // one line
   std::vector<std::string> files;  // files it writes
   bool in_default_set = true;
+  // Encodes the terrain and hands every file to the Output (names as in `files`; chunked and LOD
+  // writers add numbered names).
+  //   Reads:   the terrain (const; the layers and points the writer documents, `needs` naming
+  //            those not every terrain has) and the context: options, seed, recipe and report.
+  //   Throws:  relief::Error naming the offending field (an input the terrain lacks, an option the
+  //            engine refuses, with ctx.option_path's spelling), Error("output", …) when a file
+  //            cannot be encoded or written, std::bad_alloc. Files already handed to an OnCommit
+  //            FileOutput stay invisible: relief::generate then commits nothing.
+  //   Threads: relief::generate runs the chosen writers at once, one task each, on the same
+  //            terrain and context with an Output of their own; a writer keeps no state between
+  //            calls and may spread its own work over the caller's oneTBB arena. ctx.progress may
+  //            be called from any of those threads (generate serialises it).
+  //   Bytes:   a function of (terrain, ctx) alone: the same for any thread count and any order in
+  //            which the writers finish (the report's timings aside).
   std::function<void(const Terrain&, const WriteContext&, Output&)> write;
   // When set and false for a terrain (e.g. no biome layer, no props), runs of the default set skip
   // the writer; named in --formats it runs anyway and its Error names what is missing.

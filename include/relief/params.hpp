@@ -34,6 +34,10 @@ struct Rgb {
   float r = 0, g = 0, b = 0;  // 0..1
   bool operator==(const Rgb&) const = default;
 };
+// 0xRRGGBB as an Rgb, each channel / 255 (the colour tables of the stages).
+constexpr Rgb rgb_hex(std::uint32_t v) {
+  return Rgb{float((v >> 16) & 255) / 255.0f, float((v >> 8) & 255) / 255.0f, float(v & 255) / 255.0f};
+}
 // A colour level: elevation (or other value) threshold and its colour. Optional texture image:
 // a PNG file (path relative to the working directory) tiled every `tile_m` metres in world x/z,
 // used instead of the flat colour; a missing or undecodable file is an Error naming the level.
@@ -88,17 +92,26 @@ std::vector<std::string> read_names(const json& v, const std::string& path);  //
 std::string nearest_name(const std::string& given, const std::vector<std::string>& names);
 
 // ---- field builders ------------------------------------------------------------------------
+// A field with its metadata and no reader or writer yet: where every builder below starts.
+template <class P>
+Field<P> field_info(std::string name, ParamType type, std::string description, Effect effect, double min = 0,
+                    double max = 0) {
+  Field<P> f;
+  f.info.name = std::move(name);
+  f.info.type = type;
+  f.info.min = min;
+  f.info.max = max;
+  f.info.description = std::move(description);
+  f.info.effect = effect;
+  return f;
+}
+
 // Numbers and booleans: the type follows the member (int / std::int64_t / double / bool).
 template <class P, class T>
 Field<P> param(T P::*m, std::string name, double min, double max, std::string unit, std::string description,
                Effect effect = Effect::Regenerate) {
-  Field<P> f;
-  f.info.name = std::move(name);
-  f.info.min = min;
-  f.info.max = max;
+  Field<P> f = field_info<P>(std::move(name), ParamType::Float, std::move(description), effect, min, max);
   f.info.unit = std::move(unit);
-  f.info.description = std::move(description);
-  f.info.effect = effect;
   if constexpr (std::is_same_v<T, bool>) {
     f.info.type = ParamType::Bool;
     f.read = [m](P& p, const json& v, const std::string& path) { p.*m = read_bool(v, path); };
@@ -133,12 +146,8 @@ template <class P, class E>
   requires std::is_enum_v<E>
 Field<P> choice(E P::*m, std::string name, ChoiceNames<E> names, std::string description,
                 Effect effect = Effect::Regenerate) {
-  Field<P> f;
-  f.info.name = std::move(name);
-  f.info.type = ParamType::Choice;
+  Field<P> f = field_info<P>(std::move(name), ParamType::Choice, std::move(description), effect);
   for (auto& n : names) f.info.choices.push_back(n.second);
-  f.info.description = std::move(description);
-  f.info.effect = effect;
   auto shared = std::make_shared<const ChoiceNames<E>>(std::move(names));
   f.read = [m, shared, strings = f.info.choices](P& p, const json& v, const std::string& path) {
     const std::string s = read_choice(v, path, strings);
@@ -151,11 +160,7 @@ Field<P> choice(E P::*m, std::string name, ChoiceNames<E> names, std::string des
 
 template <class P>
 Field<P> text(std::string P::*m, std::string name, std::string description, Effect effect = Effect::Regenerate) {
-  Field<P> f;
-  f.info.name = std::move(name);
-  f.info.type = ParamType::Text;
-  f.info.description = std::move(description);
-  f.info.effect = effect;
+  Field<P> f = field_info<P>(std::move(name), ParamType::Text, std::move(description), effect);
   f.read = [m](P& p, const json& v, const std::string& path) {
     if (!v.is_string()) throw Error(path, "expected a string, got " + describe(v));
     p.*m = v.get<std::string>();
@@ -168,11 +173,7 @@ Field<P> text(std::string P::*m, std::string name, std::string description, Effe
 template <class P>
 Field<P> names(std::vector<std::string> P::*m, std::string name, std::string description,
                Effect effect = Effect::Regenerate) {
-  Field<P> f;
-  f.info.name = std::move(name);
-  f.info.type = ParamType::Names;
-  f.info.description = std::move(description);
-  f.info.effect = effect;
+  Field<P> f = field_info<P>(std::move(name), ParamType::Names, std::move(description), effect);
   f.read = [m](P& p, const json& v, const std::string& path) { p.*m = read_names(v, path); };
   f.write = [m](const P& p) { return json(p.*m); };
   return f;
@@ -180,11 +181,7 @@ Field<P> names(std::vector<std::string> P::*m, std::string name, std::string des
 
 template <class P>
 Field<P> color(Rgb P::*m, std::string name, std::string description, Effect effect = Effect::Recolour) {
-  Field<P> f;
-  f.info.name = std::move(name);
-  f.info.type = ParamType::Color;
-  f.info.description = std::move(description);
-  f.info.effect = effect;
+  Field<P> f = field_info<P>(std::move(name), ParamType::Color, std::move(description), effect);
   f.read = [m](P& p, const json& v, const std::string& path) { p.*m = read_color(v, path); };
   f.write = [m](const P& p) { return write_color(p.*m); };
   return f;
@@ -194,13 +191,7 @@ Field<P> color(Rgb P::*m, std::string name, std::string description, Effect effe
 template <class P>
 Field<P> curve(std::vector<CurvePoint> P::*m, std::string name, double min, double max, std::string description,
                Effect effect = Effect::Regenerate) {
-  Field<P> f;
-  f.info.name = std::move(name);
-  f.info.type = ParamType::Curve;
-  f.info.min = min;
-  f.info.max = max;
-  f.info.description = std::move(description);
-  f.info.effect = effect;
+  Field<P> f = field_info<P>(std::move(name), ParamType::Curve, std::move(description), effect, min, max);
   f.read = [m, min, max](P& p, const json& v, const std::string& path) { p.*m = read_curve(v, path, min, max); };
   f.write = [m](const P& p) {
     json a = json::array();
@@ -214,13 +205,7 @@ Field<P> curve(std::vector<CurvePoint> P::*m, std::string name, double min, doub
 template <class P>
 Field<P> levels(std::vector<Level> P::*m, std::string name, double min, double max, std::string description,
                 Effect effect = Effect::Recolour) {
-  Field<P> f;
-  f.info.name = std::move(name);
-  f.info.type = ParamType::Levels;
-  f.info.min = min;
-  f.info.max = max;
-  f.info.description = std::move(description);
-  f.info.effect = effect;
+  Field<P> f = field_info<P>(std::move(name), ParamType::Levels, std::move(description), effect, min, max);
   f.read = [m, min, max](P& p, const json& v, const std::string& path) { p.*m = read_levels(v, path, min, max); };
   f.write = [m](const P& p) { return write_levels(p.*m); };
   return f;
@@ -230,13 +215,7 @@ Field<P> levels(std::vector<Level> P::*m, std::string name, double min, double m
 template <class P>
 Field<P> int_list(std::vector<int> P::*m, std::string name, int min, int max, std::string description,
                   Effect effect = Effect::Regenerate) {
-  Field<P> f;
-  f.info.name = std::move(name);
-  f.info.type = ParamType::IntList;
-  f.info.min = min;
-  f.info.max = max;
-  f.info.description = std::move(description);
-  f.info.effect = effect;
+  Field<P> f = field_info<P>(std::move(name), ParamType::IntList, std::move(description), effect, min, max);
   f.read = [m, min, max](P& p, const json& v, const std::string& path) {
     if (!v.is_array()) throw Error(path, "expected a list of integers, got " + describe(v));
     std::vector<int> out;
@@ -298,13 +277,7 @@ struct Table {
 template <class P, class R>
 Field<P> records(std::vector<R> P::*m, std::string name, Table<R> table, std::size_t min_count, std::size_t max_count,
                  std::string description, Effect effect = Effect::Regenerate) {
-  Field<P> f;
-  f.info.name = std::move(name);
-  f.info.type = ParamType::List;
-  f.info.min = double(min_count);
-  f.info.max = double(max_count);
-  f.info.description = std::move(description);
-  f.info.effect = effect;
+  Field<P> f = field_info<P>(std::move(name), ParamType::List, std::move(description), effect, double(min_count), double(max_count));
   f.info.fields = table.infos();
   auto shared = std::make_shared<const Table<R>>(std::move(table));
   f.read = [m, shared, min_count, max_count](P& p, const json& v, const std::string& path) {

@@ -7,7 +7,7 @@
 #include <cstdlib>
 
 #include "relief/output.hpp"
-#include "writers_water.hpp"
+#include "writer_defs.hpp"
 
 namespace relief {
 namespace {

@@ -7,7 +7,7 @@
 #include "relief/error.hpp"
 #include "relief/export.hpp"
 #include "relief/output.hpp"
-#include "writers_export.hpp"
+#include "writer_defs.hpp"
 
 namespace relief {
 namespace {

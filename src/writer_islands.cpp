@@ -8,7 +8,7 @@
 //   "rotation_deg", "scale"}]}; props.csv has the same rows under the header
 //   type,x_m,y_m,z_m,rotation_deg,scale. Numbers are written with 3 decimals (millimetres, and
 //   thousandths of a degree / of the scale): enough for placement, identical for any thread count.
-#include "writers_islands.hpp"
+#include "writer_defs.hpp"
 
 #include <charconv>
 #include <cmath>

@@ -1,5 +1,6 @@
 #pragma once
-// Internal: grid hydrology shared by the erosion stages, the benchmarks and the tests.
+// Grid hydrology (depression filling, D8 receivers, flow order) shared by the erosion stages,
+// `relief bench` and the tests.
 //
 // Index space: cell c = j·nx + i of an nx × nz grid (row-major, x fastest), the same as a Layer.
 // Neighbours are the 8 cells around c (D8). A cell is an *outlet* (base level) when it lies on the

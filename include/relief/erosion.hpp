@@ -1,6 +1,7 @@
 #pragma once
-// Internal: the erosion kernels behind the "hydraulic", "thermal" and "stream_power" stages, also
-// called directly by `relief bench` and the tests.
+// The erosion kernels behind the "hydraulic", "thermal" and "stream_power" stages, for callers
+// that time or test a kernel on its own (`relief bench`, the tests). A recipe reaches them through
+// the stages; these are the same functions without the stage's parameter parsing and layers.
 //
 // All three work on a normalised elevation layer `e` (nx·nz floats, row-major, x fastest) of a
 // Frame, and do their physics in metres: y_m = (e − sea_level)·height_m vertically, cell_m
