@@ -76,6 +76,7 @@ ExportOptions parse_export_options(const GenerateSettings& s, ExportOptions o) {
       bool is_text = false;
       for (auto& f : export_options_table().fields) is_text = is_text || (f.info.name == name && f.info.type == ParamType::Text);
       try {
+        check_json_depth(text, "the value", option_flag(name));
         v = is_text ? json(text) : json::parse(text);
       } catch (const json::exception&) {
         v = text;
@@ -135,11 +136,7 @@ json read_recipe_doc(const GenerateSettings& s) {
   if (!in) throw Error("recipe", "cannot read '" + src + "'");
   std::stringstream ss;
   ss << in.rdbuf();
-  try {
-    return json::parse(ss.str());
-  } catch (const json::exception& e) {
-    throw Error("recipe", "'" + src + "' is not valid JSON: " + e.what());
-  }
+  return parse_json(ss.str(), "'" + src + "'", "recipe");
 }
 
 void parse_size(const std::string& text, json& doc) {
@@ -618,7 +615,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "%srelief: error: out of memory; choose a smaller --size\n", is_tty() ? "\r\033[K" : "");
     return 2;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "%srelief: internal error: %s\n", is_tty() ? "\r\033[K" : "", e.what());
+    std::fprintf(stderr, "%srelief: internal error: %s\n", is_tty() ? "\r\033[K" : "", printable_text(e.what()).c_str());
     return 1;
   }
   return 0;

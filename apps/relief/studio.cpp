@@ -64,7 +64,8 @@ double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std
 
 void send_json(httplib::Response& res, int status, const json& body) {
   res.status = status;
-  res.set_content(body.dump(), "application/json");
+  // Replace, never throw: a message may quote user text (relief::Error's are valid UTF-8 already).
+  res.set_content(body.dump(-1, ' ', false, json::error_handler_t::replace), "application/json");
 }
 
 void send_error(httplib::Response& res, const ApiError& e) {

@@ -14,9 +14,9 @@ json parse_body(std::string_view text, const std::vector<std::string>& allowed, 
     throw ApiError{413, "", "request body too large: " + std::to_string(text.size()) + " bytes, limit " + std::to_string(s.max_body)};
   json body;
   try {
-    body = json::parse(text);
-  } catch (const json::exception& e) {
-    throw ApiError{400, "", std::string("request body is not valid JSON: ") + e.what()};
+    body = parse_json(text, "request body");
+  } catch (const Error& e) {
+    throw ApiError{400, "", e.what()};
   }
   if (!body.is_object()) throw ApiError{400, "", "request body: expected a JSON object, got " + describe(body)};
   for (auto& [k, v] : body.items())

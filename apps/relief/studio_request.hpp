@@ -17,7 +17,7 @@ namespace relief::cli {
 class ApiError : public Error {
  public:
   ApiError(int status, std::string path, std::string message)
-      : Error(path, message), status_(status), message_(std::move(message)) {}
+      : Error(path, message), status_(status), message_(printable_text(message)) {}
   int status() const noexcept { return status_; }
   const std::string& message() const noexcept { return message_; }  // without the path
 

@@ -1,0 +1,169 @@
+// Hostile input (issue 16): documents nested past any real recipe, bytes that are not UTF-8,
+// control characters in names, and the command line's own flags. Every case must end in a
+// relief::Error (exit 2 from the CLI) whose message names the field and is printable, never in a
+// crash, a foreign exception or a message cut short.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <string>
+
+#include "relief/recipe.hpp"
+#include "support.hpp"
+
+namespace fs = std::filesystem;
+using namespace relief;
+
+namespace {
+
+using relief::test::slurp;
+
+relief::test::Shell cli(const std::string& args) { return relief::test::sh(std::string(RELIEF_BINARY) + " " + args); }
+
+std::string nested(int n) { return std::string(std::size_t(n), '[') + std::string(std::size_t(n), ']'); }
+
+// True when `s` is well-formed UTF-8 (what nlohmann's dump() requires of every string).
+bool valid_utf8(const std::string& s) {
+  try {
+    (void)json(s).dump();
+    return true;
+  } catch (const json::exception&) {
+    return false;
+  }
+}
+
+// The message of the relief::Error that `f` throws ("" when it throws nothing, fails otherwise).
+template <class F>
+std::string error_of(F&& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  } catch (const std::exception& e) {
+    ADD_FAILURE() << "a foreign exception: " << typeid(e).name() << ": " << e.what();
+    return "";
+  }
+  ADD_FAILURE() << "no error";
+  return "";
+}
+
+}  // namespace
+
+TEST(HostileJson, DeeplyNestedRecipeIsRefusedWhenParsed) {
+  const std::string m = error_of([] { (void)parse_recipe_text(nested(100000)); });
+  EXPECT_NE(m.find("deeper than 128 levels"), std::string::npos) << m;
+  // Up to the limit a document parses (and is then refused for what it is, briefly).
+  const std::string ok = error_of([] { (void)parse_recipe_text(nested(128)); });
+  EXPECT_NE(ok.find("a recipe must be a JSON object, got an array [[[[["), std::string::npos) << ok;
+  EXPECT_LT(ok.size(), 120u) << ok;
+}
+
+TEST(HostileJson, DeepValuesInsideARecipeAndInSetAreRefused) {
+  const std::string m = error_of([] {
+    (void)parse_recipe_text(R"({"stages": [{"stage": "noise", "octaves": )" + nested(100000) + "}]}");
+  });
+  EXPECT_NE(m.find("deeper than 128"), std::string::npos) << m;
+  json doc = json::parse(R"({"stages": [{"stage": "noise"}]})");
+  EXPECT_NE(error_of([&] { apply_override(doc, "stages[0].octaves=" + nested(100000)); }).find("deeper than 128"),
+            std::string::npos);
+  std::string path;
+  for (int i = 0; i < 100000; ++i) path += "a.";
+  const std::string p = error_of([&] { apply_override(doc, path + "b=1"); });
+  EXPECT_NE(p.find("--set: expected a path of at most 128 levels"), std::string::npos) << p.substr(0, 200);
+  EXPECT_LT(p.size(), 200u);
+}
+
+TEST(HostileJson, DescribeIsBoundedInLengthAndDepth) {
+  json wide = json::array();
+  for (int i = 0; i < 100000; ++i) wide.push_back(i);
+  EXPECT_LE(describe(wide).size(), 80u);
+  json deep = json::array();
+  for (int i = 0; i < 120; ++i) deep = json::array({deep});
+  EXPECT_LE(describe(deep).size(), 80u);
+  json obj = {{std::string(5000, 'k'), std::string(5000, 'v')}};
+  EXPECT_LE(describe(obj).size(), 80u);
+  EXPECT_EQ(describe(json("abc")), "\"abc\"");
+  EXPECT_EQ(describe(json::array({1, 2})), "an array [1,2]");
+}
+
+TEST(HostileJson, UserPresetNestedTooDeepIsAnError) {
+  relief::test::TempDir d("relief-deep-preset");
+  std::ofstream(d / "deep.json") << nested(100000);
+  ::setenv("RELIEF_PRESETS", d.path.c_str(), 1);
+  const std::string m = error_of([] { (void)load_preset("deep"); });
+  bool listed = false;
+  for (auto& p : list_presets()) listed = listed || p.name == "deep";
+  ::unsetenv("RELIEF_PRESETS");
+  EXPECT_NE(m.find("preset: '"), std::string::npos) << m;
+  EXPECT_NE(m.find("deeper than 128"), std::string::npos) << m;
+  EXPECT_TRUE(listed);
+}
+
+TEST(HostileText, InvalidUtf8InAnOverrideIsARefusalWithAPrintableMessage) {
+  // The fuzzer's class (issue 16): bytes 0xC5, 0xFF, 0xBE, 0x9A in a --set value or path.
+  for (const std::string set : {std::string("stages[0].octaves=ab\xff\xc5z"), std::string("stages[0].oct\xbe\x9a=3"),
+                                std::string("sta\xffges[0].x=1"), std::string("name=\xc5")}) {
+    json doc = json::parse(R"({"stages": [{"stage": "noise"}]})");
+    const std::string m = error_of([&] {
+      apply_override(doc, set);
+      (void)parse_recipe(doc).to_json().dump();
+    });
+    EXPECT_TRUE(valid_utf8(m)) << m;
+    EXPECT_FALSE(m.empty()) << set;
+  }
+}
+
+TEST(HostileText, ErrorsAreValidUtf8WithoutControlCharacters) {
+  const Error e(std::string("a\xff", 2), std::string("got \"x\0y\"", 9));
+  EXPECT_TRUE(valid_utf8(e.what()));
+  EXPECT_EQ(std::string(e.what()), "a\xEF\xBF\xBD: got \"x\\u0000y\"");
+  EXPECT_EQ(e.path(), "a\xEF\xBF\xBD");
+  EXPECT_EQ(quote(std::string("a\0b\"\n", 5)), "\"a\\u0000b\\\"\\n\"");
+  EXPECT_EQ(quote(std::string(100, 'x'), 10), "\"" + std::string(10, 'x') + "...\"");
+  // A character is never split when cut: "é" is two bytes.
+  const std::string q = quote("xxxxxxxxx\xC3\xA9\xC3\xA9", 10);
+  EXPECT_TRUE(valid_utf8(q)) << q;
+}
+
+TEST(HostileText, NulInAStageNameIsShownNotCutShort) {
+  const std::string m = error_of([] { (void)parse_recipe(json::parse(R"({"stages": [{"stage": "no\u0000ise"}]})")); });
+  EXPECT_NE(m.find("unknown stage \"no\\u0000ise\" (did you mean 'noise'?)"), std::string::npos) << m;
+}
+
+TEST(HostileText, NumbersInMessagesShowWhyTheyAreOutOfRange) {
+  const std::string m = error_of([] { (void)parse_recipe(json::parse(R"({"world": {"sea_level": 1.0000001}})")); });
+  EXPECT_NE(m.find("world.sea_level: expected a number in 0..1, got 1.0000001"), std::string::npos) << m;
+}
+
+TEST(HostileCli, DeeplyNestedRecipeFileExits2) {
+  relief::test::TempDir d("relief-deep");
+  std::ofstream(d / "d.json") << nested(100000);
+  const auto r = cli("generate " + (d / "d.json") + " -q -o " + (d / "out"));
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("relief: error: recipe: '"), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("deeper than 128 levels"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(d.path / "out"));
+}
+
+TEST(HostileCli, NulAndInvalidUtf8ReachTheTerminalEscaped) {
+  relief::test::TempDir d("relief-nul");
+  std::ofstream(d / "r.json") << R"({"stages": [{"stage": "no\u0000ise"}]})";
+  auto r = cli("generate " + (d / "r.json") + " -q -o " + (d / "out"));
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("unknown stage \"no\\u0000ise\" (did you mean 'noise'?)"), std::string::npos) << r.out;
+  r = cli("generate --size 33 -q -o " + (d / "out") + " --set \"$(printf 'stages[0].octaves=\\377\\305')\"");
+  EXPECT_EQ(r.code, 2) << r.out;
+  EXPECT_NE(r.out.find("relief: error: stages[0].octaves: expected UTF-8 text, got \"\xEF\xBF\xBD\xEF\xBF\xBD\""),
+            std::string::npos)
+      << r.out;
+}
+
+TEST(FuzzReplay, AcceptsOneFileAsWellAsAFolder) {
+  const std::string replay = (fs::path(RELIEF_BINARY).parent_path() / "fuzz" / "fuzz_recipe_replay").string();
+  const std::string crash = std::string(RELIEF_SOURCE_DIR) + "/fuzz/corpus/recipe/crash-11b381770c8060d44bc5030197a01c0665b7257d";
+  ASSERT_TRUE(fs::exists(replay));
+  const auto r = relief::test::sh(replay + " " + crash + " --iterations 5");
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("replay: 1 corpus inputs"), std::string::npos) << r.out;
+}
