@@ -97,6 +97,8 @@ void validate_export_options(const ExportOptions& o, const std::function<std::st
     throw Error(path_of("split"), "expected NxM with 1..64 tiles per axis, e.g. 4x4, got \"" + o.split + "\"");
   if ((sx > 1 || sz > 1) && o.engine == "none")
     throw Error(path_of("split"), "splitting writes engine tiles: choose an engine (unity, unreal or godot)");
+  if (o.godot_format != "exr" && o.engine != "godot")
+    throw Error(path_of("godot_format"), "applies to the godot engine: choose engine godot, or leave the format at exr");
   if (o.normal_bits != 8 && o.normal_bits != 16)
     throw Error(path_of("normal_bits"), "expected 8 or 16, got " + std::to_string(o.normal_bits));
   if (o.lod_msft && o.lod_levels == 0)

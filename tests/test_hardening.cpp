@@ -167,3 +167,56 @@ TEST(FuzzReplay, AcceptsOneFileAsWellAsAFolder) {
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_NE(r.out.find("replay: 1 corpus inputs"), std::string::npos) << r.out;
 }
+
+namespace {
+// Runs `relief ARGS` expecting exit 2 and exactly one line: `relief: error: ` + message.
+void expect_cli_error(const std::string& args, const std::string& message) {
+  const auto r = cli(args);
+  EXPECT_EQ(r.code, 2) << args << "\n" << r.out;
+  EXPECT_EQ(r.out, "relief: error: " + message + "\n") << args;
+}
+}  // namespace
+
+TEST(HostileCli, SeedsAreDecimalAndQuotedAsTyped) {
+  relief::test::TempDir d("relief-seed");
+  const std::string o = " -q --size 33 -o " + (d / "out");
+  const std::string range = "--seed: expected an integer in 0..9007199254740991 (decimal digits), got ";
+  expect_cli_error("generate --seed 0x10" + o, range + "\"0x10\"");
+  expect_cli_error("generate --seed ''" + o, range + "\"\"");
+  expect_cli_error("generate --seed 1.5" + o, range + "\"1.5\"");
+  expect_cli_error("generate --seed 18446744073709551616" + o, range + "\"18446744073709551616\"");
+  expect_cli_error("generate --seed -4" + o, range + "\"-4\"");
+  // 010 is ten (not octal eight): the report records the seed used.
+  ASSERT_EQ(cli("generate --seed 010" + o).code, 0);
+  const json report = json::parse(slurp(d.path / "out" / "report.json"));
+  EXPECT_EQ(report["seed"], 10) << report.dump().substr(0, 200);
+}
+
+TEST(HostileCli, EveryFlagErrorHasOneFormNamingTheFlag) {
+  relief::test::TempDir d("relief-flags");
+  const std::string o = " -q --size 33 -o " + (d / "out");
+  expect_cli_error("generate -j abc" + o, "--threads: expected an integer in 0..1024, got \"abc\"");
+  expect_cli_error("generate -j 2000" + o, "--threads: expected an integer in 0..1024, got \"2000\"");
+  expect_cli_error("generate -q --size 33 -o ''", "--out: expected an output folder, got an empty value");
+  expect_cli_error("generate -q -o x --size ''", "--size: expected N or NxM with 2..32769 samples per axis, got an empty value");
+  expect_cli_error("generate --formats ''" + o, "--formats: expected comma-separated format names or 'all' (see `relief explain`), got an empty value");
+  expect_cli_error("generate -o a" + o, "--out: given more than once; give it once");
+  expect_cli_error("generate island --preset hills" + o, "--preset: two recipes given, \"island\" and --preset \"hills\"; give one");
+  expect_cli_error("generate island hills" + o,
+                   "generate: unexpected argument \"hills\" (give one recipe: a preset name or a JSON file; see relief generate --help)");
+  expect_cli_error("generate --bogus" + o, "generate: unknown flag \"--bogus\" (see relief generate --help)");
+  expect_cli_error("generate --godot-format r16" + o,
+                   "--godot-format: applies to the godot engine: choose engine godot, or leave the format at exr");
+  expect_cli_error("", "expected a command: generate, presets, explain, bench or studio (see relief --help)");
+  expect_cli_error("studio --port 80x", "--port: expected an integer in 0..65535, got \"80x\"");
+  expect_cli_error("bench --runs 0", "--runs: expected an integer in 1..1000, got \"0\"");
+  EXPECT_FALSE(fs::exists(d.path / "out"));
+  EXPECT_FALSE(fs::exists(d.path / "a"));
+}
+
+TEST(HostileCli, MoreThreadsThanCoresPrintNoLibraryChatter) {
+  relief::test::TempDir d("relief-threads");
+  const auto r = cli("generate -j 1024 -q --size 33 --seed 1 -o " + (d / "out"));
+  EXPECT_EQ(r.code, 0) << r.out;
+  EXPECT_EQ(r.out, "");
+}
