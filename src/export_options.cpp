@@ -37,6 +37,7 @@ Table<O> make_table() {
   f.push_back(text(&O::split, "split", "engine: tiles along x and z, NxM (overlapping by one sample, named _x0_y0)"));
   f.push_back(choice(&O::godot_format, "godot_format", {"exr", "r16"}, "engine godot: 32-bit float EXR (metres) or r16"));
   f.push_back(param(&O::normal_bits, "normal_bits", 8, 16, "bits", "normalmap: 8 or 16 bits per channel"));
+  f.back().info.values = {8, 16};  // validate_export_options refuses the others
   f.push_back(choice(&O::normal_convention, "normal_convention", {"auto", "opengl", "directx"},
                      "normalmap: green channel +Y up (opengl) or down (directx); auto = directx for unreal"));
   f.push_back(choice(&O::splat_source, "splat_source", {"auto", "biome", "rules"},

@@ -33,6 +33,7 @@ json ParamInfo::to_json() const {
       type == ParamType::IntList || type == ParamType::List) {
     o["min"] = min;
     o["max"] = max;
+    if (!values.empty()) o["values"] = values;
   }
   if (!unit.empty()) o["unit"] = unit;
   o["description"] = description;

@@ -7,6 +7,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <sstream>
 #include <string>
 
 #include "relief/recipe.hpp"
@@ -219,4 +220,50 @@ TEST(HostileCli, MoreThreadsThanCoresPrintNoLibraryChatter) {
   const auto r = cli("generate -j 1024 -q --size 33 --seed 1 -o " + (d / "out"));
   EXPECT_EQ(r.code, 0) << r.out;
   EXPECT_EQ(r.out, "");
+}
+
+TEST(Explain, TextTableNeverCutsADefault) {
+  const auto r = cli("explain color");
+  ASSERT_EQ(r.code, 0) << r.out;
+  const json table = json::parse(cli("explain color --json").out);
+  json levels;
+  for (auto& st : table["stages"])
+    for (auto& p : st["params"])
+      if (p["name"] == "levels") levels = p["default"];
+  ASSERT_FALSE(levels.is_null());
+  // The default's lines below the parameter's row, joined, are the whole default.
+  std::istringstream in(r.out);
+  std::string line, joined;
+  bool on = false;
+  while (std::getline(in, line)) {
+    const auto text = line.find_first_not_of(' ');
+    if (line.compare(text, 9, "default: ") == 0 && joined.empty()) {
+      on = true;
+      joined = line.substr(text + 9);
+    } else if (on && line.compare(0, text, std::string(text, ' ')) == 0 && text >= 17 && line.find(':') != text + 6) {
+      joined += line.substr(text);
+    } else {
+      on = false;
+    }
+    if (!joined.empty() && !on) break;
+  }
+  EXPECT_EQ(joined, levels.dump()) << r.out;
+  EXPECT_EQ(r.out.find("default [{"), std::string::npos) << r.out;
+}
+
+TEST(Explain, NormalBitsShowsTheTwoValuesItAccepts) {
+  const auto r = cli("explain");
+  const auto at = r.out.find("--normal-bits");
+  ASSERT_NE(at, std::string::npos);
+  const std::string row = r.out.substr(at, r.out.find('\n', at) - at);
+  EXPECT_NE(row.find("8|16"), std::string::npos) << row;
+  EXPECT_EQ(row.find("8..16"), std::string::npos) << row;
+  EXPECT_NE(cli("generate --help").out.find("8|16 bits"), std::string::npos);
+}
+
+TEST(HostileCli, FormatsAllWritesTheTilemapToo) {
+  relief::test::TempDir d("relief-all");
+  const auto r = cli("generate island --formats all --size 65 --seed 1 -q -o " + (d / "out"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_TRUE(fs::exists(d.path / "out" / "tilemap.tmx") || fs::exists(d.path / "out" / "tilemap.json")) << r.out;
 }

@@ -17,6 +17,7 @@
 #include <deque>
 #include <functional>
 #include <map>
+#include <tuple>
 #include <sstream>
 
 #include <tbb/parallel_for.h>
@@ -168,7 +169,8 @@ bool formats_name(const std::string& formats, const std::string& name) {
 // stage's path ("stages[N]"), or "" when no tilemap is wanted.
 std::string apply_tilemap_shortcuts(const GenerateSettings& s, const std::string& formats, json& doc) {
   const bool flags = !s.tile_size.empty() || !s.map_tiles.empty();
-  if (!flags && !formats_name(formats, "tilemap")) return "";
+  // `all` is every writer, the tilemap included (README "Outputs").
+  if (!flags && !formats_name(formats, "tilemap") && formats != "all") return "";
   if (!doc.contains("stages") || !doc["stages"].is_array()) return "";  // parse_recipe reports it
   json& st = doc["stages"];
   std::size_t at = st.size();
@@ -420,19 +422,59 @@ int cmd_presets(bool as_json) {
   return 0;
 }
 
+// A parameter's accepted values: "8|16", "0..1", "a|b|c" ("" for other types).
+std::string param_range(const ParamInfo& p) {
+  std::string range;
+  if ((p.type == ParamType::Int || p.type == ParamType::Float) && !p.values.empty()) {
+    for (double v : p.values) {
+      std::ostringstream o;
+      o << v;
+      range += (range.empty() ? "" : "|") + o.str();
+    }
+  } else if (p.type == ParamType::Int || p.type == ParamType::Float) {
+    std::ostringstream o;
+    o << p.min << ".." << p.max;
+    range = o.str();
+  } else if (p.type == ParamType::Choice) {
+    for (auto& c : p.choices) range += (range.empty() ? "" : "|") + c;
+  }
+  return range;
+}
+
+// `text` broken at spaces, commas and '|' into lines of at most `width` characters.
+std::vector<std::string> wrap(const std::string& text, std::size_t width) {
+  std::vector<std::string> lines;
+  std::string line;
+  std::size_t last_break = std::string::npos;
+  for (char c : text) {
+    line.push_back(c);
+    if (c == ' ' || c == ',' || c == '|') last_break = line.size();
+    if (line.size() > width && last_break != std::string::npos && last_break < line.size()) {
+      lines.push_back(line.substr(0, last_break));
+      line = line.substr(last_break);
+      last_break = std::string::npos;
+    }
+  }
+  if (!line.empty()) lines.push_back(line);
+  return lines;
+}
+
+// The text table of `relief explain`: one line per parameter. Defaults and ranges that do not fit
+// their columns are never cut: they go on lines of their own below, wrapped whole.
 void print_params(const std::vector<ParamInfo>& ps, int indent = 4) {
   for (auto& p : ps) {
-    std::string range;
-    if (p.type == ParamType::Int || p.type == ParamType::Float) {
-      std::ostringstream o;
-      o << p.min << ".." << p.max;
-      range = o.str();
-    } else if (p.type == ParamType::Choice) {
-      for (auto& c : p.choices) range += (range.empty() ? "" : "|") + c;
-    }
+    const std::string range = param_range(p);
+    const std::string def = p.default_value.dump(-1, ' ', false, json::error_handler_t::replace);
+    const bool long_def = def.size() > 12, long_range = range.size() > 22;
     std::printf("%*s%-16s %-7s default %-12s %-22s %s%s%s\n", indent, "", p.name.c_str(), to_string(p.type),
-                p.default_value.dump().substr(0, 12).c_str(), range.c_str(), p.description.c_str(),
+                long_def ? "(below)" : def.c_str(), long_range ? "(below)" : range.c_str(), p.description.c_str(),
                 p.unit.empty() ? "" : (" [" + p.unit + "]").c_str(), p.effect == Effect::Recolour ? " (recolour)" : "");
+    for (auto [label, text, on] : {std::tuple{"default: ", def, long_def}, std::tuple{"values: ", range, long_range}}) {
+      if (!on) continue;
+      const auto lines = wrap(text, 96);
+      for (std::size_t k = 0; k < lines.size(); ++k)
+        std::printf("%*s%s%s\n", indent + 4, "", k == 0 ? label : "         ", lines[k].c_str());
+    }
     if (!p.fields.empty()) print_params(p.fields, indent + 4);  // a list's records: one line per field
   }
 }
@@ -629,15 +671,8 @@ int main(int argc, char** argv) {
   std::vector<std::pair<std::string, CLI::Option*>> export_cli;
   for (const ParamInfo& p : export_options_table().infos()) {
     std::string help = p.description + " [default " + p.default_value.dump();
-    if (p.type == ParamType::Int || p.type == ParamType::Float) {
-      std::ostringstream r;
-      r << "; " << p.min << ".." << p.max << (p.unit.empty() ? "" : " " + p.unit);
-      help += r.str();
-    } else if (p.type == ParamType::Choice) {
-      std::string c;
-      for (auto& x : p.choices) c += (c.empty() ? "" : "|") + x;
-      help += "; " + c;
-    }
+    if (p.type == ParamType::Int || p.type == ParamType::Float) help += "; " + param_range(p) + (p.unit.empty() ? "" : " " + p.unit);
+    else if (p.type == ParamType::Choice) help += "; " + param_range(p);
     help += "]";
     CLI::Option* opt = p.type == ParamType::Bool ? gen->add_flag(option_flag(p.name), gs.export_flags[p.name], help)
                                                  : gen->add_option(option_flag(p.name), gs.export_text[p.name], help);

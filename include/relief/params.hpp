@@ -59,7 +59,8 @@ struct ParamInfo {
   std::vector<std::string> choices;  // for Choice
   Effect effect = Effect::Regenerate;
   std::vector<ParamInfo> fields;     // for List: the parameters of each record
-  json to_json() const;  // {name, type, default, min, max, unit, description, choices, effect, fields}
+  std::vector<double> values;        // Int/Float: when not empty, the only accepted values (min..max spans them)
+  json to_json() const;  // {name, type, default, min, max, values, unit, description, choices, effect, fields}
 };
 
 const char* to_string(ParamType t);
