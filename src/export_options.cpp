@@ -129,9 +129,16 @@ int engine_legal_size(const std::string& engine, int wanted, int tiles) {
   return best;
 }
 
-void check_engine_size(const ExportOptions& o, int nx, int nz) {
+std::string cli_flag_path(const std::string& name) {
+  std::string f = "--" + name;
+  std::replace(f.begin(), f.end(), '_', '-');
+  return f;
+}
+std::string recipe_path(const std::string& name) { return name == "size" ? "world.size" : "export." + name; }
+
+void check_engine_size(const ExportOptions& o, int nx, int nz, const std::function<std::string(const std::string&)>& path_of) {
   const auto sizes = engine_tile_sizes(o.engine);
-  if (sizes.empty()) throw Error("--engine", "the engine writer needs an engine: unity, unreal or godot");
+  if (sizes.empty()) throw Error(path_of("engine"), "the engine writer needs an engine: unity, unreal or godot");
   const int kx = o.split_x(), kz = o.split_z();
   auto tile = [&](int n, int k) { return (n - 1) % k == 0 ? (n - 1) / k + 1 : 0; };
   const int tx = tile(nx, kx), tz = tile(nz, kz);
@@ -139,8 +146,9 @@ void check_engine_size(const ExportOptions& o, int nx, int nz) {
   if (ok) return;
   std::string list;
   for (int t : sizes) list += (list.empty() ? "" : ", ") + std::to_string(kx * (t - 1) + 1) + "x" + std::to_string(kz * (t - 1) + 1);
-  throw Error("--engine", o.engine + " needs " + (kx * kz > 1 ? "tiles of a legal square size; with --split " + o.split + " that is " : "one of ") +
-                              list + "; got " + std::to_string(nx) + "x" + std::to_string(nz) + " (use --size)");
+  throw Error(path_of("engine"), o.engine + " needs " +
+                                    (kx * kz > 1 ? "tiles of a legal square size; with " + path_of("split") + " " + o.split + " that is " : "one of ") +
+                                    list + "; got " + std::to_string(nx) + "x" + std::to_string(nz) + " (use " + path_of("size") + ")");
 }
 
 }  // namespace relief

@@ -39,7 +39,7 @@ void write_engine_files(const Terrain& t, const ExportOptions& o, Output& out) {
   const Frame& f = t.frame;
   const Layer& h = t.get("height");
   if (h.channels != 1 || h.data.size() != f.count()) throw Error("height", "layer size does not match the frame");
-  check_engine_size(o, f.nx, f.nz);
+  check_engine_size(o, f.nx, f.nz, recipe_path);  // the CLI checks with its flags' names before writing
   const std::string& e = o.engine;
   const int kx = o.split_x(), kz = o.split_z();
   const int ts = (f.nx - 1) / kx + 1;  // samples per tile side (square)

@@ -267,3 +267,46 @@ TEST(HostileCli, FormatsAllWritesTheTilemapToo) {
   ASSERT_EQ(r.code, 0) << r.out;
   EXPECT_TRUE(fs::exists(d.path / "out" / "tilemap.tmx") || fs::exists(d.path / "out" / "tilemap.json")) << r.out;
 }
+
+// ---- the studio's requests and headers (apps/relief/studio_request.cpp) ----------------------
+#include "studio_request.hpp"
+
+TEST(StudioRequest, DeeplyNestedBodyIsA400) {
+  relief::cli::StudioSettings s;
+  try {
+    (void)relief::cli::parse_studio_request(relief::cli::Endpoint::Resolve, "{\"recipe\": " + nested(100000) + "}", s);
+    ADD_FAILURE() << "accepted";
+  } catch (const relief::cli::ApiError& e) {
+    EXPECT_EQ(e.status(), 400);
+    EXPECT_NE(std::string(e.what()).find("deeper than 128"), std::string::npos) << e.what();
+  }
+}
+
+TEST(StudioRequest, UnknownLayerNamesAre400sKnownOnesAreNot) {
+  relief::cli::StudioSettings s;
+  const std::string recipe = R"({"world": {"size": 33}, "stages": [{"stage": "noise"}, {"stage": "noise", "layer": "mask"}]})";
+  const auto ok = relief::cli::parse_studio_request(relief::cli::Endpoint::Generate,
+                                                    R"({"recipe": )" + recipe + R"(, "layers": ["height", "albedo", "mask"]})", s);
+  EXPECT_EQ(ok.layers.size(), 3u);
+  try {
+    (void)relief::cli::parse_studio_request(relief::cli::Endpoint::Generate, R"({"recipe": )" + recipe + R"(, "layers": ["height", "heigth"]})", s);
+    ADD_FAILURE() << "accepted";
+  } catch (const relief::cli::ApiError& e) {
+    EXPECT_EQ(e.status(), 400);
+    EXPECT_EQ(e.path(), "layers[1]");
+    EXPECT_NE(e.message().find("unknown layer \"heigth\" (did you mean 'height'?)"), std::string::npos) << e.message();
+  }
+}
+
+TEST(StudioRequest, ContentDispositionCannotBeInjected) {
+  using relief::cli::content_disposition;
+  EXPECT_EQ(content_disposition("island-7-65-obj.zip"), "attachment; filename=\"island-7-65-obj.zip\"; filename*=UTF-8''island-7-65-obj.zip");
+  const std::string evil = content_disposition("a\"b\r\nX-Evil: 1\\c/d-7.zip");
+  EXPECT_EQ(evil.find_first_of("\r\n"), std::string::npos) << evil;
+  EXPECT_EQ(evil, "attachment; filename=\"a_b__X-Evil__1_c_d-7.zip\"; filename*=UTF-8''a%22b__X-Evil%3A%201_c_d-7.zip");
+  // Non-ASCII names keep their characters in filename* (RFC 5987); invalid bytes become U+FFFD.
+  EXPECT_EQ(content_disposition("île.png"), "attachment; filename=\"__le.png\"; filename*=UTF-8''%C3%AEle.png");
+  const std::string bad = content_disposition(std::string("x\xff.png"));
+  EXPECT_NE(bad.find("filename*=UTF-8''x%EF%BF%BD.png"), std::string::npos) << bad;
+  EXPECT_LT(content_disposition(std::string(5000, 'n')).size(), 500u);
+}

@@ -79,8 +79,14 @@ void validate_export_options(const ExportOptions& o, const std::function<std::st
 std::vector<int> engine_tile_sizes(const std::string& engine);
 // The legal total size for `tiles` tiles closest to `wanted` (ties: the larger).
 int engine_legal_size(const std::string& engine, int wanted, int tiles);
-// Throws Error("--engine", …) unless nx and nz are legal for the options' engine and split.
-void check_engine_size(const ExportOptions& o, int nx, int nz);
+// Throws Error(path_of("engine"), …) unless nx and nz are legal for the options' engine and
+// split. `path_of` names "engine", "split" and "size" in the message: the command line's flags by
+// default (--engine, --split, --size); recipe_path gives the recipe's (export.engine, export.split,
+// world.size), as the engine writer and the studio use.
+std::string cli_flag_path(const std::string& name);
+std::string recipe_path(const std::string& name);
+void check_engine_size(const ExportOptions& o, int nx, int nz,
+                       const std::function<std::string(const std::string&)>& path_of = cli_flag_path);
 
 // ---- meshes ------------------------------------------------------------------------------------
 struct MeshData {
