@@ -146,12 +146,12 @@ void parse_size(const std::string& text, json& doc) {
   const std::string expect = "expected N or NxM with 2..32769 samples per axis";
   auto num = [&](const std::string& t) -> long long {
     if (t.empty() || t.size() > 6 || t.find_first_not_of("0123456789") != std::string::npos)
-      throw Error("--size", expect + ", got \"" + text + "\"");
+      throw Error("--size", expect + ", got " + quote(text));
     return std::stoll(t);
   };
   auto x = text.find_first_of("xX");
   long long nx = num(text.substr(0, x)), nz = x == std::string::npos ? nx : num(text.substr(x + 1));
-  if (nx < 2 || nz < 2 || nx > 32769 || nz > 32769) throw Error("--size", expect + ", got \"" + text + "\"");
+  if (nx < 2 || nz < 2 || nx > 32769 || nz > 32769) throw Error("--size", expect + ", got " + quote(text));
   if (!doc.contains("world") || !doc["world"].is_object()) doc["world"] = json::object();
   doc["world"]["size"] = json::array({nx, nz});
 }
@@ -180,7 +180,7 @@ std::string apply_tilemap_shortcuts(const GenerateSettings& s, const std::string
   json& stage = st[at];
   auto number = [](const std::string& t, const std::string& flag, const std::string& text, const char* expect) {
     if (t.empty() || t.size() > 9 || t.find_first_not_of("0123456789") != std::string::npos)
-      throw Error(flag, std::string("expected ") + expect + ", got \"" + text + "\"");
+      throw Error(flag, std::string("expected ") + expect + ", got " + quote(text));
     return std::stoll(t);
   };
   if (!s.tile_size.empty()) stage["tile_size"] = number(s.tile_size, "--tile-size", s.tile_size, "a tile size in pixels (e.g. 32)");
@@ -490,7 +490,7 @@ int cmd_explain(const std::string& stage, bool as_json) {
       std::vector<std::string> names;
       for (auto& x : stage_registry()) names.push_back(x.name);
       std::string near = nearest_name(stage, names);
-      throw Error("stage", "unknown stage \"" + stage + "\"" + (near.empty() ? "" : " (did you mean '" + near + "'?)"));
+      throw Error("stage", "unknown stage " + quote(stage) + (near.empty() ? "" : " (did you mean '" + near + "'?)"));
     }
     std::printf("%s: %s\n", d->name.c_str(), d->summary.c_str());
     print_params(d->params);
@@ -757,7 +757,7 @@ int main(int argc, char** argv) {
           if (item.empty() || item.find_first_not_of("0123456789") != std::string::npos || item.size() > 6 ||
               std::stoi(item) < lo || std::stoi(item) > hi)
             throw Error(field, "expected comma-separated integers in " + std::to_string(lo) + ".." + std::to_string(hi) +
-                                   ", got \"" + text + "\"");
+                                   ", got " + quote(text));
           v.push_back(std::stoi(item));
         }
         if (v.empty()) throw Error(field, "expected at least one value");
@@ -768,7 +768,7 @@ int main(int argc, char** argv) {
       std::stringstream ss(bench_cases);
       std::string c;
       while (std::getline(ss, c, ',')) {
-        if (!cli::is_bench_group(c)) throw Error("--cases", "expected one of " + cli::bench_group_list() + ", got \"" + c + "\"");
+        if (!cli::is_bench_group(c)) throw Error("--cases", "expected one of " + cli::bench_group_list() + ", got " + quote(c));
         bs.cases.push_back(c);
       }
       return cli::run_bench(bs);
