@@ -1,7 +1,8 @@
 // A replay driver for the fuzz targets, built with any compiler (no libFuzzer needed), run by CTest:
 //
-//   fuzz_X_replay CORPUS_DIR [--iterations N] [--seed S] [--max-seconds T] [--crash-dir DIR]
+//   fuzz_X_replay CORPUS [--iterations N] [--seed S] [--max-seconds T] [--crash-dir DIR]
 //
+// CORPUS is a folder (every regular file in it) or one file (a crash input to replay).
 // Runs every file of the corpus through LLVMFuzzerTestOneInput, then N deterministic mutations of
 // corpus entries (bit flips, byte changes, truncations, deleted and duplicated ranges, splices of two
 // entries, number and string swaps), each a pure function of (seed, iteration), so a failure
@@ -159,7 +160,7 @@ bool run_one(const std::string& input, const std::string& name, const std::strin
 
 int main(int argc, char** argv) {
   if (argc < 2) {
-    std::fprintf(stderr, "usage: %s CORPUS_DIR [--iterations N] [--seed S] [--max-seconds T] [--crash-dir DIR]\n", argv[0]);
+    std::fprintf(stderr, "usage: %s CORPUS_DIR_OR_FILE [--iterations N] [--seed S] [--max-seconds T] [--crash-dir DIR]\n", argv[0]);
     return 2;
   }
   const std::string dir = argv[1];
@@ -180,8 +181,20 @@ int main(int argc, char** argv) {
   for (int sig : {SIGABRT, SIGSEGV, SIGBUS, SIGFPE, SIGILL}) signal(sig, on_crash);
 
   std::vector<std::filesystem::path> files;
-  for (auto& e : std::filesystem::directory_iterator(dir))
-    if (e.is_regular_file()) files.push_back(e.path());
+  std::error_code ec;
+  if (std::filesystem::is_directory(dir, ec)) {
+    for (auto& e : std::filesystem::directory_iterator(dir, ec))
+      if (e.is_regular_file()) files.push_back(e.path());
+  } else if (std::filesystem::exists(dir, ec)) {
+    files.push_back(dir);  // one input (a crash file); anything readable, /dev/stdin included
+  } else {
+    std::fprintf(stderr, "replay: %s: no such file or folder\n", dir.c_str());
+    return 2;
+  }
+  if (ec) {
+    std::fprintf(stderr, "replay: cannot read %s: %s\n", dir.c_str(), ec.message().c_str());
+    return 2;
+  }
   std::sort(files.begin(), files.end());
   if (files.empty()) {
     std::fprintf(stderr, "replay: no inputs in %s\n", dir.c_str());

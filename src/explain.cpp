@@ -21,7 +21,7 @@ json parameter_table_json(std::string_view only_stage) {
     std::vector<std::string> names;
     for (auto& d : stage_registry()) names.push_back(d.name);
     const std::string near = nearest_name(std::string(only_stage), names);
-    throw Error("stage", "unknown stage \"" + std::string(only_stage) + "\"" +
+    throw Error("stage", "unknown stage " + quote(only_stage) +
                              (near.empty() ? "" : " (did you mean '" + near + "'?)"));
   }
   o["stages"] = st;

@@ -41,6 +41,7 @@ Table<O> make_table() {
   f.push_back(choice(&O::godot_format, "godot_format", {{GodotFormat::Exr, "exr"}, {GodotFormat::R16, "r16"}},
                      "engine godot: 32-bit float EXR (metres) or r16"));
   f.push_back(param(&O::normal_bits, "normal_bits", 8, 16, "bits", "normalmap: 8 or 16 bits per channel"));
+  f.back().info.values = {8, 16};  // validate_export_options refuses the others
   f.push_back(choice(&O::normal_convention, "normal_convention",
                      {{NormalConvention::Auto, "auto"}, {NormalConvention::OpenGl, "opengl"}, {NormalConvention::DirectX, "directx"}},
                      "normalmap: green channel +Y up (opengl) or down (directx); auto = directx for unreal"));
@@ -109,6 +110,8 @@ void validate_export_options(const ExportOptions& o, const std::function<std::st
     throw Error(path_of("split"), "expected NxM with 1..64 tiles per axis, e.g. 4x4, got \"" + o.split + "\"");
   if ((sx > 1 || sz > 1) && o.engine == Engine::None)
     throw Error(path_of("split"), "splitting writes engine tiles: choose an engine (unity, unreal or godot)");
+  if (o.godot_format != GodotFormat::Exr && o.engine != Engine::Godot)
+    throw Error(path_of("godot_format"), "applies to the godot engine: choose engine godot, or leave the format at exr");
   if (o.normal_bits != 8 && o.normal_bits != 16)
     throw Error(path_of("normal_bits"), "expected 8 or 16, got " + std::to_string(o.normal_bits));
   if (o.lod_msft && o.lod_levels == 0)
@@ -140,6 +143,13 @@ int engine_legal_size(Engine engine, int wanted, int tiles) {
   }
   return best;
 }
+
+std::string cli_flag_path(const std::string& name) {
+  std::string f = "--" + name;
+  std::replace(f.begin(), f.end(), '_', '-');
+  return f;
+}
+std::string recipe_path(const std::string& name) { return name == "size" ? "world.size" : "export." + name; }
 
 void check_engine_size(const ExportOptions& o, int nx, int nz, const OptionPath& path_of, const std::string& size_path) {
   const auto sizes = engine_tile_sizes(o.engine);

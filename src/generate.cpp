@@ -249,7 +249,7 @@ Generated generate_keep(GenerateSettings s, Output& out) {
   // never depend on scheduling.
   std::vector<double> ms(encoders.size());
   {
-    tbb::task_arena arena(s.threads > 0 ? s.threads : tbb::task_arena::automatic);
+    tbb::task_arena arena(s.threads > 0 ? capped_threads(s.threads) : tbb::task_arena::automatic);
     arena.execute([&] {
       tbb::parallel_for(
           std::size_t(0), encoders.size(),

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <cstdlib>
 
 namespace relief {
 
@@ -32,6 +33,7 @@ json ParamInfo::to_json() const {
       type == ParamType::IntList || type == ParamType::List) {
     o["min"] = min;
     o["max"] = max;
+    if (!values.empty()) o["values"] = values;
   }
   if (!unit.empty()) o["unit"] = unit;
   o["description"] = description;
@@ -45,17 +47,114 @@ json ParamInfo::to_json() const {
   return o;
 }
 
+namespace {
+
+// Length of the well-formed UTF-8 sequence at t[i] (RFC 3629: no overlongs, no surrogates, at
+// most U+10FFFF), or 0 when the byte there does not start one.
+std::size_t utf8_length(std::string_view t, std::size_t i) {
+  const auto c = static_cast<unsigned char>(t[i]);
+  if (c < 0x80) return 1;
+  const std::size_t len = c >= 0xC2 && c <= 0xDF ? 2 : c >= 0xE0 && c <= 0xEF ? 3 : c >= 0xF0 && c <= 0xF4 ? 4 : 0;
+  if (len == 0 || i + len > t.size()) return 0;
+  const auto c1 = static_cast<unsigned char>(t[i + 1]);
+  const unsigned char lo = c == 0xE0 ? 0xA0 : c == 0xF0 ? 0x90 : 0x80;
+  const unsigned char hi = c == 0xED ? 0x9F : c == 0xF4 ? 0x8F : 0xBF;
+  if (c1 < lo || c1 > hi) return 0;
+  for (std::size_t k = 2; k < len; ++k)
+    if ((static_cast<unsigned char>(t[i + k]) & 0xC0) != 0x80) return 0;
+  return len;
+}
+
+void append_escape(std::string& out, unsigned char c) {
+  char buf[8];
+  std::snprintf(buf, sizeof buf, "\\u%04x", unsigned(c));
+  out += buf;
+}
+
+}  // namespace
+
+bool is_utf8(std::string_view t) {
+  for (std::size_t i = 0; i < t.size();) {
+    const std::size_t len = utf8_length(t, i);
+    if (len == 0) return false;
+    i += len;
+  }
+  return true;
+}
+
+std::string printable_text(std::string_view t) {
+  bool plain = true;  // printable ASCII and '\n' need nothing
+  for (unsigned char c : t) plain = plain && ((c >= 0x20 && c < 0x7f) || c == '\n');
+  if (plain) return std::string(t);
+  std::string out;
+  out.reserve(t.size() + 8);
+  for (std::size_t i = 0; i < t.size();) {
+    const auto c = static_cast<unsigned char>(t[i]);
+    const std::size_t len = utf8_length(t, i);
+    if (len == 0) out += "\xEF\xBF\xBD", ++i;
+    else if ((c < 0x20 && c != '\n') || c == 0x7f) append_escape(out, c), ++i;
+    else out.append(t.substr(i, len)), i += len;
+  }
+  return out;
+}
+
+std::string quote(std::string_view text, std::size_t max_bytes) {
+  std::string q = "\"";
+  std::size_t i = 0;
+  for (; i < text.size() && q.size() <= max_bytes; ) {
+    const auto c = static_cast<unsigned char>(text[i]);
+    const std::size_t len = utf8_length(text, i);
+    if (len == 0) q += "\xEF\xBF\xBD", ++i;
+    else if (c == '"' || c == '\\') q.push_back('\\'), q.push_back(char(c)), ++i;
+    else if (c == '\n') q += "\\n", ++i;
+    else if (c == '\t') q += "\\t", ++i;
+    else if (c < 0x20 || c == 0x7f) append_escape(q, c), ++i;
+    else q.append(text.substr(i, len)), i += len;
+  }
+  if (i < text.size()) q += "...";
+  q.push_back('"');
+  return q;
+}
+
+namespace {
+
+// Compact JSON-like rendering, stopping once `out` passes `limit` bytes or `depth` levels.
+void render(const json& v, std::string& out, std::size_t limit, int depth) {
+  if (out.size() > limit) return;
+  if (v.is_string()) {
+    out += quote(v.get_ref<const std::string&>(), limit + 4 - std::min(limit, out.size()));
+  } else if (v.is_array() || v.is_object()) {
+    const bool arr = v.is_array();
+    if (depth <= 0) {
+      out += arr ? "[...]" : "{...}";
+      return;
+    }
+    out.push_back(arr ? '[' : '{');
+    bool first = true;
+    for (auto it = v.begin(); it != v.end() && out.size() <= limit; ++it) {
+      if (!first) out.push_back(',');
+      first = false;
+      if (!arr) {
+        out += quote(it.key(), limit + 4 - std::min(limit, out.size()));
+        out.push_back(':');
+      }
+      render(it.value(), out, limit, depth - 1);
+    }
+    out.push_back(arr ? ']' : '}');
+  } else {
+    out += v.dump();  // a number, a boolean or null: short and always valid
+  }
+}
+
+}  // namespace
+
 std::string describe(const json& v) {
   std::string s;
-  if (v.is_string()) {
-    s.push_back('"');
-    s.append(v.get<std::string>());
-    s.push_back('"');
-  } else {
-    s = v.dump();
-  }
+  render(v, s, 64, 8);
   if (s.size() > 60) {
-    s.resize(57);
+    std::size_t k = 57;
+    while (k > 0 && (static_cast<unsigned char>(s[k]) & 0xC0) == 0x80) --k;
+    s.resize(k);
     s.append("...");
   }
   const char* kind = v.is_null() ? "null" : v.is_boolean() ? "a boolean" : v.is_number() ? nullptr
@@ -65,10 +164,48 @@ std::string describe(const json& v) {
   return std::string(kind) + " " + s;
 }
 
+void check_json_depth(std::string_view text, const std::string& origin, const std::string& path) {
+  // The nesting depth, counted before parsing: nlohmann's parser is iterative, but copying,
+  // comparing, dumping and destroying a document recurse once per level.
+  int depth = 0;
+  bool in_string = false;
+  for (std::size_t i = 0; i < text.size(); ++i) {
+    const char c = text[i];
+    if (in_string) {
+      if (c == '\\') ++i;
+      else if (c == '"') in_string = false;
+    } else if (c == '"') {
+      in_string = true;
+    } else if (c == '[' || c == '{') {
+      if (++depth > kMaxJsonDepth)
+        throw Error(path, origin + " nests arrays and objects deeper than " + std::to_string(kMaxJsonDepth) +
+                              " levels (at byte " + std::to_string(i) + ")");
+    } else if (c == ']' || c == '}') {
+      depth = std::max(0, depth - 1);
+    }
+  }
+}
+
+json parse_json(std::string_view text, const std::string& origin, const std::string& path) {
+  check_json_depth(text, origin, path);
+  try {
+    return json::parse(text.begin(), text.end());
+  } catch (const json::exception& e) {
+    throw Error(path, origin + " is not valid JSON: " + e.what());
+  }
+}
+
+// The shortest form that reads back as x (1.0000001 stays 1.0000001, not "1").
 static std::string num(double x) {
   char buf[64];
-  if (x == std::floor(x) && std::fabs(x) < 1e17) std::snprintf(buf, sizeof buf, "%.0f", x);
-  else std::snprintf(buf, sizeof buf, "%g", x);
+  if (x == std::floor(x) && std::fabs(x) < 1e17) {
+    std::snprintf(buf, sizeof buf, "%.0f", x);
+    return buf;
+  }
+  for (int p = 6; p <= 17; ++p) {
+    std::snprintf(buf, sizeof buf, "%.*g", p, x);
+    if (std::strtod(buf, nullptr) == x) break;
+  }
   return buf;
 }
 
@@ -107,7 +244,7 @@ std::string read_choice(const json& v, const std::string& path, const std::vecto
   std::string s = v.get<std::string>();
   if (std::find(choices.begin(), choices.end(), s) == choices.end()) {
     std::string near = nearest_name(s, choices);
-    throw Error(path, "expected one of " + list + ", got \"" + s + "\"" +
+    throw Error(path, "expected one of " + list + ", got " + quote(s) +
                           (near.empty() ? "" : " (did you mean '" + near + "'?)"));
   }
   return s;

@@ -1,5 +1,6 @@
 #include "relief/pipeline.hpp"
 
+#include <tbb/info.h>
 #include <tbb/task_arena.h>
 #include <unistd.h>
 
@@ -117,6 +118,10 @@ void crop(Terrain& t, const Frame& window) {
 
 }  // namespace
 
+int capped_threads(int requested) {
+  return requested <= 0 ? requested : std::min(requested, std::max(1, tbb::info::default_concurrency()));
+}
+
 RunResult run(const Recipe& r, const RunOptions& opt) {
   RunResult res;
   res.seed = r.seed ? *r.seed : random_seed();
@@ -148,7 +153,7 @@ RunResult run(const Recipe& r, const RunOptions& opt) {
   const Frame& f = res.terrain.frame;
   if (f.nx < 2 || f.nz < 2) throw Error("world.size", "expected at least 2 samples per axis, got " +
                                                           std::to_string(f.nx) + "x" + std::to_string(f.nz));
-  int threads = opt.threads > 0 ? opt.threads : int(std::max(1u, std::thread::hardware_concurrency()));
+  int threads = opt.threads > 0 ? capped_threads(opt.threads) : tbb::info::default_concurrency();
   tbb::task_arena arena(threads);
   const auto t_all = std::chrono::steady_clock::now();
   const bool fuse = opt.fuse && (!opt.after_stage || opt.after_stage_keeps_fusion);

@@ -120,6 +120,7 @@ Recipe parse_recipe(const json& doc) {
     const json& v = it.value();
     if (k == "name" || k == "description") {
       if (!v.is_string()) throw Error(k, "expected a string, got " + describe(v));
+      if (!is_utf8(v.get_ref<const std::string&>())) throw Error(k, "expected UTF-8 text, got " + describe(v));
       (k == "name" ? r.name : r.description) = v.get<std::string>();
     } else if (k == "seed") {
       r.seed = std::uint64_t(read_int(v, "seed", 0, double(kMaxSeed)));
@@ -139,14 +140,15 @@ Recipe parse_recipe(const json& doc) {
           std::vector<std::string> names;
           for (auto& d : stage_registry()) names.push_back(d.name);
           std::string near = nearest_name(name, names);
-          throw Error(path + ".stage", "unknown stage \"" + name + "\"" +
+          throw Error(path + ".stage", "unknown stage " + quote(name) +
                                            (near.empty() ? "" : " (did you mean '" + near + "'?)") +
                                            "; `relief explain` lists the stages");
         }
         RecipeStage rs;
         rs.def = def;
         if (e.contains("label")) {
-          if (!e["label"].is_string()) throw Error(path + ".label", "expected a string, got " + describe(e["label"]));
+          if (!e["label"].is_string() || !is_utf8(e["label"].get_ref<const std::string&>()))
+            throw Error(path + ".label", "expected a string of UTF-8 text, got " + describe(e["label"]));
           rs.label = e["label"].get<std::string>();
         }
         rs.stage = def->parse(e, path);
@@ -163,13 +165,7 @@ Recipe parse_recipe(const json& doc) {
 }
 
 Recipe parse_recipe_text(const std::string& text, const std::string& origin) {
-  json doc;
-  try {
-    doc = json::parse(text);
-  } catch (const json::exception& e) {
-    throw Error("", origin + " is not valid JSON: " + std::string(e.what()));
-  }
-  return parse_recipe(doc);
+  return parse_recipe(parse_json(text, origin));
 }
 
 // ---- overrides ------------------------------------------------------------------------------
@@ -177,16 +173,22 @@ Recipe parse_recipe_text(const std::string& text, const std::string& origin) {
 void apply_override(json& doc, const std::string& assignment) {
   const auto eq = assignment.find('=');
   if (eq == std::string::npos || eq == 0)
-    throw Error("--set", "expected PATH=VALUE (e.g. stages[1].octaves=8), got \"" + assignment + "\"");
+    throw Error("--set", "expected PATH=VALUE (e.g. stages[1].octaves=8), got " + quote(assignment));
   const std::string path = assignment.substr(0, eq);
   const std::string text = assignment.substr(eq + 1);
+  // Bounded: a path of 100,000 ".a" would build a document too deep to copy or print.
+  if (path.size() > 4096 || std::count_if(path.begin(), path.end(), [](char c) { return c == '.' || c == '['; }) > kMaxJsonDepth)
+    throw Error("--set", "expected a path of at most " + std::to_string(kMaxJsonDepth) + " levels and 4096 bytes, got " + quote(path));
+  check_json_depth(text, "the value", path);
   json value;
   try {
     value = json::parse(text);
   } catch (const json::parse_error&) {
+    // Not JSON: the text itself, which must be text (it ends up in files and messages).
+    if (!is_utf8(text)) throw Error(path, "expected UTF-8 text, got " + quote(text));
     value = text;
   } catch (const json::exception&) {  // e.g. 1e999: a number JSON cannot hold
-    throw Error(path, "expected a finite value, got " + text);
+    throw Error(path, "expected a finite value, got " + quote(text));
   }
   // A path into a stage parameter the recipe leaves at its default (`stages[2].types[1].octaves`
   // where the recipe has no `types`) first copies that parameter's default into the stage object.
@@ -222,7 +224,7 @@ void apply_override(json& doc, const std::string& assignment) {
       if (close == std::string::npos) throw Error(path, "malformed path: missing ']'");
       const std::string idx = path.substr(p + 1, close - p - 1);
       if (idx.empty() || idx.find_first_not_of("0123456789") != std::string::npos)
-        throw Error(path, "malformed path: index \"" + idx + "\" is not a number");
+        throw Error(path, "malformed path: index " + quote(idx) + " is not a number");
       // Any index of more than 9 digits is out of range (and would overflow std::stoul).
       const std::size_t i = idx.size() > 9 ? std::size_t(-1) : std::stoul(idx);
       walked += "[" + idx + "]";
@@ -326,10 +328,10 @@ std::vector<PresetInfo> list_presets() {
   for (auto& [name, ot] : all_presets(true)) {
     PresetInfo pi{name, "", ot.first};
     try {
-      json doc = json::parse(ot.second);
+      json doc = parse_json(ot.second, "preset");
       if (doc.is_object() && doc.contains("description") && doc["description"].is_string())
         pi.description = doc["description"].get<std::string>();
-    } catch (const json::exception&) {
+    } catch (const Error&) {
       pi.description = "(not valid JSON)";
     }
     out.push_back(pi);
@@ -341,18 +343,14 @@ json load_preset(const std::string& name) {
   auto all = all_presets(true);
   for (auto& [n, ot] : all) {
     if (n != name) continue;
-    try {
-      return json::parse(ot.second);
-    } catch (const json::exception& e) {
-      throw Error("preset", "'" + ot.first + "' is not valid JSON: " + e.what());
-    }
+    return parse_json(ot.second, "'" + ot.first + "'", "preset");
   }
   std::vector<std::string> names;
   for (auto& e : all) names.push_back(e.first);
   std::string near = nearest_name(name, names);
   std::string list;
   for (auto& n : names) list += (list.empty() ? "" : ", ") + n;
-  throw Error("preset", "unknown preset \"" + name + "\"" + (near.empty() ? "" : " (did you mean '" + near + "'?)") +
+  throw Error("preset", "unknown preset " + quote(name) + (near.empty() ? "" : " (did you mean '" + near + "'?)") +
                             "; available: " + list);
 }
 

@@ -18,7 +18,10 @@
 #include <memory>
 #include <iostream>
 #include <mutex>
+#include <deque>
+#include <functional>
 #include <map>
+#include <tuple>
 #include <sstream>
 
 #include <tbb/parallel_for.h>
@@ -82,6 +85,7 @@ ExportOptions parse_export_options(const CliGenerate& s, ExportOptions o) {
       bool is_text = false;
       for (auto& f : export_options_table().fields) is_text = is_text || (f.info.name == name && f.info.type == ParamType::Text);
       try {
+        check_json_depth(text, "the value", option_flag(name));
         v = is_text ? json(text) : json::parse(text);
       } catch (const json::exception&) {
         v = text;
@@ -126,23 +130,19 @@ json read_recipe_doc(const CliGenerate& s) {
   if (!in) throw Error("recipe", "cannot read '" + src + "'");
   std::stringstream ss;
   ss << in.rdbuf();
-  try {
-    return json::parse(ss.str());
-  } catch (const json::exception& e) {
-    throw Error("recipe", "'" + src + "' is not valid JSON: " + e.what());
-  }
+  return parse_json(ss.str(), "'" + src + "'", "recipe");
 }
 
 void parse_size(const std::string& text, json& doc) {
   const std::string expect = "expected N or NxM with " + std::to_string(kMinSize) + ".." + std::to_string(kMaxSize) + " samples per axis";
   auto num = [&](const std::string& t) -> long long {
     if (t.empty() || t.size() > 6 || t.find_first_not_of("0123456789") != std::string::npos)
-      throw Error("--size", expect + ", got \"" + text + "\"");
+      throw Error("--size", expect + ", got " + quote(text));
     return std::stoll(t);
   };
   auto x = text.find_first_of("xX");
   long long nx = num(text.substr(0, x)), nz = x == std::string::npos ? nx : num(text.substr(x + 1));
-  if (nx < kMinSize || nz < kMinSize || nx > kMaxSize || nz > kMaxSize) throw Error("--size", expect + ", got \"" + text + "\"");
+  if (nx < kMinSize || nz < kMinSize || nx > kMaxSize || nz > kMaxSize) throw Error("--size", expect + ", got " + quote(text));
   if (!doc.contains("world") || !doc["world"].is_object()) doc["world"] = json::object();
   doc["world"]["size"] = json::array({nx, nz});
 }
@@ -170,7 +170,7 @@ std::string apply_tilemap_shortcuts(const CliGenerate& s, const std::string& for
   json& stage = st[at];
   auto number = [](const std::string& t, const std::string& flag, const std::string& text, const char* expect) {
     if (t.empty() || t.size() > 9 || t.find_first_not_of("0123456789") != std::string::npos)
-      throw Error(flag, std::string("expected ") + expect + ", got \"" + text + "\"");
+      throw Error(flag, std::string("expected ") + expect + ", got " + quote(text));
     return std::stoll(t);
   };
   if (!s.tile_size.empty()) stage["tile_size"] = number(s.tile_size, "--tile-size", s.tile_size, "a tile size in pixels (e.g. 32)");
@@ -431,19 +431,59 @@ int cmd_presets(bool as_json) {
   return 0;
 }
 
+// A parameter's accepted values: "8|16", "0..1", "a|b|c" ("" for other types).
+std::string param_range(const ParamInfo& p) {
+  std::string range;
+  if ((p.type == ParamType::Int || p.type == ParamType::Float) && !p.values.empty()) {
+    for (double v : p.values) {
+      std::ostringstream o;
+      o << v;
+      range += (range.empty() ? "" : "|") + o.str();
+    }
+  } else if (p.type == ParamType::Int || p.type == ParamType::Float) {
+    std::ostringstream o;
+    o << p.min << ".." << p.max;
+    range = o.str();
+  } else if (p.type == ParamType::Choice) {
+    for (auto& c : p.choices) range += (range.empty() ? "" : "|") + c;
+  }
+  return range;
+}
+
+// `text` broken at spaces, commas and '|' into lines of at most `width` characters.
+std::vector<std::string> wrap(const std::string& text, std::size_t width) {
+  std::vector<std::string> lines;
+  std::string line;
+  std::size_t last_break = std::string::npos;
+  for (char c : text) {
+    line.push_back(c);
+    if (c == ' ' || c == ',' || c == '|') last_break = line.size();
+    if (line.size() > width && last_break != std::string::npos && last_break < line.size()) {
+      lines.push_back(line.substr(0, last_break));
+      line = line.substr(last_break);
+      last_break = std::string::npos;
+    }
+  }
+  if (!line.empty()) lines.push_back(line);
+  return lines;
+}
+
+// The text table of `relief explain`: one line per parameter. Defaults and ranges that do not fit
+// their columns are never cut: they go on lines of their own below, wrapped whole.
 void print_params(const std::vector<ParamInfo>& ps, int indent = 4) {
   for (auto& p : ps) {
-    std::string range;
-    if (p.type == ParamType::Int || p.type == ParamType::Float) {
-      std::ostringstream o;
-      o << p.min << ".." << p.max;
-      range = o.str();
-    } else if (p.type == ParamType::Choice) {
-      for (auto& c : p.choices) range += (range.empty() ? "" : "|") + c;
-    }
+    const std::string range = param_range(p);
+    const std::string def = p.default_value.dump(-1, ' ', false, json::error_handler_t::replace);
+    const bool long_def = def.size() > 12, long_range = range.size() > 22;
     std::printf("%*s%-16s %-7s default %-12s %-22s %s%s%s\n", indent, "", p.name.c_str(), to_string(p.type),
-                p.default_value.dump().substr(0, 12).c_str(), range.c_str(), p.description.c_str(),
+                long_def ? "(below)" : def.c_str(), long_range ? "(below)" : range.c_str(), p.description.c_str(),
                 p.unit.empty() ? "" : (" [" + p.unit + "]").c_str(), p.effect == Effect::Recolour ? " (recolour)" : "");
+    for (auto [label, text, on] : {std::tuple{"default: ", def, long_def}, std::tuple{"values: ", range, long_range}}) {
+      if (!on) continue;
+      const auto lines = wrap(text, 96);
+      for (std::size_t k = 0; k < lines.size(); ++k)
+        std::printf("%*s%s%s\n", indent + 4, "", k == 0 ? label : "         ", lines[k].c_str());
+    }
     if (!p.fields.empty()) print_params(p.fields, indent + 4);  // a list's records: one line per field
   }
 }
@@ -459,7 +499,7 @@ int cmd_explain(const std::string& stage, bool as_json) {
       std::vector<std::string> names;
       for (auto& x : stage_registry()) names.push_back(x.name);
       std::string near = nearest_name(stage, names);
-      throw Error("stage", "unknown stage \"" + stage + "\"" + (near.empty() ? "" : " (did you mean '" + near + "'?)"));
+      throw Error("stage", "unknown stage " + quote(stage) + (near.empty() ? "" : " (did you mean '" + near + "'?)"));
     }
     std::printf("%s: %s\n", d->name.c_str(), d->summary.c_str());
     print_params(d->params);
@@ -485,6 +525,126 @@ int cmd_explain(const std::string& stage, bool as_json) {
   return 0;
 }
 
+// Checks of generate's flags among themselves, before anything is read (the lead's
+// relief::generate can take them over): one recipe, not two.
+void check_generate_flags(const CliGenerate& s) {
+  if (!s.preset.empty() && !s.recipe.empty())
+    throw Error("--preset", "two recipes given, " + quote(s.recipe) + " and --preset " + quote(s.preset) + "; give one");
+}
+
+// ---- command-line values ------------------------------------------------------------------------
+// Numbers on the command line are read here, not by CLI11, so that every error has the one form
+// `relief: error: FLAG: expected …, got "WHAT WAS TYPED"`: decimal digits only (`010` is ten, not
+// octal; `0x10`, `1.5`, `""` and `+1` are errors), and the range is checked on the text, so
+// 18446744073709551616 is quoted as typed rather than wrapped or saturated.
+std::int64_t read_int_flag(const std::string& text, const std::string& flag, std::int64_t lo, std::int64_t hi,
+                           const char* note = nullptr) {
+  const std::string expect = "expected an integer in " + std::to_string(lo) + ".." + std::to_string(hi) +
+                             (note ? std::string(" (") + note + ")" : std::string());
+  const bool neg = !text.empty() && text[0] == '-';
+  const std::string digits = text.substr(neg ? 1 : 0);
+  if (digits.empty() || digits.find_first_not_of("0123456789") != std::string::npos)
+    throw Error(flag, expect + ", got " + quote(text));
+  const std::size_t first = std::min(digits.find_first_not_of('0'), digits.size());
+  if (digits.size() - first > 18) throw Error(flag, expect + ", got " + quote(text));
+  const std::int64_t v = (neg ? -1 : 1) * std::int64_t(std::stoull(digits.substr(first).empty() ? "0" : digits.substr(first)));
+  if (v < lo || v > hi) throw Error(flag, expect + ", got " + quote(text));
+  return v;
+}
+
+// Integer flags of every command: registered as text, read by read_int_flag after parsing.
+struct IntFlags {
+  struct Entry {
+    CLI::Option* opt = nullptr;
+    std::string flag, text;
+    std::int64_t lo = 0, hi = 0;
+    std::function<void(std::int64_t)> set;
+  };
+  std::deque<Entry> entries;  // stable addresses: CLI11 keeps a pointer to each text
+  template <class T>
+  CLI::Option* add(CLI::App* cmd, const std::string& names, T& target, std::int64_t lo, std::int64_t hi,
+                   const std::string& help, bool show_default = true) {
+    Entry& e = entries.emplace_back();
+    e.flag = names.substr(0, names.find(','));
+    e.lo = lo, e.hi = hi;
+    e.set = [&target](std::int64_t v) { target = T(v); };
+    e.opt = cmd->add_option(names, e.text, help + " [" + std::to_string(lo) + ".." + std::to_string(hi) + "]");
+    if (show_default) e.opt->default_str(std::to_string(target));
+    e.opt->type_name("INT");
+    return e.opt;
+  }
+  void read() {
+    for (Entry& e : entries)
+      if (e.opt->count() > 0) e.set(read_int_flag(e.text, e.flag, e.lo, e.hi));
+  }
+};
+
+// What a flag's value must be, for the message when it is given empty (`-o ""`).
+std::string expected_value(const CLI::Option* o) {
+  static const std::map<std::string, std::string> known = {
+      {"--out", "an output folder"},
+      {"--preset", "a preset name (see `relief presets`)"},
+      {"--size", "N or NxM with 2..32769 samples per axis"},
+      {"--formats", "comma-separated format names or 'all' (see `relief explain`)"},
+      {"--set", "PATH=VALUE (e.g. stages[1].octaves=8)"},
+      {"--save-recipe", "a file name"},
+      {"--steps", "a folder"},
+      {"--host", "a host name or address"},
+      {"--json", "a file name"},
+      {"recipe", "a preset name or a recipe JSON file"},
+      {"stage", "a stage name (see `relief explain`)"},
+  };
+  const std::string name = o->get_name(false, false).substr(0, o->get_name(false, false).find(','));
+  for (auto& [k, v] : known)
+    if (o->check_lname(k.substr(2)) || name == k) return v;
+  std::string d = o->get_description();
+  d = d.substr(0, d.find(" ["));
+  return "a value (" + d + ")";
+}
+
+// The flag's name as the user can type it: its long name, else its short one, else the positional's.
+std::string flag_name(const CLI::Option* o) {
+  if (!o->get_lnames().empty()) return "--" + o->get_lnames().front();
+  if (!o->get_snames().empty()) return "-" + o->get_snames().front();
+  return o->get_name();
+}
+
+// An empty value is never a default: `-o ""`, `--size ""`, `--formats ""` are errors.
+void refuse_empty_values(CLI::App* cmd) {
+  for (const CLI::Option* o : cmd->get_options()) {
+    // Flags take no value; integers say what they expect themselves (read_int_flag).
+    if (o->count() == 0 || o->get_expected_min() == 0 || o->get_type_name() == "INT") continue;
+    for (const std::string& r : o->results())
+      if (r.empty()) throw Error(flag_name(o), "expected " + expected_value(o) + ", got an empty value");
+  }
+}
+
+// CLI11's own parse errors in the one format, naming the flag and what was expected.
+std::string parse_error_message(const CLI::ParseError& e, const CLI::App& app) {
+  const std::string what = e.what();
+  if (dynamic_cast<const CLI::RequiredError*>(&e) && what.find("subcommand") != std::string::npos)
+    return "expected a command: generate, presets, explain, bench or studio (see relief --help)";
+  if (dynamic_cast<const CLI::ExtrasError*>(&e)) {
+    std::string extra = what.substr(what.find(':') == std::string::npos ? 0 : what.find(':') + 2);
+    std::string cmd;
+    for (const CLI::App* sub : app.get_subcommands()) cmd = sub->get_name();
+    if (!extra.empty() && extra[0] == '-')
+      return (cmd.empty() ? std::string("") : cmd + ": ") + "unknown flag " + quote(extra.substr(0, extra.find(' '))) +
+             " (see relief " + cmd + " --help)";
+    if (cmd == "generate")
+      return "generate: unexpected argument " + quote(extra) + " (give one recipe: a preset name or a JSON file; see relief generate --help)";
+    return (cmd.empty() ? std::string("") : cmd + ": ") + "unexpected argument " + quote(extra) + " (see relief " + cmd + " --help)";
+  }
+  if (dynamic_cast<const CLI::ArgumentMismatch*>(&e)) {
+    // "--out: At Most 1 required but received 2" (the flag twice), "--seed: 1 required INT missing".
+    const std::string flag = what.substr(0, what.find(':'));
+    if (what.find("missing") != std::string::npos) return flag + ": expected a value after the flag";
+    if (what.find("At Most") != std::string::npos) return flag + ": given more than once; give it once";
+    return what;
+  }
+  return what + " (see relief --help)";
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -497,12 +657,14 @@ int main(int argc, char** argv) {
   gen->add_option("recipe", gs.recipe, "Preset name or recipe JSON file (default: island)");
   gen->add_option("--preset,-p", gs.preset, "Preset name (see `relief presets`)");
   gen->add_option("-o,--out", gs.out_dir, "Output directory (created if missing)")->capture_default_str();
-  gen->add_option("--seed,-s", gs.seed, "Seed, 0..2^53-1 (default: the recipe's, else random and printed)");
+  std::string seed_text;  // read by read_int_flag: decimal only, quoted as typed in errors
+  gen->add_option("--seed,-s", seed_text, "Seed, a decimal integer in 0..2^53-1 (default: the recipe's, else random and printed)")
+      ->type_name("INT");
   gen->add_option("--size", gs.size, "Samples per axis: N or NxM (cells stay square; depth follows the aspect)");
   gen->add_option("--formats,-f", gs.formats, "Comma-separated writers replacing the default set, or 'all' (see `relief explain`)");
   gen->add_option("--set", gs.sets, "Override a recipe field: PATH=VALUE, e.g. 'stages[1].octaves=8' (repeatable)");
-  gen->add_option("--threads,-j", gs.threads, "Worker threads (0 = all cores); output is identical for any count")
-      ->check(CLI::Range(0, 1024));
+  IntFlags ints;
+  ints.add(gen, "--threads,-j", gs.threads, 0, 1024, "Worker threads (0 = all cores); output is identical for any count", false);
   gen->add_option("--save-recipe", gs.save_recipe, "Write the fully resolved recipe (defaults and seed) to FILE");
   gen->add_option("--steps", gs.steps_dir,
                   "Also write one hillshaded picture per stage (NN-STAGE.png) and a captioned contact sheet steps.png into DIR");
@@ -521,15 +683,8 @@ int main(int argc, char** argv) {
   std::vector<std::pair<std::string, CLI::Option*>> export_cli;
   for (const ParamInfo& p : export_options_table().infos()) {
     std::string help = p.description + " [default " + p.default_value.dump();
-    if (p.type == ParamType::Int || p.type == ParamType::Float) {
-      std::ostringstream r;
-      r << "; " << p.min << ".." << p.max << (p.unit.empty() ? "" : " " + p.unit);
-      help += r.str();
-    } else if (p.type == ParamType::Choice) {
-      std::string c;
-      for (auto& x : p.choices) c += (c.empty() ? "" : "|") + x;
-      help += "; " + c;
-    }
+    if (p.type == ParamType::Int || p.type == ParamType::Float) help += "; " + param_range(p) + (p.unit.empty() ? "" : " " + p.unit);
+    else if (p.type == ParamType::Choice) help += "; " + param_range(p);
     help += "]";
     CLI::Option* opt = p.type == ParamType::Bool ? gen->add_flag(option_flag(p.name), gs.export_flags[p.name], help)
                                                  : gen->add_option(option_flag(p.name), gs.export_text[p.name], help);
@@ -549,29 +704,25 @@ int main(int argc, char** argv) {
   cli::BenchSettings bs;
   std::string bench_threads = "1,2", bench_sizes = "1025,4097", bench_cases;
   auto* ben = app.add_subcommand("bench", "Measure noise, erosion and whole presets (medians), with libnoise as the peer for noise");
-  ben->add_option("--runs", bs.runs, "Timed runs per case (at least 5 for published figures)")->check(CLI::Range(1, 1000))->capture_default_str();
-  ben->add_option("--noise-size", bs.noise_size, "Noise cases evaluate size² samples")->check(CLI::Range(16, 16384))->capture_default_str();
-  ben->add_option("--peer-size", bs.peer_size, "libnoise cases evaluate size² samples (compared per sample)")->check(CLI::Range(16, 16384))->capture_default_str();
+  ints.add(ben, "--runs", bs.runs, 1, 1000, "Timed runs per case (at least 5 for published figures)");
+  ints.add(ben, "--noise-size", bs.noise_size, 16, 16384, "Noise cases evaluate size² samples");
+  ints.add(ben, "--peer-size", bs.peer_size, 16, 16384, "libnoise cases evaluate size² samples (compared per sample)");
   ben->add_option("--threads", bench_threads, "Comma-separated thread counts")->capture_default_str();
   ben->add_option("--preset-sizes", bench_sizes, "Comma-separated preset sizes")->capture_default_str();
-  ben->add_option("--erosion-size", bs.erosion_size, "Droplet, thermal and stream-power cases use size² samples")
-      ->check(CLI::Range(16, 16384))->capture_default_str();
-  ben->add_option("--flood-size", bs.flood_size, "Priority-Flood + D8 + accumulation case uses size² samples")
-      ->check(CLI::Range(16, 32768))->capture_default_str();
+  ints.add(ben, "--erosion-size", bs.erosion_size, 16, 16384, "Droplet, thermal and stream-power cases use size² samples");
+  ints.add(ben, "--flood-size", bs.flood_size, 16, 32768, "Priority-Flood + D8 + accumulation case uses size² samples");
   ben->add_option("--cases", bench_cases, "Comma-separated groups: " + cli::bench_group_list() + " (default: all)");
   ben->add_option("--json", bs.json_path, "Also write the results as JSON to FILE");
 
   cli::StudioSettings ss;
   auto* stu = app.add_subcommand("studio", "Serve Relief Studio: a live 3D preview with sliders, stage playback, walk mode and exports");
-  stu->add_option("--port", ss.port, "TCP port (0 = any free port, printed)")->check(CLI::Range(0, 65535))->capture_default_str();
+  ints.add(stu, "--port", ss.port, 0, 65535, "TCP port (0 = any free port, printed)");
   stu->add_option("--host", ss.host, "Address to listen on (loopback unless you say otherwise)")->capture_default_str();
   stu->add_flag("--open", ss.open, "Open the page in the default browser (xdg-open)");
-  stu->add_option("--max-preview", ss.max_preview, "Largest preview size accepted (samples per axis)")
-      ->check(CLI::Range(2, 8193))->capture_default_str();
-  stu->add_option("--max-export", ss.max_export, "Largest export size accepted (samples per axis)")
-      ->check(CLI::Range(kMinSize, kMaxSize))->capture_default_str();
-  stu->add_option("--cache-mib", ss.cache_mib, "Memory for cached stage outputs, MiB")->check(CLI::Range(16, 1 << 20))->capture_default_str();
-  stu->add_option("--threads,-j", ss.threads, "Generation threads (0 = all cores)")->check(CLI::Range(0, 1024));
+  ints.add(stu, "--max-preview", ss.max_preview, 2, 8193, "Largest preview size accepted (samples per axis)");
+  ints.add(stu, "--max-export", ss.max_export, kMinSize, kMaxSize, "Largest export size accepted (samples per axis)");
+  ints.add(stu, "--cache-mib", ss.cache_mib, 16, 1 << 20, "Memory for cached stage outputs, MiB");
+  ints.add(stu, "--threads,-j", ss.threads, 0, 1024, "Generation threads (0 = all cores)", false);
 
   try {
     app.parse(argc, argv);
@@ -582,14 +733,21 @@ int main(int argc, char** argv) {
   } catch (const CLI::CallForVersion& e) {
     return app.exit(e);
   } catch (const CLI::ParseError& e) {
-    app.exit(e);
+    std::fprintf(stderr, "relief: error: %s\n", printable_text(parse_error_message(e, app)).c_str());
     return 2;
   }
-  gs.seed_given = gen->count("--seed") > 0;
-  for (auto& [name, opt] : export_cli)
-    if (opt->count() > 0) gs.export_given.push_back(name);
   try {
+    for (CLI::App* cmd : {gen, pre, exp, ben, stu}) refuse_empty_values(cmd);
+    ints.read();
+    gs.seed_given = gen->count("--seed") > 0;
+    if (gs.seed_given) gs.seed = read_int_flag(seed_text, "--seed", 0, std::int64_t(kMaxSeed), "decimal digits");
+    for (auto& [name, opt] : export_cli)
+      if (opt->count() > 0) gs.export_given.push_back(name);
     if (*gen) {
+      check_generate_flags(gs);
+      // More threads than the machine runs make TBB print a warning on the terminal; the
+      // output is the same for any count, so the request is capped (report.json says the count used).
+      gs.threads = capped_threads(gs.threads);
       take_interrupts();
       const int code = cmd_generate(gs);
       g_finished = true;
@@ -598,6 +756,7 @@ int main(int argc, char** argv) {
     if (*pre) return cmd_presets(presets_json);
     if (*exp) return cmd_explain(explain_stage, explain_json);
     if (*stu) {
+      ss.threads = capped_threads(ss.threads);
 #ifdef RELIEF_HAVE_STUDIO
       return cli::run_studio(ss);
 #else
@@ -613,7 +772,7 @@ int main(int argc, char** argv) {
           if (item.empty() || item.find_first_not_of("0123456789") != std::string::npos || item.size() > 6 ||
               std::stoi(item) < lo || std::stoi(item) > hi)
             throw Error(field, "expected comma-separated integers in " + std::to_string(lo) + ".." + std::to_string(hi) +
-                                   ", got \"" + text + "\"");
+                                   ", got " + quote(text));
           v.push_back(std::stoi(item));
         }
         if (v.empty()) throw Error(field, "expected at least one value");
@@ -624,7 +783,7 @@ int main(int argc, char** argv) {
       std::stringstream ss(bench_cases);
       std::string c;
       while (std::getline(ss, c, ',')) {
-        if (!cli::is_bench_group(c)) throw Error("--cases", "expected one of " + cli::bench_group_list() + ", got \"" + c + "\"");
+        if (!cli::is_bench_group(c)) throw Error("--cases", "expected one of " + cli::bench_group_list() + ", got " + quote(c));
         bs.cases.push_back(c);
       }
       return cli::run_bench(bs);
@@ -642,7 +801,7 @@ int main(int argc, char** argv) {
     std::fprintf(stderr, "%srelief: error: out of memory; choose a smaller --size\n", is_tty() ? "\r\033[K" : "");
     return 2;
   } catch (const std::exception& e) {
-    std::fprintf(stderr, "%srelief: internal error: %s\n", is_tty() ? "\r\033[K" : "", e.what());
+    std::fprintf(stderr, "%srelief: internal error: %s\n", is_tty() ? "\r\033[K" : "", printable_text(e.what()).c_str());
     return 1;
   }
   return 0;

@@ -29,6 +29,7 @@
 #include <tbb/parallel_for.h>
 #include <signal.h>
 #include <spawn.h>
+#include <netdb.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
 
@@ -41,6 +42,7 @@
 #include <list>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <semaphore>
 #include <thread>
 #include <unordered_map>
@@ -69,7 +71,18 @@ double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std
 
 void send_json(httplib::Response& res, int status, const json& body) {
   res.status = status;
-  res.set_content(body.dump(), "application/json");
+  // Replace, never throw: a message may quote user text (relief::Error's are valid UTF-8 already).
+  res.set_content(body.dump(-1, ' ', false, json::error_handler_t::replace), "application/json");
+}
+
+// The 405 for a method an API path does not serve: {the Allow value (POST or GET), the message}.
+std::optional<std::pair<std::string, std::string>> api_method_error(const std::string& method, const std::string& path) {
+  const bool post = path == "/api/generate" || path == "/api/steps" || path == "/api/export" || path == "/api/resolve";
+  const bool get = path == "/api/presets" || path == "/api/params" || path.starts_with("/api/presets/");
+  const char* allow = post ? "POST" : get ? "GET" : nullptr;
+  if (!allow || method == allow || (get && method == "HEAD")) return std::nullopt;
+  return std::pair<std::string, std::string>{allow, printable_text(method.substr(0, 20)) + " is not supported here: use " + allow +
+                                                        (post ? " with a JSON body {\"recipe\": …}" : "")};
 }
 
 void send_error(httplib::Response& res, const ApiError& e) {
@@ -603,13 +616,13 @@ void Studio::api_export(const httplib::Request& req, httplib::Response& res) {
         for (auto& [n2, b2] : files) list += (list.empty() ? "" : ", ") + n2;
         throw ApiError{400, "file", "format " + fmt + " wrote no file \"" + file + "\"; it wrote " + list};
       }
-      res.set_header("Content-Disposition", "attachment; filename=\"" + stem + "-" + file + "\"");
+      res.set_header("Content-Disposition", content_disposition(stem + "-" + file));
       res.set_content(it->second, content_type_of(file));
     } else if (files.size() == 1) {
-      res.set_header("Content-Disposition", "attachment; filename=\"" + stem + "-" + files.begin()->first + "\"");
+      res.set_header("Content-Disposition", content_disposition(stem + "-" + files.begin()->first));
       res.set_content(files.begin()->second, content_type_of(files.begin()->first));
     } else {
-      res.set_header("Content-Disposition", "attachment; filename=\"" + stem + "-" + fmt + ".zip\"");
+      res.set_header("Content-Disposition", content_disposition(stem + "-" + fmt + ".zip"));
       res.set_content(zip_files(files), "application/zip");
     }
     json names = json::array();
@@ -654,11 +667,8 @@ void Studio::routes(httplib::Server& svr) {
   svr.Post("/api/generate", guard([this](const httplib::Request& req, httplib::Response& res) { api_generate(req, res); }));
   svr.Post("/api/steps", guard([this](const httplib::Request& req, httplib::Response& res) { api_steps(req, res); }));
   svr.Post("/api/export", guard([this](const httplib::Request& req, httplib::Response& res) { api_export(req, res); }));
-  for (const char* p : {"/api/generate", "/api/steps", "/api/export", "/api/resolve"})
-    svr.Get(p, [](const httplib::Request&, httplib::Response& res) {
-      res.set_header("Allow", "POST");
-      send_error(res, ApiError{405, "", "use POST with a JSON body {\"recipe\": …}"});
-    });
+  // Any other method on an API path is a 405 naming the one that works: answered before routing
+  // (see api_method_error), so that a PUT or a bodiless POST gets it too, not httplib's 400.
   // Static files: only the embedded bundle, looked up by exact path, so no request can reach the
   // file system (a path with "..", "%2e%2e" or a backslash is simply not in the table).
   svr.Get(".*", [](const httplib::Request& req, httplib::Response& res) {
@@ -734,7 +744,7 @@ int run_studio(const StudioSettings& s) {
     b["error"] = res.status == 413   ? "request body too large"
                  : res.status == 404 ? "no such page: " + req.path.substr(0, 200)
                                      : "HTTP " + std::to_string(res.status);
-    res.set_content(b.dump(), "application/json");
+    res.set_content(b.dump(-1, ' ', false, json::error_handler_t::replace), "application/json");
   });
   svr.set_exception_handler([](const httplib::Request&, httplib::Response& res, std::exception_ptr ep) {
     std::string what = "internal error";
@@ -766,6 +776,20 @@ int run_studio(const StudioSettings& s) {
         return httplib::Server::HandlerResponse::Handled;
       }
     }
+    if (auto e = api_method_error(req.method, req.path)) {
+      res.set_header("Allow", e->first);
+      send_error(res, ApiError{405, "", e->second});
+      return httplib::Server::HandlerResponse::Handled;
+    }
+    // The API's bodies are JSON whatever the client calls them: httplib would parse a form
+    // (application/x-www-form-urlencoded, refused past 8 KB with a 413) or a multipart body itself,
+    // so the content type is set to JSON before the body is read; max_body is the one limit.
+    // (Pre-routing runs before httplib reads the body; the Request is not const in httplib.)
+    if (req.method == "POST" && req.path.starts_with("/api/")) {
+      auto& headers = const_cast<httplib::Request&>(req).headers;
+      headers.erase("Content-Type");
+      headers.emplace("Content-Type", "application/json");
+    }
     return httplib::Server::HandlerResponse::Unhandled;
   });
   Studio studio(s);
@@ -784,6 +808,19 @@ int run_studio(const StudioSettings& s) {
     setsockopt(sock, SOL_SOCKET, SO_REUSEADDR, &yes, sizeof yes);
     if (binding) listen_fd = sock;  // the last socket made while binding is the one that bound
   });
+  // A host that does not resolve is named as such (httplib's bind only fails, and "in use" would mislead).
+  {
+    addrinfo hints{};
+    hints.ai_family = AF_UNSPEC;
+    hints.ai_socktype = SOCK_STREAM;
+    hints.ai_flags = AI_PASSIVE;
+    addrinfo* found = nullptr;
+    const int rc = ::getaddrinfo(s.host.c_str(), nullptr, &hints, &found);
+    if (rc != 0)
+      throw Error("--host", "expected a host name or address of this machine, got " + quote(s.host) + ": it does not resolve (" +
+                                gai_strerror(rc) + ")");
+    ::freeaddrinfo(found);
+  }
   int port = s.port;
   if (port == 0) {
     port = svr.bind_to_any_port(s.host);

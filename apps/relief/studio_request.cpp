@@ -16,9 +16,9 @@ json parse_body(std::string_view text, const std::vector<std::string>& allowed, 
     throw ApiError{413, "", "request body too large: " + std::to_string(text.size()) + " bytes, limit " + std::to_string(s.max_body)};
   json body;
   try {
-    body = json::parse(text);
-  } catch (const json::exception& e) {
-    throw ApiError{400, "", std::string("request body is not valid JSON: ") + e.what()};
+    body = parse_json(text, "request body");
+  } catch (const Error& e) {
+    throw ApiError{400, "", e.what()};
   }
   if (!body.is_object()) throw ApiError{400, "", "request body: expected a JSON object, got " + describe(body)};
   for (auto& [k, v] : body.items())
@@ -57,9 +57,28 @@ StudioRequest parse_studio_request(Endpoint e, std::string_view text, const Stud
   if (e == Endpoint::Generate && r.body.contains("layers")) {
     const json& l = r.body["layers"];
     if (!l.is_array()) throw ApiError{400, "layers", "expected a list of layer names, got " + describe(l)};
+    // Known: the layers stages write under fixed names, and those a stage of this recipe names
+    // (a noise stage's "layer"). A known layer this terrain lacks is simply not sent.
+    std::vector<std::string> known = {"height", "albedo", "color", "shade", "slope", "slope_deg", "biome", "moisture",
+                                      "temperature", "water", "flow", "offset", "volcano"};
+    for (auto& st : r.recipe.stages) {
+      const json p = st.stage->params();
+      if (p.contains("layer") && p["layer"].is_string() &&
+          std::find(known.begin(), known.end(), p["layer"].get<std::string>()) == known.end())
+        known.push_back(p["layer"].get<std::string>());
+    }
     for (std::size_t i = 0; i < l.size(); ++i) {
-      if (!l[i].is_string()) throw ApiError{400, "layers[" + std::to_string(i) + "]", "expected a layer name, got " + describe(l[i])};
-      r.layers.push_back(l[i].get<std::string>());
+      const std::string path = "layers[" + std::to_string(i) + "]";
+      if (!l[i].is_string()) throw ApiError{400, path, "expected a layer name, got " + describe(l[i])};
+      const std::string name = l[i].get<std::string>();
+      if (std::find(known.begin(), known.end(), name) == known.end()) {
+        std::string list;
+        for (auto& k : known) list += (list.empty() ? "" : ", ") + k;
+        const std::string near = nearest_name(name, known);
+        throw ApiError{400, path, "unknown layer " + quote(name) + (near.empty() ? "" : " (did you mean '" + near + "'?)") +
+                                      "; known: " + list};
+      }
+      r.layers.push_back(name);
     }
     r.all_layers = false;
   }
@@ -73,7 +92,7 @@ StudioRequest parse_studio_request(Endpoint e, std::string_view text, const Stud
       std::string list;
       for (auto& wd : writer_registry()) names.push_back(wd.name), list += (list.empty() ? "" : ", ") + wd.name;
       const std::string near = nearest_name(fmt, names);
-      throw ApiError{400, "format", "unknown format \"" + fmt + "\"" + (near.empty() ? "" : " (did you mean '" + near + "'?)") +
+      throw ApiError{400, "format", "unknown format " + quote(fmt) + (near.empty() ? "" : " (did you mean '" + near + "'?)") +
                                         "; available: " + list};
     }
     if (r.body.contains("file")) {
@@ -91,6 +110,38 @@ StudioRequest parse_studio_request(Endpoint e, std::string_view text, const Stud
     }
   }
   return r;
+}
+
+std::string content_disposition(std::string_view filename) {
+  const std::string name = printable_text(filename.substr(0, 200));  // valid UTF-8; controls as \u00XX
+  std::string ascii, encoded;
+  for (std::size_t i = 0; i < name.size(); ++i) {
+    const auto c = static_cast<unsigned char>(name[i]);
+    const bool control = c == '\\' && name.compare(i, 2, "\\u") == 0;  // an escape printable_text wrote
+    if (control) {
+      ascii += '_', encoded += '_';
+      i += 5;
+      continue;
+    }
+    if (c < 0x20 || c == 0x7f) {  // '\n' (the one control printable_text keeps)
+      ascii += '_', encoded += '_';
+      continue;
+    }
+    const bool safe = std::isalnum(c) || c == '.' || c == '-' || c == '_';
+    ascii += c < 0x80 && safe ? char(c) : '_';
+    if (c < 0x80 && (safe || c == '!' || c == '#' || c == '$' || c == '&' || c == '+' || c == '^' || c == '`' || c == '|' || c == '~')) {
+      encoded += char(c);
+    } else if (c == '/' || c == '\\') {
+      encoded += '_';
+    } else {
+      static const char* hex = "0123456789ABCDEF";
+      encoded += '%';
+      encoded += hex[c >> 4];
+      encoded += hex[c & 15];
+    }
+  }
+  if (ascii.empty()) ascii = encoded = "download";
+  return "attachment; filename=\"" + ascii + "\"; filename*=UTF-8''" + encoded;
 }
 
 bool valid_client_id(std::string_view s) {

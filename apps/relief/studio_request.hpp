@@ -17,7 +17,7 @@ namespace relief::cli {
 class ApiError : public Error {
  public:
   ApiError(int status, std::string path, std::string message)
-      : Error(path, message), status_(status), message_(std::move(message)) {}
+      : Error(path, message), status_(status), message_(printable_text(message)) {}
   int status() const noexcept { return status_; }
   const std::string& message() const noexcept { return message_; }  // without the path
 
@@ -47,5 +47,12 @@ StudioRequest parse_studio_request(Endpoint e, std::string_view body, const Stud
 
 // X-Relief-Client: 1..64 characters [A-Za-z0-9_-].
 bool valid_client_id(std::string_view id);
+
+// A Content-Disposition value for a download named `filename` (built from the recipe's name, so
+// any bytes): `attachment; filename="ASCII"; filename*=UTF-8''PERCENT-ENCODED` (RFC 6266/5987).
+// The ASCII form keeps letters, digits, '.', '-', '_' and replaces everything else by '_'; the
+// UTF-8 form keeps every character but control characters, '/', '\' and invalid bytes ('_'). No
+// quote, CR or LF can reach the header; at most 200 bytes of the name are used.
+std::string content_disposition(std::string_view filename);
 
 }  // namespace relief::cli

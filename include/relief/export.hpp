@@ -82,7 +82,8 @@ const Table<ExportOptions>& export_options_table();
 // Reads one option. `name` is the table name (underscores); `path` names it in errors (the CLI
 // passes "--stl-size-mm"). Throws Error(path, …) for unknown names and bad values.
 void set_export_option(ExportOptions& o, const std::string& name, const json& value, const std::string& path);
-// Cross-field checks (split syntax, normal_bits ∈ {8, 16}). `path_of(name)` names an option in
+// Cross-field checks (split syntax, split and godot_format only with an engine that uses them,
+// normal_bits ∈ {8, 16}). `path_of(name)` names an option in
 // errors. Throws Error.
 void validate_export_options(const ExportOptions& o, const std::function<std::string(const std::string&)>& path_of);
 
@@ -98,6 +99,10 @@ int engine_legal_size(Engine engine, int wanted, int tiles);
 // "--size").
 void check_engine_size(const ExportOptions& o, int nx, int nz, const OptionPath& path_of = {},
                        const std::string& size_path = "world.size");
+// Option names as the command line's flags (--engine, --split) or as the recipe's fields
+// (export.engine, world.size), for check_engine_size's and validate_export_options' path_of.
+std::string cli_flag_path(const std::string& name);
+std::string recipe_path(const std::string& name);
 
 // ---- meshes ------------------------------------------------------------------------------------
 struct MeshData {

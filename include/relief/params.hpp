@@ -64,7 +64,8 @@ struct ParamInfo {
   std::vector<std::string> choices;  // for Choice
   Effect effect = Effect::Regenerate;
   std::vector<ParamInfo> fields;     // for List: the parameters of each record
-  json to_json() const;  // {name, type, default, min, max, unit, description, choices, effect, fields}
+  std::vector<double> values;        // Int/Float: when not empty, the only accepted values (min..max spans them)
+  json to_json() const;  // {name, type, default, min, max, values, unit, description, choices, effect, fields}
 };
 
 const char* to_string(ParamType t);
@@ -76,8 +77,27 @@ struct Field {
   std::function<json(const P&)> write;
 };
 
+// ---- user text in messages -------------------------------------------------------------------
+// Deepest nesting of arrays and objects a JSON document may have (recipes, presets, `--set`
+// values, studio request bodies). Real recipes nest 4 levels; the limit keeps every recursive
+// walk of a document (copies, comparisons, dumps) far from the stack's end.
+constexpr int kMaxJsonDepth = 128;
+// Parses JSON text with that limit. Throws Error(path, ORIGIN + " is not valid JSON: …") on a
+// syntax error and Error(path, ORIGIN + " nests deeper than 128 levels …") past the limit.
+json parse_json(std::string_view text, const std::string& origin, const std::string& path = "");
+// The depth check alone (for text that may also be read as a plain string, as `--set` values).
+void check_json_depth(std::string_view text, const std::string& origin, const std::string& path = "");
+// User text for a message: in double quotes, JSON-escaped (control characters as \n, \u0000),
+// invalid UTF-8 replaced by U+FFFD, cut after `max_bytes` bytes (at a character boundary,
+// marked "..."). Always valid UTF-8, never longer than max_bytes + 5.
+std::string quote(std::string_view text, std::size_t max_bytes = 60);
+// True when `text` is well-formed UTF-8 (RFC 3629), as every string of a json must be to be dumped.
+bool is_utf8(std::string_view text);
+
 // ---- value readers (throw relief::Error naming `path`) ------------------------------------
-std::string describe(const json& v);  // short human form of a JSON value for messages
+// Short human form of a JSON value for messages ("a string \"abc\"", "an array [1, 2]"):
+// bounded in length (about 60 bytes) and depth whatever the value, valid UTF-8.
+std::string describe(const json& v);
 std::int64_t read_int(const json& v, const std::string& path, double min, double max);
 double read_float(const json& v, const std::string& path, double min, double max);
 bool read_bool(const json& v, const std::string& path);

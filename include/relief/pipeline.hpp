@@ -38,8 +38,13 @@ struct Resume {
   int first_stage = 0;  // 0..stages.size(); stages.size() returns the snapshot itself
 };
 
+// A thread count as the machine can run it: 0 stays 0 (all), more than the hardware threads
+// becomes their number (TBB would otherwise print a warning on the terminal). Results are
+// identical for any count, so capping changes nothing but the chatter.
+int capped_threads(int requested);
+
 struct RunOptions {
-  int threads = 0;  // 0 = all hardware threads; results are identical for any count
+  int threads = 0;  // 0 = all hardware threads; results are identical for any count (capped_threads)
   // Optional window of the world (default: the whole world of the recipe). Locality is enforced
   // (Stage::reach, stage.hpp): a window that is not the whole world on its grid (the world's
   // samples are world_width_m / spacing_m + 1 by world_depth_m / spacing_m + 1) is refused if a

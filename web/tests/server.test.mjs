@@ -299,3 +299,54 @@ test('many concurrent requests get the right answers and the server keeps servin
   const f = await goodGenerate();
   assert.equal(f.layers.height.data.length, 65 * 65);
 });
+
+test('hostile requests (issue 16): nesting, content types, methods, layers, engine paths, hosts', async () => {
+  const r = await preset();
+  // 100,000 nested arrays (200 KB, under the body limit) are refused, and the server keeps serving.
+  const deep = '{"recipe": ' + '['.repeat(100000) + ']'.repeat(100000) + '}';
+  await expectError(await post('/api/resolve', deep), 400, { match: /deeper than 128 levels/ });
+  // The documented JSON bodies are accepted whatever the content type says, up to the one limit.
+  const padded = { recipe: { ...r, description: 'x'.repeat(20000) } };
+  for (const type of ['application/x-www-form-urlencoded', 'text/plain', 'multipart/form-data; boundary=x']) {
+    const res = await post('/api/resolve', padded, { 'Content-Type': type });
+    assert.equal(res.status, 200, `${type}: ${await res.text()}`);
+  }
+  // Every other method on an API path is a 405 naming the one that works.
+  for (const method of ['PUT', 'DELETE', 'OPTIONS', 'PATCH']) {
+    const res = await fetch(server.url + '/api/generate', { method });
+    await expectError(res, 405, { match: /use POST/ });
+    assert.equal(res.headers.get('allow'), 'POST');
+  }
+  const get = await fetch(server.url + '/api/params', { method: 'POST' });
+  await expectError(get, 405, { match: /use GET/ });
+  assert.equal(get.headers.get('allow'), 'GET');
+  // Unknown layer names are 400s; known ones a terrain lacks are simply not sent.
+  await expectError(await post('/api/generate', { recipe: r, layers: ['height', 'heigth'] }), 400, {
+    path: 'layers[1]',
+    match: /unknown layer "heigth" \(did you mean 'height'\?\)/,
+  });
+  assert.equal((await post('/api/generate', { recipe: r, layers: ['height', 'volcano'] })).status, 200);
+  // Engine errors name the recipe's fields, not the command line's flags.
+  const engine = { ...r, world: { ...r.world, size: 40 }, export: { engine: 'unity' } };
+  const body = await expectError(await post('/api/export', { recipe: engine, format: 'engine' }), 400, { path: 'export.engine' });
+  assert.doesNotMatch(body.error, /--/);
+  assert.match(body.error, /world\.size/);
+  // A recipe name with a quote, CR/LF and non-ASCII letters cannot inject or drop headers: one
+  // Content-Disposition, a safe ASCII filename and the exact name in RFC 5987 filename*.
+  const evil = { ...r, name: 'a"b\r\nX-Evil: 1 île' };
+  const dl = await post('/api/export', { recipe: evil, format: 'heightmap', file: 'height.png' });
+  assert.equal(dl.status, 200);
+  assert.equal(dl.headers.get('x-evil'), null);
+  const cd = dl.headers.get('content-disposition');
+  assert.match(cd, /^attachment; filename="[^"\r\n]*height\.png"; filename\*=UTF-8''[A-Za-z0-9%._~-]+height\.png$/);
+  assert.match(cd, /%C3%AEle/);
+  // A host that does not resolve says so.
+  let stderr = '';
+  try {
+    execFileSync(RELIEF, ['studio', '--host', 'nosuchhost.invalid', '--port', '0'], { encoding: 'utf8', stdio: ['ignore', 'pipe', 'pipe'], timeout: 10000 });
+  } catch (e) {
+    stderr = String(e.stderr);
+  }
+  assert.match(stderr, /relief: error: --host: .*"nosuchhost\.invalid": it does not resolve/);
+  assert.equal((await post('/api/resolve', { recipe: r })).status, 200);
+});
