@@ -238,7 +238,14 @@ struct Perlin {
     const VI h00 = hash(A, r.y0), h10 = hash(B, r.y0), h01 = hash(A, r.y1), h11 = hash(B, r.y1);
     const VD fx = ax.f, fx1 = hn::Sub(fx, hn::Set(d, 1.0)), fy1 = hn::Sub(r.fy, hn::Set(d, 1.0));
     auto grad = [&](VI h, VD x, VD y) {
+#if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX3
+      // The 16-entry tables in two registers each: one vpermt2pd per lookup instead of a gather.
+      const VD gx{_mm512_permutex2var_pd(_mm512_loadu_pd(kPerlinGradX), h.raw, _mm512_loadu_pd(kPerlinGradX + 8))};
+      const VD gy{_mm512_permutex2var_pd(_mm512_loadu_pd(kPerlinGradY), h.raw, _mm512_loadu_pd(kPerlinGradY + 8))};
+      return hn::Add(hn::Mul(gx, x), hn::Mul(gy, y));
+#else
       return hn::Add(hn::Mul(hn::GatherIndex(d, kPerlinGradX, h), x), hn::Mul(hn::GatherIndex(d, kPerlinGradY, h), y));
+#endif
     };
     const VD g00 = grad(h00, fx, r.fy), g10 = grad(h10, fx1, r.fy);
     const VD g01 = grad(h01, fx, fy1), g11 = grad(h11, fx1, fy1);
@@ -276,7 +283,9 @@ struct Value {
     const DU du;
     const VAxis ax = Axis<kPX>(u, o.period_x, o.inv_period_x);
     const VU px = hn::Set(du, kLatticePx);
-    const VU x0 = hn::Mul(hn::BitCast(du, ax.i0), px), x1 = hn::Mul(hn::BitCast(du, ax.i1), px);
+    // Without a period i1 = i0 + 1, so i1·Pₓ = i0·Pₓ + Pₓ (modulo 2⁶⁴): one multiply fewer.
+    const VU x0 = hn::Mul(hn::BitCast(du, ax.i0), px);
+    const VU x1 = kPX ? hn::Mul(hn::BitCast(du, ax.i1), px) : hn::Add(x0, px);
     const VD v00 = SignedUnit(Mix64(hn::Add(r.k0, x0))), v10 = SignedUnit(Mix64(hn::Add(r.k0, x1)));
     const VD v01 = SignedUnit(Mix64(hn::Add(r.k1, x0))), v11 = SignedUnit(Mix64(hn::Add(r.k1, x1)));
     const VD sx = Fade(ax.f);
@@ -294,23 +303,62 @@ struct Simplex {
   using Row = SimplexRow;
   static HWY_INLINE Row RowHoisted(const NoiseOctave&, VD v) { return {v}; }
   static HWY_INLINE Row MakeRow(const NoiseOctave&, VD v) { return {v}; }
-  template <int a, int b>
-  static HWY_INLINE VD Vertex(VU key, VI i, VI j, VD dx0, VD dy0) {
+  // Gradient component k of the 24-entry table: in-register permutes on AVX-512 (three vectors
+  // of 8 doubles), gathers elsewhere.
+  static HWY_INLINE VD GradLookup(const double* table, VI g) {
     const DD d;
-    const DU du;
-    const DI di;
+#if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX3
+    // vpermt2pd reads index bits 0..3, vpermpd bits 0..2; entries 16..23 come from the third.
+    (void)d;
+    const __m512d t0 = _mm512_loadu_pd(table), t1 = _mm512_loadu_pd(table + 8), t2 = _mm512_loadu_pd(table + 16);
+    const __m512d lo = _mm512_permutex2var_pd(t0, g.raw, t1), hi = _mm512_permutexvar_pd(g.raw, t2);
+    return VD{_mm512_mask_blend_pd(_mm512_cmpgt_epi64_mask(g.raw, _mm512_set1_epi64(15)), lo, hi)};
+#else
+    return hn::GatherIndex(d, table, g);
+#endif
+  }
+  // A vertex's offset from the sample (dx, dy) and its unclamped attenuation r² − |d|².
+  struct Geo {
+    VD dx, dy, att;
+  };
+  template <int a, int b>
+  static HWY_INLINE Geo VertexGeo(VD dx0, VD dy0) {
+    const DD d;
     constexpr double back = double(a + b) * kSimplexUnskew;
-    const VD dx = hn::Add(hn::Sub(dx0, hn::Set(d, double(a))), hn::Set(d, back));
-    const VD dy = hn::Add(hn::Sub(dy0, hn::Set(d, double(b))), hn::Set(d, back));
-    VD att = hn::Sub(hn::Sub(hn::Set(d, kSimplexR2), hn::Mul(dx, dx)), hn::Mul(dy, dy));
-    att = hn::IfThenElse(att > hn::Zero(d), att, hn::Zero(d));
-    const VU rowkey = hn::Add(key, hn::Mul(hn::BitCast(du, hn::Add(j, hn::Set(di, b))), hn::Set(du, kLatticePz)));
-    const VU h = Mix64(hn::Add(rowkey, hn::Mul(hn::BitCast(du, hn::Add(i, hn::Set(di, a))), hn::Set(du, kLatticePx))));
-    const VI g = hn::BitCast(di, hn::ShiftRight<32>(hn::Mul(hn::ShiftRight<32>(h), hn::Set(du, 24))));
+    Geo g;
+    g.dx = hn::Add(hn::Sub(dx0, hn::Set(d, double(a))), hn::Set(d, back));
+    g.dy = hn::Add(hn::Sub(dy0, hn::Set(d, double(b))), hn::Set(d, back));
+    g.att = hn::Sub(hn::Sub(hn::Set(d, kSimplexR2), hn::Mul(g.dx, g.dx)), hn::Mul(g.dy, g.dy));
+    return g;
+  }
+  // (i + a)·Pₓ + (j + b)·P_z = i·Pₓ + j·P_z + (a·Pₓ + b·P_z) modulo 2⁶⁴.
+  template <int a, int b>
+  static constexpr std::uint64_t VertexKey() {
+    return std::uint64_t(std::int64_t(a)) * kLatticePx + std::uint64_t(std::int64_t(b)) * kLatticePz;
+  }
+  // One vertex's term att⁴·(g·d), g picked by mix64(base + vertex key): as noise.cpp.
+  static HWY_INLINE VD Term(VU hin, const Geo& v) {
+    const DD d;
+    const DI di;
+    const VD att = hn::IfThenElse(v.att > hn::Zero(d), v.att, hn::Zero(d));
+    const VU h = Mix64(hin);
+    // ((h >> 32)·24) >> 32 without a 64-bit multiply: (x << 4) + (x << 3) is exact for x < 2³².
+    const VU hx = hn::ShiftRight<32>(h);
+    const VI g = hn::BitCast(di, hn::ShiftRight<32>(hn::Add(hn::ShiftLeft<4>(hx), hn::ShiftLeft<3>(hx))));
     const VD att2 = hn::Mul(att, att);
-    const VD dot = hn::Add(hn::Mul(hn::GatherIndex(d, kSimplexGradX, g), dx), hn::Mul(hn::GatherIndex(d, kSimplexGradY, g), dy));
+    const VD dot = hn::Add(hn::Mul(GradLookup(kSimplexGradX, g), v.dx), hn::Mul(GradLookup(kSimplexGradY, g), v.dy));
     return hn::Mul(hn::Mul(att2, att2), dot);
   }
+  static HWY_INLINE Geo Pick(hn::Mask<DD> m, const Geo& a, const Geo& b) {
+    return {hn::IfThenElse(m, a.dx, b.dx), hn::IfThenElse(m, a.dy, b.dy), hn::IfThenElse(m, a.att, b.att)};
+  }
+  // Of the eight candidate vertices (noise.cpp's kSimplexVerts, in that order: (0,0), (1,0), (0,1),
+  // (1,1), (−1,0), (0,−1), (2,1), (1,2)), at most four have a positive attenuation: (0,0), (1,1),
+  // one or both of (1,0), (0,1), and, when only one of those, at most one of the last four. Terms of
+  // vertices with att ≤ 0 are ±0 and adding ±0 to the sum (never −0) changes nothing, so summing
+  // the four slots (0,0), first of (1,0)/(0,1), second of them or (1,1), (1,1) or the outer vertex,
+  // in that order, gives the reference's bits. Lanes that do not fit the pattern (rounding at the
+  // kernel's edge, non-finite input) make the whole vector take the eight-vertex sum.
   static HWY_INLINE VD Eval(const NoiseOctave& o, const Row& r, VD u) {
     const DD d;
     const DU du;
@@ -322,15 +370,47 @@ struct Simplex {
     const VD t = hn::Mul(hn::Add(xi, yi), hn::Set(d, kSimplexUnskew));
     const VD dx0 = hn::Sub(xi, t), dy0 = hn::Sub(yi, t);
     const VU key = hn::Set(du, o.key);
-    // The same vertex order as noise.cpp's kSimplexVerts, summed left to right from 0.
-    VD sum = hn::Add(hn::Zero(d), Vertex<0, 0>(key, i, j, dx0, dy0));
-    sum = hn::Add(sum, Vertex<1, 0>(key, i, j, dx0, dy0));
-    sum = hn::Add(sum, Vertex<0, 1>(key, i, j, dx0, dy0));
-    sum = hn::Add(sum, Vertex<1, 1>(key, i, j, dx0, dy0));
-    sum = hn::Add(sum, Vertex<-1, 0>(key, i, j, dx0, dy0));
-    sum = hn::Add(sum, Vertex<0, -1>(key, i, j, dx0, dy0));
-    sum = hn::Add(sum, Vertex<2, 1>(key, i, j, dx0, dy0));
-    sum = hn::Add(sum, Vertex<1, 2>(key, i, j, dx0, dy0));
+    const Geo g0 = VertexGeo<0, 0>(dx0, dy0), g1 = VertexGeo<1, 0>(dx0, dy0), g2 = VertexGeo<0, 1>(dx0, dy0),
+              g3 = VertexGeo<1, 1>(dx0, dy0), g4 = VertexGeo<-1, 0>(dx0, dy0), g5 = VertexGeo<0, -1>(dx0, dy0),
+              g6 = VertexGeo<2, 1>(dx0, dy0), g7 = VertexGeo<1, 2>(dx0, dy0);
+    const VD z = hn::Zero(d);
+    const auto m1 = g1.att > z, m2 = g2.att > z, m4 = g4.att > z, m5 = g5.att > z, m6 = g6.att > z, m7 = g7.att > z;
+    const auto both = hn::And(m1, m2);
+    const auto outer = hn::Or(hn::Or(m4, m5), hn::Or(m6, m7));
+    const auto two_outer = hn::Or(hn::Or(hn::And(m4, hn::Or(m5, hn::Or(m6, m7))), hn::And(m5, hn::Or(m6, m7))), hn::And(m6, m7));
+    const auto bad = hn::Or(hn::Or(hn::And(both, outer), two_outer), hn::IsNaN(hn::Add(dx0, dy0)));
+    const VU base = hn::Add(hn::Add(key, hn::Mul(hn::BitCast(du, j), hn::Set(du, kLatticePz))),
+                            hn::Mul(hn::BitCast(du, i), hn::Set(du, kLatticePx)));
+    auto k = [&](std::uint64_t c) { return hn::Set(du, c); };
+    if (HWY_UNLIKELY(!hn::AllFalse(d, bad))) {
+      // The same vertex order as noise.cpp's kSimplexVerts, summed left to right from 0.
+      VD sum = hn::Add(z, Term(hn::Add(base, k(VertexKey<0, 0>())), g0));
+      sum = hn::Add(sum, Term(hn::Add(base, k(VertexKey<1, 0>())), g1));
+      sum = hn::Add(sum, Term(hn::Add(base, k(VertexKey<0, 1>())), g2));
+      sum = hn::Add(sum, Term(hn::Add(base, k(VertexKey<1, 1>())), g3));
+      sum = hn::Add(sum, Term(hn::Add(base, k(VertexKey<-1, 0>())), g4));
+      sum = hn::Add(sum, Term(hn::Add(base, k(VertexKey<0, -1>())), g5));
+      sum = hn::Add(sum, Term(hn::Add(base, k(VertexKey<2, 1>())), g6));
+      sum = hn::Add(sum, Term(hn::Add(base, k(VertexKey<1, 2>())), g7));
+      return hn::Mul(sum, hn::Set(d, kSimplexScale));
+    }
+    const auto mu1 = hn::RebindMask(du, m1), mub = hn::RebindMask(du, both);
+    const auto mu4 = hn::RebindMask(du, m4), mu5 = hn::RebindMask(du, m5), mu6 = hn::RebindMask(du, m6);
+    // Slot 1: (1,0) if it counts, else (0,1). Slot 2: (0,1) when both count, else (1,1).
+    const Geo s1 = Pick(m1, g1, g2), s2 = Pick(both, g2, g3);
+    const VU k1 = hn::IfThenElse(mu1, k(VertexKey<1, 0>()), k(VertexKey<0, 1>()));
+    const VU k2 = hn::IfThenElse(mub, k(VertexKey<0, 1>()), k(VertexKey<1, 1>()));
+    // Slot 3: (1,1) when both count, else the outer vertex that counts (or (1,2), then att ≤ 0).
+    const Geo ge = Pick(m4, g4, Pick(m5, g5, Pick(m6, g6, g7)));
+    const VU ke = hn::IfThenElse(mu4, k(VertexKey<-1, 0>()),
+                                 hn::IfThenElse(mu5, k(VertexKey<0, -1>()),
+                                                hn::IfThenElse(mu6, k(VertexKey<2, 1>()), k(VertexKey<1, 2>()))));
+    const Geo s3 = Pick(both, g3, ge);
+    const VU k3 = hn::IfThenElse(mub, k(VertexKey<1, 1>()), ke);
+    VD sum = hn::Add(z, Term(hn::Add(base, k(VertexKey<0, 0>())), g0));
+    sum = hn::Add(sum, Term(hn::Add(base, k1), s1));
+    sum = hn::Add(sum, Term(hn::Add(base, k2), s2));
+    sum = hn::Add(sum, Term(hn::Add(base, k3), s3));
     return hn::Mul(sum, hn::Set(d, kSimplexScale));
   }
 };
