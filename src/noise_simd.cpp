@@ -215,6 +215,20 @@ HWY_INLINE PerlinRow PerlinMakeRow(const NoiseOctave& o, VD v) {
   const VI m = hn::Set(di, 255);
   return {Low32(hn::And(az.i0, m)), Low32(hn::And(az.i1, m)), az.f, Fade(az.f)};
 }
+#if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX3
+// p[i & 255] for 8 int32 indices i in [0, 512) (the doubled table repeats every 256), with the
+// table's 256 bytes in t0..t3 read as 128 little-endian 16-bit words: vpermi2w fetches word i >> 1
+// from t0:t1 (words 0..63) and from t2:t3 (64..127), bit 7 of i picks one, a shift by 8·(i & 1)
+// and a mask leave the byte. Only the low 256 bits (8 lanes) of the 512-bit work are used.
+HWY_INLINE VI32h PermLookup(__m512i t0, __m512i t1, __m512i t2, __m512i t3, VI32h idx) {
+  const __m512i i = _mm512_castsi256_si512(idx.raw);
+  const __m512i w = _mm512_srli_epi32(i, 1);
+  const __m512i lo = _mm512_permutex2var_epi16(t0, w, t1), hi = _mm512_permutex2var_epi16(t2, w, t3);
+  __m512i r = _mm512_mask_blend_epi32(_mm512_test_epi32_mask(i, _mm512_set1_epi32(128)), lo, hi);
+  r = _mm512_srlv_epi32(r, _mm512_slli_epi32(_mm512_and_si512(i, _mm512_set1_epi32(1)), 3));
+  return VI32h{_mm512_castsi512_si256(_mm512_and_si512(r, _mm512_set1_epi32(255)))};
+}
+#endif
 template <bool kPX, bool kPZ>
 struct Perlin {
   using Row = PerlinRow;
@@ -227,14 +241,21 @@ struct Perlin {
     const DI di;
     const DI32h di32;
     const VAxis ax = Axis<kPX>(u, o.period_x, o.inv_period_x);
-    const std::int32_t* p = o.perm32.data();
     const VI m = hn::Set(di, 255);
-    const VI32h A = hn::GatherIndex(di32, p, Low32(hn::And(ax.i0, m)));
-    const VI32h B = hn::GatherIndex(di32, p, Low32(hn::And(ax.i1, m)));
+#if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX3
+    // The 256-byte table in four registers, looked up by 16-bit permutes (PermLookup), no gathers.
+    const std::uint8_t* pb = o.perm.data();
+    const __m512i t0 = _mm512_loadu_si512(pb), t1 = _mm512_loadu_si512(pb + 64);
+    const __m512i t2 = _mm512_loadu_si512(pb + 128), t3 = _mm512_loadu_si512(pb + 192);
+    auto look = [&](VI32h i) { return PermLookup(t0, t1, t2, t3, i); };
+#else
+    const std::int32_t* p = o.perm32.data();
+    auto look = [&](VI32h i) { return hn::GatherIndex(di32, p, i); };
+#endif
+    const VI32h A = look(Low32(hn::And(ax.i0, m)));
+    const VI32h B = look(Low32(hn::And(ax.i1, m)));
     const VI32h m15 = hn::Set(di32, 15);
-    auto hash = [&](VI32h base, VI32h row) {
-      return hn::PromoteTo(di, hn::And(hn::GatherIndex(di32, p, hn::GatherIndex(di32, p, hn::Add(base, row))), m15));
-    };
+    auto hash = [&](VI32h base, VI32h row) { return hn::PromoteTo(di, hn::And(look(look(hn::Add(base, row))), m15)); };
     const VI h00 = hash(A, r.y0), h10 = hash(B, r.y0), h01 = hash(A, r.y1), h11 = hash(B, r.y1);
     const VD fx = ax.f, fx1 = hn::Sub(fx, hn::Set(d, 1.0)), fy1 = hn::Sub(r.fy, hn::Set(d, 1.0));
     auto grad = [&](VI h, VD x, VD y) {
