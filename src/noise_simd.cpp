@@ -14,9 +14,12 @@
 // keys) is computed once per octave into `rows[]`; then each vector of samples runs through all
 // octaves (and both warp noises) with the accumulator in a register: octaves are fused.
 //
-//   Perlin, Simplex, Value, Cellular  in double, Lanes(double) samples per step; Perlin's table
-//                                     lookups are gathers (int32 table), Simplex's and Perlin's
-//                                     gradient tables too; 64-bit hashing with 64-bit multiplies.
+//   Perlin, Simplex, Value, Cellular  in double, Lanes(double) samples per step; 64-bit hashing
+//                                     with 64-bit multiplies. On AVX-512 Perlin's 256-byte table
+//                                     sits in four registers (16-bit permutes, PermLookup) and
+//                                     both gradient tables in registers (vpermt2pd); elsewhere
+//                                     they are gathers (int32 table). Simplex evaluates only the
+//                                     at most four vertices inside its kernel (Simplex::Eval).
 //   Gradient                          lattice split in double, then float: 2·Lanes(double)
 //                                     samples per step (16 on AVX-512); the gradient components
 //                                     come from an in-register permute (vpermps), no gathers.
@@ -479,22 +482,50 @@ struct CellularR {
       const VD inf = hn::Set(d, HUGE_VAL), half = hn::Set(d, 0.5), k21 = hn::Set(d, kCell2m21);
       VD d1 = inf, d2 = inf;
       VU h1 = hn::Zero(du);
-      for (int b = 0; b < 3; ++b) {
-        const VD pyc = hn::Set(d, double(b - 1) + 0.5);
-        for (int a = 0; a < 3; ++a) {
-          const VU h = Mix64(hn::Add(r.k[b], xk[a]));
-          const VD ux = hn::Sub(hn::Mul(U64ToDouble(hn::ShiftRight<43>(h)), k21), half);
-          const VD uy = hn::Sub(hn::Mul(U64ToDouble(hn::And(hn::ShiftRight<22>(h), hn::Set(du, 0x1FFFFF))), k21), half);
-          const VD ppx = hn::Add(hn::Set(d, double(a - 1) + 0.5), hn::Mul(jitter, ux));
-          const VD ppy = hn::Add(pyc, hn::Mul(jitter, uy));
-          const VD ddx = hn::Sub(ppx, fx), ddy = hn::Sub(ppy, r.fy);
-          const VD dist = hn::Add(hn::Mul(ddx, ddx), hn::Mul(ddy, ddy));
-          const auto m1 = dist < d1;
-          const auto m2 = hn::AndNot(m1, dist < d2);
-          d2 = hn::IfThenElse(m1, d1, hn::IfThenElse(m2, dist, d2));
-          d1 = hn::IfThenElse(m1, dist, d1);
-          if constexpr (kRet == int(CellularReturn::CellValue)) h1 = hn::IfThenElse(hn::RebindMask(du, m1), h, h1);
-        }
+      auto visit = [&](int a, int b) {
+        const VU h = Mix64(hn::Add(r.k[b], xk[a]));
+        const VD ux = hn::Sub(hn::Mul(U64ToDouble(hn::ShiftRight<43>(h)), k21), half);
+        const VD uy = hn::Sub(hn::Mul(U64ToDouble(hn::And(hn::ShiftRight<22>(h), hn::Set(du, 0x1FFFFF))), k21), half);
+        const VD ppx = hn::Add(hn::Set(d, double(a - 1) + 0.5), hn::Mul(jitter, ux));
+        const VD ppy = hn::Add(hn::Set(d, double(b - 1) + 0.5), hn::Mul(jitter, uy));
+        const VD ddx = hn::Sub(ppx, fx), ddy = hn::Sub(ppy, r.fy);
+        const VD dist = hn::Add(hn::Mul(ddx, ddx), hn::Mul(ddy, ddy));
+        const auto m1 = dist < d1;
+        const auto m2 = hn::AndNot(m1, dist < d2);
+        d2 = hn::IfThenElse(m1, d1, hn::IfThenElse(m2, dist, d2));
+        d1 = hn::IfThenElse(m1, dist, d1);
+        if constexpr (kRet == int(CellularReturn::CellValue)) h1 = hn::IfThenElse(hn::RebindMask(du, m1), h, h1);
+      };
+      if constexpr (kRet != int(CellularReturn::F1)) {
+        // CellValue: the owner's hash depends on the visiting order when distances tie, so the
+        // reference's order. F2, F2 − F1: skipping against d2 rarely pays (measured), so no skip.
+        for (int b = 0; b < 3; ++b)
+          for (int a = 0; a < 3; ++a) visit(a, b);
+      } else {
+        // F1 is the smallest of the nine squared distances, whatever the order: visit the own cell
+        // first, then the edge and corner neighbours, and skip a neighbour when, in every lane, no
+        // point of it can come closer than d1 (d2 may then differ; F1 does not use it). Feature points of column offset a − 1 lie within
+        // [a − ½ − j/2, a − ½ + j/2] (likewise rows), so the gap to them is at least g below; the
+        // bound is shrunk by 2⁻⁴⁰ (relative and absolute), far more than the rounding of dist.
+        const VD hj = hn::Mul(jitter, half), zero = hn::Zero(d);
+        auto pos = [&](VD v) { return hn::IfThenElse(v > zero, v, zero); };
+        const VD gx[3] = {pos(hn::Add(fx, hn::Sub(half, hj))), zero, pos(hn::Sub(hn::Sub(hn::Set(d, 1.5), hj), fx))};
+        const VD gy[3] = {pos(hn::Add(r.fy, hn::Sub(half, hj))), zero, pos(hn::Sub(hn::Sub(hn::Set(d, 1.5), hj), r.fy))};
+        const VD shrink = hn::Set(d, 1.0 - 0x1p-40), eps = hn::Set(d, 0x1p-40);
+        auto maybe = [&](int a, int b) {
+          const VD lb = hn::Sub(hn::Mul(hn::Add(hn::Mul(gx[a], gx[a]), hn::Mul(gy[b], gy[b])), shrink), eps);
+          if (hn::AllTrue(d, lb >= d1)) return;
+          visit(a, b);
+        };
+        visit(1, 1);
+        maybe(0, 1);
+        maybe(2, 1);
+        maybe(1, 0);
+        maybe(1, 2);
+        maybe(0, 0);
+        maybe(2, 0);
+        maybe(0, 2);
+        maybe(2, 2);
       }
       const VD one = hn::Set(d, 1.0), two = hn::Set(d, 2.0);
       auto min1 = [&](VD v) { return hn::IfThenElse(one < v, one, v); };  // std::min(v, 1.0)
