@@ -146,6 +146,68 @@ TEST(SimdTargets, SixteenOctavesAndZPeriodOnly) {
   }
 }
 
+// Simplex's vector path sums only the (at most four) vertices inside the kernel's radius and
+// falls back to all eight where a lane does not fit that pattern; dense grids put samples on and
+// near every cell edge, lattice vertex and kernel boundary. Perlin's AVX-512 path looks its table
+// up with 16-bit permutes: rows of 2048 samples at frequency 1 cross every one of its 256 cells.
+TEST(SimdTargets, SimplexAndPerlinDenseGridsBitIdenticalToScalarReference) {
+  for (const auto& t : detail::noise_simd_targets()) {
+    ForceTarget f(t.bits);
+    for (NoiseBasis b : {NoiseBasis::Simplex, NoiseBasis::Perlin})
+      for (double freq : {1.0, 1.0 / 8.0, 1.0 / 61.0}) {
+        NoiseSettings s;
+        s.basis = b;
+        s.fractal = Fractal::Fbm;
+        s.octaves = 3;
+        s.frequency = freq;
+        s.seed = 17;
+        const Noise n(s);
+        int bad = 0;
+        for (int j = -40; j < 40 && bad == 0; ++j) {
+          const int len = freq == 1.0 ? 2048 : 203;
+          const double dx = freq == 1.0 ? 0.37 : 0.125;
+          std::vector<float> simd(std::size_t(len), 0.0f), ref(std::size_t(len), 1.0f);
+          n.row(double(j) * 0.25, -101, dx, len, simd.data());
+          n.row_reference(double(j) * 0.25, -101, dx, len, ref.data());
+          if (!same_bits(simd, ref)) ++bad;
+        }
+        EXPECT_EQ(bad, 0) << t.name << " " << name(b) << " frequency " << freq;
+      }
+  }
+}
+
+// Cellular F1 visits the 3×3 neighbourhood own cell first and skips neighbours that cannot come
+// closer (a bound on the feature points' position, per jitter); dense grids for every return at several
+// jitters, including 0 (every point at its cell's centre: equal distances everywhere) and with a
+// period, must still give the reference's bits.
+TEST(SimdTargets, CellularDenseGridsBitIdenticalToScalarReference) {
+  for (const auto& t : detail::noise_simd_targets()) {
+    ForceTarget f(t.bits);
+    for (CellularReturn ret : kReturns)
+      for (double jitter : {1.0, 0.6, 0.0})
+        for (int variant = 0; variant < 2; ++variant) {
+          NoiseSettings s;
+          s.basis = NoiseBasis::Cellular;
+          s.cellular = ret;
+          s.jitter = jitter;
+          s.fractal = variant ? Fractal::Fbm : Fractal::None;
+          s.octaves = 3;
+          s.frequency = variant ? 1.0 / 16.0 : 1.0 / 4.0;
+          if (variant) s.period_x_m = 160.0;
+          s.seed = 99;
+          const Noise n(s);
+          int bad = 0;
+          for (int j = -30; j < 30 && bad == 0; ++j) {
+            std::vector<float> simd(333, 0.0f), ref(333, 1.0f);
+            n.row(double(j) * 0.5, -120, 0.25, 333, simd.data());
+            n.row_reference(double(j) * 0.5, -120, 0.25, 333, ref.data());
+            if (!same_bits(simd, ref)) ++bad;
+          }
+          EXPECT_EQ(bad, 0) << t.name << " return " << int(ret) << " jitter " << jitter << " variant " << variant;
+        }
+  }
+}
+
 TEST(SimdTargets, NonFiniteCoordinatesDoNotCrashAnyTarget) {
   // Values are unspecified; the sanitizer build checks there is no UB in either path.
   for (const auto& t : detail::noise_simd_targets()) {

@@ -16,7 +16,59 @@ struct NoiseCase {
   Fractal fractal;
   int octaves;
   const char* peer;  // libnoise module or nullptr
+  CellularReturn cellular = CellularReturn::F1;
 };
+
+// Issue 17's targets, as the ratio of a noise case's time to the `gradient` case with the same
+// fractal measured in the same run (cellular: to single-octave gradient). 0: no target.
+double noise_target(const NoiseCase& c) {
+  switch (c.basis) {
+    case NoiseBasis::Simplex: return 1.3;
+    case NoiseBasis::Value: return c.fractal == Fractal::Ridged ? 0.0 : 1.0;
+    case NoiseBasis::Cellular: return 3.0;
+    case NoiseBasis::Perlin: return 2.5;
+    case NoiseBasis::Gradient: return 0.0;
+  }
+  return 0.0;
+}
+
+// Prints, for each noise case of one thread count, its wall and CPU time as a ratio to the gradient
+// case with the same fractal (cellular: 1 octave) in the same run, its target and whether the
+// target is missed, and records them in the cases' JSON entries ("gradient_ratio",
+// "gradient_cpu_ratio", "gradient_target", "target_met").
+// entries[first + i] is cases[i]'s entry.
+void print_noise_ratios(const std::vector<NoiseCase>& cases, json& all, std::size_t first) {
+  auto entry = [&](std::size_t i) -> json& { return all[first + i]; };
+  auto find_gradient = [&](Fractal f) -> const json* {
+    for (std::size_t i = 0; i < cases.size(); ++i)
+      if (cases[i].basis == NoiseBasis::Gradient && cases[i].fractal == f) return &entry(i);
+    return nullptr;
+  };
+  std::printf("noise ratios to gradient with the same fractal (same run, %d thread(s)):\n",
+              entry(0)["threads"].get<int>());
+  std::printf("  %-22s %8s %8s %8s\n", "case", "wall", "cpu", "target");
+  for (std::size_t i = 0; i < cases.size(); ++i) {
+    const NoiseCase& c = cases[i];
+    if (c.basis == NoiseBasis::Gradient) continue;
+    const json* g = find_gradient(c.basis == NoiseBasis::Cellular ? Fractal::None : c.fractal);
+    if (!g) continue;
+    json& e = entry(i);
+    const double r = e["median_ms"].get<double>() / (*g)["median_ms"].get<double>();
+    const double rc = e["cpu_median_ms"].get<double>() / (*g)["cpu_median_ms"].get<double>();
+    const double target = noise_target(c);
+    e["gradient_ratio"] = r;
+    e["gradient_cpu_ratio"] = rc;
+    std::printf("  %-22s %7.2fx %7.2fx", c.name.c_str(), r, rc);
+    if (target > 0) {
+      e["gradient_target"] = target;
+      e["target_met"] = r <= target;
+      std::printf(" %7.2fx%s", target, r <= target ? "" : "  MISSED");
+    }
+    std::printf("\n");
+  }
+  std::fflush(stdout);
+}
+
 
 }  // namespace
 
@@ -36,6 +88,9 @@ void bench_noise(const BenchSettings& s, json& entries) {
       {"gradient ridged 6", NoiseBasis::Gradient, Fractal::Ridged, 6, "RidgedMulti"},
       {"simplex fbm 6", NoiseBasis::Simplex, Fractal::Fbm, 6, "Perlin"},
       {"simplex ridged 6", NoiseBasis::Simplex, Fractal::Ridged, 6, "RidgedMulti"},
+      {"value fbm 6", NoiseBasis::Value, Fractal::Fbm, 6, nullptr},
+      {"cellular f2", NoiseBasis::Cellular, Fractal::None, 1, nullptr, CellularReturn::F2},
+      {"cellular f2-f1", NoiseBasis::Cellular, Fractal::None, 1, nullptr, CellularReturn::F2MinusF1},
   };
   const int n = s.noise_size;
   std::vector<float> buf(std::size_t(n) * n);
@@ -43,9 +98,11 @@ void bench_noise(const BenchSettings& s, json& entries) {
   std::vector<double> pbuf(std::size_t(pn) * pn);
   for (int threads : s.threads) {
     tbb::task_arena arena(threads);
+    const std::size_t first = entries.size();
     for (auto& c : cases) {
       NoiseSettings ns;
       ns.basis = c.basis;
+      ns.cellular = c.cellular;
       ns.fractal = c.fractal;
       ns.octaves = c.octaves;
       ns.frequency = 1.0 / 64.0;  // 64 samples per first-octave cycle
@@ -116,6 +173,7 @@ void bench_noise(const BenchSettings& s, json& entries) {
       print_row(e);
       entries.push_back(e);
     }
+    print_noise_ratios(cases, entries, first);
   }
 }
 
