@@ -187,14 +187,14 @@ TEST_F(Clients, AssimpLoadsEveryMeshFormat) {
 
   const AssimpInfo glb = assimp_info(dir / "terrain.glb");
   EXPECT_EQ(glb.code, 0) << glb.out;
-  EXPECT_EQ(glb.meshes, 4 + 6);
+  EXPECT_EQ(glb.meshes, 4 + int(prop_types().size()));
   EXPECT_EQ(glb.vertices, chunk_verts + long(prop_vertices));
   EXPECT_EQ(glb.faces, grid_tris + long(prop_triangles));
   EXPECT_EQ(glb.embedded, 1);
 
   const AssimpInfo fbx = assimp_info(dir / "terrain.fbx");
   EXPECT_EQ(fbx.code, 0) << fbx.out;
-  EXPECT_EQ(fbx.meshes, 4 + 6);  // shared prop geometry converted once per type
+  EXPECT_EQ(fbx.meshes, 4 + int(prop_types().size()));  // shared prop geometry converted once per type
   EXPECT_EQ(fbx.faces, grid_tris + long(prop_triangles));
   EXPECT_EQ(fbx.vertices, 3 * fbx.faces);  // assimp's FBX importer keeps one vertex per polygon corner
   EXPECT_EQ(fbx.embedded, 1);
@@ -276,15 +276,15 @@ TEST_F(Clients, BlenderImportsGlbObjAndFbx) {
   };
 
   const long chunk_verts = 4L * (kChunk + 1) * (kChunk + 1), grid_faces = 2L * (kSize - 1) * (kSize - 1);
-  // GLB and FBX: four textured chunks covering the grid, 12 props sharing one mesh per type.
+  // GLB and FBX: four textured chunks covering the grid, two props of each type sharing one mesh per type.
   auto check_chunked = [&](const json& f, const char* what) {
     const Totals t = totals(f);
     EXPECT_EQ(t.terrain_objects, 4) << what;
     EXPECT_EQ(t.terrain_vertices, chunk_verts) << what;
     EXPECT_EQ(t.terrain_faces, grid_faces) << what;
     EXPECT_EQ(t.uv_objects, 4) << what;
-    EXPECT_EQ(t.prop_objects, 12) << what;
-    EXPECT_EQ(t.prop_meshes.size(), 6u) << what;  // instances share their type's mesh
+    EXPECT_EQ(t.prop_objects, int(2 * prop_types().size())) << what;
+    EXPECT_EQ(t.prop_meshes.size(), prop_types().size()) << what;  // instances share their type's mesh
     check_texture(f, what);
   };
   {
