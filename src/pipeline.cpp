@@ -102,7 +102,8 @@ Frame work_frame(const Recipe& r, const Frame& frame) {
 void crop(Terrain& t, const Frame& window) {
   const Frame& f = t.frame;
   const std::size_t di = std::size_t(window.ix0 - f.ix0), dj = std::size_t(window.iz0 - f.iz0);
-  for (auto& [name, l] : t.layers) {
+  for (auto& entry : t.layers) {
+    Layer& l = entry.second;  // (not a structured binding: clang 14 cannot capture one in the lambda)
     const std::size_t c = std::size_t(l.channels), row = std::size_t(window.nx) * c;
     std::vector<float> out(window.count() * c);
     detail::parallel_rows(window.nz, [&](int j) {
