@@ -51,6 +51,7 @@ std::set<std::string>& live_temps() {
   return s;
 }
 std::atomic<int> publishing{0};
+bool closed_for_exit = false;  // set by remove_live_temporaries (under live_mutex): no new temporaries
 void track(const std::string& tmp) {
   std::lock_guard<std::mutex> lock(live_mutex());
   live_temps().insert(tmp);
@@ -194,12 +195,15 @@ TempFile create_temp(const std::string& path) {
   if (base.empty() || base == "." || base == "..") throw Error("output", "invalid file name '" + path + "'");
   TempFile t;
   t.path = path;
+  // Creating and registering happen under one lock, so remove_live_temporaries sees every file.
+  std::lock_guard<std::mutex> lock(live_mutex());
+  if (closed_for_exit) throw Error("output", "cannot write to '" + path + "': the run is being interrupted");
   for (unsigned attempt = 0; attempt < 100 && t.fd < 0; ++attempt) {
     // ".NAME.tmp-PID-XXXXXX": the PID tells a later run whether the writer is still alive
     // (remove_dead_temporaries).
     t.tmp = (dir / ("." + base + ".tmp-" + std::to_string(::getpid()) + "-" + temp_suffix(attempt))).string();
     t.fd = ::open(t.tmp.c_str(), O_WRONLY | O_CREAT | O_EXCL | O_CLOEXEC, 0666);
-    if (t.fd >= 0) track(t.tmp);
+    if (t.fd >= 0) live_temps().insert(t.tmp);
     if (t.fd < 0 && errno != EEXIST) throw Error("output", "cannot write to '" + path + "': " + errno_text(errno));
   }
   if (t.fd < 0) throw Error("output", "cannot write to '" + path + "': no free temporary name");
@@ -432,9 +436,18 @@ void FileOutput::prepare() {
 
 void FileOutput::publish() {
   std::lock_guard<std::mutex> lock(mutex_);
-  ++publishing;
+  {
+    std::lock_guard<std::mutex> live(live_mutex());
+    if (closed_for_exit) throw Error("output", "cannot replace files in '" + dir_ + "': the run is being interrupted");
+    ++publishing;
+  }
   struct Done {
-    ~Done() { --publishing; }
+    bool on = true;
+    void end() {
+      if (on) --publishing;
+      on = false;
+    }
+    ~Done() { end(); }
   } done;
   for (std::size_t k = 0; k < pending_.size(); ++k) {
     std::error_code ec;
@@ -443,21 +456,25 @@ void FileOutput::publish() {
       // rename(2) within one directory of one file system does not fail short of a vanished
       // directory or a full inode table; the files renamed before this one stay replaced.
       const std::string path = pending_[k].path;
+      done.end();
       for (std::size_t r = k; r < pending_.size(); ++r) discard(pending_[r].fd, pending_[r].tmp);
       pending_.clear();
       throw Error("output", "cannot replace '" + path + "': " + ec.message());
     }
-    untrack(pending_[k].tmp);
     written_.push_back(pending_[k].path);
     bytes_ += pending_[k].bytes;
   }
+  done.end();  // before untrack, which waits for the lock an exiting process may hold
+  for (const Pending& p : pending_) untrack(p.tmp);  // after the renames: may wait for an exiting process
   pending_.clear();
 }
 
 void remove_live_temporaries() noexcept {
-  // Never in the middle of a commit's renames: that would leave a mix of old and new files.
+  // Takes the registry's lock and keeps it: no temporary is created, and no commit starts, after
+  // this; a commit's renames already under way finish first (never a mix of old and new files).
+  live_mutex().lock();
+  closed_for_exit = true;
   while (publishing.load() > 0) ::usleep(1000);
-  std::lock_guard<std::mutex> lock(live_mutex());
   for (const std::string& t : live_temps()) ::unlink(t.c_str());
   live_temps().clear();
 }
