@@ -21,6 +21,11 @@ packages=(
   libcpp-httplib-dev libarchive-dev chromium
   # tests: which system calls a run makes (generate --sync flushes each file before its rename)
   strace
+  # the Python module and the Blender add-on (pybind11 against Debian's Python 3.11); python3-noise
+  # is the peer the compat functions are tested and measured against
+  pybind11-dev python3-dev python3-pytest python3-noise
+  # inputs: GeoTIFF and the other elevation formats GDAL reads, and GDAL's tools in the tests
+  libgdal-dev gdal-bin
 )
 # Node and npm: any install that provides the commands will do (Debian's nodejs + npm by default).
 command -v node >/dev/null 2>&1 || packages+=(nodejs)
