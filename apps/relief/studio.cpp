@@ -1,32 +1,23 @@
-// relief studio: the local web server behind the live preview (see studio.hpp for the API).
+// relief studio: the HTTP server behind the live preview (see studio.hpp for the API): routes,
+// request admission and cancellation, exports, shutdown. The stage cache and the binary frame
+// codec live in studio_cache.cpp and studio_frame.cpp.
 //
 // Interactivity follows mapgen4 (A. Patel, "mapgen4", Red Blob Games 2018): one job in flight
 // per client, newer requests replace older ones, and work is cached by what it depends on.
-//   * Stage cache: the terrain after stage k is stored under key_k = H(key_{k−1}, k, stage name,
-//     resolved params), key_{−1} = H(seed, frame). A request resumes the pipeline from the
-//     deepest cached key (RunOptions::resume), so moving a colour slider re-runs only the stages
-//     from the colour stage on, and moving nothing re-runs nothing. LRU, bounded in bytes.
-//     Snapshots are taken where a chain of fused row stages ends (RunOptions::
-//     after_stage_keeps_fusion), so a cached run keeps fusion: a change inside a chain re-runs the
-//     chain from its first stage. The stage strip (/api/steps) needs every stage's own output and
-//     runs unfused.
+//   * Stage cache (studio_cache.hpp): every stage's output is cached under a hash of what it
+//     depends on, so a request re-runs only the stages whose inputs changed.
 //   * Superseding: each client (header X-Relief-Client) has a counter; a request takes the next
 //     value and checks it before every stage (RunOptions::cancelled). A newer request makes the
 //     older one stop at the next stage boundary and answer 409. Per client, runs are serialised.
-//   * Binary frames ("RLF1"): little-endian
-//       magic "RLF1" | u32 header length H | H bytes of JSON | zero padding to a multiple of 8 |
-//       blobs, each at the offset the header gives (relative to the frame start, multiple of 8).
-//     One-channel layers are Float32 (nx·nz values, row-major, x fastest), three-channel layers
-//     Uint8 RGB (round(clamp(v, 0, 1)·255)), points Float32 × 7 (x, y, z, rotation_deg, scale,
-//     kind index, type index) with the kind and type names in the header.
+//   * Binary frames ("RLF1", studio_frame.hpp): the layers and points of a result, as the page reads them.
 #include "studio.hpp"
+#include "studio_cache.hpp"
+#include "studio_frame.hpp"
 #include "studio_request.hpp"
 
 #include <archive.h>
 #include <archive_entry.h>
 #include <httplib.h>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 #include <signal.h>
 #include <spawn.h>
 #include <netdb.h>
@@ -39,7 +30,6 @@
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <list>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -51,7 +41,6 @@
 #include "relief/generate.hpp"
 #include "relief/output.hpp"
 #include "relief/pipeline.hpp"
-#include "relief/random.hpp"
 #include "relief/recipe.hpp"
 
 extern char** environ;
@@ -93,225 +82,12 @@ void send_error(httplib::Response& res, const ApiError& e) {
   send_json(res, e.status(), b);
 }
 
-// ---- hashing ----------------------------------------------------------------------------------
-
-std::uint64_t fnv1a(std::string_view s, std::uint64_t h = 1469598103934665603ull) {
-  for (unsigned char c : s) h = (h ^ c) * 1099511628211ull;
-  return h;
-}
-std::uint64_t hash_double(std::uint64_t h, double v) {
-  std::uint64_t bits;
-  std::memcpy(&bits, &v, sizeof bits);
-  return hash64(h, bits);
-}
-
-// key_k for every stage of `r` on `f` (see the top of the file).
-std::vector<std::uint64_t> stage_keys(const Recipe& r, const Frame& f) {
-  std::uint64_t h = hash64(0x52454c4945460001ull, *r.seed);
-  for (double v : {f.world_width_m, f.world_depth_m, f.spacing_m, f.height_m, f.sea_level}) h = hash_double(h, v);
-  h = hash64(h, std::uint64_t(f.nx), std::uint64_t(f.nz));
-  h = hash64(h, std::uint64_t(f.ix0), std::uint64_t(f.iz0));
-  std::vector<std::uint64_t> keys;
-  for (std::size_t i = 0; i < r.stages.size(); ++i) {
-    h = hash64(h, i, fnv1a(r.stages[i].def->name));
-    h = hash64(h, fnv1a(r.stages[i].stage->params().dump()));
-    keys.push_back(h);
-  }
-  return keys;
-}
-
-std::size_t terrain_bytes(const Terrain& t) {
-  std::size_t b = sizeof(Terrain) + t.points.size() * sizeof(Point);
-  for (auto& [name, l] : t.layers) b += name.size() + l.data.size() * sizeof(float);
-  return b;
-}
-
-// ---- stage cache ------------------------------------------------------------------------------
-
-struct Snapshot {
-  std::shared_ptr<const Terrain> terrain;
-  double ms = 0;  // how long the stage took when it ran
-};
-
-class StageCache {
- public:
-  explicit StageCache(std::size_t capacity) : capacity_(capacity) {}
-
-  std::optional<Snapshot> get(std::uint64_t key) {
-    std::lock_guard lk(m_);
-    auto it = map_.find(key);
-    if (it == map_.end()) return std::nullopt;
-    lru_.splice(lru_.begin(), lru_, it->second.pos);
-    return it->second.snap;
-  }
-
-  // Snapshots bigger than an eighth of the budget are not kept (large exports would flush the
-  // previews that make dragging fast).
-  void put(std::uint64_t key, Snapshot s) {
-    const std::size_t b = terrain_bytes(*s.terrain);
-    if (b > capacity_ / 8) return;
-    std::lock_guard lk(m_);
-    if (auto it = map_.find(key); it != map_.end()) {
-      lru_.splice(lru_.begin(), lru_, it->second.pos);
-      return;
-    }
-    lru_.push_front(key);
-    map_[key] = Entry{std::move(s), b, lru_.begin()};
-    bytes_ += b;
-    while (bytes_ > capacity_ && !lru_.empty()) {
-      auto old = map_.find(lru_.back());
-      bytes_ -= old->second.bytes;
-      map_.erase(old);
-      lru_.pop_back();
-    }
-  }
-
- private:
-  struct Entry {
-    Snapshot snap;
-    std::size_t bytes = 0;
-    std::list<std::uint64_t>::iterator pos;
-  };
-  std::mutex m_;
-  std::unordered_map<std::uint64_t, Entry> map_;
-  std::list<std::uint64_t> lru_;
-  std::size_t bytes_ = 0, capacity_;
-};
-
 // ---- sessions ---------------------------------------------------------------------------------
 
 struct Session {
   std::atomic<std::uint64_t> latest{0};
   std::mutex running;  // at most one generation in flight per client
 };
-
-// ---- binary frames ----------------------------------------------------------------------------
-
-class FrameWriter {
- public:
-  void expect(std::size_t bytes) { blobs_.reserve(bytes); }
-  // Reserves a blob of `bytes` bytes and returns {offset, bytes} (offset relative to the blob
-  // area, fixed up to an absolute offset in finish()) and where to write it.
-  std::pair<json, char*> reserve(std::size_t bytes) {
-    json d;
-    d["offset"] = blobs_.size();
-    d["bytes"] = bytes;
-    const std::size_t at = blobs_.size();
-    blobs_.resize(at + bytes + (8 - bytes % 8) % 8, '\0');
-    return {d, blobs_.data() + at};
-  }
-  json add(const void* data, std::size_t bytes) {
-    auto [d, at] = reserve(bytes);
-    if (bytes) std::memcpy(at, data, bytes);
-    return d;
-  }
-  std::string finish(json header) {
-    // Offsets must be absolute, but the header's length depends on them: iterate to a fixed point
-    // (converges in ≤ 3 rounds as digits only grow).
-    std::size_t base = 0;
-    std::string text;
-    for (int round = 0; round < 8; ++round) {
-      json h = header;
-      fix(h, base);
-      text = h.dump();
-      const std::size_t need = 8 + text.size(), padded = need + (8 - need % 8) % 8;
-      if (padded == base) break;
-      base = padded;
-    }
-    std::string out;
-    out.reserve(base + blobs_.size());
-    out = "RLF1";
-    const std::uint32_t n = std::uint32_t(text.size());
-    for (int k = 0; k < 4; ++k) out.push_back(char((n >> (8 * k)) & 255));
-    out += text;
-    out.append(base - out.size(), '\0');
-    out += blobs_;
-    return out;
-  }
-
- private:
-  static void fix(json& j, std::size_t base) {
-    if (j.is_object()) {
-      if (j.contains("offset") && j.contains("bytes") && j["offset"].is_number_unsigned())
-        j["offset"] = j["offset"].get<std::size_t>() + base;
-      for (auto& [k, v] : j.items())
-        if (k != "offset") fix(v, base);
-    } else if (j.is_array()) {
-      for (auto& v : j) fix(v, base);
-    }
-  }
-  std::string blobs_;
-};
-
-// Channel 0 of every sample as Float32.
-void write_f32(const Layer& l, std::size_t count, char* out) {
-  if (l.channels == 1) {
-    std::memcpy(out, l.data.data(), count * 4);
-  } else {
-    for (std::size_t k = 0; k < count; ++k) std::memcpy(out + 4 * k, &l.data[k * l.channels], 4);
-  }
-}
-
-// RGB8: round(clamp(v, 0, 1)·255), NaN → 0; rows in parallel (each byte depends on one value).
-void write_rgb8(const Layer& l, std::size_t count, char* out) {
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count * 3, 1 << 16), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t k = r.begin(); k < r.end(); ++k) {
-      const float v = l.data[k];
-      const float c = v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f;
-      out[k] = char(std::uint8_t(c * 255.0f + 0.5f));  // c ≥ 0: truncation rounds
-    }
-  });
-}
-
-json frame_json(const Frame& f) {
-  return {{"nx", f.nx},           {"nz", f.nz},           {"cell_m", f.cell_m()},         {"width_m", f.width_m()},
-          {"depth_m", f.depth_m()}, {"x0_m", f.x0_m()},   {"z0_m", f.z0_m()},             {"height_m", f.height_m},
-          {"sea_level", f.sea_level}, {"world_width_m", f.world_width_m}, {"world_depth_m", f.world_depth_m}};
-}
-
-// Adds `name` to the frame: RGB8 for three-channel layers, Float32 (first channel) otherwise.
-json encode_layer(FrameWriter& w, const Terrain& t, const std::string& name) {
-  const Layer& l = t.layers.at(name);
-  const std::size_t n = t.frame.count();
-  json d;
-  if (l.channels == 3) {
-    auto [desc, at] = w.reserve(n * 3);
-    write_rgb8(l, n, at);
-    d = std::move(desc);
-    d["type"] = "rgb8";
-  } else {
-    auto [desc, at] = w.reserve(n * 4);
-    write_f32(l, n, at);
-    d = std::move(desc);
-    d["type"] = "f32";
-  }
-  d["channels"] = l.channels;
-  return d;
-}
-
-json encode_points(FrameWriter& w, const Terrain& t) {
-  std::vector<std::string> kinds, types;
-  auto index_of = [](std::vector<std::string>& v, const std::string& s) {
-    auto it = std::find(v.begin(), v.end(), s);
-    if (it != v.end()) return float(it - v.begin());
-    v.push_back(s);
-    return float(v.size() - 1);
-  };
-  std::vector<float> data;
-  data.reserve(t.points.size() * 7);
-  for (const Point& p : t.points) {
-    for (double v : {p.x_m, p.y_m, p.z_m, p.rotation_deg, p.scale}) data.push_back(float(v));
-    data.push_back(index_of(kinds, p.kind));
-    data.push_back(index_of(types, p.type));
-  }
-  json d = w.add(data.data(), data.size() * sizeof(float));
-  d["count"] = t.points.size();
-  d["stride"] = 7;
-  d["fields"] = {"x_m", "y_m", "z_m", "rotation_deg", "scale", "kind", "type"};
-  d["kinds"] = kinds;
-  d["types"] = types;
-  return d;
-}
 
 // ---- zip ----------------------------------------------------------------------------------------
 
@@ -375,17 +151,16 @@ class Studio {
 
  private:
   using Request = StudioRequest;
-  struct Generated {
-    std::shared_ptr<const Terrain> terrain;
-    std::vector<Snapshot> snaps;  // every stage's snapshot (only when asked for)
-    json timings = json::array();
-    double run_ms = 0;
-    int first_stage = 0;  // stages before it came from the cache
-  };
+  using Generated = CachedRun;
 
   Request parse_request(const httplib::Request& req, Endpoint e) const { return parse_studio_request(e, req.body, s_); }
   std::shared_ptr<Session> session_of(const httplib::Request& req);
-  Generated generate(const Recipe& r, const Frame& f, const std::function<bool()>& cancelled, bool all_snapshots);
+  Generated generate(const Recipe& r, const Frame& f, const std::function<bool()>& cancelled, bool all_snapshots) {
+    RunOptions opt;
+    opt.threads = s_.threads;
+    opt.cancelled = cancelled;
+    return run_cached(cache_, r, f, std::move(opt), all_snapshots);
+  }
   template <class F>
   void with_run(const httplib::Request& req, F&& work);
 
@@ -414,75 +189,6 @@ std::shared_ptr<Session> Studio::session_of(const httplib::Request& req) {
     s = std::make_shared<Session>();
   }
   return s;
-}
-
-// Runs the recipe from the deepest cached stage. With all_snapshots, every stage's snapshot is
-// returned (from the cache or from this run); a missing early snapshot means running from 0.
-Studio::Generated Studio::generate(const Recipe& r, const Frame& f, const std::function<bool()>& cancelled,
-                                   bool all_snapshots) {
-  const auto t0 = Clock::now();
-  const std::vector<std::uint64_t> keys = stage_keys(r, f);
-  const int n = int(r.stages.size());
-  Generated g;
-  g.snaps.resize(std::size_t(n));
-  int first = 0;
-  if (all_snapshots) {
-    while (first < n) {
-      auto s = cache_.get(keys[std::size_t(first)]);
-      if (!s) break;
-      g.snaps[std::size_t(first++)] = *s;
-    }
-  } else {
-    for (int k = n - 1; k >= 0; --k)
-      if (auto s = cache_.get(keys[std::size_t(k)])) {
-        g.snaps[std::size_t(k)] = *s;
-        first = k + 1;
-        break;
-      }
-  }
-  RunOptions opt;
-  opt.threads = s_.threads;
-  opt.window = f;
-  opt.cancelled = cancelled;
-  opt.after_stage_keeps_fusion = !all_snapshots;
-  if (first > 0) opt.resume = Resume{g.snaps[std::size_t(first - 1)].terrain.get(), first};
-  const bool keep = all_snapshots;
-  std::vector<double> ms(std::size_t(n), 0.0);
-  for (int i = 0; i < first; ++i) ms[std::size_t(i)] = g.snaps[std::size_t(i)].terrain ? g.snaps[std::size_t(i)].ms : 0.0;
-  auto stage_t0 = Clock::now();
-  opt.after_stage = [&](const Terrain& t, const RecipeStage&, int i) {
-    ms[std::size_t(i)] = ms_since(stage_t0);
-    if (i < n - 1) {  // the last stage's terrain is the run's result: moved, not copied, below
-      Snapshot s{std::make_shared<const Terrain>(t), ms[std::size_t(i)]};
-      cache_.put(keys[std::size_t(i)], s);
-      if (keep) g.snaps[std::size_t(i)] = std::move(s);
-    }
-    stage_t0 = Clock::now();
-  };
-  if (first < n || n == 0) {
-    stage_t0 = Clock::now();
-    RunResult res = run(r, opt);
-    // A fused chain's time is on its first stage, 0 on the others (as in the CLI's report).
-    for (std::size_t k = 0; k < res.timings.size() && first + int(k) < n; ++k) ms[std::size_t(first) + k] = res.timings[k].ms;
-    Snapshot last{std::make_shared<const Terrain>(std::move(res.terrain)), n ? ms[std::size_t(n - 1)] : 0.0};
-    if (n == 0) {
-      g.snaps.push_back(std::move(last));
-    } else {
-      cache_.put(keys[std::size_t(n - 1)], last);
-      g.snaps[std::size_t(n - 1)] = std::move(last);
-    }
-  }
-  g.terrain = g.snaps.back().terrain;
-  for (int i = 0; i < n; ++i) {
-    const RecipeStage& s = r.stages[std::size_t(i)];
-    json e = {{"stage", s.def->name}, {"label", s.label.empty() ? s.def->name : s.label}, {"cached", i < first}};
-    e["ms"] = ms[std::size_t(i)];
-    g.timings.push_back(e);
-  }
-  if (n == 0) g.snaps.clear();
-  g.first_stage = first;
-  g.run_ms = ms_since(t0);
-  return g;
 }
 
 // Serialises per client, supersedes older requests, bounds concurrent runs, maps errors.

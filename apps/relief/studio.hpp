@@ -6,7 +6,7 @@
 //   GET  /api/presets/NAME          the preset's recipe document             (load_preset())
 //   GET  /api/params                the parameter table = `relief explain --json`
 //   POST /api/resolve   {recipe}    {recipe: fully resolved recipe}          (validation only)
-//   POST /api/generate  {recipe, layers?}   binary "RLF1" frame (see studio.cpp): layers, points,
+//   POST /api/generate  {recipe, layers?}   binary "RLF1" frame (studio_frame.hpp): layers, points,
 //                                           per-stage timings
 //   POST /api/steps     {recipe}    binary frame with every stage's height and colour
 //   POST /api/export    {recipe, format, file?}   one file, or a zip of the format's files
