@@ -20,13 +20,19 @@
 #include <httplib.h>
 #include <signal.h>
 #include <spawn.h>
+#include <dirent.h>
 #include <netdb.h>
+#include <netinet/in.h>
+#include <poll.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
+#include <cerrno>
 #include <chrono>
+#include <condition_variable>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
@@ -67,27 +73,204 @@ void send_json(httplib::Response& res, int status, const json& body) {
 // The 405 for a method an API path does not serve: {the Allow value (POST or GET), the message}.
 std::optional<std::pair<std::string, std::string>> api_method_error(const std::string& method, const std::string& path) {
   const bool post = path == "/api/generate" || path == "/api/steps" || path == "/api/export" || path == "/api/resolve";
-  const bool get = path == "/api/presets" || path == "/api/params" || path.starts_with("/api/presets/");
+  const bool get = path == "/api/presets" || path == "/api/params" || path == "/api/stats" || path.starts_with("/api/presets/");
   const char* allow = post ? "POST" : get ? "GET" : nullptr;
   if (!allow || method == allow || (get && method == "HEAD")) return std::nullopt;
   return std::pair<std::string, std::string>{allow, printable_text(method.substr(0, 20)) + " is not supported here: use " + allow +
                                                         (post ? " with a JSON body {\"recipe\": …}" : "")};
 }
 
+// A request refused or stopped by one of the studio's limits (studio.hpp): a 503 whose body says
+// which limit ("time_budget", "memory", "shutdown"), with Retry-After when trying again later helps.
+class LimitError : public ApiError {
+ public:
+  LimitError(std::string limit, std::string message, int retry_after_s = 0)
+      : ApiError(503, "", std::move(message)), limit(std::move(limit)), retry_after_s(retry_after_s) {}
+  std::string limit;
+  int retry_after_s;
+};
+
 void send_error(httplib::Response& res, const ApiError& e) {
   json b;
   b["error"] = e.what();
   if (!e.path().empty()) b["path"] = e.path();
   if (e.status() == 409) b["superseded"] = true;
+  if (auto* l = dynamic_cast<const LimitError*>(&e)) {
+    b["limit"] = l->limit;
+    if (l->retry_after_s > 0) res.set_header("Retry-After", std::to_string(l->retry_after_s));
+  }
   send_json(res, e.status(), b);
 }
 
-// ---- sessions ---------------------------------------------------------------------------------
+// ---- the connection a handler serves -------------------------------------------------------------
+// httplib 0.11 does not tell a handler whether its client is still there (later versions have
+// Request::is_connection_closed), nor which socket it serves. The socket is found by its addresses:
+// the open descriptor whose peer and local ports and peer address are the request's (a TCP
+// connection's four-tuple is unique). It stays open while the handler runs (httplib closes it
+// after the handler returns). -1 when not found.
+
+std::string numeric_host(const sockaddr_storage& a, socklen_t len) {
+  char host[NI_MAXHOST];
+  if (::getnameinfo(reinterpret_cast<const sockaddr*>(&a), len, host, sizeof host, nullptr, 0, NI_NUMERICHOST) != 0) return {};
+  return host;
+}
+int port_of(const sockaddr_storage& a) {
+  if (a.ss_family == AF_INET) return ntohs(reinterpret_cast<const sockaddr_in&>(a).sin_port);
+  if (a.ss_family == AF_INET6) return ntohs(reinterpret_cast<const sockaddr_in6&>(a).sin6_port);
+  return -1;
+}
+
+int client_socket(const httplib::Request& req) {
+  if (req.remote_port <= 0 || req.local_port <= 0) return -1;
+  DIR* dir = ::opendir("/proc/self/fd");
+  if (!dir) return -1;
+  int found = -1;
+  const int own = ::dirfd(dir);
+  while (dirent* d = ::readdir(dir)) {
+    char* end = nullptr;
+    const long fd = std::strtol(d->d_name, &end, 10);
+    if (*end || end == d->d_name || fd == own) continue;
+    sockaddr_storage peer{}, local{};
+    socklen_t pl = sizeof peer, ll = sizeof local;
+    if (::getpeername(int(fd), reinterpret_cast<sockaddr*>(&peer), &pl) != 0) continue;
+    if (port_of(peer) != req.remote_port) continue;
+    if (::getsockname(int(fd), reinterpret_cast<sockaddr*>(&local), &ll) != 0 || port_of(local) != req.local_port) continue;
+    if (numeric_host(peer, pl) != req.remote_addr) continue;
+    found = int(fd);
+    break;
+  }
+  ::closedir(dir);
+  return found;
+}
+
+// True when the peer has closed the connection (end of stream or reset). Data waiting to be read
+// (a pipelined request) is not a close. A client that only shuts down its sending side counts as
+// gone as well (browsers and HTTP libraries do not do that while waiting for an answer).
+bool peer_closed(int fd) {
+  if (fd < 0) return false;
+  pollfd p{fd, POLLIN | POLLRDHUP, 0};
+  if (::poll(&p, 1, 0) <= 0) return false;
+  if (p.revents & (POLLRDHUP | POLLHUP | POLLERR | POLLNVAL)) return true;
+  if (!(p.revents & POLLIN)) return false;
+  char c;
+  const ssize_t n = ::recv(fd, &c, 1, MSG_PEEK | MSG_DONTWAIT);
+  return n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR);
+}
+
+// ---- sessions and run control -------------------------------------------------------------------
 
 struct Session {
   std::atomic<std::uint64_t> latest{0};
-  std::mutex running;  // at most one generation in flight per client
+  std::timed_mutex running;  // at most one generation in flight per client
 };
+
+enum class StopReason : int { None = 0, Superseded, TimeBudget, Disconnected, Shutdown };
+constexpr const char* kStopNames[] = {"none", "superseded", "time_budget", "disconnected", "shutdown"};
+
+// The cancel hook of one request: RunOptions::cancelled and GenerateSettings::cancelled, and the
+// progress callbacks, which the library calls inside long stages and writers (a progress callback
+// that throws relief::Cancelled stops the run like the cancel hook does). Thread-safe (writers run
+// in parallel); remembers the first reason that held. The socket is polled at most every 20 ms.
+class RunControl {
+ public:
+  RunControl(std::shared_ptr<Session> session, std::uint64_t gen, Clock::time_point deadline, int fd,
+             const std::atomic<bool>& stopping)
+      : session_(std::move(session)), gen_(gen), deadline_(deadline), fd_(fd), stopping_(stopping) {}
+
+  bool cancelled() {
+    if (reason_.load() != 0) return true;
+    StopReason r = StopReason::None;
+    const auto now = Clock::now();
+    if (stopping_.load()) r = StopReason::Shutdown;
+    else if (session_ && session_->latest.load() != gen_) r = StopReason::Superseded;
+    else if (now >= deadline_) r = StopReason::TimeBudget;
+    else if (fd_ >= 0) {
+      const std::int64_t t = std::chrono::duration_cast<std::chrono::nanoseconds>(now.time_since_epoch()).count();
+      std::int64_t due = next_poll_.load();
+      if (t >= due && next_poll_.compare_exchange_strong(due, t + 20'000'000) && peer_closed(fd_))
+        r = StopReason::Disconnected;
+    }
+    if (r == StopReason::None) return false;
+    int none = 0;
+    reason_.compare_exchange_strong(none, int(r));
+    return true;
+  }
+  StopReason reason() const { return StopReason(reason_.load()); }
+  // Throws relief::Cancelled when cancelled (the form progress callbacks use).
+  void check() {
+    if (cancelled()) throw Cancelled();
+  }
+
+ private:
+  std::shared_ptr<Session> session_;
+  std::uint64_t gen_;
+  Clock::time_point deadline_;
+  int fd_;
+  const std::atomic<bool>& stopping_;
+  std::atomic<int> reason_{0};
+  std::atomic<std::int64_t> next_poll_{0};
+};
+
+// Admission by memory estimate: the estimates of the requests running stay within the budget,
+// except that one request is always admitted when none runs.
+class Admission {
+ public:
+  explicit Admission(std::uint64_t budget) : budget_(budget) {}
+  bool try_admit(std::uint64_t bytes) {
+    std::lock_guard lk(m_);
+    if (running_ > 0 && used_ + bytes > budget_) return false;
+    used_ += bytes;
+    ++running_;
+    return true;
+  }
+  void release(std::uint64_t bytes) {
+    std::lock_guard lk(m_);
+    used_ -= bytes;
+    --running_;
+  }
+  std::pair<int, std::uint64_t> state() {
+    std::lock_guard lk(m_);
+    return {running_, used_};
+  }
+  std::uint64_t budget() const { return budget_; }
+
+ private:
+  std::mutex m_;
+  std::uint64_t budget_, used_ = 0;
+  int running_ = 0;
+};
+
+// A chain of more fusable stages than this in a row runs unfused (checked between its stages).
+constexpr int kMaxFusedChain = 8;
+bool long_fused_chain(const Recipe& r) {
+  int run = 0;
+  for (const RecipeStage& s : r.stages) {
+    run = s.stage->fusable() ? run + 1 : 0;
+    if (run > kMaxFusedChain) return true;
+  }
+  return false;
+}
+
+// The peak memory a request is admitted with (studio.hpp): the library's estimate for the run and
+// its encoding, plus what the studio holds beyond it.
+std::uint64_t request_estimate(Endpoint e, const StudioRequest& r) {
+  const std::uint64_t n = std::uint64_t(r.frame.nx) * std::uint64_t(r.frame.nz);
+  switch (e) {
+    case Endpoint::Generate:  // the frame: Float32 or RGB8 per layer sent
+      return estimate_memory_bytes(r.recipe, false) + n * 16;
+    case Endpoint::Steps:  // a snapshot of the terrain per stage, and its height and colour in the frame
+      return estimate_memory_bytes(r.recipe, false) + std::uint64_t(r.recipe.stages.size()) * n * 24;
+    case Endpoint::Export: {  // the files in memory, the zip and the response body (an OBJ is ~200 B a sample)
+      const bool mesh = r.writer && select_writers(r.writer->name, r.recipe.export_settings ? r.recipe.export_settings->options
+                                                                                             : ExportOptions{},
+                                                   "format")
+                                        .with_mesh();
+      return estimate_memory_bytes(r.recipe, mesh) + n * (mesh ? 400 : 64);
+    }
+    default:
+      return 0;
+  }
+}
 
 // ---- zip ----------------------------------------------------------------------------------------
 
@@ -145,9 +328,11 @@ std::string content_type_of(const std::string& file) {
 
 class Studio {
  public:
-  explicit Studio(const StudioSettings& s) : s_(s), cache_(s.cache_mib << 20), runs_(2) {}
+  explicit Studio(const StudioSettings& s) : s_(s), cache_(s.cache_mib << 20), runs_(2), admission_(work_budget_bytes(s)) {}
 
   void routes(httplib::Server& svr);
+  // Cancels every request running or waiting and refuses new work (SIGINT/SIGTERM).
+  void shutdown() { stopping_ = true; }
 
  private:
   using Request = StudioRequest;
@@ -155,14 +340,17 @@ class Studio {
 
   Request parse_request(const httplib::Request& req, Endpoint e) const { return parse_studio_request(e, req.body, s_); }
   std::shared_ptr<Session> session_of(const httplib::Request& req);
-  Generated generate(const Recipe& r, const Frame& f, const std::function<bool()>& cancelled, bool all_snapshots) {
+  Generated generate(const Recipe& r, const Frame& f, RunControl& ctl, bool all_snapshots) {
     RunOptions opt;
     opt.threads = s_.threads;
-    opt.cancelled = cancelled;
+    opt.cancelled = [&ctl] { return ctl.cancelled(); };
+    opt.progress = [&ctl](std::string_view, double) { ctl.check(); };  // inside long stages too
+    if (long_fused_chain(r)) opt.fuse = false;
     return run_cached(cache_, r, f, std::move(opt), all_snapshots);
   }
   template <class F>
-  void with_run(const httplib::Request& req, F&& work);
+  void with_run(const httplib::Request& req, Endpoint e, const Request& r, F&& work);
+  json stats();
 
   void api_generate(const httplib::Request& req, httplib::Response& res);
   void api_steps(const httplib::Request& req, httplib::Response& res);
@@ -170,7 +358,11 @@ class Studio {
 
   StudioSettings s_;
   StageCache cache_;
-  std::counting_semaphore<64> runs_;  // generations running at once (bounds memory and CPU)
+  std::counting_semaphore<64> runs_;  // generations computing at once (bounds CPU)
+  Admission admission_;               // requests admitted at once, by memory estimate
+  std::atomic<bool> stopping_{false};
+  std::atomic<std::uint64_t> stopped_[5] = {};  // per StopReason
+  std::atomic<std::uint64_t> refused_busy_{0};
   std::mutex sessions_m_;
   std::unordered_map<std::string, std::shared_ptr<Session>> sessions_;
 };
@@ -191,29 +383,67 @@ std::shared_ptr<Session> Studio::session_of(const httplib::Request& req) {
   return s;
 }
 
-// Serialises per client, supersedes older requests, bounds concurrent runs, maps errors.
+// Serialises per client, supersedes older requests, admits by memory estimate, bounds concurrent
+// runs, stops work on the limits of studio.hpp, maps errors.
 template <class F>
-void Studio::with_run(const httplib::Request& req, F&& work) {
+void Studio::with_run(const httplib::Request& req, Endpoint e, const Request& r, F&& work) {
+  const auto t0 = Clock::now();
   std::shared_ptr<Session> session = session_of(req);
-  std::uint64_t gen = 0;
-  std::unique_lock<std::mutex> lk;
+  std::uint64_t gen = session ? ++session->latest : 0;
+  RunControl ctl(session, gen, t0 + std::chrono::seconds(s_.time_budget_s), client_socket(req), stopping_);
+  // Throws the answer for a request stopped by ctl (by type: a LimitError must not be sliced).
+  auto stopped = [&]() {
+    const StopReason why = ctl.reason();
+    ++stopped_[int(why)];
+    switch (why) {
+      case StopReason::TimeBudget:
+        throw LimitError{"time_budget", "the request ran longer than the studio's time budget of " + std::to_string(s_.time_budget_s) +
+                                             " s (--time-budget) and was stopped; make it smaller (world.size, stages) or use "
+                                             "`relief generate`"};
+      case StopReason::Shutdown:
+        throw LimitError{"shutdown", "the studio is shutting down"};
+      case StopReason::Disconnected:  // nobody reads this answer
+        throw ApiError{400, "", "the client closed the connection; the request was stopped"};
+      default:
+        throw ApiError{409, "", "superseded by a newer request from the same client"};
+    }
+  };
+  // Waits that end when the request is cancelled: the client's previous request (superseded, so it
+  // stops soon), then a free generation slot.
+  std::unique_lock<std::timed_mutex> lk;
   if (session) {
-    gen = ++session->latest;
-    lk = std::unique_lock(session->running);
+    lk = std::unique_lock(session->running, std::defer_lock);
+    while (!lk.try_lock_for(std::chrono::milliseconds(20)))
+      if (ctl.cancelled()) stopped();
   }
-  auto cancelled = [session, gen] { return session && session->latest.load() != gen; };
-  if (cancelled()) throw ApiError{409, "", "superseded by a newer request from the same client"};
-  runs_.acquire();
+  if (ctl.cancelled()) stopped();
+  const std::uint64_t estimate = request_estimate(e, r);
+  if (!admission_.try_admit(estimate)) {
+    ++refused_busy_;
+    const auto [running, used] = admission_.state();
+    throw LimitError{"memory",
+                     "the studio is busy: " + std::to_string(running) + " request(s) running hold an estimated " + human_bytes(used) +
+                         " of its " + human_bytes(admission_.budget()) + " budget (--work-mib), and this one needs " +
+                         human_bytes(estimate) + "; try again shortly",
+                     2};
+  }
+  struct Admitted {
+    Admission& a;
+    std::uint64_t bytes;
+    ~Admitted() { a.release(bytes); }
+  } admitted{admission_, estimate};
+  while (!runs_.try_acquire_for(std::chrono::milliseconds(20)))
+    if (ctl.cancelled()) stopped();
   struct Release {
     std::counting_semaphore<64>& s;
     ~Release() { s.release(); }
   } release{runs_};
   try {
-    work(std::function<bool()>(cancelled));
+    work(ctl);
   } catch (const ApiError&) {
     throw;
   } catch (const Cancelled&) {
-    throw ApiError{409, "", "superseded by a newer request from the same client"};
+    stopped();
   } catch (const Error& e) {
     throw ApiError{400, e.path(), e.message()};
   } catch (const std::bad_alloc&) {
@@ -221,13 +451,26 @@ void Studio::with_run(const httplib::Request& req, F&& work) {
   }
 }
 
+json Studio::stats() {
+  const auto [running, used] = admission_.state();
+  json c = json::object();
+  for (int k = 1; k < 5; ++k) c[kStopNames[k]] = stopped_[k].load();
+  return {{"running", running},
+          {"admitted_bytes", used},
+          {"work_budget_bytes", admission_.budget()},
+          {"limits", {{"max_stages", s_.max_stages}, {"time_budget_s", s_.time_budget_s}, {"max_preview", s_.max_preview},
+                      {"max_export", s_.max_export}}},
+          {"cancelled", c},
+          {"refused", {{"memory", refused_busy_.load()}}}};
+}
+
 void Studio::api_generate(const httplib::Request& req, httplib::Response& res) {
   const auto t0 = Clock::now();
   Request r = parse_request(req, Endpoint::Generate);
   const std::vector<std::string>& want = r.layers;
   const bool all = r.all_layers;
-  with_run(req, [&](const std::function<bool()>& cancelled) {
-    Generated g = generate(r.recipe, r.frame, cancelled, false);
+  with_run(req, Endpoint::Generate, r, [&](RunControl& ctl) {
+    Generated g = generate(r.recipe, r.frame, ctl, false);
     const Terrain& t = *g.terrain;
     const auto te = Clock::now();
     FrameWriter w;
@@ -258,8 +501,8 @@ void Studio::api_generate(const httplib::Request& req, httplib::Response& res) {
 
 void Studio::api_steps(const httplib::Request& req, httplib::Response& res) {
   Request r = parse_request(req, Endpoint::Steps);
-  with_run(req, [&](const std::function<bool()>& cancelled) {
-    Generated g = generate(r.recipe, r.frame, cancelled, true);
+  with_run(req, Endpoint::Steps, r, [&](RunControl& ctl) {
+    Generated g = generate(r.recipe, r.frame, ctl, true);
     FrameWriter w;
     json h;
     h["seed"] = *r.recipe.seed;
@@ -297,8 +540,8 @@ void Studio::api_export(const httplib::Request& req, httplib::Response& res) {
   const WriterDef* writer = r.writer;
   const std::string fmt = writer->name;
   const std::string& file = r.file;
-  with_run(req, [&](const std::function<bool()>& cancelled) {
-    Generated g = generate(r.recipe, r.frame, cancelled, false);
+  with_run(req, Endpoint::Export, r, [&](RunControl& ctl) {
+    Generated g = generate(r.recipe, r.frame, ctl, false);
     // The writing policy is relief::generate's, as on the command line: the format and the writers
     // it implies (the OBJ's MTL names albedo.png, so the archive holds it), engine legality, the
     // memory policy; the stages come from this studio's cache.
@@ -307,7 +550,8 @@ void Studio::api_export(const httplib::Request& req, httplib::Response& res) {
     gs.formats = fmt;
     gs.formats_path = "format";
     gs.threads = s_.threads;
-    gs.cancelled = cancelled;
+    gs.cancelled = [&ctl] { return ctl.cancelled(); };
+    gs.progress = [&ctl](std::string_view, double) { ctl.check(); };  // inside the writers too
     gs.terrain = g.terrain.get();
     for (const json& t : g.timings)
       gs.timings.push_back({t.value("stage", std::string()), t.value("label", std::string()), t.value("ms", 0.0), false});
@@ -366,6 +610,7 @@ void Studio::routes(httplib::Server& svr) {
   svr.Get("/api/params", guard([](const httplib::Request&, httplib::Response& res) {
     send_json(res, 200, parameter_table_json());
   }));
+  svr.Get("/api/stats", guard([this](const httplib::Request&, httplib::Response& res) { send_json(res, 200, stats()); }));
   svr.Post("/api/resolve", guard([this](const httplib::Request& req, httplib::Response& res) {
     Request r = parse_request(req, Endpoint::Resolve);
     send_json(res, 200, {{"recipe", r.recipe.to_json()}});
@@ -391,22 +636,42 @@ void Studio::routes(httplib::Server& svr) {
 
 // Blocks SIGINT/SIGTERM in every thread and stops the server from a dedicated waiter thread, so
 // a stop ends listen() cleanly (handlers finish, destructors run, leak checks see a clean exit).
+// The running work is cancelled first (Studio::shutdown), so handlers finish within a check. A stop
+// that still takes longer than kStopSeconds (a request body still arriving, a stage between its
+// checks, an idle keep-alive connection's wait) ends the process from the waiter, exit code 0.
+constexpr int kStopSeconds = 2;
 struct SignalStop {
   sigset_t set{};
   std::thread waiter;
-  explicit SignalStop(httplib::Server& svr) {
+  std::mutex m;
+  std::condition_variable cv;
+  bool done = false;
+  SignalStop(httplib::Server& svr, Studio& studio) {
     sigemptyset(&set);
     sigaddset(&set, SIGINT);
     sigaddset(&set, SIGTERM);
     sigaddset(&set, SIGUSR1);
     pthread_sigmask(SIG_BLOCK, &set, nullptr);
-    waiter = std::thread([this, &svr] {
+    waiter = std::thread([this, &svr, &studio] {
       int sig = 0;
       sigwait(&set, &sig);
+      if (sig == SIGUSR1) return;  // the server stopped on its own
+      studio.shutdown();
       svr.stop();
+      std::unique_lock lk(m);
+      if (!cv.wait_for(lk, std::chrono::seconds(kStopSeconds), [this] { return done; })) {
+        std::fprintf(stderr, "relief studio: stopped (work still running after %d s was abandoned)\n", kStopSeconds);
+        std::fflush(stderr);
+        std::_Exit(0);
+      }
     });
   }
   ~SignalStop() {
+    {
+      std::lock_guard lk(m);
+      done = true;
+    }
+    cv.notify_all();
     pthread_kill(waiter.native_handle(), SIGUSR1);  // wakes the waiter if no signal came
     waiter.join();
   }
@@ -540,7 +805,7 @@ int run_studio(const StudioSettings& s) {
                           std::to_string(port) + "/";
   std::printf("Relief Studio: %s  (Ctrl-C stops it)\n", url.c_str());
   std::fflush(stdout);
-  SignalStop stop(svr);
+  SignalStop stop(svr, studio);
   if (s.open) open_browser(url);
   svr.listen_after_bind();
   return 0;
