@@ -274,23 +274,29 @@ std::uint64_t request_estimate(Endpoint e, const StudioRequest& r) {
 
 // ---- zip ----------------------------------------------------------------------------------------
 
+// A failure of the server's own (not the request's): a 500 with a clear message, never a 4xx.
+ApiError internal_error(const std::string& what) { return ApiError{500, "", "internal error: " + what}; }
+
 la_ssize_t zip_append(struct archive*, void* client, const void* buf, size_t n) {
   static_cast<std::string*>(client)->append(static_cast<const char*>(buf), n);
   return la_ssize_t(n);
 }
 
-// A zip of `files` (deflated, fixed timestamps: the same files give the same archive).
-std::string zip_files(const std::map<std::string, std::string>& files) {
+// A zip of `files` (deflated, fixed timestamps: the same files give the same archive). Compressing
+// a large OBJ takes seconds: `check` is called between chunks of 1 MiB and may throw to stop.
+// libarchive failing on memory it writes to is the server's failure: internal_error (500).
+std::string zip_files(const std::map<std::string, std::string>& files, const std::function<void()>& check) {
   std::string out;
   struct archive* a = archive_write_new();
   archive_write_set_format_zip(a);
   archive_write_set_options(a, "zip:compression-level=3");
   archive_write_set_bytes_per_block(a, 0);
-  if (archive_write_open(a, &out, nullptr, zip_append, nullptr) != ARCHIVE_OK) {
+  auto fail = [a](const std::string& what) {
     const std::string msg = archive_error_string(a) ? archive_error_string(a) : "unknown error";
     archive_write_free(a);
-    throw std::runtime_error("zip: " + msg);
-  }
+    throw internal_error("could not build the zip (" + what + "): libarchive: " + msg);
+  };
+  if (archive_write_open(a, &out, nullptr, zip_append, nullptr) != ARCHIVE_OK) fail("opening it");
   for (auto& [name, bytes] : files) {
     struct archive_entry* e = archive_entry_new();
     archive_entry_set_pathname(e, name.c_str());
@@ -298,16 +304,22 @@ std::string zip_files(const std::map<std::string, std::string>& files) {
     archive_entry_set_filetype(e, AE_IFREG);
     archive_entry_set_perm(e, 0644);
     archive_entry_set_mtime(e, 1704067200, 0);  // 2024-01-01
-    bool ok = archive_write_header(a, e) == ARCHIVE_OK &&
-              archive_write_data(a, bytes.data(), bytes.size()) == la_ssize_t(bytes.size());
-    archive_entry_free(e);
-    if (!ok) {
-      const std::string msg = archive_error_string(a) ? archive_error_string(a) : "unknown error";
-      archive_write_free(a);
-      throw std::runtime_error("zip: " + msg);
+    bool ok = archive_write_header(a, e) == ARCHIVE_OK;
+    for (std::size_t at = 0; ok && at < bytes.size(); at += 1u << 20) {
+      try {
+        check();
+      } catch (...) {
+        archive_entry_free(e);
+        archive_write_free(a);
+        throw;
+      }
+      const std::size_t n = std::min<std::size_t>(1u << 20, bytes.size() - at);
+      ok = archive_write_data(a, bytes.data() + at, n) == la_ssize_t(n);
     }
+    archive_entry_free(e);
+    if (!ok) fail("adding " + name);
   }
-  archive_write_close(a);
+  if (archive_write_close(a) != ARCHIVE_OK) fail("finishing it");
   archive_write_free(a);
   return out;
 }
@@ -573,7 +585,7 @@ void Studio::api_export(const httplib::Request& req, httplib::Response& res) {
       res.set_content(files.begin()->second, content_type_of(files.begin()->first));
     } else {
       res.set_header("Content-Disposition", content_disposition(stem + "-" + fmt + ".zip"));
-      res.set_content(zip_files(files), "application/zip");
+      res.set_content(zip_files(files, [&ctl] { ctl.check(); }), "application/zip");
     }
     json names = json::array();
     for (auto& [n2, b2] : files) names.push_back(n2);

@@ -100,6 +100,26 @@ test('a request running longer than --time-budget is stopped with a 503 naming t
   }
 });
 
+test('the time budget covers an export: its stages, writers and zip stop, answered 503', async () => {
+  const server = await startStudio(['--threads', '1', '--time-budget', '1']);
+  try {
+    const doc = await (await fetch(server.url + '/api/presets/island')).json();
+    doc.world.size = 2049;
+    doc.seed = 3;
+    const t0 = Date.now();
+    const res = await post(server, '/api/export', { recipe: doc, format: 'obj' });
+    const ms = Date.now() - t0;
+    assert.equal(res.status, 503);
+    assert.equal((await res.json()).limit, 'time_budget');
+    assert.ok(ms < 6000, `answered after ${ms} ms`);
+    const s = await stats(server);
+    assert.equal(s.running, 0);
+    assert.equal(s.admitted_bytes, 0);
+  } finally {
+    await stopClean(server);
+  }
+});
+
 test('a generation whose client disconnects is cancelled, and the next request is served', async () => {
   const server = await startStudio(['--threads', '1']);
   try {
