@@ -7,8 +7,12 @@
 //   * Stage cache (studio_cache.hpp): every stage's output is cached under a hash of what it
 //     depends on, so a request re-runs only the stages whose inputs changed.
 //   * Superseding: each client (header X-Relief-Client) has a counter; a request takes the next
-//     value and checks it before every stage (RunOptions::cancelled). A newer request makes the
-//     older one stop at the next stage boundary and answer 409. Per client, runs are serialised.
+//     value and checks it at every check of its RunControl (between stages, and where long stages
+//     and writers report progress). A newer request makes the older one stop there and answer 409.
+//     Per client, runs are serialised.
+//   * Limits (studio.hpp, "What the studio bounds"): the same RunControl also stops a request on
+//     its time budget, when its client disconnects, and on shutdown; admission by memory estimate
+//     (Admission) and two generation slots bound what runs at once.
 //   * Binary frames ("RLF1", studio_frame.hpp): the layers and points of a result, as the page reads them.
 #include "studio.hpp"
 #include "studio_cache.hpp"
