@@ -276,6 +276,7 @@ TEST(HostileCli, FormatsAllWritesTheTilemapToo) {
 }
 
 // ---- the studio's requests and headers (apps/relief/studio_request.cpp) ----------------------
+#include "relief/pipeline.hpp"
 #include "studio_request.hpp"
 
 TEST(StudioRequest, DeeplyNestedBodyIsA400) {
@@ -303,6 +304,39 @@ TEST(StudioRequest, UnknownLayerNamesAre400sKnownOnesAreNot) {
     EXPECT_EQ(e.path(), "layers[1]");
     EXPECT_NE(e.message().find("unknown layer \"heigth\" (did you mean 'height'?)"), std::string::npos) << e.message();
   }
+}
+
+// Issue 16.2: the stage count is refused before the recipe is parsed (a bad stage past the limit
+// is never reached), with the limit in the message; at the limit the recipe is parsed.
+TEST(StudioRequest, MoreStagesThanTheLimitAreRefusedBeforeParsing) {
+  relief::cli::StudioSettings s;
+  s.max_stages = 3;
+  auto body = [](int n, const char* last) {
+    std::string stages;
+    for (int i = 0; i < n; ++i) stages += std::string(i ? ", " : "") + R"({"stage": ")" + (i == n - 1 ? last : "noise") + "\"}";
+    return R"({"recipe": {"world": {"size": 17}, "stages": [)" + stages + "]}}";
+  };
+  for (auto e : {relief::cli::Endpoint::Resolve, relief::cli::Endpoint::Generate, relief::cli::Endpoint::Steps}) {
+    try {
+      (void)relief::cli::parse_studio_request(e, body(4, "no_such_stage"), s);
+      ADD_FAILURE() << "accepted";
+    } catch (const relief::cli::ApiError& err) {
+      EXPECT_EQ(err.status(), 400);
+      EXPECT_EQ(err.path(), "stages");
+      EXPECT_NE(err.message().find("at most 3 stages per recipe (--max-stages), got 4"), std::string::npos) << err.message();
+    }
+  }
+  EXPECT_EQ(relief::cli::parse_studio_request(relief::cli::Endpoint::Generate, body(3, "noise"), s).recipe.stages.size(), 3u);
+  EXPECT_EQ(relief::cli::StudioSettings{}.max_stages, 64);
+}
+
+TEST(StudioRequest, WorkBudgetIsTheOptionOrAQuarterOfMemoryAtMost4GiB) {
+  relief::cli::StudioSettings s;
+  s.work_mib = 3;
+  EXPECT_EQ(relief::cli::work_budget_bytes(s), 3u << 20);
+  s.work_mib = 0;
+  const std::uint64_t phys = relief::physical_memory_bytes();
+  EXPECT_EQ(relief::cli::work_budget_bytes(s), phys ? std::min<std::uint64_t>(4ull << 30, phys / 4) : 4ull << 30);
 }
 
 TEST(StudioRequest, ContentDispositionCannotBeInjected) {

@@ -723,6 +723,12 @@ int main(int argc, char** argv) {
   ints.add(stu, "--max-export", ss.max_export, kMinSize, kMaxSize, "Largest export size accepted (samples per axis)");
   ints.add(stu, "--cache-mib", ss.cache_mib, 16, 1 << 20, "Memory for cached stage outputs, MiB");
   ints.add(stu, "--threads,-j", ss.threads, 0, 1024, "Generation threads (0 = all cores)", false);
+  ints.add(stu, "--max-stages", ss.max_stages, 1, 100000, "Most stages a recipe may have (more: a 400 naming `stages`)");
+  ints.add(stu, "--time-budget", ss.time_budget_s, 1, 86400,
+           "Seconds a generate, steps or export request may run before it is stopped (503)");
+  ints.add(stu, "--work-mib", ss.work_mib, 0, 1 << 24,
+           "Memory budget, MiB, of the requests running at once, by their estimates; a request that would exceed it "
+           "gets 503 and Retry-After (0 = a quarter of physical memory, at most 4096)");
 
   try {
     app.parse(argc, argv);

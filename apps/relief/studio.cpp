@@ -1,45 +1,45 @@
-// relief studio: the local web server behind the live preview (see studio.hpp for the API).
+// relief studio: the HTTP server behind the live preview (see studio.hpp for the API): routes,
+// request admission and cancellation, exports, shutdown. The stage cache and the binary frame
+// codec live in studio_cache.cpp and studio_frame.cpp.
 //
 // Interactivity follows mapgen4 (A. Patel, "mapgen4", Red Blob Games 2018): one job in flight
 // per client, newer requests replace older ones, and work is cached by what it depends on.
-//   * Stage cache: the terrain after stage k is stored under key_k = H(key_{k−1}, k, stage name,
-//     resolved params), key_{−1} = H(seed, frame). A request resumes the pipeline from the
-//     deepest cached key (RunOptions::resume), so moving a colour slider re-runs only the stages
-//     from the colour stage on, and moving nothing re-runs nothing. LRU, bounded in bytes.
-//     Snapshots are taken where a chain of fused row stages ends (RunOptions::
-//     after_stage_keeps_fusion), so a cached run keeps fusion: a change inside a chain re-runs the
-//     chain from its first stage. The stage strip (/api/steps) needs every stage's own output and
-//     runs unfused.
+//   * Stage cache (studio_cache.hpp): every stage's output is cached under a hash of what it
+//     depends on, so a request re-runs only the stages whose inputs changed.
 //   * Superseding: each client (header X-Relief-Client) has a counter; a request takes the next
-//     value and checks it before every stage (RunOptions::cancelled). A newer request makes the
-//     older one stop at the next stage boundary and answer 409. Per client, runs are serialised.
-//   * Binary frames ("RLF1"): little-endian
-//       magic "RLF1" | u32 header length H | H bytes of JSON | zero padding to a multiple of 8 |
-//       blobs, each at the offset the header gives (relative to the frame start, multiple of 8).
-//     One-channel layers are Float32 (nx·nz values, row-major, x fastest), three-channel layers
-//     Uint8 RGB (round(clamp(v, 0, 1)·255)), points Float32 × 7 (x, y, z, rotation_deg, scale,
-//     kind index, type index) with the kind and type names in the header.
+//     value and checks it at every check of its RunControl (between stages, and where long stages
+//     and writers report progress). A newer request makes the older one stop there and answer 409.
+//     Per client, runs are serialised.
+//   * Limits (studio.hpp, "What the studio bounds"): the same RunControl also stops a request on
+//     its time budget, when its client disconnects, and on shutdown; admission by memory estimate
+//     (Admission) and two generation slots bound what runs at once.
+//   * Binary frames ("RLF1", studio_frame.hpp): the layers and points of a result, as the page reads them.
 #include "studio.hpp"
+#include "studio_cache.hpp"
+#include "studio_frame.hpp"
 #include "studio_request.hpp"
 
 #include <archive.h>
 #include <archive_entry.h>
 #include <httplib.h>
-#include <tbb/blocked_range.h>
-#include <tbb/parallel_for.h>
 #include <signal.h>
 #include <spawn.h>
+#include <dirent.h>
 #include <netdb.h>
+#include <netinet/in.h>
+#include <poll.h>
 #include <sys/socket.h>
 #include <sys/wait.h>
+#include <unistd.h>
 
 #include <algorithm>
 #include <atomic>
+#include <cerrno>
 #include <chrono>
+#include <condition_variable>
 #include <cmath>
 #include <cstdio>
 #include <cstring>
-#include <list>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -51,7 +51,6 @@
 #include "relief/generate.hpp"
 #include "relief/output.hpp"
 #include "relief/pipeline.hpp"
-#include "relief/random.hpp"
 #include "relief/recipe.hpp"
 
 extern char** environ;
@@ -78,260 +77,230 @@ void send_json(httplib::Response& res, int status, const json& body) {
 // The 405 for a method an API path does not serve: {the Allow value (POST or GET), the message}.
 std::optional<std::pair<std::string, std::string>> api_method_error(const std::string& method, const std::string& path) {
   const bool post = path == "/api/generate" || path == "/api/steps" || path == "/api/export" || path == "/api/resolve";
-  const bool get = path == "/api/presets" || path == "/api/params" || path.starts_with("/api/presets/");
+  const bool get = path == "/api/presets" || path == "/api/params" || path == "/api/stats" || path.starts_with("/api/presets/");
   const char* allow = post ? "POST" : get ? "GET" : nullptr;
   if (!allow || method == allow || (get && method == "HEAD")) return std::nullopt;
   return std::pair<std::string, std::string>{allow, printable_text(method.substr(0, 20)) + " is not supported here: use " + allow +
                                                         (post ? " with a JSON body {\"recipe\": …}" : "")};
 }
 
+// A request refused or stopped by one of the studio's limits (studio.hpp): a 503 whose body says
+// which limit ("time_budget", "memory", "shutdown"), with Retry-After when trying again later helps.
+class LimitError : public ApiError {
+ public:
+  LimitError(std::string limit, std::string message, int retry_after_s = 0)
+      : ApiError(503, "", std::move(message)), limit(std::move(limit)), retry_after_s(retry_after_s) {}
+  std::string limit;
+  int retry_after_s;
+};
+
 void send_error(httplib::Response& res, const ApiError& e) {
   json b;
   b["error"] = e.what();
   if (!e.path().empty()) b["path"] = e.path();
   if (e.status() == 409) b["superseded"] = true;
+  if (auto* l = dynamic_cast<const LimitError*>(&e)) {
+    b["limit"] = l->limit;
+    if (l->retry_after_s > 0) res.set_header("Retry-After", std::to_string(l->retry_after_s));
+  }
   send_json(res, e.status(), b);
 }
 
-// ---- hashing ----------------------------------------------------------------------------------
+// ---- the connection a handler serves -------------------------------------------------------------
+// httplib 0.11 does not tell a handler whether its client is still there (later versions have
+// Request::is_connection_closed), nor which socket it serves. The socket is found by its addresses:
+// the open descriptor whose peer and local ports and peer address are the request's (a TCP
+// connection's four-tuple is unique). It stays open while the handler runs (httplib closes it
+// after the handler returns). -1 when not found.
 
-std::uint64_t fnv1a(std::string_view s, std::uint64_t h = 1469598103934665603ull) {
-  for (unsigned char c : s) h = (h ^ c) * 1099511628211ull;
-  return h;
+std::string numeric_host(const sockaddr_storage& a, socklen_t len) {
+  char host[NI_MAXHOST];
+  if (::getnameinfo(reinterpret_cast<const sockaddr*>(&a), len, host, sizeof host, nullptr, 0, NI_NUMERICHOST) != 0) return {};
+  return host;
 }
-std::uint64_t hash_double(std::uint64_t h, double v) {
-  std::uint64_t bits;
-  std::memcpy(&bits, &v, sizeof bits);
-  return hash64(h, bits);
+int port_of(const sockaddr_storage& a) {
+  if (a.ss_family == AF_INET) return ntohs(reinterpret_cast<const sockaddr_in&>(a).sin_port);
+  if (a.ss_family == AF_INET6) return ntohs(reinterpret_cast<const sockaddr_in6&>(a).sin6_port);
+  return -1;
 }
 
-// key_k for every stage of `r` on `f` (see the top of the file).
-std::vector<std::uint64_t> stage_keys(const Recipe& r, const Frame& f) {
-  std::uint64_t h = hash64(0x52454c4945460001ull, *r.seed);
-  for (double v : {f.world_width_m, f.world_depth_m, f.spacing_m, f.height_m, f.sea_level}) h = hash_double(h, v);
-  h = hash64(h, std::uint64_t(f.nx), std::uint64_t(f.nz));
-  h = hash64(h, std::uint64_t(f.ix0), std::uint64_t(f.iz0));
-  std::vector<std::uint64_t> keys;
-  for (std::size_t i = 0; i < r.stages.size(); ++i) {
-    h = hash64(h, i, fnv1a(r.stages[i].def->name));
-    h = hash64(h, fnv1a(r.stages[i].stage->params().dump()));
-    keys.push_back(h);
+int client_socket(const httplib::Request& req) {
+  if (req.remote_port <= 0 || req.local_port <= 0) return -1;
+  DIR* dir = ::opendir("/proc/self/fd");
+  if (!dir) return -1;
+  int found = -1;
+  const int own = ::dirfd(dir);
+  while (dirent* d = ::readdir(dir)) {
+    char* end = nullptr;
+    const long fd = std::strtol(d->d_name, &end, 10);
+    if (*end || end == d->d_name || fd == own) continue;
+    sockaddr_storage peer{}, local{};
+    socklen_t pl = sizeof peer, ll = sizeof local;
+    if (::getpeername(int(fd), reinterpret_cast<sockaddr*>(&peer), &pl) != 0) continue;
+    if (port_of(peer) != req.remote_port) continue;
+    if (::getsockname(int(fd), reinterpret_cast<sockaddr*>(&local), &ll) != 0 || port_of(local) != req.local_port) continue;
+    if (numeric_host(peer, pl) != req.remote_addr) continue;
+    found = int(fd);
+    break;
   }
-  return keys;
+  ::closedir(dir);
+  return found;
 }
 
-std::size_t terrain_bytes(const Terrain& t) {
-  std::size_t b = sizeof(Terrain) + t.points.size() * sizeof(Point);
-  for (auto& [name, l] : t.layers) b += name.size() + l.data.size() * sizeof(float);
-  return b;
+// True when the peer has closed the connection (end of stream or reset). Data waiting to be read
+// (a pipelined request) is not a close. A client that only shuts down its sending side counts as
+// gone as well (browsers and HTTP libraries do not do that while waiting for an answer).
+bool peer_closed(int fd) {
+  if (fd < 0) return false;
+  pollfd p{fd, POLLIN | POLLRDHUP, 0};
+  if (::poll(&p, 1, 0) <= 0) return false;
+  if (p.revents & (POLLRDHUP | POLLHUP | POLLERR | POLLNVAL)) return true;
+  if (!(p.revents & POLLIN)) return false;
+  char c;
+  const ssize_t n = ::recv(fd, &c, 1, MSG_PEEK | MSG_DONTWAIT);
+  return n == 0 || (n < 0 && errno != EAGAIN && errno != EWOULDBLOCK && errno != EINTR);
 }
 
-// ---- stage cache ------------------------------------------------------------------------------
-
-struct Snapshot {
-  std::shared_ptr<const Terrain> terrain;
-  double ms = 0;  // how long the stage took when it ran
-};
-
-class StageCache {
- public:
-  explicit StageCache(std::size_t capacity) : capacity_(capacity) {}
-
-  std::optional<Snapshot> get(std::uint64_t key) {
-    std::lock_guard lk(m_);
-    auto it = map_.find(key);
-    if (it == map_.end()) return std::nullopt;
-    lru_.splice(lru_.begin(), lru_, it->second.pos);
-    return it->second.snap;
-  }
-
-  // Snapshots bigger than an eighth of the budget are not kept (large exports would flush the
-  // previews that make dragging fast).
-  void put(std::uint64_t key, Snapshot s) {
-    const std::size_t b = terrain_bytes(*s.terrain);
-    if (b > capacity_ / 8) return;
-    std::lock_guard lk(m_);
-    if (auto it = map_.find(key); it != map_.end()) {
-      lru_.splice(lru_.begin(), lru_, it->second.pos);
-      return;
-    }
-    lru_.push_front(key);
-    map_[key] = Entry{std::move(s), b, lru_.begin()};
-    bytes_ += b;
-    while (bytes_ > capacity_ && !lru_.empty()) {
-      auto old = map_.find(lru_.back());
-      bytes_ -= old->second.bytes;
-      map_.erase(old);
-      lru_.pop_back();
-    }
-  }
-
- private:
-  struct Entry {
-    Snapshot snap;
-    std::size_t bytes = 0;
-    std::list<std::uint64_t>::iterator pos;
-  };
-  std::mutex m_;
-  std::unordered_map<std::uint64_t, Entry> map_;
-  std::list<std::uint64_t> lru_;
-  std::size_t bytes_ = 0, capacity_;
-};
-
-// ---- sessions ---------------------------------------------------------------------------------
+// ---- sessions and run control -------------------------------------------------------------------
 
 struct Session {
   std::atomic<std::uint64_t> latest{0};
-  std::mutex running;  // at most one generation in flight per client
+  std::timed_mutex running;  // at most one generation in flight per client
 };
 
-// ---- binary frames ----------------------------------------------------------------------------
+enum class StopReason : int { None = 0, Superseded, TimeBudget, Disconnected, Shutdown };
+constexpr const char* kStopNames[] = {"none", "superseded", "time_budget", "disconnected", "shutdown"};
 
-class FrameWriter {
+// The cancel hook of one request: RunOptions::cancelled and GenerateSettings::cancelled, and the
+// progress callbacks, which the library calls inside long stages and writers (a progress callback
+// that throws relief::Cancelled stops the run like the cancel hook does). Thread-safe (writers run
+// in parallel); remembers the first reason that held. The socket is polled at most every 20 ms.
+class RunControl {
  public:
-  void expect(std::size_t bytes) { blobs_.reserve(bytes); }
-  // Reserves a blob of `bytes` bytes and returns {offset, bytes} (offset relative to the blob
-  // area, fixed up to an absolute offset in finish()) and where to write it.
-  std::pair<json, char*> reserve(std::size_t bytes) {
-    json d;
-    d["offset"] = blobs_.size();
-    d["bytes"] = bytes;
-    const std::size_t at = blobs_.size();
-    blobs_.resize(at + bytes + (8 - bytes % 8) % 8, '\0');
-    return {d, blobs_.data() + at};
-  }
-  json add(const void* data, std::size_t bytes) {
-    auto [d, at] = reserve(bytes);
-    if (bytes) std::memcpy(at, data, bytes);
-    return d;
-  }
-  std::string finish(json header) {
-    // Offsets must be absolute, but the header's length depends on them: iterate to a fixed point
-    // (converges in ≤ 3 rounds as digits only grow).
-    std::size_t base = 0;
-    std::string text;
-    for (int round = 0; round < 8; ++round) {
-      json h = header;
-      fix(h, base);
-      text = h.dump();
-      const std::size_t need = 8 + text.size(), padded = need + (8 - need % 8) % 8;
-      if (padded == base) break;
-      base = padded;
+  RunControl(std::shared_ptr<Session> session, std::uint64_t gen, Clock::time_point deadline, int fd,
+             const std::atomic<bool>& stopping)
+      : session_(std::move(session)), gen_(gen), deadline_(deadline), fd_(fd), stopping_(stopping) {}
+
+  bool cancelled() {
+    if (reason_.load() != 0) return true;
+    StopReason r = StopReason::None;
+    const auto now = Clock::now();
+    if (stopping_.load()) r = StopReason::Shutdown;
+    else if (session_ && session_->latest.load() != gen_) r = StopReason::Superseded;
+    else if (now >= deadline_) r = StopReason::TimeBudget;
+    else if (fd_ >= 0) {
+      const std::int64_t t = std::chrono::duration_cast<std::chrono::nanoseconds>(now.time_since_epoch()).count();
+      std::int64_t due = next_poll_.load();
+      if (t >= due && next_poll_.compare_exchange_strong(due, t + 20'000'000) && peer_closed(fd_))
+        r = StopReason::Disconnected;
     }
-    std::string out;
-    out.reserve(base + blobs_.size());
-    out = "RLF1";
-    const std::uint32_t n = std::uint32_t(text.size());
-    for (int k = 0; k < 4; ++k) out.push_back(char((n >> (8 * k)) & 255));
-    out += text;
-    out.append(base - out.size(), '\0');
-    out += blobs_;
-    return out;
+    if (r == StopReason::None) return false;
+    int none = 0;
+    reason_.compare_exchange_strong(none, int(r));
+    return true;
+  }
+  StopReason reason() const { return StopReason(reason_.load()); }
+  // Throws relief::Cancelled when cancelled (the form progress callbacks use).
+  void check() {
+    if (cancelled()) throw Cancelled();
   }
 
  private:
-  static void fix(json& j, std::size_t base) {
-    if (j.is_object()) {
-      if (j.contains("offset") && j.contains("bytes") && j["offset"].is_number_unsigned())
-        j["offset"] = j["offset"].get<std::size_t>() + base;
-      for (auto& [k, v] : j.items())
-        if (k != "offset") fix(v, base);
-    } else if (j.is_array()) {
-      for (auto& v : j) fix(v, base);
-    }
-  }
-  std::string blobs_;
+  std::shared_ptr<Session> session_;
+  std::uint64_t gen_;
+  Clock::time_point deadline_;
+  int fd_;
+  const std::atomic<bool>& stopping_;
+  std::atomic<int> reason_{0};
+  std::atomic<std::int64_t> next_poll_{0};
 };
 
-// Channel 0 of every sample as Float32.
-void write_f32(const Layer& l, std::size_t count, char* out) {
-  if (l.channels == 1) {
-    std::memcpy(out, l.data.data(), count * 4);
-  } else {
-    for (std::size_t k = 0; k < count; ++k) std::memcpy(out + 4 * k, &l.data[k * l.channels], 4);
+// Admission by memory estimate: the estimates of the requests running stay within the budget,
+// except that one request is always admitted when none runs.
+class Admission {
+ public:
+  explicit Admission(std::uint64_t budget) : budget_(budget) {}
+  bool try_admit(std::uint64_t bytes) {
+    std::lock_guard lk(m_);
+    if (running_ > 0 && used_ + bytes > budget_) return false;
+    used_ += bytes;
+    ++running_;
+    return true;
   }
+  void release(std::uint64_t bytes) {
+    std::lock_guard lk(m_);
+    used_ -= bytes;
+    --running_;
+  }
+  std::pair<int, std::uint64_t> state() {
+    std::lock_guard lk(m_);
+    return {running_, used_};
+  }
+  std::uint64_t budget() const { return budget_; }
+
+ private:
+  std::mutex m_;
+  std::uint64_t budget_, used_ = 0;
+  int running_ = 0;
+};
+
+// A chain of more fusable stages than this in a row runs unfused (checked between its stages).
+constexpr int kMaxFusedChain = 8;
+bool long_fused_chain(const Recipe& r) {
+  int run = 0;
+  for (const RecipeStage& s : r.stages) {
+    run = s.stage->fusable() ? run + 1 : 0;
+    if (run > kMaxFusedChain) return true;
+  }
+  return false;
 }
 
-// RGB8: round(clamp(v, 0, 1)·255), NaN → 0; rows in parallel (each byte depends on one value).
-void write_rgb8(const Layer& l, std::size_t count, char* out) {
-  tbb::parallel_for(tbb::blocked_range<std::size_t>(0, count * 3, 1 << 16), [&](const tbb::blocked_range<std::size_t>& r) {
-    for (std::size_t k = r.begin(); k < r.end(); ++k) {
-      const float v = l.data[k];
-      const float c = v > 0.0f ? (v < 1.0f ? v : 1.0f) : 0.0f;
-      out[k] = char(std::uint8_t(c * 255.0f + 0.5f));  // c ≥ 0: truncation rounds
+// The peak memory a request is admitted with (studio.hpp): the library's estimate for the run and
+// its encoding, plus what the studio holds beyond it.
+std::uint64_t request_estimate(Endpoint e, const StudioRequest& r) {
+  const std::uint64_t n = std::uint64_t(r.frame.nx) * std::uint64_t(r.frame.nz);
+  switch (e) {
+    case Endpoint::Generate:  // the frame: Float32 or RGB8 per layer sent
+      return estimate_memory_bytes(r.recipe, false) + n * 16;
+    case Endpoint::Steps:  // a snapshot of the terrain per stage, and its height and colour in the frame
+      return estimate_memory_bytes(r.recipe, false) + std::uint64_t(r.recipe.stages.size()) * n * 24;
+    case Endpoint::Export: {  // the files in memory, the zip and the response body (an OBJ is ~200 B a sample)
+      const bool mesh = r.writer && select_writers(r.writer->name, r.recipe.export_settings ? r.recipe.export_settings->options
+                                                                                             : ExportOptions{},
+                                                   "format")
+                                        .with_mesh();
+      return estimate_memory_bytes(r.recipe, mesh) + n * (mesh ? 400 : 64);
     }
-  });
-}
-
-json frame_json(const Frame& f) {
-  return {{"nx", f.nx},           {"nz", f.nz},           {"cell_m", f.cell_m()},         {"width_m", f.width_m()},
-          {"depth_m", f.depth_m()}, {"x0_m", f.x0_m()},   {"z0_m", f.z0_m()},             {"height_m", f.height_m},
-          {"sea_level", f.sea_level}, {"world_width_m", f.world_width_m}, {"world_depth_m", f.world_depth_m}};
-}
-
-// Adds `name` to the frame: RGB8 for three-channel layers, Float32 (first channel) otherwise.
-json encode_layer(FrameWriter& w, const Terrain& t, const std::string& name) {
-  const Layer& l = t.layers.at(name);
-  const std::size_t n = t.frame.count();
-  json d;
-  if (l.channels == 3) {
-    auto [desc, at] = w.reserve(n * 3);
-    write_rgb8(l, n, at);
-    d = std::move(desc);
-    d["type"] = "rgb8";
-  } else {
-    auto [desc, at] = w.reserve(n * 4);
-    write_f32(l, n, at);
-    d = std::move(desc);
-    d["type"] = "f32";
+    default:
+      return 0;
   }
-  d["channels"] = l.channels;
-  return d;
-}
-
-json encode_points(FrameWriter& w, const Terrain& t) {
-  std::vector<std::string> kinds, types;
-  auto index_of = [](std::vector<std::string>& v, const std::string& s) {
-    auto it = std::find(v.begin(), v.end(), s);
-    if (it != v.end()) return float(it - v.begin());
-    v.push_back(s);
-    return float(v.size() - 1);
-  };
-  std::vector<float> data;
-  data.reserve(t.points.size() * 7);
-  for (const Point& p : t.points) {
-    for (double v : {p.x_m, p.y_m, p.z_m, p.rotation_deg, p.scale}) data.push_back(float(v));
-    data.push_back(index_of(kinds, p.kind));
-    data.push_back(index_of(types, p.type));
-  }
-  json d = w.add(data.data(), data.size() * sizeof(float));
-  d["count"] = t.points.size();
-  d["stride"] = 7;
-  d["fields"] = {"x_m", "y_m", "z_m", "rotation_deg", "scale", "kind", "type"};
-  d["kinds"] = kinds;
-  d["types"] = types;
-  return d;
 }
 
 // ---- zip ----------------------------------------------------------------------------------------
+
+// A failure of the server's own (not the request's): a 500 with a clear message, never a 4xx.
+ApiError internal_error(const std::string& what) { return ApiError{500, "", "internal error: " + what}; }
 
 la_ssize_t zip_append(struct archive*, void* client, const void* buf, size_t n) {
   static_cast<std::string*>(client)->append(static_cast<const char*>(buf), n);
   return la_ssize_t(n);
 }
 
-// A zip of `files` (deflated, fixed timestamps: the same files give the same archive).
-std::string zip_files(const std::map<std::string, std::string>& files) {
+// A zip of `files` (deflated, fixed timestamps: the same files give the same archive). Compressing
+// a large OBJ takes seconds: `check` is called between chunks of 1 MiB and may throw to stop.
+// libarchive failing on memory it writes to is the server's failure: internal_error (500).
+std::string zip_files(const std::map<std::string, std::string>& files, const std::function<void()>& check) {
   std::string out;
   struct archive* a = archive_write_new();
   archive_write_set_format_zip(a);
   archive_write_set_options(a, "zip:compression-level=3");
   archive_write_set_bytes_per_block(a, 0);
-  if (archive_write_open(a, &out, nullptr, zip_append, nullptr) != ARCHIVE_OK) {
+  auto fail = [a](const std::string& what) {
     const std::string msg = archive_error_string(a) ? archive_error_string(a) : "unknown error";
     archive_write_free(a);
-    throw std::runtime_error("zip: " + msg);
-  }
+    throw internal_error("could not build the zip (" + what + "): libarchive: " + msg);
+  };
+  if (archive_write_open(a, &out, nullptr, zip_append, nullptr) != ARCHIVE_OK) fail("opening it");
   for (auto& [name, bytes] : files) {
     struct archive_entry* e = archive_entry_new();
     archive_entry_set_pathname(e, name.c_str());
@@ -339,16 +308,22 @@ std::string zip_files(const std::map<std::string, std::string>& files) {
     archive_entry_set_filetype(e, AE_IFREG);
     archive_entry_set_perm(e, 0644);
     archive_entry_set_mtime(e, 1704067200, 0);  // 2024-01-01
-    bool ok = archive_write_header(a, e) == ARCHIVE_OK &&
-              archive_write_data(a, bytes.data(), bytes.size()) == la_ssize_t(bytes.size());
-    archive_entry_free(e);
-    if (!ok) {
-      const std::string msg = archive_error_string(a) ? archive_error_string(a) : "unknown error";
-      archive_write_free(a);
-      throw std::runtime_error("zip: " + msg);
+    bool ok = archive_write_header(a, e) == ARCHIVE_OK;
+    for (std::size_t at = 0; ok && at < bytes.size(); at += 1u << 20) {
+      try {
+        check();
+      } catch (...) {
+        archive_entry_free(e);
+        archive_write_free(a);
+        throw;
+      }
+      const std::size_t n = std::min<std::size_t>(1u << 20, bytes.size() - at);
+      ok = archive_write_data(a, bytes.data() + at, n) == la_ssize_t(n);
     }
+    archive_entry_free(e);
+    if (!ok) fail("adding " + name);
   }
-  archive_write_close(a);
+  if (archive_write_close(a) != ARCHIVE_OK) fail("finishing it");
   archive_write_free(a);
   return out;
 }
@@ -369,25 +344,29 @@ std::string content_type_of(const std::string& file) {
 
 class Studio {
  public:
-  explicit Studio(const StudioSettings& s) : s_(s), cache_(s.cache_mib << 20), runs_(2) {}
+  explicit Studio(const StudioSettings& s) : s_(s), cache_(s.cache_mib << 20), runs_(2), admission_(work_budget_bytes(s)) {}
 
   void routes(httplib::Server& svr);
+  // Cancels every request running or waiting and refuses new work (SIGINT/SIGTERM).
+  void shutdown() { stopping_ = true; }
 
  private:
   using Request = StudioRequest;
-  struct Generated {
-    std::shared_ptr<const Terrain> terrain;
-    std::vector<Snapshot> snaps;  // every stage's snapshot (only when asked for)
-    json timings = json::array();
-    double run_ms = 0;
-    int first_stage = 0;  // stages before it came from the cache
-  };
+  using Generated = CachedRun;
 
   Request parse_request(const httplib::Request& req, Endpoint e) const { return parse_studio_request(e, req.body, s_); }
   std::shared_ptr<Session> session_of(const httplib::Request& req);
-  Generated generate(const Recipe& r, const Frame& f, const std::function<bool()>& cancelled, bool all_snapshots);
+  Generated generate(const Recipe& r, const Frame& f, RunControl& ctl, bool all_snapshots) {
+    RunOptions opt;
+    opt.threads = s_.threads;
+    opt.cancelled = [&ctl] { return ctl.cancelled(); };
+    opt.progress = [&ctl](std::string_view, double) { ctl.check(); };  // inside long stages too
+    if (long_fused_chain(r)) opt.fuse = false;
+    return run_cached(cache_, r, f, std::move(opt), all_snapshots);
+  }
   template <class F>
-  void with_run(const httplib::Request& req, F&& work);
+  void with_run(const httplib::Request& req, Endpoint e, const Request& r, F&& work);
+  json stats();
 
   void api_generate(const httplib::Request& req, httplib::Response& res);
   void api_steps(const httplib::Request& req, httplib::Response& res);
@@ -395,7 +374,11 @@ class Studio {
 
   StudioSettings s_;
   StageCache cache_;
-  std::counting_semaphore<64> runs_;  // generations running at once (bounds memory and CPU)
+  std::counting_semaphore<64> runs_;  // generations computing at once (bounds CPU)
+  Admission admission_;               // requests admitted at once, by memory estimate
+  std::atomic<bool> stopping_{false};
+  std::atomic<std::uint64_t> stopped_[5] = {};  // per StopReason
+  std::atomic<std::uint64_t> refused_busy_{0};
   std::mutex sessions_m_;
   std::unordered_map<std::string, std::shared_ptr<Session>> sessions_;
 };
@@ -416,98 +399,67 @@ std::shared_ptr<Session> Studio::session_of(const httplib::Request& req) {
   return s;
 }
 
-// Runs the recipe from the deepest cached stage. With all_snapshots, every stage's snapshot is
-// returned (from the cache or from this run); a missing early snapshot means running from 0.
-Studio::Generated Studio::generate(const Recipe& r, const Frame& f, const std::function<bool()>& cancelled,
-                                   bool all_snapshots) {
-  const auto t0 = Clock::now();
-  const std::vector<std::uint64_t> keys = stage_keys(r, f);
-  const int n = int(r.stages.size());
-  Generated g;
-  g.snaps.resize(std::size_t(n));
-  int first = 0;
-  if (all_snapshots) {
-    while (first < n) {
-      auto s = cache_.get(keys[std::size_t(first)]);
-      if (!s) break;
-      g.snaps[std::size_t(first++)] = *s;
-    }
-  } else {
-    for (int k = n - 1; k >= 0; --k)
-      if (auto s = cache_.get(keys[std::size_t(k)])) {
-        g.snaps[std::size_t(k)] = *s;
-        first = k + 1;
-        break;
-      }
-  }
-  RunOptions opt;
-  opt.threads = s_.threads;
-  opt.window = f;
-  opt.cancelled = cancelled;
-  opt.after_stage_keeps_fusion = !all_snapshots;
-  if (first > 0) opt.resume = Resume{g.snaps[std::size_t(first - 1)].terrain.get(), first};
-  const bool keep = all_snapshots;
-  std::vector<double> ms(std::size_t(n), 0.0);
-  for (int i = 0; i < first; ++i) ms[std::size_t(i)] = g.snaps[std::size_t(i)].terrain ? g.snaps[std::size_t(i)].ms : 0.0;
-  auto stage_t0 = Clock::now();
-  opt.after_stage = [&](const Terrain& t, const RecipeStage&, int i) {
-    ms[std::size_t(i)] = ms_since(stage_t0);
-    if (i < n - 1) {  // the last stage's terrain is the run's result: moved, not copied, below
-      Snapshot s{std::make_shared<const Terrain>(t), ms[std::size_t(i)]};
-      cache_.put(keys[std::size_t(i)], s);
-      if (keep) g.snaps[std::size_t(i)] = std::move(s);
-    }
-    stage_t0 = Clock::now();
-  };
-  if (first < n || n == 0) {
-    stage_t0 = Clock::now();
-    RunResult res = run(r, opt);
-    // A fused chain's time is on its first stage, 0 on the others (as in the CLI's report).
-    for (std::size_t k = 0; k < res.timings.size() && first + int(k) < n; ++k) ms[std::size_t(first) + k] = res.timings[k].ms;
-    Snapshot last{std::make_shared<const Terrain>(std::move(res.terrain)), n ? ms[std::size_t(n - 1)] : 0.0};
-    if (n == 0) {
-      g.snaps.push_back(std::move(last));
-    } else {
-      cache_.put(keys[std::size_t(n - 1)], last);
-      g.snaps[std::size_t(n - 1)] = std::move(last);
-    }
-  }
-  g.terrain = g.snaps.back().terrain;
-  for (int i = 0; i < n; ++i) {
-    const RecipeStage& s = r.stages[std::size_t(i)];
-    json e = {{"stage", s.def->name}, {"label", s.label.empty() ? s.def->name : s.label}, {"cached", i < first}};
-    e["ms"] = ms[std::size_t(i)];
-    g.timings.push_back(e);
-  }
-  if (n == 0) g.snaps.clear();
-  g.first_stage = first;
-  g.run_ms = ms_since(t0);
-  return g;
-}
-
-// Serialises per client, supersedes older requests, bounds concurrent runs, maps errors.
+// Serialises per client, supersedes older requests, admits by memory estimate, bounds concurrent
+// runs, stops work on the limits of studio.hpp, maps errors.
 template <class F>
-void Studio::with_run(const httplib::Request& req, F&& work) {
+void Studio::with_run(const httplib::Request& req, Endpoint e, const Request& r, F&& work) {
+  const auto t0 = Clock::now();
   std::shared_ptr<Session> session = session_of(req);
-  std::uint64_t gen = 0;
-  std::unique_lock<std::mutex> lk;
+  std::uint64_t gen = session ? ++session->latest : 0;
+  RunControl ctl(session, gen, t0 + std::chrono::seconds(s_.time_budget_s), client_socket(req), stopping_);
+  // Throws the answer for a request stopped by ctl (by type: a LimitError must not be sliced).
+  auto stopped = [&]() {
+    const StopReason why = ctl.reason();
+    ++stopped_[int(why)];
+    switch (why) {
+      case StopReason::TimeBudget:
+        throw LimitError{"time_budget", "the request ran longer than the studio's time budget of " + std::to_string(s_.time_budget_s) +
+                                             " s (--time-budget) and was stopped; make it smaller (world.size, stages) or use "
+                                             "`relief generate`"};
+      case StopReason::Shutdown:
+        throw LimitError{"shutdown", "the studio is shutting down"};
+      case StopReason::Disconnected:  // nobody reads this answer
+        throw ApiError{400, "", "the client closed the connection; the request was stopped"};
+      default:
+        throw ApiError{409, "", "superseded by a newer request from the same client"};
+    }
+  };
+  // Waits that end when the request is cancelled: the client's previous request (superseded, so it
+  // stops soon), then a free generation slot.
+  std::unique_lock<std::timed_mutex> lk;
   if (session) {
-    gen = ++session->latest;
-    lk = std::unique_lock(session->running);
+    lk = std::unique_lock(session->running, std::defer_lock);
+    while (!lk.try_lock_for(std::chrono::milliseconds(20)))
+      if (ctl.cancelled()) stopped();
   }
-  auto cancelled = [session, gen] { return session && session->latest.load() != gen; };
-  if (cancelled()) throw ApiError{409, "", "superseded by a newer request from the same client"};
-  runs_.acquire();
+  if (ctl.cancelled()) stopped();
+  const std::uint64_t estimate = request_estimate(e, r);
+  if (!admission_.try_admit(estimate)) {
+    ++refused_busy_;
+    const auto [running, used] = admission_.state();
+    throw LimitError{"memory",
+                     "the studio is busy: " + std::to_string(running) + " request(s) running hold an estimated " + human_bytes(used) +
+                         " of its " + human_bytes(admission_.budget()) + " budget (--work-mib), and this one needs " +
+                         human_bytes(estimate) + "; try again shortly",
+                     2};
+  }
+  struct Admitted {
+    Admission& a;
+    std::uint64_t bytes;
+    ~Admitted() { a.release(bytes); }
+  } admitted{admission_, estimate};
+  while (!runs_.try_acquire_for(std::chrono::milliseconds(20)))
+    if (ctl.cancelled()) stopped();
   struct Release {
     std::counting_semaphore<64>& s;
     ~Release() { s.release(); }
   } release{runs_};
   try {
-    work(std::function<bool()>(cancelled));
+    work(ctl);
   } catch (const ApiError&) {
     throw;
   } catch (const Cancelled&) {
-    throw ApiError{409, "", "superseded by a newer request from the same client"};
+    stopped();
   } catch (const Error& e) {
     throw ApiError{400, e.path(), e.message()};
   } catch (const std::bad_alloc&) {
@@ -515,13 +467,26 @@ void Studio::with_run(const httplib::Request& req, F&& work) {
   }
 }
 
+json Studio::stats() {
+  const auto [running, used] = admission_.state();
+  json c = json::object();
+  for (int k = 1; k < 5; ++k) c[kStopNames[k]] = stopped_[k].load();
+  return {{"running", running},
+          {"admitted_bytes", used},
+          {"work_budget_bytes", admission_.budget()},
+          {"limits", {{"max_stages", s_.max_stages}, {"time_budget_s", s_.time_budget_s}, {"max_preview", s_.max_preview},
+                      {"max_export", s_.max_export}}},
+          {"cancelled", c},
+          {"refused", {{"memory", refused_busy_.load()}}}};
+}
+
 void Studio::api_generate(const httplib::Request& req, httplib::Response& res) {
   const auto t0 = Clock::now();
   Request r = parse_request(req, Endpoint::Generate);
   const std::vector<std::string>& want = r.layers;
   const bool all = r.all_layers;
-  with_run(req, [&](const std::function<bool()>& cancelled) {
-    Generated g = generate(r.recipe, r.frame, cancelled, false);
+  with_run(req, Endpoint::Generate, r, [&](RunControl& ctl) {
+    Generated g = generate(r.recipe, r.frame, ctl, false);
     const Terrain& t = *g.terrain;
     const auto te = Clock::now();
     FrameWriter w;
@@ -552,8 +517,8 @@ void Studio::api_generate(const httplib::Request& req, httplib::Response& res) {
 
 void Studio::api_steps(const httplib::Request& req, httplib::Response& res) {
   Request r = parse_request(req, Endpoint::Steps);
-  with_run(req, [&](const std::function<bool()>& cancelled) {
-    Generated g = generate(r.recipe, r.frame, cancelled, true);
+  with_run(req, Endpoint::Steps, r, [&](RunControl& ctl) {
+    Generated g = generate(r.recipe, r.frame, ctl, true);
     FrameWriter w;
     json h;
     h["seed"] = *r.recipe.seed;
@@ -591,8 +556,8 @@ void Studio::api_export(const httplib::Request& req, httplib::Response& res) {
   const WriterDef* writer = r.writer;
   const std::string fmt = writer->name;
   const std::string& file = r.file;
-  with_run(req, [&](const std::function<bool()>& cancelled) {
-    Generated g = generate(r.recipe, r.frame, cancelled, false);
+  with_run(req, Endpoint::Export, r, [&](RunControl& ctl) {
+    Generated g = generate(r.recipe, r.frame, ctl, false);
     // The writing policy is relief::generate's, as on the command line: the format and the writers
     // it implies (the OBJ's MTL names albedo.png, so the archive holds it), engine legality, the
     // memory policy; the stages come from this studio's cache.
@@ -601,7 +566,8 @@ void Studio::api_export(const httplib::Request& req, httplib::Response& res) {
     gs.formats = fmt;
     gs.formats_path = "format";
     gs.threads = s_.threads;
-    gs.cancelled = cancelled;
+    gs.cancelled = [&ctl] { return ctl.cancelled(); };
+    gs.progress = [&ctl](std::string_view, double) { ctl.check(); };  // inside the writers too
     gs.terrain = g.terrain.get();
     for (const json& t : g.timings)
       gs.timings.push_back({t.value("stage", std::string()), t.value("label", std::string()), t.value("ms", 0.0), false});
@@ -623,7 +589,7 @@ void Studio::api_export(const httplib::Request& req, httplib::Response& res) {
       res.set_content(files.begin()->second, content_type_of(files.begin()->first));
     } else {
       res.set_header("Content-Disposition", content_disposition(stem + "-" + fmt + ".zip"));
-      res.set_content(zip_files(files), "application/zip");
+      res.set_content(zip_files(files, [&ctl] { ctl.check(); }), "application/zip");
     }
     json names = json::array();
     for (auto& [n2, b2] : files) names.push_back(n2);
@@ -660,6 +626,7 @@ void Studio::routes(httplib::Server& svr) {
   svr.Get("/api/params", guard([](const httplib::Request&, httplib::Response& res) {
     send_json(res, 200, parameter_table_json());
   }));
+  svr.Get("/api/stats", guard([this](const httplib::Request&, httplib::Response& res) { send_json(res, 200, stats()); }));
   svr.Post("/api/resolve", guard([this](const httplib::Request& req, httplib::Response& res) {
     Request r = parse_request(req, Endpoint::Resolve);
     send_json(res, 200, {{"recipe", r.recipe.to_json()}});
@@ -685,22 +652,42 @@ void Studio::routes(httplib::Server& svr) {
 
 // Blocks SIGINT/SIGTERM in every thread and stops the server from a dedicated waiter thread, so
 // a stop ends listen() cleanly (handlers finish, destructors run, leak checks see a clean exit).
+// The running work is cancelled first (Studio::shutdown), so handlers finish within a check. A stop
+// that still takes longer than kStopSeconds (a request body still arriving, a stage between its
+// checks, an idle keep-alive connection's wait) ends the process from the waiter, exit code 0.
+constexpr int kStopSeconds = 2;
 struct SignalStop {
   sigset_t set{};
   std::thread waiter;
-  explicit SignalStop(httplib::Server& svr) {
+  std::mutex m;
+  std::condition_variable cv;
+  bool done = false;
+  SignalStop(httplib::Server& svr, Studio& studio) {
     sigemptyset(&set);
     sigaddset(&set, SIGINT);
     sigaddset(&set, SIGTERM);
     sigaddset(&set, SIGUSR1);
     pthread_sigmask(SIG_BLOCK, &set, nullptr);
-    waiter = std::thread([this, &svr] {
+    waiter = std::thread([this, &svr, &studio] {
       int sig = 0;
       sigwait(&set, &sig);
+      if (sig == SIGUSR1) return;  // the server stopped on its own
+      studio.shutdown();
       svr.stop();
+      std::unique_lock lk(m);
+      if (!cv.wait_for(lk, std::chrono::seconds(kStopSeconds), [this] { return done; })) {
+        std::fprintf(stderr, "relief studio: stopped (work still running after %d s was abandoned)\n", kStopSeconds);
+        std::fflush(stderr);
+        std::_Exit(0);
+      }
     });
   }
   ~SignalStop() {
+    {
+      std::lock_guard lk(m);
+      done = true;
+    }
+    cv.notify_all();
     pthread_kill(waiter.native_handle(), SIGUSR1);  // wakes the waiter if no signal came
     waiter.join();
   }
@@ -834,7 +821,7 @@ int run_studio(const StudioSettings& s) {
                           std::to_string(port) + "/";
   std::printf("Relief Studio: %s  (Ctrl-C stops it)\n", url.c_str());
   std::fflush(stdout);
-  SignalStop stop(svr);
+  SignalStop stop(svr, studio);
   if (s.open) open_browser(url);
   svr.listen_after_bind();
   return 0;

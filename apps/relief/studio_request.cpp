@@ -38,6 +38,13 @@ StudioRequest parse_studio_request(Endpoint e, std::string_view text, const Stud
   const int max_size = e == Endpoint::Generate || e == Endpoint::Steps ? s.max_preview : s.max_export;
   StudioRequest r;
   r.body = parse_body(text, fields[int(e)], s);
+  // Counted before the recipe is parsed: parsing and validating tens of thousands of stages is
+  // itself work the studio should not do for a request it will refuse.
+  if (const json& rj = r.body["recipe"]; rj.is_object() && rj.contains("stages") && rj["stages"].is_array() &&
+                                          rj["stages"].size() > std::size_t(s.max_stages))
+    throw ApiError{400, "stages",
+                   "the studio runs at most " + std::to_string(s.max_stages) + " stages per recipe (--max-stages), got " +
+                       std::to_string(rj["stages"].size()) + " (use `relief generate` for longer recipes)"};
   try {
     r.recipe = parse_recipe(r.body["recipe"]);
   } catch (const Error& err) {
@@ -142,6 +149,12 @@ std::string content_disposition(std::string_view filename) {
   }
   if (ascii.empty()) ascii = encoded = "download";
   return "attachment; filename=\"" + ascii + "\"; filename*=UTF-8''" + encoded;
+}
+
+std::uint64_t work_budget_bytes(const StudioSettings& s) {
+  if (s.work_mib) return std::uint64_t(s.work_mib) << 20;
+  const std::uint64_t cap = 4ull << 30, phys = physical_memory_bytes();
+  return phys ? std::min(cap, phys / 4) : cap;
 }
 
 bool valid_client_id(std::string_view s) {

@@ -272,6 +272,26 @@ print(json.dumps({'names': sorted(z.namelist()), 'v': sum(1 for l in obj.splitli
   assert.deepEqual(listing.names, ['albedo.png', 'terrain.mtl', 'terrain.obj'], 'the MTL names albedo.png, so it comes along');
   assert.equal(listing.v, 65 * 65);
 
+  // A zip of files larger than the 1 MiB chunks it is compressed in (the time budget is checked
+  // between chunks) is whole as well.
+  const big = await post('/api/export', { recipe: await preset('island', 257, 9), format: 'obj' });
+  assert.equal(big.status, 200);
+  const dir2 = fs.mkdtempSync(path.join(os.tmpdir(), 'relief-export-'));
+  const zip2 = path.join(dir2, 'obj.zip');
+  fs.writeFileSync(zip2, Buffer.from(await big.arrayBuffer()));
+  const sizes = JSON.parse(execFileSync('/usr/bin/python3', ['-c', `
+import json, sys, zipfile
+z = zipfile.ZipFile(sys.argv[1])
+assert z.testzip() is None
+print(json.dumps({i.filename: i.file_size for i in z.infolist()}))
+`, zip2], { encoding: 'utf8' }));
+  fs.rmSync(dir2, { recursive: true, force: true });
+  assert.ok(sizes['terrain.obj'] > 4 << 20, JSON.stringify(sizes));
+
+  // The library's refusals of bad input are 4xx naming the field (issue 15 §5), never a 500.
+  await expectError(await post('/api/export', { recipe: r, format: 'rivers' }), 400, { path: 'format', match: /rivers needs/ });
+  const odd = { ...r, world: { ...r.world, size: 100 }, export: { engine: 'unity' } };
+  await expectError(await post('/api/export', { recipe: odd, format: 'engine' }), 400, { path: 'export.engine', match: /unity needs/ });
   await expectError(await post('/api/export', { recipe: r, format: 'heigthmap' }), 400, { path: 'format', match: /did you mean 'heightmap'/ });
   await expectError(await post('/api/export', { recipe: r, format: 'color', file: 'nope.png' }), 400, { path: 'file', match: /wrote color\.png/ });
 });
