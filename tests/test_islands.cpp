@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <set>
 #include <sstream>
 #include <string>
@@ -730,6 +731,24 @@ TEST(IslandWriters, BiomesJsonCountsEveryIdAndThePngUsesTheLegend) {
     const auto& b = r.terrain.biomes[std::size_t(r.terrain.get("biome").data[k])];
     EXPECT_EQ(px[3 * k], std::lround(b.r * 255));
     EXPECT_EQ(px[3 * k + 1], std::lround(b.g * 255));
+  }
+  // Every legend colour is "#rrggbb" (one format, as the header says), the colour biome.png paints
+  // that id with. Before, colours not exact in 8 bits (the archipelago's ocean and beach) were
+  // written as [63.75, 140.25…] arrays beside "#555555" strings.
+  std::map<long, std::size_t> first;  // id → first sample with it
+  const auto& ids = r.terrain.get("biome").data;
+  for (std::size_t k = 0; k < ids.size(); ++k) first.emplace(std::lround(ids[k]), k);
+  for (const auto& b : doc["biomes"]) {
+    ASSERT_TRUE(b["color"].is_string()) << b.dump();
+    const std::string c = b["color"].get<std::string>();
+    ASSERT_EQ(c.size(), 7u) << c;
+    EXPECT_EQ(c[0], '#') << c;
+    EXPECT_EQ(c.find_first_not_of("0123456789abcdef", 1), std::string::npos) << c;
+    auto it = first.find(b["id"].get<long>());
+    if (it == first.end()) continue;
+    char want[8];
+    std::snprintf(want, sizeof want, "#%02x%02x%02x", px[3 * it->second], px[3 * it->second + 1], px[3 * it->second + 2]);
+    EXPECT_EQ(c, want) << b["name"];
   }
 }
 
