@@ -319,6 +319,28 @@ TEST(Blend, NoSeaCliffs) {
   EXPECT_LT(worst_slope(150.0), 48.0);
 }
 
+TEST(Blend, CoastSlopeBoundsTheFadeIn) {
+  // The same 105 m biome: over coast_m = 150 m it rises at ~46°, a sea cliff to a walker (issue 16:
+  // the volcanic-island plateau met the sea at 44–60°). coast_slope_deg lengthens the fade-in where
+  // the lift is tall, to 1.5 · 105 / tan 25° ≈ 338 m here, and leaves low biomes at coast_m.
+  const relief::Frame f = square(257, 4000.0, 500.0, 0.3);
+  auto worst_slope = [&](double lift, double coast_slope_deg) {
+    Terrain t = round_island(f, 1500.0);
+    run(st::biomes(), {{"types", json::array({flat_type("cliffy", lift)})}, {"bridge", "cliffy"}, {"beach_lift", 0.0},
+                       {"coast_m", 150.0}, {"coast_slope_deg", coast_slope_deg}},
+        t);
+    double worst = 0;
+    for (int j = 1; j + 1 < f.nz; ++j)
+      for (int i = 1; i + 1 < f.nx; ++i)
+        if (double(at(t, "height", i, j)) > 0.3) worst = std::max(worst, slope_deg(t, i, j));
+    return worst;
+  };
+  EXPECT_GT(worst_slope(0.3, 0.0), 40.0);
+  EXPECT_LT(worst_slope(0.3, 25.0), 26.0);
+  // A low biome (10.5 m: 1.5 · 10.5 / 150 ≈ 6°) already rises gently: unchanged.
+  EXPECT_EQ(worst_slope(0.03, 0.0), worst_slope(0.03, 25.0));
+}
+
 TEST(Biomes, SeaIsUntouchedAndLegendNamesTheTypes) {
   const relief::Frame f = square(129, 4000.0, 500.0, 0.3);
   Terrain t = round_island(f, 1500.0);
