@@ -64,6 +64,7 @@ struct BiomesParams {
   double flatten_keep = 0.03;
   double coast_rise = 0.0;
   double coast_m = 150;
+  double coast_slope_deg = 0.0;
   enum class Blend { Interpolate, Selective, None } blend = Blend::Interpolate;
   double border_m = 220;
   double selective_radius_m = 40;

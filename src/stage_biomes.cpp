@@ -18,7 +18,11 @@
 // terrain and colour are evaluated at the sample and mixed by these weights. The seed notes the
 // method alone leaves sea cliffs; here the biome lift is multiplied by a taper that rises from 0 at
 // the coast (smoothstep of the island shape's own land height over coast_rise), so the land meets
-// the sea at sea level everywhere.
+// the sea at sea level everywhere. It also rises with the distance to the sea over coast_m; a
+// smoothstep rise of H metres over D is at most 1.5·H/D steep, so a tall biome (a plateau lifted
+// 270 m) still rose at up to 60° over the default 150 m. coast_slope_deg bounds that: D becomes
+// max(coast_m, 1.5·H/tan(coast_slope_deg)) with H the sample's own lift (stages after this one,
+// such as terraces, can steepen it again).
 //
 // Pointwise with blend = interpolate or none: a sample depends on its world position, its incoming
 // elevation, the seed and the parameters only. blend = selective is a neighbourhood pass of
@@ -27,6 +31,7 @@
 #include <cmath>
 #include <cstdint>
 #include <memory>
+#include <numbers>
 #include <string>
 #include <vector>
 
@@ -325,6 +330,7 @@ void apply_biomes(Terrain& t, const BiomesParams& p, const Context& ctx) {
   const double keep = p.flatten_land ? p.flatten_keep : 1.0;
   const std::size_t nt = types.size();
 
+  const double tan_coast = std::tan(std::clamp(p.coast_slope_deg, 1e-3, 89.0) * std::numbers::pi / 180.0);
   // Distance from each land sample to the nearest sea sample of the incoming terrain, in metres.
   std::vector<float> coast_dist;
   if (p.coast_m > 0) {
@@ -440,7 +446,12 @@ void apply_biomes(Terrain& t, const BiomesParams& p, const Context& ctx) {
       double taper = p.coast_rise > 0 ? smoothstep01(u0 / p.coast_rise) : 1.0;
       if (p.coast_m > 0) {
         const double dm = double(coast_dist[std::size_t(j) * nx + i]) * fr.cell_m();
-        if (std::isfinite(dm)) taper *= smoothstep01(dm / p.coast_m);
+        // A smoothstep rise of H metres over D metres is at most 1.5·H/D steep: with
+        // coast_slope_deg, D grows with this sample's lift so that the fade-in stays under it.
+        const double reach_m = p.coast_slope_deg > 0
+                                   ? std::max(p.coast_m, 1.5 * std::max(0.0, lift) * land * fr.height_m / tan_coast)
+                                   : p.coast_m;
+        if (std::isfinite(dm)) taper *= smoothstep01(dm / reach_m);
       }
       const double u = keep * u0 + lift * taper;
       const double e = std::clamp(sea + land * u, sea + 1e-5, 1.0);
@@ -549,6 +560,9 @@ StageDef biomes() {
             "Fraction of the island shape's land height kept when flattening (0 = flat like seed 003)"),
       param(&P::coast_m, "coast_m", 0.0, 1e6, "m",
             "Biome relief fades in over this distance from the sea (smoothstep): no sea cliffs; 0 = off"),
+      param(&P::coast_slope_deg, "coast_slope_deg", 0.0, 60.0, "deg",
+            "With coast_m: lengthen the fade-in where a biome lifts the land high, so that it rises no steeper than "
+            "this (a plateau's 270 m over 150 m rose at up to 60°); 0 = coast_m everywhere"),
       param(&P::coast_rise, "coast_rise", 0.0, 1.0, "",
             "Also fade it in over this much of the island shape's own land height (0 = off)"),
       choice(&P::blend, "blend",

@@ -104,6 +104,7 @@ enum class ColorMode { Bands, Gradient };
 struct ColorParams {
   std::vector<Level> levels = default_palette();
   ColorMode mode = ColorMode::Bands;
+  bool smooth_edges = false;
   bool relative_to_max = false;
   bool sea_relative = true;
   Rgb rock_color = rgb_hex(0x6f6861);
@@ -121,6 +122,16 @@ struct ColorParams {
 //           below the first `at`, the last colour above the last `at`.
 // Comparisons are made in single precision, the precision of the layers, so that a height of
 // 0.3f counts as "at" a level written as 0.3.
+//
+// smooth_edges (bands only): a band edge is a step in elevation, and sampling a step draws it as a
+// staircase of whole samples (the mountains preset at 513²). With smooth_edges each step is box
+// filtered over the elevation change across one sample, Δ = |∇e|·cell (central differences, as
+// the rock rule's): the weight of the upper level is clamp((e − at)/Δ + ½, 0, 1), the fraction of
+// the sample's footprint above the edge for a locally planar surface. Δ follows the sample
+// spacing, so the edge is one sample wide at every resolution and lands between samples where it
+// lies; on flat ground (Δ = 0) the edge is the hard one. The rock rule's rock_min / rock_max
+// cut-offs are filtered the same way. Off by default (the hard edges of seed 000's bands, and the
+// bytes of the presets that use them); such rows take the scalar path of textured levels.
 //
 // sea_relative (default): the levels' `at` and rock_min/rock_max are written for sea level 0.4
 // (detail::kReferenceSea) and placed in the world piecewise linearly, so that 0.4 lands on the
@@ -268,6 +279,15 @@ void apply_color(Terrain& t, const ColorParams& params, const Context& ctx) {
   const auto textures = detail::load_level_textures(p.levels, "stages[" + std::to_string(ctx.stage_index) + "].levels");
   bool textured = false;
   for (auto& tex : textures) textured = textured || tex != nullptr;
+  const bool smooth = p.smooth_edges && !k.gradient;
+  const bool scalar = textured || smooth;
+  // Footprint of one sample in (possibly relative) elevation per unit of |∇y| in metres per metre.
+  const double footprint = fr.cell_m() / fr.height_m / (k.relative ? double(k.max_height) : 1.0);
+  // Fraction of a sample's footprint [v − Δ/2, v + Δ/2] above `at` (a hard step when Δ = 0).
+  auto above = [](double v, double at, double delta) {
+    if (!(delta > 0.0)) return v > at ? 1.0 : 0.0;
+    return std::clamp((v - at) / delta + 0.5, 0.0, 1.0);
+  };
 
   Layer& out = t.layer("albedo", 3);
   detail::parallel_rows(fr.nz, [&](int j) {
@@ -284,19 +304,36 @@ void apply_color(Terrain& t, const ColorParams& params, const Context& ctx) {
     float* row = out.row(j, nx);
     const detail::GradientRows rows = detail::gradient_rows(fr, h, j, 1.0);
     // Water is blended inside the kernel, except on textured rows, which are recoloured below.
-    const float* water_row = water && !textured ? water->row(j, nx) : nullptr;
-    detail::color_row(k, rows, slope_row, a0, a1, tz, water_row, row, nx);
-    if (textured) {
+    const float* water_row = water && !scalar ? water->row(j, nx) : nullptr;
+    if (!smooth) detail::color_row(k, rows, slope_row, a0, a1, tz, water_row, row, nx);
+    if (scalar) {
       const float* e = h.row(j, nx);
       const double z = fr.z_m(j);
       for (int i = 0; i < nx; ++i) {
         const float v = k.relative ? e[i] / k.max_height : e[i];
-        Rgb c = detail::level_color(p.levels, textures, k.gradient, v, fr.x_m(i), z);
-        if (k.rock && v > k.rock_min && v < k.rock_max) {
+        Rgb c;
+        double gate = k.rock && v > k.rock_min && v < k.rock_max ? 1.0 : 0.0;
+        if (smooth) {
+          const double delta = std::sqrt(double(detail::gradient2_at(rows, i, nx))) * footprint;
+          auto col = [&](std::size_t m) {
+            const detail::Texture* tx = m < textures.size() ? textures[m].get() : nullptr;
+            return tx ? tx->sample(fr.x_m(i), z, p.levels[m].tile_m) : p.levels[m].color;
+          };
+          c = col(0);
+          for (std::size_t m = 0; m + 1 < p.levels.size(); ++m) {
+            const double w = above(v, float(p.levels[m].at), delta);
+            const Rgb up = col(m + 1);
+            c = Rgb{float(c.r + (up.r - c.r) * w), float(c.g + (up.g - c.g) * w), float(c.b + (up.b - c.b) * w)};
+          }
+          if (k.rock) gate = above(v, k.rock_min, delta) * (1.0 - above(v, k.rock_max, delta));
+        } else {
+          c = detail::level_color(p.levels, textures, k.gradient, v, fr.x_m(i), z);
+        }
+        if (gate > 0.0) {
           const float g2 = given_slope ? 0.0f : detail::gradient2_at(rows, i, nx);
           const double sd = given_slope ? double(slope_row[i]) : std::atan(std::sqrt(double(g2))) * kDeg;
           if (sd > p.rock_slope_deg) {
-            const double w = p.rock_blend_deg > 0.0 ? smoothstep_weight(std::min(1.0, (sd - p.rock_slope_deg) / p.rock_blend_deg)) : 1.0;
+            const double w = gate * (p.rock_blend_deg > 0.0 ? smoothstep_weight(std::min(1.0, (sd - p.rock_slope_deg) / p.rock_blend_deg)) : 1.0);
             c = Rgb{float(c.r + (p.rock_color.r - c.r) * w), float(c.g + (p.rock_color.g - c.g) * w),
                     float(c.b + (p.rock_color.b - c.b) * w)};
           }
@@ -307,7 +344,7 @@ void apply_color(Terrain& t, const ColorParams& params, const Context& ctx) {
         row[3 * i + 2] = std::clamp(c.b * f, 0.0f, 1.0f);
       }
     }
-    if (water && textured) {
+    if (water && scalar) {
       const float* w = water->row(j, nx);
       for (int i = 0; i < nx; ++i) {
         if (!(w[i] > 0.0f)) continue;
@@ -376,6 +413,10 @@ StageDef colorize() {
              "level above all"),
       choice(&P::mode, "mode", {{ColorMode::Bands, "bands"}, {ColorMode::Gradient, "gradient"}},
              "bands: flat colour per level; gradient: interpolate between levels", R),
+      param(&P::smooth_edges, "smooth_edges", 0, 1, "",
+            "Bands: blend each band edge (and the rock_min/rock_max cut-offs) over one sample's elevation change, "
+            "an anti-aliased edge instead of a staircase of samples",
+            R),
       param(&P::relative_to_max, "relative_to_max", 0, 1, "",
             "Divide elevation by the map's highest sample first (seed 000); breaks preview = build and tiling", R),
       param(&P::sea_relative, "sea_relative", 0, 1, "",

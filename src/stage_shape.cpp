@@ -25,6 +25,7 @@
 #include <vector>
 
 #include "curve.hpp"
+#include "parallel.hpp"
 #include "pointwise.hpp"
 #include "relief/error.hpp"
 #include "stages.hpp"
@@ -82,6 +83,7 @@ struct TerraceParams {
   TerraceMode mode = TerraceMode::Round;
   double wall = 0.3;
   bool land_only = false;
+  double filter_samples = 0.0;
 };
 
 // round:  round(e·n)/n (seed 000) — n+1 distinct levels 0, 1/n, …, 1 (ties round up).
@@ -98,6 +100,82 @@ struct TerraceKernel final : RowKernel {
   TerraceKernel() : RowKernel("height") {}
   void apply_row(int, float* row) const override { detail::terrace_row(k, row, nx); }
 };
+
+// filter_samples > 0: band-limited terraces. A terrace is a periodic function of elevation; on a
+// slope it becomes a periodic function of position whose period is (1/n) / |∇e| samples. Where
+// that period nears the sample spacing, point samples of it alias: the even rings on a cone beat
+// against the grid into moiré (the volcanic-island volcano at 513², 40 levels). The filtered
+// terrace is the mean of the terrace function T over the elevations one footprint covers,
+//     T̄(e) = (G(e + Δ/2) − G(e − Δ/2)) / Δ,  Δ = filter_samples · |∇e|·(one sample),
+// with G the antiderivative of T (closed form below) and ∇e the input's central differences
+// (one-sided at the window border): a box filter along the gradient, exact for a locally planar
+// input. Steps many samples wide keep their shape (Δ ≪ 1/n); steps narrower than the footprint
+// fade into the slope they sit on (T̄ → e as Δ grows, since T averages to e over a period), as a
+// mip-mapped texture would. Flat ground (Δ = 0) gets T itself. Continuous in e and Δ. The stage
+// then looks one sample around each sample (a neighbourhood stage, not fused); 0 keeps it
+// pointwise and byte-identical to the unfiltered terraces.
+namespace {
+// ∫₀ᶠ step(φ) dφ over one period f ∈ [0, 1]: the step rises over [lo, lo + w] by smoothstep
+// (s = (φ − lo)/w, ∫ 3s² − 2s³ ds = s³ − s⁴/2), or at ½ for round terraces (w = 0).
+double step_integral(double f, double w, double lo) {
+  if (w <= 0.0) return std::max(0.0, f - 0.5);
+  if (f <= lo) return 0.0;
+  if (f >= lo + w) return 0.5 * w + (f - lo - w);
+  const double x = (f - lo) / w;
+  return w * (x * x * x - 0.5 * x * x * x * x);
+}
+// G(t) = ∫₀ᵗ (floor τ + step(frac τ)) dτ = k²/2 + k·f + step_integral(f), t = k + f (any sign:
+// each whole period contributes its mean m + ½).
+double terrace_antiderivative(double t, double w, double lo) {
+  const double k = std::floor(t), f = t - k;
+  return 0.5 * k * k + k * f + step_integral(f, w, lo);
+}
+double terrace_point(double t, double w, double lo) {
+  const double k = std::floor(t), f = t - k;
+  if (w <= 0.0) return k + (f >= 0.5 ? 1.0 : 0.0);
+  const double s = std::clamp((f - lo) / w, 0.0, 1.0);
+  return k + s * s * (3.0 - 2.0 * s);
+}
+}  // namespace
+
+void apply_terrace_filtered(Terrain& t, const TerraceParams& p) {
+  require_height(t);
+  Layer& h = t.get("height");
+  const Frame& fr = t.frame;
+  const int nx = fr.nx, nz = fr.nz;
+  const std::vector<float> in = h.data;
+  const double n = p.levels;
+  const double w = p.mode == TerraceMode::Smooth ? p.wall : 0.0, lo = 0.5 * (1.0 - w);
+  const detail::LandOnly land = detail::LandOnly::make(p.land_only, fr.sea_level);
+  detail::parallel_rows(nz, [&](int j) {
+    const float* up = in.data() + std::size_t(std::max(j - 1, 0)) * nx;
+    const float* mid = in.data() + std::size_t(j) * nx;
+    const float* down = in.data() + std::size_t(std::min(j + 1, nz - 1)) * nx;
+    const double kz = (j > 0 && j < nz - 1) ? 0.5 : 1.0;
+    float* out = h.row(j, nx);
+    auto c01 = [](float v) { return std::clamp(double(v), 0.0, 1.0); };
+    for (int i = 0; i < nx; ++i) {
+      const double e = c01(mid[i]);
+      if (land.enabled && !(float(e) > land.sea_floor_max)) {
+        out[i] = float(e);  // the sea floor keeps its (clamped) elevation, as in the row kernel
+        continue;
+      }
+      const double gx = nx < 2 ? 0.0
+                        : i == 0 ? c01(mid[1]) - c01(mid[0])
+                        : i == nx - 1 ? c01(mid[nx - 1]) - c01(mid[nx - 2])
+                                      : 0.5 * (c01(mid[i + 1]) - c01(mid[i - 1]));
+      const double gz = kz * (c01(down[i]) - c01(up[i]));
+      // In terrace units t = u·n, u = e, or (e − sea)/(1 − sea) above the sea when land_only.
+      const double scale = land.enabled ? n / double(land.land) : n;
+      const double u = land.enabled ? (e - double(land.sea)) / double(land.land) : e;
+      const double tt = u * n, dt = p.filter_samples * std::hypot(gx, gz) * scale;
+      const double v = dt > 1e-9 ? (terrace_antiderivative(tt + 0.5 * dt, w, lo) - terrace_antiderivative(tt - 0.5 * dt, w, lo)) / dt
+                                 : terrace_point(tt, w, lo);
+      const double r = land.enabled ? double(land.sea) + double(land.land) * std::clamp(v / n, 0.0, 1.0) : v / n;
+      out[i] = float(std::clamp(r, 0.0, 1.0));
+    }
+  });
+}
 
 std::unique_ptr<RowKernel> prepare_terrace(Terrain& t, const TerraceParams& p, const Context&) {
   require_height(t);
@@ -285,9 +363,37 @@ StageDef terrace() {
             "Smooth mode: fraction of each step taken by the sloped wall (0 = vertical, 1 = no flat plateau)"),
       param(&P::land_only, "land_only", 0, 1, "",
             "Terrace only above sea level, in steps of (1 − sea)/n; the sea floor is unchanged"),
+      param(&P::filter_samples, "filter_samples", 0.0, 8.0, "",
+            "Band-limit: average the terraces over this many samples of the local slope, so steps narrower than "
+            "that fade into the slope instead of aliasing into moiré rings (2 suits most); 0 = off (pointwise)"),
   }};
-  return make_row_stage<P>("terrace", "Terraces: round(e·n)/n, or smooth terraces with sloped walls", std::move(table),
-                           prepare_terrace);
+  // A row stage (fused, pointwise) unless filter_samples > 0, which reads the input's gradient.
+  StageDef d = make_row_stage<P>("terrace", "Terraces: round(e·n)/n, or smooth terraces with sloped walls",
+                                 std::move(table), prepare_terrace);
+  auto row_parse = d.parse;
+  struct Filtered final : Stage {
+    std::unique_ptr<Stage> row;  // the row stage, for params()
+    P p;
+    void apply(Terrain& t, const Context&) const override { apply_terrace_filtered(t, p); }
+    json params() const override { return row->params(); }
+    Reach reach(const Frame&) const override { return neighbourhood(1); }
+  };
+  d.halo_rule = "1 sample when filter_samples > 0 (the input's gradient), else pointwise";
+  d.memory.scratch_per_sample = 4;  // filter_samples > 0: a copy of the input heights
+  d.parse = [row_parse](const json& obj, const std::string& path) -> std::unique_ptr<Stage> {
+    std::unique_ptr<Stage> s = row_parse(obj, path);
+    const json resolved = s->params();
+    if (!(resolved.value("filter_samples", 0.0) > 0.0)) return s;
+    auto f = std::make_unique<Filtered>();
+    f->p.levels = resolved.at("levels").get<int>();
+    f->p.mode = resolved.at("mode").get<std::string>() == "smooth" ? TerraceMode::Smooth : TerraceMode::Round;
+    f->p.wall = resolved.at("wall").get<double>();
+    f->p.land_only = resolved.at("land_only").get<bool>();
+    f->p.filter_samples = resolved.at("filter_samples").get<double>();
+    f->row = std::move(s);
+    return f;
+  };
+  return d;
 }
 
 StageDef island() {

@@ -1,7 +1,9 @@
 // Writers for the island systems: the biome map and its legend, feature points, props.
 //
 // biomes.json: {"layer": "biome", "samples": N, "biomes": [{"id", "name", "color": "#rrggbb",
-//   "samples", "share"}]} with share = samples / N of this map (shares sum to 1).
+//   "samples", "share"}]} with share = samples / N of this map (shares sum to 1). "color" is always
+//   "#rrggbb", each channel rounded to 8 bits: the colour biome.png paints the biome with (a legend,
+//   not a recipe value, so it does not keep the bits a resolved recipe's [r, g, b] keeps).
 // features.json: {"features": [{"kind", "type", "x_m", "y_m", "z_m", "radius_m"?}]} in metres,
 //   y with the sea surface at 0 (the mesh's frame).
 // props.json: {"count", "types": {name: count}, "props": [{"type", "x_m", "y_m", "z_m",
@@ -10,7 +12,9 @@
 //   thousandths of a degree / of the scale): enough for placement, identical for any thread count.
 #include "writer_defs.hpp"
 
+#include <algorithm>
 #include <charconv>
+#include <cstdio>
 #include <cmath>
 #include <map>
 #include <string>
@@ -27,6 +31,13 @@ std::string fixed3(double v) {
   std::string s(buf, r.ptr);
   if (s == "-0.000") s = "0.000";
   return s;
+}
+// "#rrggbb" with each channel rounded to 8 bits, as encode_png_rgb8 writes it.
+std::string hex8(float r, float g, float b) {
+  auto c = [](float x) { return int(double(std::clamp(x, 0.0f, 1.0f)) * 255.0 + 0.5); };
+  char buf[8];
+  std::snprintf(buf, sizeof buf, "#%02x%02x%02x", c(r), c(g), c(b));
+  return buf;
 }
 // JSON number with 3 decimals (a double rounded through its decimal form).
 json num3(double v) { return json::parse(fixed3(v)); }
@@ -65,7 +76,7 @@ void write_biomes(const Terrain& t, const WriteContext& ctx, Output& out) {
     json e;
     e["id"] = id;
     e["name"] = bi.name;
-    e["color"] = write_color(Rgb{bi.r, bi.g, bi.b});
+    e["color"] = hex8(bi.r, bi.g, bi.b);
     e["samples"] = counts[id];
     e["share"] = double(counts[id]) / double(n);
     list.push_back(e);

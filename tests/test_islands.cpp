@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <functional>
+#include <map>
 #include <set>
 #include <sstream>
 #include <string>
@@ -316,6 +317,28 @@ TEST(Blend, NoSeaCliffs) {
   };
   EXPECT_GT(worst_slope(0.0), 70.0);
   EXPECT_LT(worst_slope(150.0), 48.0);
+}
+
+TEST(Blend, CoastSlopeBoundsTheFadeIn) {
+  // The same 105 m biome: over coast_m = 150 m it rises at ~46°, a sea cliff to a walker (issue 16:
+  // the volcanic-island plateau met the sea at 44–60°). coast_slope_deg lengthens the fade-in where
+  // the lift is tall, to 1.5 · 105 / tan 25° ≈ 338 m here, and leaves low biomes at coast_m.
+  const relief::Frame f = square(257, 4000.0, 500.0, 0.3);
+  auto worst_slope = [&](double lift, double coast_slope_deg) {
+    Terrain t = round_island(f, 1500.0);
+    run(st::biomes(), {{"types", json::array({flat_type("cliffy", lift)})}, {"bridge", "cliffy"}, {"beach_lift", 0.0},
+                       {"coast_m", 150.0}, {"coast_slope_deg", coast_slope_deg}},
+        t);
+    double worst = 0;
+    for (int j = 1; j + 1 < f.nz; ++j)
+      for (int i = 1; i + 1 < f.nx; ++i)
+        if (double(at(t, "height", i, j)) > 0.3) worst = std::max(worst, slope_deg(t, i, j));
+    return worst;
+  };
+  EXPECT_GT(worst_slope(0.3, 0.0), 40.0);
+  EXPECT_LT(worst_slope(0.3, 25.0), 26.0);
+  // A low biome (10.5 m: 1.5 · 10.5 / 150 ≈ 6°) already rises gently: unchanged.
+  EXPECT_EQ(worst_slope(0.03, 0.0), worst_slope(0.03, 25.0));
 }
 
 TEST(Biomes, SeaIsUntouchedAndLegendNamesTheTypes) {
@@ -730,6 +753,24 @@ TEST(IslandWriters, BiomesJsonCountsEveryIdAndThePngUsesTheLegend) {
     const auto& b = r.terrain.biomes[std::size_t(r.terrain.get("biome").data[k])];
     EXPECT_EQ(px[3 * k], std::lround(b.r * 255));
     EXPECT_EQ(px[3 * k + 1], std::lround(b.g * 255));
+  }
+  // Every legend colour is "#rrggbb" (one format, as the header says), the colour biome.png paints
+  // that id with. Before, colours not exact in 8 bits (the archipelago's ocean and beach) were
+  // written as [63.75, 140.25…] arrays beside "#555555" strings.
+  std::map<long, std::size_t> first;  // id → first sample with it
+  const auto& ids = r.terrain.get("biome").data;
+  for (std::size_t k = 0; k < ids.size(); ++k) first.emplace(std::lround(ids[k]), k);
+  for (const auto& b : doc["biomes"]) {
+    ASSERT_TRUE(b["color"].is_string()) << b.dump();
+    const std::string c = b["color"].get<std::string>();
+    ASSERT_EQ(c.size(), 7u) << c;
+    EXPECT_EQ(c[0], '#') << c;
+    EXPECT_EQ(c.find_first_not_of("0123456789abcdef", 1), std::string::npos) << c;
+    auto it = first.find(b["id"].get<long>());
+    if (it == first.end()) continue;
+    char want[8];
+    std::snprintf(want, sizeof want, "#%02x%02x%02x", px[3 * it->second], px[3 * it->second + 1], px[3 * it->second + 2]);
+    EXPECT_EQ(c, want) << b["name"];
   }
 }
 

@@ -160,6 +160,91 @@ TEST(Terrace, SmoothWithZeroWallEqualsRound) {
   EXPECT_EQ(a.get("height").data, b.get("height").data);
 }
 
+// Terrace aliasing. A cone terraced is rotationally symmetric, and so is anything a viewer sees
+// of it, such as its slope (what a hillshade draws) averaged over a few samples. Sampled on the
+// grid, steps near the sample spacing beat against it: the local mean slope then changes with
+// the direction around the cone at a fixed radius (the moiré rings on the volcanic-island
+// volcano at 513²). moire() is that change: within each one-sample ring of radius, the standard
+// deviation of the 5×5 mean of |∇out| divided by its mean, averaged over the rings.
+namespace {
+Terrain cone(int n, double rise_per_sample) {
+  return grid(square(n, 4000.0, 600.0, 0.0), [=](int i, int j) {
+    const double c = (n - 1) / 2.0;
+    return std::clamp(0.95 - rise_per_sample * std::hypot(i - c, j - c), 0.0, 1.0);
+  });
+}
+double moire(const Terrain& out) {
+  const int n = out.frame.nx, r = 2;
+  const double c = (n - 1) / 2.0;
+  std::vector<double> g(std::size_t(n) * n, 0.0);
+  for (int j = 1; j + 1 < n; ++j)
+    for (int i = 1; i + 1 < n; ++i)
+      g[std::size_t(j) * n + i] = std::hypot(H(out, i + 1, j) - H(out, i - 1, j), H(out, i, j + 1) - H(out, i, j - 1));
+  std::map<int, std::vector<double>> rings;
+  for (int j = r + 1; j < n - r - 1; ++j)
+    for (int i = r + 1; i < n - r - 1; ++i) {
+      const double radius = std::hypot(i - c, j - c);
+      if (radius < 12 || radius > c - 6) continue;
+      double m = 0;
+      for (int b = -r; b <= r; ++b)
+        for (int a = -r; a <= r; ++a) m += g[std::size_t(j + b) * n + (i + a)];
+      rings[int(radius)].push_back(m);
+    }
+  double sum = 0;
+  for (const auto& [k, v] : rings) {
+    double mean = 0, var = 0;
+    for (double x : v) mean += x;
+    mean /= v.size();
+    for (double x : v) var += (x - mean) * (x - mean);
+    sum += std::sqrt(var / v.size()) / mean;
+  }
+  return sum / rings.size();
+}
+}  // namespace
+
+TEST(Terrace, FilteredStepsDoNotAliasIntoMoire) {
+  const int levels = 40;
+  // Steps 2.2 samples wide on the cone's flanks (rise 1/(40·2.2) per sample).
+  const Terrain in = cone(129, 1.0 / (levels * 2.2));
+  for (const char* mode : {"smooth", "round"}) {
+    Terrain raw = in, filtered = in;
+    run(st::terrace(), {{"levels", levels}, {"mode", mode}, {"wall", 0.7}}, raw);
+    run(st::terrace(), {{"levels", levels}, {"mode", mode}, {"wall", 0.7}, {"filter_samples", 2.0}}, filtered);
+    const double m_raw = moire(raw), m_filtered = moire(filtered), m_cone = moire(in);
+    std::printf("%s: moiré %.4f unfiltered, %.4f filtered, %.4f the cone itself\n", mode, m_raw, m_filtered, m_cone);
+    EXPECT_GT(m_raw, 50 * m_cone) << mode << ": unfiltered steps at 2.2 samples alias";
+    EXPECT_LT(m_filtered, 0.15 * m_raw) << mode;
+  }
+}
+
+TEST(Terrace, FilteredKeepsWideStepsAndFlatGround) {
+  // Steps 40 samples wide: the filter (2 samples) barely touches them; flat ground is exact.
+  const Terrain in = cone(129, 1.0 / (8 * 40.0));
+  Terrain raw = in, filtered = in;
+  run(st::terrace(), {{"levels", 8}, {"mode", "smooth"}, {"wall", 0.5}}, raw);
+  run(st::terrace(), {{"levels", 8}, {"mode", "smooth"}, {"wall", 0.5}, {"filter_samples", 2.0}}, filtered);
+  double worst = 0;
+  for (std::size_t k = 0; k < raw.get("height").data.size(); ++k)
+    worst = std::max(worst, double(std::abs(raw.get("height").data[k] - filtered.get("height").data[k])));
+  EXPECT_LT(worst * 8, 0.01);  // under 1 % of a step
+  Terrain flat = grid(square(5), [](int, int) { return 0.43; }), flat_raw = flat;
+  run(st::terrace(), {{"levels", 4}, {"mode", "smooth"}, {"wall", 0.3}}, flat_raw);
+  run(st::terrace(), {{"levels", 4}, {"mode", "smooth"}, {"wall", 0.3}, {"filter_samples", 2.0}}, flat);
+  EXPECT_NEAR(H(flat, 2, 2), H(flat_raw, 2, 2), 1e-6);
+}
+
+TEST(Terrace, FilteredIsANeighbourhoodStageAndOffIsPointwise) {
+  json p = {{"stage", "terrace"}, {"levels", 8}};
+  EXPECT_EQ(st::terrace().parse(p, "s")->reach(square(3)).locality, relief::Locality::Pointwise);
+  EXPECT_TRUE(st::terrace().parse(p, "s")->fusable());
+  p["filter_samples"] = 2.0;
+  const auto s = st::terrace().parse(p, "s");
+  EXPECT_EQ(s->reach(square(3)).locality, relief::Locality::Neighbourhood);
+  EXPECT_EQ(s->reach(square(3)).halo, 1);
+  EXPECT_FALSE(s->fusable());
+  EXPECT_EQ(s->params().at("filter_samples"), 2.0);
+}
+
 TEST(Terrace, LandOnlyStepsAboveSea) {
   Terrain t = grid(square(2, 4000, 600, 0.4), [](int i, int j) { return std::vector<double>{0.2, 0.4, 0.75, 1.0}[j * 2 + i]; });
   run(st::terrace(), {{"levels", 2}, {"land_only", true}}, t);
@@ -393,6 +478,49 @@ TEST(Color, BandsPickFirstLevelAtOrAbove) {
   EXPECT_EQ(albedo(t, 3, 0), kGreen);
   EXPECT_EQ(albedo(t, 4, 0), kBlue);
   EXPECT_EQ(albedo(t, 5, 0), kBlue);
+}
+
+// A band edge across a tilted plane, seen column by column: the amount of the upper colour in a
+// column (Σ over rows of its weight) says where the edge crosses that column. Hard bands can only
+// put it on whole samples (a staircase: off the true line by up to half a sample); smooth_edges
+// box-filters the step over one sample's elevation change, so the edge lands between samples.
+namespace {
+double band_edge_error(bool smooth, double n_axis_step) {
+  const int n = 65;
+  // e rises along z, and along x at a small irrational rate: the edge is a gently tilted line.
+  const double slope = 0.004;
+  Terrain t = grid(square(n, 640.0, 600.0), [&](int i, int j) { return 0.3 + slope * (j + n_axis_step * i); });
+  json lv = json::array({{{"at", 0.42}, {"color", "#ff0000"}}, {{"at", 1.0}, {"color", "#0000ff"}}});
+  run(st::colorize(), {{"levels", lv}, {"variation", 0.0}, {"rock_slope_deg", 90.0}, {"smooth_edges", smooth}}, t);
+  double worst = 0;
+  for (int i = 0; i < n; ++i) {
+    double blue = 0;
+    for (int j = 0; j < n; ++j) blue += albedo(t, i, j).b;
+    // Exact: the length of the column above the edge at j* = (0.42 − 0.3)/slope − step·i, each
+    // sample standing for the cell [j − ½, j + ½].
+    const double edge = (0.42 - 0.3) / slope - n_axis_step * i;
+    worst = std::max(worst, std::abs(blue - ((n - 0.5) - edge)));
+  }
+  return worst;
+}
+}  // namespace
+
+TEST(Color, SmoothEdgesPutBandEdgesBetweenSamples) {
+  for (double step : {0.0913, 0.2371, 0.4142}) {
+    EXPECT_GT(band_edge_error(false, step), 0.3) << step << ": hard bands are staircases";
+    EXPECT_LT(band_edge_error(true, step), 0.1) << step;
+  }
+}
+
+TEST(Color, SmoothEdgesOnFlatGroundAreTheHardBands) {
+  const double v[6] = {0.0, 0.25, std::nextafter(0.25f, 1.0f), 0.5, 0.75, 1.0};
+  for (int x = 0; x < 6; ++x) {
+    Terrain t = grid(square(3, 5.0), [&](int, int) { return v[x]; });
+    Terrain u = t;
+    run(st::colorize(), {{"levels", kRgbLevels}, {"variation", 0.0}, {"rock_slope_deg", 90.0}}, t);
+    run(st::colorize(), {{"levels", kRgbLevels}, {"variation", 0.0}, {"rock_slope_deg", 90.0}, {"smooth_edges", true}}, u);
+    EXPECT_EQ(albedo(t, 1, 1), albedo(u, 1, 1)) << v[x];
+  }
 }
 
 TEST(Color, BandsThresholdComparesInLayerPrecision) {
