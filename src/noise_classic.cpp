@@ -32,12 +32,13 @@ struct Tables {
   std::array<std::int32_t, 256> p{};  // Perlin's permutation; index & 255 everywhere
   // Simplex: gradient components of the lattice hash h (0..511): kGrad3[P[h] % 12].
   std::array<float, 512> sg0{}, sg1{}, sg2{};
-  // 2D simplex: the first two components of kGrad3[P[h] % 12] packed as (gx + 1) | (gy + 1) << 2,
-  // and the same for the whole hash of a corner, g2[j·257 + i] = gc[i + P[j]] (j 0..255, i 0..256,
-  // 263 KB), so that a corner's gradient is one lookup instead of three dependent ones (one gather
-  // instead of three in the vectorised loops: 1.5× faster).
+  // 2D simplex: the first two components of kGrad3[P[h] % 12] packed in 4 bits as
+  // (gx + 1) | (gy + 1) << 2; and for each lattice cell (I, J) the codes of its four corners
+  // gc[I + P[J]], gc[I+1 + P[J]], gc[I + P[J+1]], gc[I+1 + P[J+1]] (indices & 255) in one int,
+  // g4[J·256 + I] (256 KB): the three corners a sample needs come from one lookup instead of nine
+  // dependent ones (one gather per octave in the vectorised loops).
   std::array<std::int32_t, 512> gc{};
-  std::vector<std::int32_t> g2;
+  std::vector<std::int32_t> g4;
   // Improved noise: grad2/grad3 of hash h use kGrad3[h & 15].
   // 4D simplex: for each of the 64 orderings, the rank (0..3) of each coordinate.
   std::array<std::array<std::int32_t, 4>, 64> rank{};
@@ -56,9 +57,11 @@ Tables make_tables() {
     t.sg2[h] = kGrad3[g][2];
     t.gc[h] = (int(kGrad3[g][0]) + 1) | ((int(kGrad3[g][1]) + 1) << 2);
   }
-  t.g2.resize(256 * 257);
+  t.g4.resize(256 * 256);
+  auto code = [&](int i, int j) { return t.gc[(i & 255) + t.p[j & 255]]; };
   for (int j = 0; j < 256; ++j)
-    for (int i = 0; i < 257; ++i) t.g2[std::size_t(j) * 257 + i] = t.gc[i + t.p[j]];
+    for (int i = 0; i < 256; ++i)
+      t.g4[std::size_t(j) * 256 + i] = code(i, j) | code(i + 1, j) << 4 | code(i, j + 1) << 8 | code(i + 1, j + 1) << 12;
   // Rank of each coordinate for the ordering code c = (x>y)·32 + (x>z)·16 + (y>z)·8 + (x>w)·4 +
   // (y>w)·2 + (z>w): the number of other coordinates it exceeds. Codes that no ordering produces
   // (contradictory comparisons) get all zeros, as in Gustavson's table.
@@ -126,11 +129,11 @@ inline float simplex2_t(const Tables& T, float x, float y) {
   const float y1 = y0 - float(j1) + G2;
   const int I = int(i) & 255;
   const int J = int(j) & 255;
-  // Gradient of corner (I + a, J + b): kGrad3[PERM[I + a + PERM[J + b]] % 12], packed (Tables::g2).
-  const std::int32_t* G = T.g2.data();
-  const int c0 = G[J * 257 + I];
-  const int c1 = G[((J + j1) & 255) * 257 + I + i1];
-  const int c2 = G[((J + 1) & 255) * 257 + I + 1];
+  // Gradient of corner (I + a, J + b): kGrad3[PERM[I + a + PERM[J + b]] % 12], packed (Tables::g4).
+  const int cell = T.g4.data()[J * 256 + I];
+  const int c0 = cell & 15;
+  const int c1 = (cell >> (8 - 4 * i1)) & 15;  // (I+1, J) when i1, else (I, J+1)
+  const int c2 = (cell >> 12) & 15;
   const float f0 = 0.5f - x0 * x0 - y0 * y0;
   const float f1 = 0.5f - x1 * x1 - y1 * y1;
   const float f2 = 0.5f - x2 * x2 - y2 * y2;
