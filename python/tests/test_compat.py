@@ -128,3 +128,14 @@ def test_seed_001_blog_code_runs_unchanged():
     ref = np.array([[noise.snoise2(x / SCALE, y / SCALE, octaves=6, persistence=0.5, lacunarity=2, repeatx=64, repeaty=64, base=seed)
                      for y in range(64)] for x in range(64)])
     assert np.array_equal(hm, ref)
+
+
+@pytest.mark.parametrize("kw", [{"octaves": 6}, {"octaves": 3, "repeatx": 64.0, "repeaty": 64.0}])
+def test_float32_and_float64_inputs_agree(kw):
+    xs = (PTS[:, 0] / 7.0).astype(np.float32)
+    ys = (PTS[:, 1] / 7.0).astype(np.float32)
+    a = rc.snoise2(xs, ys, **kw)                                       # float32 path
+    b = rc.snoise2(xs.astype(np.float64), ys.astype(np.float64), **kw)  # float64 path, same values
+    assert np.array_equal(a, b)
+    theirs = np.array([noise.snoise2(float(x), float(y), **kw) for x, y in zip(xs, ys)])
+    assert np.array_equal(a.astype(np.float64), theirs)
