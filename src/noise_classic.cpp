@@ -15,6 +15,7 @@
 #include "relief/noise_classic.hpp"
 
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstdint>
 #include <vector>
@@ -79,14 +80,21 @@ inline float fast_cos(float x) { return fast_sin(x + 0.5f); }
 // anyway): truncation and a correction, which the vectoriser handles (it does not vectorise
 // std::floor without -fno-trapping-math). Equal to std::floor in that range.
 inline float lattice_floor(float v) {
-  const float t = float(int(v));
-  return t > v ? t - 1.0f : t;
+  // Integer arithmetic for the correction: a float subtraction under a condition would be kept
+  // from vectorising without AVX-512 masks (-ftrapping-math).
+  const int t = int(v);
+  return float(t - (float(t) > v));
 }
+
+// max(v, 0) with +0 for v ≤ 0, by masking the bits: no branch or select that the compiler could
+// turn back into a branch around the arithmetic that follows (which -ftrapping-math then keeps from
+// vectorising on AVX2, where there are no masked operations).
+inline float positive_part(float v) { return std::bit_cast<float>(std::bit_cast<std::int32_t>(v) & -std::int32_t(v > 0.0f)); }
 
 constexpr float F2 = 0.3660254037844386f;   // (√3 − 1) / 2
 constexpr float G2 = 0.21132486540518713f;  // (3 − √3) / 6
 
-inline float simplex2_t(const Tables& T, float x, float y) {
+__attribute__((always_inline)) inline float simplex2_t(const Tables& T, float x, float y) {
   const float s = (x + y) * F2;
   const float i = lattice_floor(x + s);
   const float j = lattice_floor(y + s);
@@ -115,7 +123,7 @@ inline float simplex2_t(const Tables& T, float x, float y) {
   // No branch (the package skips a corner with f ≤ 0; here its kernel is 0): everything is computed
   // for every lane, so the loops vectorise. The one difference: where the package adds +0 for a
   // skipped corner we add 0·d (±0), so an exactly zero result may differ in its sign.
-  const float e0 = f0 > 0 ? f0 : 0.0f, e1 = f1 > 0 ? f1 : 0.0f, e2 = f2 > 0 ? f2 : 0.0f;
+  const float e0 = positive_part(f0), e1 = positive_part(f1), e2 = positive_part(f2);
   const float n0 = e0 * e0 * e0 * e0 * d0;
   const float n1 = e1 * e1 * e1 * e1 * d1;
   const float n2 = e2 * e2 * e2 * e2 * d2;
@@ -125,7 +133,7 @@ inline float simplex2_t(const Tables& T, float x, float y) {
 constexpr float F3 = 1.0f / 3.0f;
 constexpr float G3 = 1.0f / 6.0f;
 
-inline float simplex3_t(const Tables& T, float x, float y, float z) {
+__attribute__((always_inline)) inline float simplex3_t(const Tables& T, float x, float y, float z) {
   const float s = (x + y + z) * F3;
   const float i = lattice_floor(x + s);
   const float j = lattice_floor(y + s);
@@ -160,10 +168,12 @@ inline float simplex3_t(const Tables& T, float x, float y, float z) {
   const float d1 = x1 * T.sg0[h1] + y1 * T.sg1[h1] + z1 * T.sg2[h1];
   const float d2 = x2 * T.sg0[h2] + y2 * T.sg1[h2] + z2 * T.sg2[h2];
   const float d3 = x3 * T.sg0[h3] + y3 * T.sg1[h3] + z3 * T.sg2[h3];
-  const float n0 = f0 > 0 ? f0 * f0 * f0 * f0 * d0 : 0.0f;
-  const float n1 = f1 > 0 ? f1 * f1 * f1 * f1 * d1 : 0.0f;
-  const float n2 = f2 > 0 ? f2 * f2 * f2 * f2 * d2 : 0.0f;
-  const float n3 = f3 > 0 ? f3 * f3 * f3 * f3 * d3 : 0.0f;
+  // Branch-free as in simplex2_t (only an exact zero's sign can differ from the package).
+  const float e0 = positive_part(f0), e1 = positive_part(f1), e2 = positive_part(f2), e3 = positive_part(f3);
+  const float n0 = e0 * e0 * e0 * e0 * d0;
+  const float n1 = e1 * e1 * e1 * e1 * d1;
+  const float n2 = e2 * e2 * e2 * e2 * d2;
+  const float n3 = e3 * e3 * e3 * e3 * d3;
   return (n0 + n1 + n2 + n3) * 32.0f;
 }
 
@@ -205,7 +215,7 @@ __attribute__((always_inline)) inline float simplex4_t(const Tables& T, float x,
       const int r = axis - (axis > zero);
       return float((axis != zero) * (1 - 2 * ((sg >> (2 - r)) & 1)));
     };
-    float e = tt >= 0.0f ? tt : 0.0f;
+    float e = positive_part(tt);  // the package keeps tt = 0 too: the same zero
     e *= e;
     return e * e * (comp(0) * a + comp(1) * b + comp(2) * cc + comp(3) * d);
   };
