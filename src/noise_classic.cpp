@@ -466,8 +466,23 @@ void snoise2(const float* x, const float* y, std::size_t n, const ClassicFractal
     return;
   }
   if (repeatx != kNoRepeat || repeaty != kNoRepeat) {
-    for (std::size_t k = 0; k < n; ++k)
-      out[k] = snoise2_tiled(T, x[k], y[k], f.octaves, f.persistence, f.lacunarity, repeatx, repeaty, base);
+    // One axis tiled: that axis onto a circle, then 3D simplex (snoise2_tiled), in blocks.
+    float X[kBlock], Y[kBlock], Z[kBlock];
+    const bool tile_y = repeaty != kNoRepeat;
+    const double rep = tile_y ? repeaty : repeatx;
+    const float r = float(rep * 0.31830988618379067154 * 0.5);
+    for (std::size_t k0 = 0; k0 < n; k0 += kBlock) {
+      const std::size_t m = n - k0 < kBlock ? n - k0 : kBlock;
+      for (std::size_t k = 0; k < m; ++k) {
+        const float a = tile_y ? y[k0 + k] : x[k0 + k];
+        const float af = float(double(a) * 2.0 / rep);
+        const float v = fast_sin(af) * r, c = base + fast_cos(af) * r;
+        X[k] = tile_y ? x[k0 + k] : v;
+        Y[k] = tile_y ? v : y[k0 + k];
+        Z[k] = c;
+      }
+      snoise3_block(T, X, Y, Z, m, f.octaves, f.persistence, f.lacunarity, out + k0);
+    }
     return;
   }
   for (std::size_t k0 = 0; k0 < n; k0 += kBlock) {

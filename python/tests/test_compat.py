@@ -61,6 +61,7 @@ def test_pnoise_with_a_large_base_differs_only_where_the_package_leaves_its_tabl
 
 
 @pytest.mark.parametrize("fn,dims,kw", [("snoise2", 2, {"octaves": 6}), ("snoise2", 2, {"octaves": 2, "repeatx": 50.0, "repeaty": 70.0}),
+                                        ("snoise2", 2, {"octaves": 3, "repeatx": 50.0}), ("snoise2", 2, {"octaves": 4, "repeaty": 40.0, "base": 2.0}),
                                         ("snoise3", 3, {"octaves": 6}), ("pnoise2", 2, {"octaves": 6}),
                                         ("pnoise3", 3, {"octaves": 3})])
 def test_arrays_give_the_scalar_values(fn, dims, kw):
