@@ -164,9 +164,12 @@ RunResult run(const Recipe& r, const RunOptions& opt) {
     ctx.stage_index = int(i);
     // A stage reports the fraction of its own work; the run's listener gets the run's fraction
     // (each stage one equal share), never going backwards.
-    if (opt.progress)
+    // Where a long stage reports progress, the run also checks for cancellation, so that one
+    // erosion or flow stage does not outlast a cancel by its whole duration.
+    if (opt.progress || opt.cancelled)
       ctx.progress = [&opt, i, n = double(r.stages.size())](std::string_view name, double f) {
-        opt.progress(name, (double(i) + std::clamp(f, 0.0, 1.0)) / n);
+        if (opt.cancelled && opt.cancelled()) throw Cancelled();
+        if (opt.progress) opt.progress(name, (double(i) + std::clamp(f, 0.0, 1.0)) / n);
       };
     return ctx;
   };
@@ -185,10 +188,13 @@ RunResult run(const Recipe& r, const RunOptions& opt) {
     for (std::size_t i = first; i < r.stages.size();) {
       if (opt.cancelled && opt.cancelled()) throw Cancelled();
       // A chain of consecutive fusable stages [i, end): one pass over the rows.
+      // A lone fusable stage takes the row pass too (the same bits), so that it can be cancelled
+      // between row blocks like a chain.
       std::size_t end = i + 1;
-      if (fuse && r.stages[i].stage->fusable())
+      const bool rows = r.stages[i].stage->fusable();
+      if (rows && fuse)
         while (end < r.stages.size() && r.stages[end].stage->fusable()) ++end;
-      if (end == i + 1) {
+      if (!rows) {
         const RecipeStage& s = r.stages[i];
         if (opt.progress) opt.progress(s.def->name, double(i) / double(r.stages.size()));
         const auto t0 = clock::now();
@@ -216,10 +222,18 @@ RunResult run(const Recipe& r, const RunOptions& opt) {
                       "layer '" + kernels[k]->layer() + "' must have one channel and one value per sample");
         data.push_back(l->data.data());
       }
-      detail::parallel_rows(f.nz, [&](int j) {
-        const std::size_t offset = std::size_t(j) * std::size_t(f.nx);
-        for (std::size_t k = 0; k < kernels.size(); ++k) kernels[k]->apply_row(j, data[k] + offset);
-      });
+      // In blocks of rows with a cancellation check between them (at most 16 checks a pass; rows
+      // are independent, so the blocking changes no bit).
+      const int block = std::max(32, (f.nz + 15) / 16);
+      for (int j0 = 0; j0 < f.nz; j0 += block) {
+        if (j0 > 0 && opt.cancelled && opt.cancelled()) throw Cancelled();
+        const int rows_here = std::min(block, f.nz - j0);
+        detail::parallel_rows(rows_here, [&](int jj) {
+          const int j = j0 + jj;
+          const std::size_t offset = std::size_t(j) * std::size_t(f.nx);
+          for (std::size_t k = 0; k < kernels.size(); ++k) kernels[k]->apply_row(j, data[k] + offset);
+        });
+      }
       const double chain_ms = ms_since(t0);
       for (std::size_t k = i; k < end; ++k) {
         const RecipeStage& s = r.stages[k];

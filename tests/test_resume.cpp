@@ -181,6 +181,37 @@ TEST(Cancel, NeverCancelledRunsEveryStage) {
   RunOptions opt;
   opt.cancelled = [&] { return ++asked < 0; };
   const RunResult res = run(r, opt);
-  EXPECT_EQ(asked, int(r.stages.size()));
+  EXPECT_GE(asked, int(r.stages.size()));  // before each stage, and more within the row pass
   EXPECT_EQ(res.timings.size(), r.stages.size());
+}
+
+// A lone noise stage (one row pass) is cancelled between its row blocks, not only after it.
+TEST(Cancel, StopsWithinARowPass) {
+  json doc = island_doc(513);
+  doc["stages"] = json::array({doc["stages"][0]});
+  const Recipe r = parse_recipe(doc);
+  int asked = 0;
+  bool finished = false;
+  RunOptions opt;
+  opt.threads = 1;
+  opt.after_stage = [&](const Terrain&, const RecipeStage&, int) { finished = true; };
+  opt.cancelled = [&] { return ++asked == 3; };
+  EXPECT_THROW(run(r, opt), Cancelled);
+  EXPECT_FALSE(finished);
+  EXPECT_EQ(asked, 3);
+}
+
+// A long stage that reports progress (stream power, every step) is cancelled inside it.
+TEST(Cancel, StopsInsideALongStageWhereItReportsProgress) {
+  json doc = island_doc(129);
+  doc["stages"] = json::array({doc["stages"][0], json{{"stage", "stream_power"}, {"steps", 40}}});
+  const Recipe r = parse_recipe(doc);
+  int finished = 0, asked_in_erosion = 0;
+  RunOptions opt;
+  opt.threads = 1;
+  opt.after_stage = [&](const Terrain&, const RecipeStage&, int) { ++finished; };
+  opt.cancelled = [&] { return finished == 1 && ++asked_in_erosion == 5; };
+  EXPECT_THROW(run(r, opt), Cancelled);
+  EXPECT_EQ(finished, 1);  // the noise stage, not the erosion
+  EXPECT_EQ(asked_in_erosion, 5);
 }

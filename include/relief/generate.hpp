@@ -76,8 +76,9 @@ struct GenerateSettings {
   // Progress of the whole call: (what, fraction 0..1): stages up to 0.7, then the writers. Called
   // from one thread at a time.
   std::function<void(std::string_view what, double fraction)> progress;
-  // Checked before each stage and each writer; true stops the call with relief::Cancelled (no file
-  // changed).
+  // Checked where run() checks RunOptions::cancelled (before each stage, between row blocks, inside
+  // long stages) and before each writer; true stops the call with relief::Cancelled (no file
+  // changed). Called from one thread at a time.
   std::function<bool()> cancelled;
   // Called after each stage with a read-only view (e.g. the CLI's --steps pictures); turns fusion off.
   std::function<void(const Terrain&, const RecipeStage&, int index)> after_stage;

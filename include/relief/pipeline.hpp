@@ -74,7 +74,11 @@ struct RunOptions {
   // Start from a snapshot instead of an empty terrain (the studio's stage cache). The recipe
   // must have a seed (the snapshot was made with one); its frame must equal the run's frame.
   std::optional<Resume> resume;
-  // Checked before each stage; returning true stops the run by throwing relief::Cancelled.
+  // Returning true stops the run by throwing relief::Cancelled. Checked before each stage, between
+  // the row blocks of a row pass (at most 16 a pass: noise, island, redistribute, terrace and curve
+  // stages, alone or fused), and inside long stages wherever they report progress (erosion steps,
+  // droplet phases, thermal iterations, flow phases). Always called from the thread that called
+  // run(), never concurrently; it should be cheap (an atomic flag, a clock).
   std::function<bool()> cancelled;
 };
 
