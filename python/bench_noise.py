@@ -1,0 +1,104 @@
+#!/usr/bin/python3
+"""Python noise throughput: relief.compat.snoise2 and relief.noise.fbm against Debian's python3-noise.
+
+    PYTHONPATH=build/python /usr/bin/python3 python/bench_noise.py [--size 1024] [--octaves 6] [--runs 5] [--threads 1,2]
+
+Measured in the same run, over an N² grid at the given octaves:
+  * the `noise` package the way seed 001's blog post uses it: a Python loop calling noise.snoise2 per
+    sample (its cost is measured on a stripe of rows and scaled to the grid; the loop's cost per
+    sample does not depend on the grid size);
+  * relief.compat.snoise2 on the grid's coordinate arrays (the same values, bit for bit);
+  * relief.noise.fbm(grid=…) with the gradient basis (the library's fast noise, not the same values).
+Times are medians of --runs runs (wall time), per thread count. Prints a table and, with --json,
+the figures as JSON.
+"""
+import argparse
+import json
+import os
+import platform
+import statistics
+import sys
+import time
+
+import numpy as np
+
+try:
+    import relief
+    import relief.compat
+    import relief.noise
+except ImportError:
+    sys.path.insert(0, os.path.join(os.path.dirname(os.path.abspath(__file__)), "..", "build", "python"))
+    import relief
+    import relief.compat
+    import relief.noise
+
+import noise
+
+
+def median_time(fn, runs):
+    times = []
+    for _ in range(runs):
+        t0 = time.perf_counter()
+        fn()
+        times.append(time.perf_counter() - t0)
+    return statistics.median(times)
+
+
+def main():
+    ap = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    ap.add_argument("--size", type=int, default=1024)
+    ap.add_argument("--octaves", type=int, default=6)
+    ap.add_argument("--runs", type=int, default=5)
+    ap.add_argument("--threads", default="1,2")
+    ap.add_argument("--loop-rows", type=int, default=64, help="rows of the grid the per-sample loop runs over")
+    ap.add_argument("--json", action="store_true")
+    a = ap.parse_args()
+    n, octaves = a.size, a.octaves
+    scale = 100.0
+    xs, ys = np.meshgrid(np.arange(n, dtype=np.float64) / scale, np.arange(n, dtype=np.float64) / scale)
+
+    def loop():
+        rows = min(a.loop_rows, n)
+        h = np.zeros((rows, n))
+        for y in range(rows):
+            for x in range(n):
+                h[y][x] = noise.snoise2(x / scale, y / scale, octaves=octaves, persistence=0.5, lacunarity=2.0)
+        return h
+
+    loop_s = median_time(loop, max(1, a.runs // 2)) * n / min(a.loop_rows, n)
+    # Same values (a spot check on the first rows).
+    rows = loop()
+    got = relief.compat.snoise2(xs[: len(rows)], ys[: len(rows)], octaves=octaves)
+    assert np.array_equal(got.astype(np.float64), rows), "compat.snoise2 differs from noise.snoise2"
+
+    results = {"machine": {"cpu": platform.processor() or platform.machine(), "cores": os.cpu_count(),
+                           "simd": relief.noise.simd_target()},
+               "grid": n, "octaves": octaves, "runs": a.runs, "noise_loop_s": loop_s, "cases": []}
+    out32 = np.empty((n, n), np.float32)
+    xs32, ys32 = xs.astype(np.float32), ys.astype(np.float32)
+    for th in [int(t) for t in a.threads.split(",")]:
+        relief.compat.threads = th
+        compat_s = median_time(lambda: relief.compat.snoise2(xs32, ys32, octaves=octaves, out=out32), a.runs)
+        compat64_s = median_time(lambda: relief.compat.snoise2(xs, ys, octaves=octaves, out=out32), a.runs)
+        fbm_s = median_time(lambda: relief.noise.fbm(grid=(n, n), spacing=1.0, frequency=1.0 / scale, octaves=octaves,
+                                                     basis="gradient", out=out32, threads=th), a.runs)
+        results["cases"].append({"threads": th, "compat_snoise2_s": compat_s, "compat_snoise2_float64_in_s": compat64_s,
+                                 "fbm_gradient_s": fbm_s, "compat_speedup": loop_s / compat_s, "fbm_speedup": loop_s / fbm_s})
+    relief.compat.threads = 0
+    if a.json:
+        print(json.dumps(results, indent=2))
+        return
+    print("machine: %s, %d hardware threads, SIMD target %s" % (results["machine"]["cpu"], results["machine"]["cores"],
+                                                               results["machine"]["simd"]))
+    print("%d² grid, %d octaves, medians of %d runs" % (n, octaves, a.runs))
+    print("noise.snoise2, Python loop per sample: %.3f s (%.2f M samples/s)" % (loop_s, n * n / loop_s / 1e6))
+    print("| threads | compat.snoise2 (float32 in) | (float64 in) | vs noise loop | noise.fbm gradient | vs noise loop |")
+    print("|---|---|---|---|---|---|")
+    for c in results["cases"]:
+        print("| %d | %.1f ms | %.1f ms | %.0f× | %.1f ms | %.0f× |" % (c["threads"], c["compat_snoise2_s"] * 1e3,
+                                                                    c["compat_snoise2_float64_in_s"] * 1e3, c["compat_speedup"],
+                                                                    c["fbm_gradient_s"] * 1e3, c["fbm_speedup"]))
+
+
+if __name__ == "__main__":
+    main()
