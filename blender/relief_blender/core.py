@@ -375,25 +375,41 @@ class Grid:
 
     def __init__(self, nx, nz):
         self.nx, self.nz = nx, nz
-        idx = np.arange(nx * nz, dtype=np.uint32).reshape(nz, nx)
-        a, b, c, d = idx[:-1, :-1], idx[1:, :-1], idx[1:, 1:], idx[:-1, 1:]
-        self.loops = np.ascontiguousarray(np.stack([a, b, c, d], axis=-1).reshape(-1))
-        self.faces = (nx - 1) * (nz - 1)
-        self.loop_start = np.arange(0, 4 * self.faces, 4, dtype=np.uint32)
-        self.loop_total = np.full(self.faces, 4, dtype=np.uint32)
-        nh = nz * (nx - 1)  # horizontal edges (along x), row by row
-        eh = np.stack([idx[:, :-1], idx[:, 1:]], axis=-1).reshape(-1, 2)
-        ev = np.stack([idx[:-1, :], idx[1:, :]], axis=-1).reshape(-1, 2)
-        self.edges = np.ascontiguousarray(np.concatenate([eh, ev]).reshape(-1)).astype(np.uint32)
-        jj, ii = np.meshgrid(np.arange(nz - 1, dtype=np.uint32), np.arange(nx - 1, dtype=np.uint32), indexing="ij")
-        e_ab = nh + jj * nx + ii           # (i, j)-(i, j+1)
-        e_bc = (jj + 1) * (nx - 1) + ii    # (i, j+1)-(i+1, j+1)
-        e_cd = nh + jj * nx + ii + 1       # (i+1, j+1)-(i+1, j)
-        e_da = jj * (nx - 1) + ii          # (i+1, j)-(i, j)
-        self.loop_edges = np.ascontiguousarray(np.stack([e_ab, e_bc, e_cd, e_da], axis=-1).reshape(-1)).astype(np.uint32)
-        u = (np.arange(nx, dtype=np.float64) / max(nx - 1, 1)).astype(np.float32)
-        v = (1.0 - np.arange(nz, dtype=np.float64) / max(nz - 1, 1)).astype(np.float32)
-        uv = np.empty((nz - 1, nx - 1, 4, 2), dtype=np.float32)
+        u32 = np.uint32
+        cx, cz = nx - 1, nz - 1
+        self.faces = cx * cz
+        # Quads written straight into preallocated arrays (no stacking temporaries).
+        col = np.arange(cx, dtype=u32)[None, :]
+        row = (np.arange(cz, dtype=u32) * u32(nx))[:, None]
+        a = row + col  # (i, j)
+        loops = np.empty((cz, cx, 4), dtype=u32)
+        loops[:, :, 0] = a
+        np.add(a, u32(nx), out=loops[:, :, 1])
+        np.add(a, u32(nx + 1), out=loops[:, :, 2])
+        np.add(a, u32(1), out=loops[:, :, 3])
+        self.loops = loops.reshape(-1)
+        self.loop_start = np.arange(0, 4 * self.faces, 4, dtype=u32)
+        self.loop_total = np.full(self.faces, 4, dtype=u32)
+        nh = nz * cx  # horizontal edges (along x), row by row, then vertical ones
+        edges = np.empty(2 * (nh + cz * nx), dtype=u32)
+        eh = edges[:2 * nh].reshape(nz, cx, 2)
+        eh[:, :, 0] = (np.arange(nz, dtype=u32) * u32(nx))[:, None] + col
+        np.add(eh[:, :, 0], u32(1), out=eh[:, :, 1])
+        ev = edges[2 * nh:].reshape(cz, nx, 2)
+        ev[:, :, 0] = row + np.arange(nx, dtype=u32)[None, :]
+        np.add(ev[:, :, 0], u32(nx), out=ev[:, :, 1])
+        self.edges = edges
+        le = np.empty((cz, cx, 4), dtype=u32)
+        rv = (np.arange(cz, dtype=u32) * u32(nx) + u32(nh))[:, None]
+        rh = (np.arange(cz, dtype=u32) * u32(cx))[:, None]
+        np.add(rv, col, out=le[:, :, 0])              # (i, j)-(i, j+1)
+        np.add(rh + u32(cx), col, out=le[:, :, 1])    # (i, j+1)-(i+1, j+1)
+        np.add(le[:, :, 0], u32(1), out=le[:, :, 2])  # (i+1, j+1)-(i+1, j)
+        np.add(rh, col, out=le[:, :, 3])              # (i+1, j)-(i, j)
+        self.loop_edges = le.reshape(-1)
+        u = (np.arange(nx, dtype=np.float64) / max(cx, 1)).astype(np.float32)
+        v = (1.0 - np.arange(nz, dtype=np.float64) / max(cz, 1)).astype(np.float32)
+        uv = np.empty((cz, cx, 4, 2), dtype=np.float32)
         uv[:, :, 0, 0] = uv[:, :, 1, 0] = u[None, :-1]
         uv[:, :, 2, 0] = uv[:, :, 3, 0] = u[None, 1:]
         uv[:, :, 0, 1] = uv[:, :, 3, 1] = v[:-1, None]
@@ -466,10 +482,16 @@ def albedo_rgba(t):
     if a is None:
         return None
     nz, nx = a.shape[:2]
-    q = np.clip(np.nan_to_num(a, nan=0.0).astype(np.float64), 0.0, 1.0)
-    q = np.floor(q * 255.0 + 0.5).astype(np.float32) * np.float32(1.0 / 255.0)
-    px = np.ones((nz, nx, 4), dtype=np.float32)
-    px[:, :, :3] = q[::-1]
+    # floor(v * 255 + 0.5) in double (exact for a float32 v), clamped to 0..255; fmax maps NaN to 0
+    # as the writer's unit() does.
+    x = np.multiply(a, 255.0, dtype=np.float64)
+    x += 0.5
+    np.floor(x, out=x)
+    np.fmax(x, 0.0, out=x)
+    np.minimum(x, 255.0, out=x)
+    px = np.empty((nz, nx, 4), dtype=np.float32)
+    px[:, :, 3] = 1.0
+    np.multiply(x[::-1], 1.0 / 255.0, out=px[:, :, :3], casting="same_kind")
     return px.reshape(-1)
 
 

@@ -76,10 +76,11 @@ def _link(ob, coll, role):
 
 
 # ---- terrain -----------------------------------------------------------------------------------
-def _fill_mesh(me, pos, g):
+def _fill_mesh(me, pos, g, uvs):
     """A grid mesh from core.Grid topology: every array already has the dtype foreach_set copies
     directly (float32, uint32, bool), and the edges come with the topology, so Blender computes
-    nothing but normals."""
+    nothing but normals. `uvs` adds the UV layer (the bake; a preview's material maps the texture
+    from object coordinates instead, which costs the mesh nothing)."""
     me.vertices.add(len(pos) // 3)
     me.vertices.foreach_set("co", pos)
     me.edges.add(len(g.edges) // 2)
@@ -91,8 +92,8 @@ def _fill_mesh(me, pos, g):
     me.polygons.foreach_set("loop_start", g.loop_start)
     me.polygons.foreach_set("loop_total", g.loop_total)
     me.polygons.foreach_set("use_smooth", g.smooth)
-    uv = me.uv_layers.new(name="UVMap")
-    uv.data.foreach_set("uv", g.loop_uvs)
+    if uvs:
+        me.uv_layers.new(name="UVMap").data.foreach_set("uv", g.loop_uvs)
     me.update()
 
 
@@ -109,7 +110,7 @@ def _chunk_uvs(g, window, nx, nz):
     return np.ascontiguousarray(sub.reshape(-1), dtype=np.float32)
 
 
-def build_terrain(scene, coll, t, chunk_cells, material):
+def build_terrain(scene, coll, t, chunk_cells, material, uvs=True):
     f = t.frame
     nx, nz = f["nx"], f["nz"]
     windows = core.chunks(nx, nz, chunk_cells)
@@ -125,16 +126,18 @@ def build_terrain(scene, coll, t, chunk_cells, material):
     obs = []
     for name, w in zip(names, windows):
         pos = core.positions(t, w)
+        g = core.grid(w[1] - w[0] + 1, w[3] - w[2] + 1)
         if reuse:
             ob = old[name]
             ob.data.vertices.foreach_set("co", pos)
+            if uvs and len(ob.data.uv_layers) == 0:
+                ob.data.uv_layers.new(name="UVMap").data.foreach_set("uv", _chunk_uvs(g, w, nx, nz))
             ob.data.update()
         else:
-            g = core.grid(w[1] - w[0] + 1, w[3] - w[2] + 1)
             me = bpy.data.meshes.new(name)
-            _fill_mesh(me, pos, g)
-            if len(windows) > 1:
-                me.uv_layers[0].data.foreach_set("uv", _chunk_uvs(g, w, nx, nz))
+            _fill_mesh(me, pos, g, uvs and len(windows) == 1)
+            if uvs and len(windows) > 1:
+                me.uv_layers.new(name="UVMap").data.foreach_set("uv", _chunk_uvs(g, w, nx, nz))
             ob = _link(bpy.data.objects.new(name, me), coll, "terrain")
             ob["relief_window"] = list(w)
         if material is not None:
@@ -177,12 +180,14 @@ def _image_from_png(name, data, non_color=False):
     return img
 
 
-def terrain_material(t, maps, packed=False):
+def terrain_material(t, maps, packed=False, uvs=True):
     """The material "Relief Terrain": Principled BSDF with the albedo image as base colour; with
     maps, the normal map and splat weight images (from the library's writers) as image nodes
     beside it. The albedo image is filled from the layer (preview: fastest), or with `packed` is
     the library's albedo.png itself, packed into the .blend (bake: the file's bytes, saved with
-    the scene). Returns (material, albedo image or None)."""
+    the scene). With `uvs` the image is mapped through the mesh's UVs, otherwise from object
+    coordinates by a Mapping node (u = (X - x0)/width, v = 1 + (Y + z0)/depth: the same texture
+    placement as the UVs). Returns (material, albedo image or None)."""
     mat = bpy.data.materials.get(TERRAIN_MAT)
     if mat is None:
         mat = bpy.data.materials.new(TERRAIN_MAT)
@@ -199,6 +204,19 @@ def terrain_material(t, maps, packed=False):
         tex.location = (-400, 300)
         nt.links.new(tex.outputs["Color"], bsdf.inputs["Base Color"])
     f = t.frame
+    tc = nt.nodes.get("Relief texcoord") or nt.nodes.new("ShaderNodeTexCoord")
+    tc.name, tc.location = "Relief texcoord", (-900, 300)
+    mp = nt.nodes.get("Relief placement") or nt.nodes.new("ShaderNodeMapping")
+    mp.name, mp.location, mp.vector_type = "Relief placement", (-650, 300), "POINT"
+    if uvs:
+        mp.inputs["Location"].default_value = (0.0, 0.0, 0.0)
+        mp.inputs["Scale"].default_value = (1.0, 1.0, 1.0)
+    else:
+        x0, z0 = f["ix0"] * f["cell_m"], f["iz0"] * f["cell_m"]
+        mp.inputs["Location"].default_value = (-x0 / f["width_m"], 1.0 + z0 / f["depth_m"], 0.0)
+        mp.inputs["Scale"].default_value = (1.0 / f["width_m"], 1.0 / f["depth_m"], 1.0)
+    nt.links.new(tc.outputs["UV" if uvs else "Object"], mp.inputs["Vector"])
+    nt.links.new(mp.outputs["Vector"], tex.inputs["Vector"])
     img = None
     if core.colour_layer(t) is not None:
         if packed:
@@ -437,16 +455,17 @@ def clear(keep_terrain=False):
 
 def build(scene, t, chunk_cells=1024, maps=False, props=True, pack=False):
     """Builds (or replaces) the scene's Relief collection from terrain t: `maps` adds the splat
-    and normal map images, `pack` makes the albedo image albedo.png packed into the .blend (the
-    bake), otherwise pixels filled from the layer (the preview). Returns timings (s)."""
+    and normal map images; `pack` is the bake: the albedo image is albedo.png packed into the
+    .blend and the mesh gets UVs; otherwise (the preview) pixels are filled from the layer and the
+    texture is mapped from object coordinates. Returns timings (s)."""
     tm = {}
     t0 = time.perf_counter()
     root = root_collection(scene)
     clear(keep_terrain=True)
-    mat, img = terrain_material(t, maps, packed=pack)
+    mat, img = terrain_material(t, maps, packed=pack, uvs=pack)
     tm["material"] = time.perf_counter() - t0
     t1 = time.perf_counter()
-    build_terrain(scene, root, t, chunk_cells, mat)
+    build_terrain(scene, root, t, chunk_cells, mat, uvs=pack)
     tm["terrain"] = time.perf_counter() - t1
     t1 = time.perf_counter()
     build_sea(root, t)

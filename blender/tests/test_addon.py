@@ -119,6 +119,39 @@ def check_albedo(tag, out):
     bpy.data.images.remove(ref)
 
 
+def expected_uv(n, vidx):
+    i, j = vidx % n, vidx // n
+    return np.stack([i / (n - 1), 1.0 - j / (n - 1)], axis=-1)
+
+
+def check_texture_placement(tag, ob, n, cell=None):
+    """Where the albedo lands: through the mesh's UVs (bake), or the Mapping node from object
+    coordinates (preview); either way sample (i, j) reads texture (i/(n-1), 1 - j/(n-1)), as the
+    OBJ writer's UVs."""
+    if ob is None:
+        return
+    nt = bpy.data.materials["Relief Terrain"].node_tree
+    mp = nt.nodes.get("Relief placement")
+    src = [l.from_socket.name for l in nt.links if l.to_node == mp]
+    vidx = np.arange(n * n)
+    if ob.data.uv_layers:
+        check(src == ["UV"], "%s: the texture is mapped through the UVs" % tag)
+        lv = np.empty(len(ob.data.loops), dtype=np.int32)
+        ob.data.loops.foreach_get("vertex_index", lv)
+        uv = np.empty(len(ob.data.loops) * 2, dtype=np.float32)
+        ob.data.uv_layers[0].data.foreach_get("uv", uv)
+        err = np.abs(uv.reshape(-1, 2) - expected_uv(n, lv)).max()
+        check(err < 1e-6, "%s: UVs are the OBJ writer's (max error %.3g)" % (tag, err))
+    else:
+        check(src == ["Object"], "%s: the preview maps the texture from object coordinates (%s)" % (tag, src))
+        loc, sc = np.array(mp.inputs["Location"].default_value), np.array(mp.inputs["Scale"].default_value)
+        i, j = vidx % n, vidx // n
+        xy = np.stack([i * cell, -j * cell], axis=-1)
+        uv = xy * sc[:2] + loc[:2]
+        err = np.abs(uv - expected_uv(n, vidx)).max()
+        check(err < 1e-5, "%s: the object-space mapping places sample (i, j) at the OBJ writer's UV (max error %.3g)" % (tag, err))
+
+
 def instances():
     """[(type, matrix_world)] of the prop instances the depsgraph produces."""
     dg = bpy.context.evaluated_depsgraph_get()
@@ -212,8 +245,11 @@ def run_case(preset, size):
         check(len(me.polygons) == (size - 1) ** 2, "%s: %d faces (expected %d)" % (tag, len(me.polygons), (size - 1) ** 2))
         check(obs[0].name in bpy.data.collections["Relief"].objects, "%s: the terrain is in collection Relief" % tag)
         hj = check_heights(tag, obs[0], out, size)
+    else:
+        hj = None
         check_sea(tag, hj)
     check_albedo(tag, out)
+    check_texture_placement(tag, obs[0] if obs else None, size, hj["metres_per_pixel"] if obs else None)
     check_props(tag, out)
     check_water(tag, out)
     print("%s: CLI %.2f s, add-on %.2f s (%s)" % (tag, t1 - t0, t2 - t1, s.status), flush=True)
@@ -296,6 +332,7 @@ out = cli(os.path.join(WORK, "volcanic-island-257"), "--preset", "volcanic-islan
 check_albedo("bake 257² (packed PNG)", out)
 check_props("bake 257²", out)
 check_heights("bake 257²", terrain_objects()[0], out, 257)
+check_texture_placement("bake 257²", terrain_objects()[0], 257)
 img = bpy.data.materials["Relief Terrain"].node_tree.nodes["Albedo"].image
 check(img.packed_file is not None, "the baked albedo image is packed into the .blend")
 maps = [n.image.name for n in bpy.data.materials["Relief Terrain"].node_tree.nodes if n.name.startswith("Relief map")]
