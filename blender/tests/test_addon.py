@@ -245,11 +245,9 @@ def run_case(preset, size):
         check(len(me.polygons) == (size - 1) ** 2, "%s: %d faces (expected %d)" % (tag, len(me.polygons), (size - 1) ** 2))
         check(obs[0].name in bpy.data.collections["Relief"].objects, "%s: the terrain is in collection Relief" % tag)
         hj = check_heights(tag, obs[0], out, size)
-    else:
-        hj = None
         check_sea(tag, hj)
+        check_texture_placement(tag, obs[0], size, hj["metres_per_pixel"])
     check_albedo(tag, out)
-    check_texture_placement(tag, obs[0] if obs else None, size, hj["metres_per_pixel"] if obs else None)
     check_props(tag, out)
     check_water(tag, out)
     print("%s: CLI %.2f s, add-on %.2f s (%s)" % (tag, t1 - t0, t2 - t1, s.status), flush=True)
