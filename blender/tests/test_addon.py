@@ -272,6 +272,56 @@ check(not missing, "every parameter of relief.explain() has a widget with its he
 check([it.kind for it in s.stages] == [x["stage"] for x in core.relief.preset("island")["stages"]],
       "the island preset's stages are listed")
 
+# ---- the panels draw (a recording layout: background Blender has no UI to draw into) ----------
+class Layout:
+    """Stands in for bpy.types.UILayout: checks that every prop() names a property of its data
+    and every operator() a registered operator, and counts them."""
+    props, ops, labels = [], [], []
+
+    def __getattr__(self, name):  # row(), column(), box(), split(), …
+        if name in ("use_property_split", "use_property_decorate", "enabled", "active", "alignment"):
+            raise AttributeError(name)
+        return lambda *a, **k: Layout()
+
+    def prop(self, data, name, **kw):
+        ok = name in data.bl_rna.properties
+        check(ok, "panel draws an existing property %s.%s" % (type(data).__name__, name))
+        Layout.props.append(name)
+
+    def operator(self, idname, **kw):
+        cat, op = idname.split(".")
+        check(hasattr(getattr(bpy.ops, cat), op) and getattr(getattr(bpy.ops, cat), op).poll is not None,
+              "panel draws a registered operator %s" % idname)
+        Layout.ops.append(idname)
+        return type("OpProps", (), {})()
+
+    def label(self, text="", **kw):
+        Layout.labels.append(text)
+
+
+class Panel:
+    layout = Layout()
+
+
+from relief_blender import ui  # noqa: E402
+s.preset = "volcanic-island"
+for cls in ui.classes:
+    if hasattr(cls, "poll") and not cls.poll(bpy.context):
+        continue
+    for fn in ("draw_header", "draw_header_preset", "draw"):
+        if hasattr(cls, fn):
+            getattr(cls, fn)(Panel(), bpy.context)
+nparams = sum(len(core.stage_specs(x["stage"])) for x in core.relief.preset("volcanic-island")["stages"])
+check(len([p for p in Layout.props if p.startswith("v_")]) == nparams + len(core.world_specs()),
+      "the panels draw every parameter of the recipe's stages and the world (%d of %d)" % (
+          len([p for p in Layout.props if p.startswith("v_")]), nparams + len(core.world_specs())))
+check(any(l.startswith("3. biomes") for l in Layout.labels), "stage sub-panels are titled by index and stage")
+for op in ("relief.preview", "relief.bake", "relief.random_seed", "relief.save_recipe", "relief.load_recipe"):
+    check(op in Layout.ops, "the panel has %s" % op)
+seed0 = s.seed
+bpy.ops.relief.random_seed()
+check(s.seed != seed0 or bpy.ops.relief.random_seed() and s.seed != seed0, "the random seed button changes the seed")
+
 # ---- the four cases of the issue -----------------------------------------------------------
 for preset in ("island", "volcanic-island"):
     for size in (129, 513):
