@@ -407,6 +407,16 @@ class Grid:
         np.add(le[:, :, 0], u32(1), out=le[:, :, 2])  # (i+1, j+1)-(i+1, j)
         np.add(rh, col, out=le[:, :, 3])              # (i+1, j)-(i, j)
         self.loop_edges = le.reshape(-1)
+        self.smooth = np.ones(self.faces, dtype=bool)
+        self._uvs = None
+
+    @property
+    def loop_uvs(self):
+        """Per-loop UVs, float32 (made on first use: a preview does not need them)."""
+        if self._uvs is not None:
+            return self._uvs
+        nx, nz = self.nx, self.nz
+        cx, cz = nx - 1, nz - 1
         u = (np.arange(nx, dtype=np.float64) / max(cx, 1)).astype(np.float32)
         v = (1.0 - np.arange(nz, dtype=np.float64) / max(cz, 1)).astype(np.float32)
         uv = np.empty((cz, cx, 4, 2), dtype=np.float32)
@@ -414,8 +424,8 @@ class Grid:
         uv[:, :, 2, 0] = uv[:, :, 3, 0] = u[None, 1:]
         uv[:, :, 0, 1] = uv[:, :, 3, 1] = v[:-1, None]
         uv[:, :, 1, 1] = uv[:, :, 2, 1] = v[1:, None]
-        self.loop_uvs = uv.reshape(-1)
-        self.smooth = np.ones(self.faces, dtype=bool)
+        self._uvs = uv.reshape(-1)
+        return self._uvs
 
 
 _grids = {}
