@@ -9,7 +9,8 @@ Measured in the same run, over an N² grid at the given octaves:
     sample does not depend on the grid size);
   * relief.compat.snoise2 on the grid's coordinate arrays (the same values, bit for bit);
   * relief.noise.fbm(grid=…) with the gradient basis (the library's fast noise, not the same values).
-Times are medians of --runs runs (wall time), per thread count. Prints a table and, with --json,
+Times are medians of --runs runs (wall time, and process CPU time: the work, whatever else the
+machine runs; with 2 threads CPU time adds both), per thread count. Prints a table and, with --json,
 the figures as JSON.
 """
 import argparse
@@ -35,12 +36,18 @@ except ImportError:
 import noise
 
 
-def median_time(fn, runs):
-    times = []
+CPU = {}  # fn name -> median process CPU time of the last median_time call (the work, whatever the load)
+
+
+def median_time(fn, runs, key=None):
+    times, cpu = [], []
     for _ in range(runs):
-        t0 = time.perf_counter()
+        c0, t0 = time.process_time(), time.perf_counter()
         fn()
         times.append(time.perf_counter() - t0)
+        cpu.append(time.process_time() - c0)
+    if key:
+        CPU[key] = statistics.median(cpu)
     return statistics.median(times)
 
 
@@ -65,7 +72,8 @@ def main():
                 h[y][x] = noise.snoise2(x / scale, y / scale, octaves=octaves, persistence=0.5, lacunarity=2.0)
         return h
 
-    loop_s = median_time(loop, max(1, a.runs // 2)) * n / min(a.loop_rows, n)
+    loop_s = median_time(loop, max(1, a.runs // 2), "loop") * n / min(a.loop_rows, n)
+    loop_cpu = CPU["loop"] * n / min(a.loop_rows, n)
     # Same values (a spot check on the first rows).
     rows = loop()
     got = relief.compat.snoise2(xs[: len(rows)], ys[: len(rows)], octaves=octaves)
@@ -73,17 +81,20 @@ def main():
 
     results = {"machine": {"cpu": platform.processor() or platform.machine(), "cores": os.cpu_count(),
                            "simd": relief.noise.simd_target()},
-               "grid": n, "octaves": octaves, "runs": a.runs, "noise_loop_s": loop_s, "cases": []}
+               "grid": n, "octaves": octaves, "runs": a.runs, "noise_loop_s": loop_s, "noise_loop_cpu_s": loop_cpu,
+               "load_average": os.getloadavg(), "cases": []}
     out32 = np.empty((n, n), np.float32)
     xs32, ys32 = xs.astype(np.float32), ys.astype(np.float32)
     for th in [int(t) for t in a.threads.split(",")]:
         relief.compat.threads = th
-        compat_s = median_time(lambda: relief.compat.snoise2(xs32, ys32, octaves=octaves, out=out32), a.runs)
+        compat_s = median_time(lambda: relief.compat.snoise2(xs32, ys32, octaves=octaves, out=out32), a.runs, "compat")
         compat64_s = median_time(lambda: relief.compat.snoise2(xs, ys, octaves=octaves, out=out32), a.runs)
         fbm_s = median_time(lambda: relief.noise.fbm(grid=(n, n), spacing=1.0, frequency=1.0 / scale, octaves=octaves,
-                                                     basis="gradient", out=out32, threads=th), a.runs)
+                                                     basis="gradient", out=out32, threads=th), a.runs, "fbm")
         results["cases"].append({"threads": th, "compat_snoise2_s": compat_s, "compat_snoise2_float64_in_s": compat64_s,
-                                 "fbm_gradient_s": fbm_s, "compat_speedup": loop_s / compat_s, "fbm_speedup": loop_s / fbm_s})
+                                 "fbm_gradient_s": fbm_s, "compat_speedup": loop_s / compat_s, "fbm_speedup": loop_s / fbm_s,
+                                 "compat_cpu_s": CPU["compat"], "fbm_cpu_s": CPU["fbm"],
+                                 "compat_cpu_speedup": loop_cpu / CPU["compat"], "fbm_cpu_speedup": loop_cpu / CPU["fbm"]})
     relief.compat.threads = 0
     if a.json:
         print(json.dumps(results, indent=2))
@@ -91,13 +102,14 @@ def main():
     print("machine: %s, %d hardware threads, SIMD target %s" % (results["machine"]["cpu"], results["machine"]["cores"],
                                                                results["machine"]["simd"]))
     print("%d² grid, %d octaves, medians of %d runs" % (n, octaves, a.runs))
-    print("noise.snoise2, Python loop per sample: %.3f s (%.2f M samples/s)" % (loop_s, n * n / loop_s / 1e6))
-    print("| threads | compat.snoise2 (float32 in) | (float64 in) | vs noise loop | noise.fbm gradient | vs noise loop |")
+    print("load average %.1f %.1f %.1f" % results["load_average"])
+    print("noise.snoise2, Python loop per sample: %.3f s wall, %.3f s CPU (%.2f M samples/s)" % (loop_s, loop_cpu, n * n / loop_s / 1e6))
+    print("| threads | compat.snoise2 (float32 in) | (float64 in) | vs noise loop (wall / CPU) | noise.fbm gradient | vs noise loop (wall / CPU) |")
     print("|---|---|---|---|---|---|")
     for c in results["cases"]:
-        print("| %d | %.1f ms | %.1f ms | %.0f× | %.1f ms | %.0f× |" % (c["threads"], c["compat_snoise2_s"] * 1e3,
-                                                                    c["compat_snoise2_float64_in_s"] * 1e3, c["compat_speedup"],
-                                                                    c["fbm_gradient_s"] * 1e3, c["fbm_speedup"]))
+        print("| %d | %.1f ms | %.1f ms | %.0f× / %.0f× | %.1f ms | %.0f× / %.0f× |" % (
+            c["threads"], c["compat_snoise2_s"] * 1e3, c["compat_snoise2_float64_in_s"] * 1e3, c["compat_speedup"],
+            c["compat_cpu_speedup"], c["fbm_gradient_s"] * 1e3, c["fbm_speedup"], c["fbm_cpu_speedup"]))
 
 
 if __name__ == "__main__":

@@ -175,6 +175,25 @@ void init_noise(py::module_& m) {
       relief::classic::snoise2(xp + a, yp + a, b - a, f, repeatx, repeaty, base, o + a);
     });
   });
+  // float64 coordinates (numpy's default), rounded to float per chunk as the package rounds its
+  // arguments: no full-size float32 copies.
+  m.def("snoise2_array64", [](F64 x, F64 y, int octaves, float persistence, float lacunarity, float repeatx, float repeaty, float base,
+                              F32 out, int threads) {
+    const double *xp = x.data(), *yp = y.data();
+    float* o = out.mutable_data();
+    const auto f = fractal(octaves, persistence, lacunarity);
+    parallel_chunks(std::size_t(out.size()), kGrain, threads, [&](std::size_t a, std::size_t b) {
+      float xs[1024], ys[1024];
+      for (std::size_t k0 = a; k0 < b; k0 += 1024) {
+        const std::size_t m = std::min<std::size_t>(1024, b - k0);
+        for (std::size_t k = 0; k < m; ++k) {
+          xs[k] = float(xp[k0 + k]);
+          ys[k] = float(yp[k0 + k]);
+        }
+        relief::classic::snoise2(xs, ys, m, f, repeatx, repeaty, base, o + k0);
+      }
+    });
+  });
   m.def("snoise3_array", [](F32 x, F32 y, F32 z, int octaves, float persistence, float lacunarity, F32 out, int threads) {
     const float *xp = x.data(), *yp = y.data(), *zp = z.data();
     float* o = out.mutable_data();

@@ -15,8 +15,10 @@
 #include "relief/noise_classic.hpp"
 
 #include <array>
+#include <bit>
 #include <cmath>
 #include <cstdint>
+#include <vector>
 
 #include "relief/noise.hpp"
 
@@ -31,11 +33,13 @@ struct Tables {
   std::array<std::int32_t, 256> p{};  // Perlin's permutation; index & 255 everywhere
   // Simplex: gradient components of the lattice hash h (0..511): kGrad3[P[h] % 12].
   std::array<float, 512> sg0{}, sg1{}, sg2{};
-  // Improved noise: grad2/grad3 of hash h use kGrad3[h & 15].
-  // 4D simplex: for each of the 64 orderings, the rank (0..3) of each coordinate.
-  std::array<std::array<std::int32_t, 4>, 64> rank{};
-  // 4D gradients (Gustavson): all (0, ±1, ±1, ±1) permutations, 32 of them.
-  std::array<std::array<float, 4>, 32> grad4{};
+  // 2D simplex: the first two components of kGrad3[P[h] % 12] packed in 4 bits as
+  // (gx + 1) | (gy + 1) << 2; and for each lattice cell (I, J) the codes of its four corners
+  // gc[I + P[J]], gc[I+1 + P[J]], gc[I + P[J+1]], gc[I+1 + P[J+1]] (indices & 255) in one int,
+  // g4[J·256 + I] (256 KB): the three corners a sample needs come from one lookup instead of nine
+  // dependent ones (one gather per octave in the vectorised loops).
+  std::array<std::int32_t, 512> gc{};
+  std::vector<std::int32_t> g4;
 };
 
 Tables make_tables() {
@@ -47,30 +51,13 @@ Tables make_tables() {
     t.sg0[h] = kGrad3[g][0];
     t.sg1[h] = kGrad3[g][1];
     t.sg2[h] = kGrad3[g][2];
+    t.gc[h] = (int(kGrad3[g][0]) + 1) | ((int(kGrad3[g][1]) + 1) << 2);
   }
-  // Rank of each coordinate for the ordering code c = (x>y)·32 + (x>z)·16 + (y>z)·8 + (x>w)·4 +
-  // (y>w)·2 + (z>w): the number of other coordinates it exceeds. Codes that no ordering produces
-  // (contradictory comparisons) get all zeros, as in Gustavson's table.
-  for (int c = 0; c < 64; ++c) {
-    const bool xy = c & 32, xz = c & 16, yz = c & 8, xw = c & 4, yw = c & 2, zw = c & 1;
-    const int rx = xy + xz + xw, ry = !xy + yz + yw, rz = !xz + !yz + zw, rw = !xw + !yw + !zw;
-    // A consistent ordering has ranks that are a permutation of 0..3.
-    const int seen = (1 << rx) | (1 << ry) | (1 << rz) | (1 << rw);
-    if (seen == 15) t.rank[c] = {rx, ry, rz, rw};
-    else t.rank[c] = {0, 0, 0, 0};
-  }
-  int k = 0;
-  for (int zero = 0; zero < 4; ++zero)
-    for (int s = 0; s < 8; ++s) {
-      std::array<float, 4> g{};
-      int bit = 2;
-      for (int a = 0; a < 4; ++a) {
-        if (a == zero) continue;
-        g[a] = (s >> bit) & 1 ? -1.0f : 1.0f;
-        --bit;
-      }
-      t.grad4[k++] = g;
-    }
+  t.g4.resize(256 * 256);
+  auto code = [&](int i, int j) { return t.gc[(i & 255) + t.p[j & 255]]; };
+  for (int j = 0; j < 256; ++j)
+    for (int i = 0; i < 256; ++i)
+      t.g4[std::size_t(j) * 256 + i] = code(i, j) | code(i + 1, j) << 4 | code(i, j + 1) << 8 | code(i + 1, j + 1) << 12;
   return t;
 }
 
@@ -93,14 +80,21 @@ inline float fast_cos(float x) { return fast_sin(x + 0.5f); }
 // anyway): truncation and a correction, which the vectoriser handles (it does not vectorise
 // std::floor without -fno-trapping-math). Equal to std::floor in that range.
 inline float lattice_floor(float v) {
-  const float t = float(int(v));
-  return t > v ? t - 1.0f : t;
+  // Integer arithmetic for the correction: a float subtraction under a condition would be kept
+  // from vectorising without AVX-512 masks (-ftrapping-math).
+  const int t = int(v);
+  return float(t - (float(t) > v));
 }
+
+// max(v, 0) with +0 for v ≤ 0, by masking the bits: no branch or select that the compiler could
+// turn back into a branch around the arithmetic that follows (which -ftrapping-math then keeps from
+// vectorising on AVX2, where there are no masked operations).
+inline float positive_part(float v) { return std::bit_cast<float>(std::bit_cast<std::int32_t>(v) & -std::int32_t(v > 0.0f)); }
 
 constexpr float F2 = 0.3660254037844386f;   // (√3 − 1) / 2
 constexpr float G2 = 0.21132486540518713f;  // (3 − √3) / 6
 
-inline float simplex2_t(const Tables& T, float x, float y) {
+__attribute__((always_inline)) inline float simplex2_t(const Tables& T, float x, float y) {
   const float s = (x + y) * F2;
   const float i = lattice_floor(x + s);
   const float j = lattice_floor(y + s);
@@ -115,26 +109,31 @@ inline float simplex2_t(const Tables& T, float x, float y) {
   const float y1 = y0 - float(j1) + G2;
   const int I = int(i) & 255;
   const int J = int(j) & 255;
-  const int h0 = I + T.p[J];
-  const int h1 = I + i1 + T.p[(J + j1) & 255];
-  const int h2 = I + 1 + T.p[(J + 1) & 255];
+  // Gradient of corner (I + a, J + b): kGrad3[PERM[I + a + PERM[J + b]] % 12], packed (Tables::g4).
+  const int cell = T.g4.data()[J * 256 + I];
+  const int c0 = cell & 15;
+  const int c1 = (cell >> (8 - 4 * i1)) & 15;  // (I+1, J) when i1, else (I, J+1)
+  const int c2 = (cell >> 12) & 15;
   const float f0 = 0.5f - x0 * x0 - y0 * y0;
   const float f1 = 0.5f - x1 * x1 - y1 * y1;
   const float f2 = 0.5f - x2 * x2 - y2 * y2;
-  // Loads and products unconditionally, then a select: branch-free, so it vectorises.
-  const float d0 = T.sg0[h0] * x0 + T.sg1[h0] * y0;
-  const float d1 = T.sg0[h1] * x1 + T.sg1[h1] * y1;
-  const float d2 = T.sg0[h2] * x2 + T.sg1[h2] * y2;
-  const float n0 = f0 > 0 ? f0 * f0 * f0 * f0 * d0 : 0.0f;
-  const float n1 = f1 > 0 ? f1 * f1 * f1 * f1 * d1 : 0.0f;
-  const float n2 = f2 > 0 ? f2 * f2 * f2 * f2 * d2 : 0.0f;
+  const float d0 = float((c0 & 3) - 1) * x0 + float(((c0 >> 2) & 3) - 1) * y0;
+  const float d1 = float((c1 & 3) - 1) * x1 + float(((c1 >> 2) & 3) - 1) * y1;
+  const float d2 = float((c2 & 3) - 1) * x2 + float(((c2 >> 2) & 3) - 1) * y2;
+  // No branch (the package skips a corner with f ≤ 0; here its kernel is 0): everything is computed
+  // for every lane, so the loops vectorise. The one difference: where the package adds +0 for a
+  // skipped corner we add 0·d (±0), so an exactly zero result may differ in its sign.
+  const float e0 = positive_part(f0), e1 = positive_part(f1), e2 = positive_part(f2);
+  const float n0 = e0 * e0 * e0 * e0 * d0;
+  const float n1 = e1 * e1 * e1 * e1 * d1;
+  const float n2 = e2 * e2 * e2 * e2 * d2;
   return (n0 + n1 + n2) * 70.0f;
 }
 
 constexpr float F3 = 1.0f / 3.0f;
 constexpr float G3 = 1.0f / 6.0f;
 
-inline float simplex3_t(const Tables& T, float x, float y, float z) {
+__attribute__((always_inline)) inline float simplex3_t(const Tables& T, float x, float y, float z) {
   const float s = (x + y + z) * F3;
   const float i = lattice_floor(x + s);
   const float j = lattice_floor(y + s);
@@ -169,26 +168,31 @@ inline float simplex3_t(const Tables& T, float x, float y, float z) {
   const float d1 = x1 * T.sg0[h1] + y1 * T.sg1[h1] + z1 * T.sg2[h1];
   const float d2 = x2 * T.sg0[h2] + y2 * T.sg1[h2] + z2 * T.sg2[h2];
   const float d3 = x3 * T.sg0[h3] + y3 * T.sg1[h3] + z3 * T.sg2[h3];
-  const float n0 = f0 > 0 ? f0 * f0 * f0 * f0 * d0 : 0.0f;
-  const float n1 = f1 > 0 ? f1 * f1 * f1 * f1 * d1 : 0.0f;
-  const float n2 = f2 > 0 ? f2 * f2 * f2 * f2 * d2 : 0.0f;
-  const float n3 = f3 > 0 ? f3 * f3 * f3 * f3 * d3 : 0.0f;
+  // Branch-free as in simplex2_t (only an exact zero's sign can differ from the package).
+  const float e0 = positive_part(f0), e1 = positive_part(f1), e2 = positive_part(f2), e3 = positive_part(f3);
+  const float n0 = e0 * e0 * e0 * e0 * d0;
+  const float n1 = e1 * e1 * e1 * e1 * d1;
+  const float n2 = e2 * e2 * e2 * e2 * d2;
+  const float n3 = e3 * e3 * e3 * e3 * d3;
   return (n0 + n1 + n2 + n3) * 32.0f;
 }
 
 constexpr float F4 = 0.30901699437494745f;  // (√5 − 1) / 4
 constexpr float G4 = 0.1381966011250105f;   // (5 − √5) / 20
 
-inline float simplex4_t(const Tables& T, float x, float y, float z, float w) {
+__attribute__((always_inline)) inline float simplex4_t(const Tables& T, float x, float y, float z, float w) {
   const float s = (x + y + z + w) * F4;
   const float i = lattice_floor(x + s), j = lattice_floor(y + s), k = lattice_floor(z + s), l = lattice_floor(w + s);
   const float t = (i + j + k + l) * G4;
   const float x0 = x - (i - t), y0 = y - (j - t), z0 = z - (k - t), w0 = w - (l - t);
-  const int c = (x0 > y0) * 32 + (x0 > z0) * 16 + (y0 > z0) * 8 + (x0 > w0) * 4 + (y0 > w0) * 2 + (z0 > w0);
-  const auto& r = T.rank[c];
-  const int i1 = r[0] >= 3, j1 = r[1] >= 3, k1 = r[2] >= 3, l1 = r[3] >= 3;
-  const int i2 = r[0] >= 2, j2 = r[1] >= 2, k2 = r[2] >= 2, l2 = r[3] >= 2;
-  const int i3 = r[0] >= 1, j3 = r[1] >= 1, k3 = r[2] >= 1, l3 = r[3] >= 1;
+  // Rank of each coordinate among the four (how many of the others it exceeds): Gustavson's
+  // SIMPLEX[c] table for the comparison code c, computed instead of looked up (every code that
+  // comparisons of real numbers can produce is a consistent order, so the two agree).
+  const int xy = x0 > y0, xz = x0 > z0, yz = y0 > z0, xw = x0 > w0, yw = y0 > w0, zw = z0 > w0;
+  const int r0 = xy + xz + xw, r1 = !xy + yz + yw, r2 = !xz + !yz + zw, r3 = !xw + !yw + !zw;
+  const int i1 = r0 >= 3, j1 = r1 >= 3, k1 = r2 >= 3, l1 = r3 >= 3;
+  const int i2 = r0 >= 2, j2 = r1 >= 2, k2 = r2 >= 2, l2 = r3 >= 2;
+  const int i3 = r0 >= 1, j3 = r1 >= 1, k3 = r2 >= 1, l3 = r3 >= 1;
   const float x1 = x0 - float(i1) + G4, y1 = y0 - float(j1) + G4, z1 = z0 - float(k1) + G4, w1 = w0 - float(l1) + G4;
   const float x2 = x0 - float(i2) + 2.0f * G4, y2 = y0 - float(j2) + 2.0f * G4, z2 = z0 - float(k2) + 2.0f * G4,
               w2 = w0 - float(l2) + 2.0f * G4;
@@ -201,13 +205,19 @@ inline float simplex4_t(const Tables& T, float x, float y, float z, float w) {
   };
   const int g0 = hash(0, 0, 0, 0), g1 = hash(i1, j1, k1, l1), g2 = hash(i2, j2, k2, l2), g3 = hash(i3, j3, k3, l3),
             g4 = hash(1, 1, 1, 1);
+  // Gradient g (0..31) of Gustavson's 4D set: zero at coordinate g >> 3, the other three ±1 with
+  // the signs in the bits of g & 7 (first non-zero coordinate in bit 2), computed, not looked up.
+  // Branch-free like simplex2_t (a corner out of reach adds 0·dot, so only an exact zero's sign
+  // can differ from the package).
   auto term = [&](float tt, int g, float a, float b, float cc, float d) {
-    if (tt >= 0.0f) {
-      tt *= tt;
-      const auto& G = T.grad4[g];
-      return tt * tt * (G[0] * a + G[1] * b + G[2] * cc + G[3] * d);
-    }
-    return 0.0f;
+    const int zero = g >> 3, sg = g & 7;
+    auto comp = [&](int axis) {
+      const int r = axis - (axis > zero);
+      return float((axis != zero) * (1 - 2 * ((sg >> (2 - r)) & 1)));
+    };
+    float e = positive_part(tt);  // the package keeps tt = 0 too: the same zero
+    e *= e;
+    return e * e * (comp(0) * a + comp(1) * b + comp(2) * cc + comp(3) * d);
   };
   const float n0 = term(0.6f - x0 * x0 - y0 * y0 - z0 * z0 - w0 * w0, g0, x0, y0, z0, w0);
   const float n1 = term(0.6f - x1 * x1 - y1 * y1 - z1 * z1 - w1 * w1, g1, x1, y1, z1, w1);
@@ -417,13 +427,62 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) vo
   for (std::size_t k = 0; k < n; ++k) out[k] = acc[k];
 }
 
+// Tiled snoise2 (both repeats: 4D noise on the torus; one: 3D, see snoise2_tiled): the mapping onto
+// circles per point, then the octave loop over the block.
+__attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void snoise2_torus_block(
+    const Tables& T, const float* __restrict x, const float* __restrict y, std::size_t n, int octaves, float persistence,
+    float lacunarity, float repeatx, float repeaty, float base, float* __restrict out) {
+  float X[kBlock], Y[kBlock], Z[kBlock], W[kBlock], acc[kBlock];
+  const float yr = float(double(repeaty) * 0.31830988618379067154 * 0.5);
+  const float xr = float(double(repeatx) * 0.31830988618379067154 * 0.5);
+  for (std::size_t k = 0; k < n; ++k) {
+    const float yf = float(double(y[k]) * 2.0 / double(repeaty));
+    const float xf = float(double(x[k]) * 2.0 / double(repeatx));
+    Y[k] = fast_sin(yf) * yr;
+    W[k] = base + fast_cos(yf) * yr;
+    X[k] = fast_sin(xf) * xr;
+    Z[k] = base + fast_cos(xf) * xr;
+  }
+  for (std::size_t k = 0; k < n; ++k) acc[k] = simplex4_t(T, X[k], Y[k], Z[k], W[k]);
+  float freq = 1.0f, amp = 1.0f, max = 1.0f;
+  for (int i = 1; i < octaves; ++i) {
+    freq *= lacunarity;
+    amp *= persistence;
+    max += amp;
+    for (std::size_t k = 0; k < n; ++k) acc[k] += simplex4_t(T, X[k] * freq, Y[k] * freq, Z[k] * freq, W[k] * freq) * amp;
+  }
+  for (std::size_t k = 0; k < n; ++k) out[k] = acc[k] / max;
+}
+
 }  // namespace
 
 void snoise2(const float* x, const float* y, std::size_t n, const ClassicFractal& f, float repeatx, float repeaty, float base, float* out) {
   const Tables& T = tables();
+  if (repeatx != kNoRepeat && repeaty != kNoRepeat) {
+    for (std::size_t k0 = 0; k0 < n; k0 += kBlock) {
+      const std::size_t m = n - k0 < kBlock ? n - k0 : kBlock;
+      snoise2_torus_block(T, x + k0, y + k0, m, f.octaves, f.persistence, f.lacunarity, repeatx, repeaty, base, out + k0);
+    }
+    return;
+  }
   if (repeatx != kNoRepeat || repeaty != kNoRepeat) {
-    for (std::size_t k = 0; k < n; ++k)
-      out[k] = snoise2_tiled(T, x[k], y[k], f.octaves, f.persistence, f.lacunarity, repeatx, repeaty, base);
+    // One axis tiled: that axis onto a circle, then 3D simplex (snoise2_tiled), in blocks.
+    float X[kBlock], Y[kBlock], Z[kBlock];
+    const bool tile_y = repeaty != kNoRepeat;
+    const double rep = tile_y ? repeaty : repeatx;
+    const float r = float(rep * 0.31830988618379067154 * 0.5);
+    for (std::size_t k0 = 0; k0 < n; k0 += kBlock) {
+      const std::size_t m = n - k0 < kBlock ? n - k0 : kBlock;
+      for (std::size_t k = 0; k < m; ++k) {
+        const float a = tile_y ? y[k0 + k] : x[k0 + k];
+        const float af = float(double(a) * 2.0 / rep);
+        const float v = fast_sin(af) * r, c = base + fast_cos(af) * r;
+        X[k] = tile_y ? x[k0 + k] : v;
+        Y[k] = tile_y ? v : y[k0 + k];
+        Z[k] = c;
+      }
+      snoise3_block(T, X, Y, Z, m, f.octaves, f.persistence, f.lacunarity, out + k0);
+    }
     return;
   }
   for (std::size_t k0 = 0; k0 < n; k0 += kBlock) {

@@ -11,9 +11,10 @@
 //     in 2D/3D and 32 gradients in 4D, Perlin's published permutation of 0..255.
 //   * Ken Perlin, "Improving Noise", SIGGRAPH 2002 (improved gradient noise, quintic fade).
 //
-// Values, to the bit, as the package computes them: float32 arithmetic in the package's order of
-// operations (no FMA), the package's scale factors (70 in 2D, 32 in 3D, 27 in 4D), and its choices
-// where they differ from the textbook:
+// Values, to the bit, as the package computes them (but the sign of an exact zero, see
+// noise_classic.cpp): float32 arithmetic in the package's order of operations (no FMA), the
+// package's scale factors (70 in 2D, 32 in 3D, 27 in 4D), and its choices where they differ from
+// the textbook:
 //   * snoise2's `base` is added to x and y of every octave (after scaling by the octave's
 //     frequency); with repeatx/repeaty, x (and/or y) is wrapped onto a circle of circumference
 //     `repeat` with the package's fast sine approximation and 3D or 4D simplex noise is sampled on

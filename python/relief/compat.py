@@ -44,8 +44,8 @@ def _is_scalar(*values):
     return all(isinstance(v, _numbers.Real) and not isinstance(v, _np.ndarray) for v in values)
 
 
-def _arrays(out, *values):
-    arrays = _np.broadcast_arrays(*[_np.asarray(v, dtype=_np.float32) for v in values])
+def _arrays(out, *values, dtype=_np.float32):
+    arrays = _np.broadcast_arrays(*[_np.asarray(v, dtype=dtype) for v in values])
     shape = arrays[0].shape
     flat = [_np.ascontiguousarray(a).reshape(-1) for a in arrays]
     if out is None:
@@ -66,6 +66,12 @@ def snoise2(x, y, octaves=1, persistence=0.5, lacunarity=2.0, repeatx=None, repe
     octaves = _octaves(octaves)
     if _is_scalar(x, y):
         return _relief.snoise2(x, y, octaves, persistence, lacunarity, _repeat(repeatx), _repeat(repeaty), base)
+    if all(isinstance(v, _np.ndarray) and v.dtype == _np.float64 for v in (x, y)):
+        # numpy's default dtype: rounded to float32 in C++ chunk by chunk (no full-size copies).
+        (xs, ys), o = _arrays(out, x, y, dtype=_np.float64)
+        _relief.snoise2_array64(xs, ys, octaves, persistence, lacunarity, _repeat(repeatx), _repeat(repeaty), base, o.reshape(-1),
+                                threads)
+        return o
     (xs, ys), o = _arrays(out, x, y)
     _relief.snoise2_array(xs, ys, octaves, persistence, lacunarity, _repeat(repeatx), _repeat(repeaty), base, o.reshape(-1), threads)
     return o

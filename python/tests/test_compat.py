@@ -61,6 +61,7 @@ def test_pnoise_with_a_large_base_differs_only_where_the_package_leaves_its_tabl
 
 
 @pytest.mark.parametrize("fn,dims,kw", [("snoise2", 2, {"octaves": 6}), ("snoise2", 2, {"octaves": 2, "repeatx": 50.0, "repeaty": 70.0}),
+                                        ("snoise2", 2, {"octaves": 3, "repeatx": 50.0}), ("snoise2", 2, {"octaves": 4, "repeaty": 40.0, "base": 2.0}),
                                         ("snoise3", 3, {"octaves": 6}), ("pnoise2", 2, {"octaves": 6}),
                                         ("pnoise3", 3, {"octaves": 3})])
 def test_arrays_give_the_scalar_values(fn, dims, kw):
@@ -128,3 +129,14 @@ def test_seed_001_blog_code_runs_unchanged():
     ref = np.array([[noise.snoise2(x / SCALE, y / SCALE, octaves=6, persistence=0.5, lacunarity=2, repeatx=64, repeaty=64, base=seed)
                      for y in range(64)] for x in range(64)])
     assert np.array_equal(hm, ref)
+
+
+@pytest.mark.parametrize("kw", [{"octaves": 6}, {"octaves": 3, "repeatx": 64.0, "repeaty": 64.0}])
+def test_float32_and_float64_inputs_agree(kw):
+    xs = (PTS[:, 0] / 7.0).astype(np.float32)
+    ys = (PTS[:, 1] / 7.0).astype(np.float32)
+    a = rc.snoise2(xs, ys, **kw)                                       # float32 path
+    b = rc.snoise2(xs.astype(np.float64), ys.astype(np.float64), **kw)  # float64 path, same values
+    assert np.array_equal(a, b)
+    theirs = np.array([noise.snoise2(float(x), float(y), **kw) for x, y in zip(xs, ys)])
+    assert np.array_equal(a.astype(np.float64), theirs)

@@ -63,3 +63,11 @@ def test_noise_settings():
 def test_compat_octaves():
     assert error_of(relief.compat.snoise2, 0.5, 0.5, octaves=0).path == "octaves"
     assert error_of(relief.compat.pnoise3, 0.5, 0.5, 0.5, octaves=-1).path == "octaves"
+
+
+def test_writer_options_name_the_option(tmp_path):
+    t = relief.generate("island", seed=1, size=33)
+    out = tmp_path / "out"
+    assert error_of(t.write, str(out), options={"engine": "bogus"}).path == "options.engine"
+    assert error_of(t.write, str(out), options={"nosuch": 1}).path == "options.nosuch"
+    assert not out.exists()
