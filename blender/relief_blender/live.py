@@ -1,6 +1,6 @@
-"""Live preview (bpy): a changed value asks for a preview; after a short quiet time (debounce) a
-generation at the preview size runs on a thread (core.Job) and, when it returns, the scene is
-rebuilt. One job in flight; a request made while it runs is remembered and served next with the
+"""Live preview (bpy): a changed value asks for a preview; DEBOUNCE_S after the first change of a
+burst, a generation at the preview size runs on a thread (core.Job) and, when it returns, the scene
+is rebuilt. One job in flight; a request made while it runs is remembered and served next with the
 newest values (as the studio does), so dragging a slider keeps refreshing without piling up runs.
 """
 import time
@@ -29,8 +29,12 @@ def request(scene, immediate=False):
     if not s.live:
         return
     _state["scene"] = scene.name
+    if not _state["pending"] or immediate:
+        # The first change of a burst sets the time; later ones do not push it back, so a drag
+        # refreshes every DEBOUNCE_S (or every run, when a run takes longer) instead of waiting
+        # for the drag to stop.
+        _state["due"] = time.monotonic() + (0.0 if immediate else DEBOUNCE_S)
     _state["pending"] = True
-    _state["due"] = time.monotonic() + (0.0 if immediate else DEBOUNCE_S)
     if not bpy.app.timers.is_registered(_tick):
         bpy.app.timers.register(_tick, first_interval=0.0 if immediate else DEBOUNCE_S)
 
