@@ -24,5 +24,6 @@ StageDef features();     // stage_features.cpp: craters and single mountains
 StageDef jiggle();       // stage_features.cpp: vertex jiggle as an 'offset' layer
 StageDef props();        // stage_props.cpp: seed 003's clustered prop placement
 StageDef climate();      // stage_climate.cpp: moisture/temperature → Whittaker biomes
+StageDef image();        // stage_image.cpp: a raster the user brings into a layer (pointwise)
 
 }  // namespace relief::stages
