@@ -105,8 +105,29 @@ struct Taps {
   bool outside = false;
 };
 
+Taps taps_at_full(double u, int size, Filter filter, Outside outside);
+
+// The taps with one weight of exactly 1 (a grid-aligned sample) reduced to that one tap: the same
+// sum (the others add +0), read with one load (the native-resolution case stays near a copy).
 Taps taps_at(double u, int size, Filter filter, Outside outside) {
+  Taps t = taps_at_full(u, size, filter, outside);
+  int ones = -1, nonzero = 0;
+  for (int k = 0; k < t.n; ++k) {
+    if (t.w[k] != 0) ++nonzero;
+    if (t.w[k] == 1) ones = k;
+  }
+  if (nonzero == 1 && ones >= 0) {
+    t.start += ones;
+    t.n = 1;
+    t.w[0] = 1;
+    t.w[1] = t.w[2] = t.w[3] = 0;
+  }
+  return t;
+}
+
+Taps taps_at_full(double u, int size, Filter filter, Outside outside) {
   Taps t;
+  if (std::isnan(u)) u = 0;
   const double r = std::nearbyint(u);
   if (std::abs(u - r) <= 1e-9 * std::max(1.0, std::abs(u))) u = r;
   if (u < 0 || u > size - 1) {
@@ -180,6 +201,8 @@ void apply(Terrain& t, const ImageParams& p, const Context& ctx) {
     px = r.width > 1 ? w / (r.width - 1) : 1.0;
     pz = r.height > 1 ? d / (r.height - 1) : 1.0;
   }
+  if (!(px > 0) || !(pz > 0) || !std::isfinite(px) || !std::isfinite(pz))
+    throw Error(stage + ".placement", "'" + p.path + "' gives no usable pixel size in metres");
   // Value mapping: e = a·v + b.
   double a = 1, b = 0;
   if (p.values == Values::Normalised) {
@@ -220,9 +243,46 @@ void apply(Terrain& t, const ImageParams& p, const Context& ctx) {
     const Taps& c = cols[std::size_t(i)];
     if (!c.outside) cmin = std::min(cmin, c.start), cmax = std::max(cmax, c.start + c.n - 1);
   }
+  // Grid-aligned columns (native resolution, or any whole-pixel spacing of 1): every column one tap
+  // of weight 1 at consecutive pixels. Its rows skip the separable pass (same values: 1·v + 0).
+  bool direct = cmax >= cmin;
+  for (int i = 0; i < f.nx && direct; ++i) {
+    const Taps& c = cols[std::size_t(i)];
+    direct = !c.outside && c.n == 1 && c.start == cols[0].start + i;
+  }
+  bool some_outside = false;
+  for (const Taps& c : cols) some_outside = some_outside || c.outside;
+  // One blend over a row of image values s(i) (a functor), the mode chosen outside the loop.
+  auto blend_row = [&](float* row, const float* mrow, auto&& value) {
+    auto each = [&](auto&& op) {
+      if (!some_outside) {
+        for (int i = 0; i < f.nx; ++i) row[i] = std::clamp(op(row[i], float(a * value(i) + b), i), 0.0f, 1.0f);
+        return;
+      }
+      for (int i = 0; i < f.nx; ++i) {
+        if (cols[std::size_t(i)].outside) continue;
+        row[i] = std::clamp(op(row[i], float(a * value(i) + b), i), 0.0f, 1.0f);
+      }
+    };
+    switch (mode) {
+      case Blend::Set: each([](float, float u, int) { return u; }); break;
+      case Blend::Add: each([](float h, float u, int) { return h + u; }); break;
+      case Blend::Multiply: each([](float h, float u, int) { return h * u; }); break;
+      case Blend::Max: each([](float h, float u, int) { return std::max(h, u); }); break;
+      case Blend::Min: each([](float h, float u, int) { return std::min(h, u); }); break;
+      case Blend::Lerp: each([&](float h, float u, int i) { return h + std::clamp(mrow[i], 0.0f, 1.0f) * (u - h); }); break;
+    }
+  };
   detail::parallel_rows(f.nz, [&](int j) {
     const Taps rt = taps_at((f.z_m(j) - p.z_m) / pz, r.height, p.filter, p.outside);
     if (rt.outside || cmax < cmin) return;
+    float* row = out.row(j, f.nx);
+    const float* mrow = mask ? mask->row(j, f.nx) : nullptr;
+    if (direct && rt.n == 1) {
+      const float* src = r.values.data() + std::size_t(rt.start) * std::size_t(r.width) + std::size_t(cols[0].start);
+      blend_row(row, mrow, [src](int i) { return double(src[i]); });
+      return;
+    }
     thread_local std::vector<double> tmp;
     tmp.resize(std::size_t(r.width));
     for (int c = cmin; c <= cmax; ++c) {
@@ -230,25 +290,12 @@ void apply(Terrain& t, const ImageParams& p, const Context& ctx) {
       for (int k = 0; k < rt.n; ++k) s += rt.w[k] * double(r.values[std::size_t(rt.start + k) * std::size_t(r.width) + std::size_t(c)]);
       tmp[std::size_t(c)] = s;
     }
-    float* row = out.row(j, f.nx);
-    const float* mrow = mask ? mask->row(j, f.nx) : nullptr;
-    for (int i = 0; i < f.nx; ++i) {
+    blend_row(row, mrow, [&](int i) {
       const Taps& c = cols[std::size_t(i)];
-      if (c.outside) continue;
       double s = 0;
       for (int k = 0; k < c.n; ++k) s += c.w[k] * tmp[std::size_t(c.start + k)];
-      const float u = float(a * s + b);
-      float h = row[i];
-      switch (mode) {
-        case Blend::Set: h = u; break;
-        case Blend::Add: h = h + u; break;
-        case Blend::Multiply: h = h * u; break;
-        case Blend::Max: h = std::max(h, u); break;
-        case Blend::Min: h = std::min(h, u); break;
-        case Blend::Lerp: h = h + std::clamp(mrow[i], 0.0f, 1.0f) * (u - h); break;
-      }
-      row[i] = std::clamp(h, 0.0f, 1.0f);
-    }
+      return s;
+    });
   });
 }
 

@@ -354,3 +354,106 @@ TEST(GeoTiff, GdalFormatsLikeAsciiGridAreRead) {
 
 }  // namespace
 }  // namespace relief
+
+namespace relief {
+namespace {
+
+// ---- mask and mix -----------------------------------------------------------------------------
+
+// A 5×4 world, 10 m cells, height_m 100, sea 0.4, with the given heights (row-major).
+Terrain run_on(const std::vector<float>& h, const json& stages) {
+  json doc = {{"seed", 1}, {"world", {{"size", json::array({5, 4})}, {"width_m", 40}, {"height_m", 100}, {"sea_level", 0.4}}},
+              {"stages", stages}};
+  const Recipe r = parse_recipe(doc);
+  Terrain t;
+  t.frame = r.world.frame();
+  t.layer("height", 1).data = h;
+  for (std::size_t k = 0; k < r.stages.size(); ++k) {
+    Context c;
+    c.seed = 1;
+    c.stage_index = int(k);
+    r.stages[k].stage->apply(t, c);
+  }
+  return t;
+}
+
+const std::vector<float> kSmall = {0.0f, 0.1f, 0.5f, 0.6f, 0.9f,  //
+                                   0.2f, 0.3f, 0.5f, 0.7f, 0.8f,  //
+                                   0.3f, 0.3f, 0.3f, 0.3f, 0.3f,  //
+                                   0.6f, 0.5f, 0.45f, 0.41f, 0.4f};
+
+TEST(MaskStage, ElevationBandHardAndSoft) {
+  const Terrain t = run_on(kSmall, json::array({{{"stage", "mask"}, {"from", 0.44}, {"to", 0.7}}}));
+  const auto& m = t.get("mask").data;
+  for (std::size_t k = 0; k < m.size(); ++k) EXPECT_EQ(m[k], kSmall[k] >= 0.44 && kSmall[k] <= 0.7 ? 1.0f : 0.0f) << k;
+  const Terrain s = run_on(kSmall, json::array({{{"stage", "mask"}, {"from", 0.5}, {"to", 0.6}, {"soft", 0.2}, {"invert", true}}}));
+  // 0.4: halfway up the lower edge (0.3..0.5): smoothstep(0.5) = 0.5, inverted 0.5; 0.8 (edge 0.6..0.8): 0 → 1.
+  EXPECT_NEAR(s.get("mask").data[19], 0.5, 1e-6);
+  EXPECT_NEAR(s.get("mask").data[9], 1.0, 1e-6);
+  EXPECT_NEAR(s.get("mask").data[2], 0.0, 1e-6);
+  // 0.7: (0.7 − 0.6) / 0.2 = 0.5 on the upper edge → band 0.5 → inverted 0.5.
+  EXPECT_NEAR(s.get("mask").data[8], 0.5, 1e-6);
+}
+
+TEST(MaskStage, SlopeAndCurvatureByHand) {
+  // Sample (1, 1): dx = (0.5 − 0.2)·100 / 20 = 1.5, dz = (0.3 − 0.1)·100 / 20 = 1 → atan(√3.25) = 61.0°.
+  const double deg = std::atan(std::sqrt(3.25)) * 180 / M_PI;
+  const Terrain t = run_on(kSmall, json::array({{{"stage", "mask"}, {"source", "slope"}, {"from", deg - 0.01}, {"to", deg + 0.01}}}));
+  EXPECT_EQ(t.get("mask").data[6], 1.0f);
+  EXPECT_EQ(t.get("mask").data[7], 0.0f);
+  // Curvature at (2, 2): (0.3 + 0.3 + 0.45 + 0.5 − 4·0.3)·100 / 100 = 0.35 1/m.
+  const Terrain c = run_on(kSmall, json::array({{{"stage", "mask"}, {"source", "curvature"}, {"from", 0.3499}, {"to", 0.3501}}}));
+  EXPECT_EQ(c.get("mask").data[12], 1.0f);
+  EXPECT_EQ(c.get("mask").data[11], 0.0f);
+}
+
+TEST(MaskStage, CoastDistanceIsEuclidean) {
+  // Sea (< 0.4) samples: 0, 1, 5, 6, 10..14. Land (4, 0) = 0.9: nearest sea (1, 0)? No: (2,2)… the
+  // nearest is (4, 2) two rows down: 20 m. Land (2, 0): (1, 0) at 10 m. Land (4, 3) = 0.4 is land:
+  // (4, 2) at 10 m. Land (0, 3) = 0.6: (0, 2) at 10 m.
+  const Terrain t = run_on(kSmall, json::array({{{"stage", "mask"}, {"source", "coast"}, {"from", 15}, {"to", 25}}}));
+  const auto& m = t.get("mask").data;
+  EXPECT_EQ(m[4], 1.0f);   // 20 m
+  EXPECT_EQ(m[2], 0.0f);   // 10 m
+  EXPECT_EQ(m[19], 0.0f);  // 10 m
+  EXPECT_EQ(m[3], 1.0f);   // (3, 0): nearest sea (1, 0) at 20 m, (3, 2) at 20 m
+  EXPECT_EQ(m[0], 0.0f);   // sea: 0
+}
+
+TEST(MixStage, BlendsThroughTheMaskAndMaskedTerraceChangesOnlyUnderIt) {
+  const json st = json::array({{{"stage", "mask"}, {"from", 0.5}, {"to", 1}},
+                               {{"stage", "noise"}, {"layer", "flat"}, {"amplitude", 0}, {"offset", 0.2}},
+                               {{"stage", "mix"}, {"a", "height"}, {"b", "flat"}, {"mask", "mask"}, {"into", "height"}}});
+  const Terrain t = run_on(kSmall, st);
+  const auto& h = t.get("height").data;
+  for (std::size_t k = 0; k < h.size(); ++k) EXPECT_FLOAT_EQ(h[k], kSmall[k] >= 0.5f ? 0.2f : kSmall[k]) << k;
+  // A terrace through the mask: only masked samples change.
+  const Terrain q = run_on(kSmall, json::array({{{"stage", "mask"}, {"from", 0.5}, {"to", 1}}, {{"stage", "noise"}, {"layer", "copy"}, {"amplitude", 0}},
+                                                {{"stage", "mix"}, {"a", "height"}, {"b", "height"}, {"mask", "mask"}, {"into", "copy"}},
+                                                {{"stage", "terrace"}, {"levels", 2}},
+                                                {{"stage", "mix"}, {"a", "copy"}, {"b", "height"}, {"mask", "mask"}, {"into", "height"}}}));
+  const auto& qh = q.get("height").data;
+  for (std::size_t k = 0; k < qh.size(); ++k)
+    if (kSmall[k] < 0.5f) EXPECT_EQ(qh[k], kSmall[k]) << k;
+  bool changed = false;
+  for (std::size_t k = 0; k < qh.size(); ++k) changed = changed || (kSmall[k] >= 0.5f && qh[k] != kSmall[k]);
+  EXPECT_TRUE(changed);
+}
+
+TEST(MixStage, MissingLayersNameTheField) {
+  try {
+    run_on(kSmall, json::array({{{"stage", "mix"}, {"a", "height"}, {"b", "nope"}}}));
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.path(), "stages[0].b");
+  }
+  try {
+    run_on(kSmall, json::array({{{"stage", "mask"}, {"source", "flow"}}}));
+    FAIL();
+  } catch (const Error& e) {
+    EXPECT_EQ(e.path(), "stages[0].source");
+  }
+}
+
+}  // namespace
+}  // namespace relief
