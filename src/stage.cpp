@@ -44,7 +44,7 @@ const std::vector<StageDef>& stage_registry() {
       stages::stream_power(),
       stages::biomes(),   stages::volcano(),      stages::features(), stages::jiggle(),
       stages::props(),    stages::climate(),  stages::image(),
-      stages::mask(),     stages::mix(),
+      stages::mask(),     stages::mix(),      stages::amplify(),
   };
   return all;
 }
