@@ -502,3 +502,71 @@ TEST(AmplifyStage, KeepsTheSketchAndAddsDetail) {
 
 }  // namespace
 }  // namespace relief
+
+namespace relief {
+namespace {
+
+// ---- examples ---------------------------------------------------------------------------------
+
+json example_doc(const std::string& name) {
+  const std::string file = std::string(RELIEF_SOURCE_DIR) + "/examples/" + name + "/recipe.json";
+  json doc = parse_json(test::slurp(file), file);
+  resolve_input_paths(doc, std::filesystem::path(file).parent_path().string());
+  return doc;
+}
+
+TEST(Examples, RealDemDrainsEverywhereAfterFill) {
+  if (!gdal_available()) GTEST_SKIP() << "GDAL cannot be loaded";
+  json doc = example_doc("real-dem");
+  doc["world"]["size"] = 129;  // the DEM's own resolution
+  doc["seed"] = 1;
+  const json stages = doc["stages"];
+  // The DEM, roughened with pits (it was drained when Relief made it), then filled.
+  const json rough = {{"stage", "noise"}, {"blend", "add"}, {"amplitude", 0.04}, {"octaves", 3}, {"frequency", 40}};
+  doc["stages"] = json::array({stages[0], rough, stages[2]});  // image, noise, fill
+  const Terrain t = run(parse_recipe(doc)).terrain;
+  const Frame& f = t.frame;
+  const auto& h = t.get("height").data;
+  std::size_t land = 0, pits = 0;
+  for (int j = 1; j + 1 < f.nz; ++j)
+    for (int i = 1; i + 1 < f.nx; ++i) {
+      const float v = h[std::size_t(j) * f.nx + i];
+      if (v < float(f.sea_level)) continue;
+      ++land;
+      bool lower = false;
+      for (int dj = -1; dj <= 1; ++dj)
+        for (int di = -1; di <= 1; ++di) lower = lower || h[std::size_t(j + dj) * f.nx + i + di] < v;
+      if (!lower) ++pits;
+    }
+  EXPECT_GT(land, 5000u);
+  EXPECT_EQ(pits, 0u);
+  // Without the fill the roughened DEM has pits (so the check above can fail).
+  doc["stages"] = json::array({stages[0], rough});
+  const Terrain raw = run(parse_recipe(doc)).terrain;
+  std::size_t raw_pits = 0;
+  const auto& r = raw.get("height").data;
+  for (int j = 1; j + 1 < f.nz; ++j)
+    for (int i = 1; i + 1 < f.nx; ++i) {
+      const float v = r[std::size_t(j) * f.nx + i];
+      bool lower = v < float(f.sea_level);
+      for (int dj = -1; dj <= 1; ++dj)
+        for (int di = -1; di <= 1; ++di) lower = lower || r[std::size_t(j + dj) * f.nx + i + di] < v;
+      if (!lower) ++raw_pits;
+    }
+  EXPECT_GT(raw_pits, 0u);
+}
+
+TEST(Examples, BothRunFromAnyFolder) {
+  for (const char* name : {"sketched-island", "real-dem"}) {
+    if (std::string(name) == "real-dem" && !gdal_available()) continue;
+    TempDir d("relief-image");
+    const auto r = test::sh("cd / && " + std::string(RELIEF_BINARY) + " generate " + RELIEF_SOURCE_DIR + "/examples/" + name +
+                            "/recipe.json --seed 1 --size 129 --formats heightmap,rivers -q -o " + (d / "out"));
+    EXPECT_EQ(r.code, 0) << name << "\n" << r.out;
+    const json rivers = json::parse(test::slurp(d / "out/rivers.json"));
+    EXPECT_FALSE(rivers.dump().empty());
+  }
+}
+
+}  // namespace
+}  // namespace relief
