@@ -57,12 +57,13 @@ void apply(Terrain& t, const AmplifyParams& p, const Context& ctx) {
   s.persistence = p.persistence;
   s.seed = ctx.stage_seed(std::uint64_t(p.salt));
   const Noise noise(s);
+  const NoiseColumns columns = noise.columns(f.ix0, f.cell_m(), f.nx);  // x-only terms, once per run
   const int nx = f.nx, nz = f.nz;
   const double cell = f.cell_m(), hm = f.height_m;
   detail::parallel_rows(nz, [&](int j) {
     thread_local std::vector<float> n;
     n.resize(std::size_t(nx));
-    noise.row(f.z_m(j), f.ix0, cell, nx, n.data());
+    noise.row(f.z_m(j), columns, n.data());
     const int jt = std::max(j - 1, 0), jb = std::min(j + 1, nz - 1);
     for (int i = 0; i < nx; ++i) {
       const int il = std::max(i - 1, 0), ir = std::min(i + 1, nx - 1);
