@@ -43,7 +43,8 @@ const std::vector<StageDef>& stage_registry() {
       stages::hydraulic(), stages::thermal(),     stages::fill(),     stages::flow(),
       stages::stream_power(),
       stages::biomes(),   stages::volcano(),      stages::features(), stages::jiggle(),
-      stages::props(),    stages::climate(),
+      stages::props(),    stages::climate(),  stages::image(),
+      stages::mask(),     stages::mix(),      stages::amplify(),
   };
   return all;
 }

@@ -24,5 +24,9 @@ StageDef features();     // stage_features.cpp: craters and single mountains
 StageDef jiggle();       // stage_features.cpp: vertex jiggle as an 'offset' layer
 StageDef props();        // stage_props.cpp: seed 003's clustered prop placement
 StageDef climate();      // stage_climate.cpp: moisture/temperature → Whittaker biomes
+StageDef image();        // stage_image.cpp: a raster the user brings into a layer (pointwise)
+StageDef mask();         // stage_mask.cpp: 0..1 masks from elevation, slope, curvature, flow, coast distance, biome ids
+StageDef mix();          // stage_mask.cpp: two layers combined through a mask
+StageDef amplify();      // stage_amplify.cpp: slope-following fractal detail on a coarse input
 
 }  // namespace relief::stages

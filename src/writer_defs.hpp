@@ -24,6 +24,7 @@ namespace detail {
 WriterDef biomes_writer();    // biome.png (legend colours) + biomes.json (id → name, colour, share)
 WriterDef features_writer();  // features.json: every point that is not a prop
 WriterDef props_writer();     // props.json + props.csv
+WriterDef geotiff_writer();   // writer_geotiff.cpp: height.tif (Float32 metres, GeoTransform)
 }  // namespace detail
 
 namespace writers {

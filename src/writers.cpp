@@ -508,6 +508,7 @@ std::vector<WriterDef> make_registry() {
                write_report});
   w.push_back(writers::tilemap());
   for (WriterDef& d : export_writers()) w.push_back(std::move(d));
+  w.push_back(detail::geotiff_writer());
   return w;
 }
 

@@ -363,7 +363,7 @@ TEST(Writers, RegistryOrderAndFiles) {
   }
   EXPECT_EQ(names, (std::vector<std::string>{"heightmap", "color", "albedo", "obj", "rivers", "lakes", "biomes", "features",
                                              "props", "report", "tilemap", "glb", "fbx", "stl", "engine", "normalmap", "splat",
-                                             "hillshade"}));
+                                             "hillshade", "geotiff"}));
   EXPECT_EQ(find_writer("obj"), &r[3]);
   EXPECT_EQ(find_writer("png"), nullptr);
 }

@@ -1,5 +1,11 @@
 // Stages: pointwise stages against a plain copy of their layers (the floor).
+#include <unistd.h>
+
+#include <filesystem>
+#include <fstream>
+
 #include "bench_common.hpp"
+#include "relief/export.hpp"
 
 namespace relief::cli {
 
@@ -29,6 +35,26 @@ void bench_stages(const BenchSettings& s, json& entries) {
     st->apply(coloured, c);
   }
   const std::vector<float> original3(std::size_t(3) * n * n, 0.5f);
+  // The image stage reads this height field back from an EXR at native resolution (its floor is the
+  // copy), and a quarter-resolution EXR of it upsampled bicubically / bilinearly.
+  const std::filesystem::path image_dir = std::filesystem::temp_directory_path() / ("relief-bench-image-" + std::to_string(::getpid()));
+  std::filesystem::create_directories(image_dir);
+  struct Cleanup {
+    std::filesystem::path p;
+    ~Cleanup() {
+      std::error_code ec;
+      std::filesystem::remove_all(p, ec);
+    }
+  } cleanup{image_dir};
+  const int q = (n - 1) / 4 + 1;
+  {
+    std::ofstream(image_dir / "native.exr", std::ios::binary) << encode_exr_gray32(original, n, n);
+    std::vector<float> small(std::size_t(q) * q);
+    for (int j = 0; j < q; ++j)
+      for (int i = 0; i < q; ++i) small[std::size_t(j) * q + i] = original[std::size_t(std::min(4 * j, n - 1)) * n + std::min(4 * i, n - 1)];
+    std::ofstream(image_dir / "quarter.exr", std::ios::binary) << encode_exr_gray32(small, q, q);
+  }
+  const std::string native_exr = (image_dir / "native.exr").string(), quarter_exr = (image_dir / "quarter.exr").string();
   std::vector<float> copy_dst(original.size()), copy_dst3(original3.size());
   for (int threads : s.threads) {
     tbb::task_arena arena(threads);
@@ -87,6 +113,10 @@ void bench_stages(const BenchSettings& s, json& entries) {
         {{"stage", "color"}, {"mode", "bands"}},
         {{"stage", "color"}, {"mode", "gradient"}},
         {{"stage", "hillshade"}},
+        {{"stage", "image"}, {"path", native_exr}},
+        {{"stage", "image"}, {"path", quarter_exr}, {"filter", "bicubic"}},
+        {{"stage", "image"}, {"path", quarter_exr}, {"filter", "bilinear"}},
+        {{"stage", "amplify"}},
     };
     for (const json& c : cases) {
       const std::string stage = c["stage"].get<std::string>();
@@ -96,12 +126,15 @@ void bench_stages(const BenchSettings& s, json& entries) {
       Terrain t = stage == "hillshade" ? coloured : base;
       Context ctx;
       ctx.seed = 1;
+      if (stage == "image") st->apply(t, ctx);
+      // amplify reads the height it changes: the reset below restores it before every run.  // decodes the file once (cached), as a run does
       Sample ts = time_runs(
           s.runs, [&] { arena.execute([&] { st->apply(t, ctx); }); },
           [&] { std::copy(original.begin(), original.end(), t.get("height").data.begin()); });
       std::string name = stage;
       for (auto it = c.begin(); it != c.end(); ++it)
         if (it.key() == "points") name.append(" ").append(std::to_string(it.value().size())).append(" points");
+        else if (it.key() == "path") name += it.value().get<std::string>() == native_exr ? " native" : " 1/4 res";
         else if (it.key() != "stage") name += " " + (it.value().is_string() ? it.value().get<std::string>() : it.key());
       const double floor = fl.median;
       json e = timing_entry(name, n, n, threads, ts);

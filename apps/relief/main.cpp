@@ -32,6 +32,7 @@
 #include "studio.hpp"
 #include "relief/explain.hpp"
 #include "relief/generate.hpp"
+#include "relief/image.hpp"
 #include "relief/output.hpp"
 #include "relief/pipeline.hpp"
 #include "relief/recipe.hpp"
@@ -130,7 +131,9 @@ json read_recipe_doc(const CliGenerate& s) {
   if (!in) throw Error("recipe", "cannot read '" + src + "'");
   std::stringstream ss;
   ss << in.rdbuf();
-  return parse_json(ss.str(), "'" + src + "'", "recipe");
+  json doc = parse_json(ss.str(), "'" + src + "'", "recipe");
+  resolve_input_paths(doc, std::filesystem::path(src).parent_path().string());  // image paths: the recipe's folder
+  return doc;
 }
 
 void parse_size(const std::string& text, json& doc) {
