@@ -67,14 +67,13 @@ Rgbf prop_color(const std::string& type) {
 struct Font {
   FT_Library lib = nullptr;
   FT_Face face = nullptr;
-  Font() {
-    const char* env = std::getenv("RELIEF_FONT");
-    std::string path = env && *env ? env : "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
+  explicit Font(const std::string& file) {
+    const std::string path = file.empty() ? std::string(kDefaultCaptionFont) : file;
     if (FT_Init_FreeType(&lib)) throw Error("steps", "cannot initialise FreeType");
     if (FT_New_Face(lib, path.c_str(), 0, &face)) {
       FT_Done_FreeType(lib);
       throw Error("steps", "cannot load the caption font '" + path +
-                               "' (install fonts-dejavu-core, or set RELIEF_FONT to a TrueType file)");
+                               "' (install fonts-dejavu-core, or name another TrueType file: relief reads $RELIEF_FONT)");
     }
   }
   ~Font() {
@@ -228,9 +227,10 @@ StepImage render_step(const Terrain& t, int max_px) {
 
 std::string encode_step_png(const StepImage& s) { return encode_png_rgb8(s.rgb, s.width, s.height); }
 
-std::string contact_sheet_png(const std::vector<StepImage>& steps, const std::string& title, int columns, int thumb_px) {
+std::string contact_sheet_png(const std::vector<StepImage>& steps, const std::string& title, int columns, int thumb_px,
+                              const std::string& font_file) {
   if (steps.empty()) throw Error("steps", "no stage pictures to put on a contact sheet");
-  Font font;
+  Font font(font_file);
   columns = std::clamp(columns, 1, int(steps.size()));
   const int rows = (int(steps.size()) + columns - 1) / columns;
   const int margin = 14, caption_h = 24, title_h = 40;

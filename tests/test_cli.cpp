@@ -14,6 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "relief/output.hpp"
 #include "support.hpp"
 
 namespace fs = std::filesystem;
@@ -240,6 +241,32 @@ TEST(CliIslands, DefaultSetSkipsIslandWritersWithNothingToWrite) {
   EXPECT_FALSE(fs::exists(d.path / "biome.png"));
   // Asked for by name, the writer says what is missing.
   expect_bad_input("generate island --seed 1 --size 33 -q --formats biomes -o " + d.path.string(), "biomes needs a 'biome' layer");
+}
+
+TEST(CliRecipeFile, TextureResolvesAgainstTheRecipeFolderFromAnyWorkingDirectory) {
+  TempDir d;
+  fs::create_directories(d.path / "recipes" / "tex");
+  fs::create_directories(d.path / "elsewhere");
+  relief::Layer px;
+  px.channels = 3;
+  px.data.assign(12, 0.5f);
+  relief::write_file_atomic(d / "recipes/tex/moss.png", relief::encode_png_rgb8(px, 2, 2));
+  relief::test::write_text(d.path / "recipes" / "r.json", R"({"world": {"size": 17}, "stages": [{"stage": "noise"},
+    {"stage": "color", "levels": [{"at": 1, "color": "#000000", "texture": "tex/moss.png", "tile_m": 10}]}]})");
+  // Run from a folder without the texture: the name is the recipe folder's.
+  const std::string run = "cd " + d / "elsewhere" + " && " + RELIEF_BINARY + " generate ../recipes/r.json --seed 1 -q --formats albedo -o out";
+  const Result ok = relief::test::sh(run + " --save-recipe saved.json");
+  ASSERT_EQ(ok.code, 0) << ok.out;
+  const auto saved = nlohmann::json::parse(slurp(d.path / "elsewhere" / "saved.json"));
+  EXPECT_EQ(saved["stages"][1]["levels"][0]["texture"], (fs::absolute(d.path) / "recipes" / "tex" / "moss.png").string());
+  // The saved recipe (absolute names) replays from yet another folder, byte for byte.
+  const Result again = relief::test::sh("cd " + d.path.string() + " && " + RELIEF_BINARY + " generate elsewhere/saved.json -q -o out2");
+  ASSERT_EQ(again.code, 0) << again.out;
+  EXPECT_EQ(slurp(d.path / "out2" / "albedo.png"), slurp(d.path / "elsewhere" / "out" / "albedo.png"));
+  // A name typed on the command line is the working directory's.
+  const Result typed = relief::test::sh(run + " --set 'stages[1].levels[0].texture=\"tex/moss.png\"'");
+  EXPECT_EQ(typed.code, 2) << typed.out;
+  EXPECT_NE(typed.out.find("cannot read texture 'tex/moss.png'"), std::string::npos) << typed.out;
 }
 
 TEST(CliIslands, BadIslandParametersExit2NamingTheField) {

@@ -98,11 +98,10 @@ TEST(HostileJson, DescribeIsBoundedInLengthAndDepth) {
 TEST(HostileJson, UserPresetNestedTooDeepIsAnError) {
   relief::test::TempDir d("relief-deep-preset");
   std::ofstream(d / "deep.json") << nested(100000);
-  ::setenv("RELIEF_PRESETS", d.path.c_str(), 1);
-  const std::string m = error_of([] { (void)load_preset("deep"); });
+  const std::vector<std::string> dirs{d.path.string()};
+  const std::string m = error_of([&] { (void)load_preset("deep", dirs); });
   bool listed = false;
-  for (auto& p : list_presets()) listed = listed || p.name == "deep";
-  ::unsetenv("RELIEF_PRESETS");
+  for (auto& p : list_presets(dirs)) listed = listed || p.name == "deep";
   EXPECT_NE(m.find("preset: '"), std::string::npos) << m;
   EXPECT_NE(m.find("deeper than 128"), std::string::npos) << m;
   EXPECT_TRUE(listed);

@@ -20,6 +20,7 @@
 //     Uint8 RGB (round(clamp(v, 0, 1)·255)), points Float32 × 7 (x, y, z, rotation_deg, scale,
 //     kind index, type index) with the kind and type names in the header.
 #include "studio.hpp"
+#include "environment.hpp"
 #include "studio_request.hpp"
 
 #include <archive.h>
@@ -647,12 +648,12 @@ void Studio::routes(httplib::Server& svr) {
   };
   svr.Get("/api/presets", guard([](const httplib::Request&, httplib::Response& res) {
     json a = json::array();
-    for (auto& p : list_presets()) a.push_back({{"name", p.name}, {"description", p.description}, {"origin", p.origin}});
+    for (auto& p : list_presets(cli::env_preset_dirs())) a.push_back({{"name", p.name}, {"description", p.description}, {"origin", p.origin}});
     send_json(res, 200, a);
   }));
   svr.Get(R"(/api/presets/([^/]+))", guard([](const httplib::Request& req, httplib::Response& res) {
     try {
-      send_json(res, 200, load_preset(req.matches[1]));
+      send_json(res, 200, load_preset(req.matches[1], cli::env_preset_dirs()));
     } catch (const Error& e) {
       send_error(res, ApiError{404, e.path(), e.message()});
     }

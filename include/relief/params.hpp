@@ -39,7 +39,8 @@ constexpr Rgb rgb_hex(std::uint32_t v) {
   return Rgb{float((v >> 16) & 255) / 255.0f, float((v >> 8) & 255) / 255.0f, float(v & 255) / 255.0f};
 }
 // A colour level: elevation (or other value) threshold and its colour. Optional texture image:
-// a PNG file (path relative to the working directory) tiled every `tile_m` metres in world x/z,
+// a PNG file tiled every `tile_m` metres in world x/z (a relative name is the recipe file's
+// folder's when the recipe was read by read_recipe_file, else the working directory's),
 // used instead of the flat colour; a missing or undecodable file is an Error naming the level.
 struct Level {
   double at = 0;
