@@ -98,9 +98,10 @@ std::vector<std::uint32_t> utf8(const std::string& s) {
   return out;
 }
 
-// Width in pixels of `text` at the face's current size.
-int text_width(Font& f, const std::vector<std::uint32_t>& text) {
-  int pen = 0;
+// Lays `text` out from pen position `pen` with kerning, loading each glyph with `load_flags`: calls
+// glyph(pen) for every glyph that loads (it is f.face->glyph), then advances. Returns the final pen.
+template <class G>
+int lay_out(Font& f, const std::vector<std::uint32_t>& text, int pen, FT_Int32 load_flags, G&& glyph) {
   FT_UInt prev = 0;
   for (std::uint32_t cp : text) {
     const FT_UInt gi = FT_Get_Char_Index(f.face, cp);
@@ -109,11 +110,16 @@ int text_width(Font& f, const std::vector<std::uint32_t>& text) {
       FT_Get_Kerning(f.face, prev, gi, FT_KERNING_DEFAULT, &k);
       pen += int(k.x >> 6);
     }
-    if (FT_Load_Glyph(f.face, gi, FT_LOAD_DEFAULT) == 0) pen += int(f.face->glyph->advance.x >> 6);
     prev = gi;
+    if (FT_Load_Glyph(f.face, gi, load_flags)) continue;
+    glyph(pen);
+    pen += int(f.face->glyph->advance.x >> 6);
   }
   return pen;
 }
+
+// Width in pixels of `text` at the face's current size.
+int text_width(Font& f, const std::vector<std::uint32_t>& text) { return lay_out(f, text, 0, FT_LOAD_DEFAULT, [](int) {}); }
 
 // Draws `text` with its baseline at y, starting at x, clipped to max_width (ending in "…" if cut).
 void draw_text(Font& f, std::vector<std::uint8_t>& img, int W, int H, int x, int y, const std::string& s, Rgbf color,
@@ -130,17 +136,7 @@ void draw_text(Font& f, std::vector<std::uint8_t>& img, int W, int H, int x, int
     }
     text.insert(text.end(), ell.begin(), ell.end());
   }
-  int pen = x;
-  FT_UInt prev = 0;
-  for (std::uint32_t cp : text) {
-    const FT_UInt gi = FT_Get_Char_Index(f.face, cp);
-    if (prev && gi && FT_HAS_KERNING(f.face)) {
-      FT_Vector k;
-      FT_Get_Kerning(f.face, prev, gi, FT_KERNING_DEFAULT, &k);
-      pen += int(k.x >> 6);
-    }
-    prev = gi;
-    if (FT_Load_Glyph(f.face, gi, FT_LOAD_RENDER)) continue;
+  lay_out(f, text, x, FT_LOAD_RENDER, [&](int pen) {
     const FT_GlyphSlot g = f.face->glyph;
     const FT_Bitmap& bm = g->bitmap;
     for (unsigned r = 0; r < bm.rows; ++r)
@@ -152,8 +148,7 @@ void draw_text(Font& f, std::vector<std::uint8_t>& img, int W, int H, int x, int
         const float col[3] = {color.r, color.g, color.b};
         for (int ch = 0; ch < 3; ++ch) p[ch] = std::uint8_t(std::lround(p[ch] * (1.0 - a) + col[ch] * 255.0 * a));
       }
-    pen += int(g->advance.x >> 6);
-  }
+  });
 }
 
 }  // namespace
