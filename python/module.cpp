@@ -22,6 +22,7 @@
 #include <atomic>
 #include <chrono>
 #include <condition_variable>
+#include <cstdlib>
 #include <filesystem>
 #include <fstream>
 #include <memory>
@@ -59,10 +60,13 @@ json to_json(const py::handle& obj, const std::string& path) {
 
 py::object from_json(const json& j) { return py::module_::import("json").attr("loads")(j.dump()); }
 
-// ---- the one place presets are looked up (the library may later take search paths from the
-// caller instead of reading RELIEF_PRESETS itself: adapt these two) -------------------------------
-json preset_doc(const std::string& name) { return relief::load_preset(name); }
-std::vector<relief::PresetInfo> preset_list() { return relief::list_presets(); }
+// ---- the one place presets are looked up: the built-in ones, then the user folders of the
+// environment, as the CLI and the studio do (RELIEF_PRESETS, XDG_CONFIG_HOME, HOME) ------------
+std::vector<std::string> user_dirs() {
+  return relief::user_preset_dirs(std::getenv("RELIEF_PRESETS"), std::getenv("XDG_CONFIG_HOME"), std::getenv("HOME"));
+}
+json preset_doc(const std::string& name) { return relief::load_preset(name, user_dirs()); }
+std::vector<relief::PresetInfo> preset_list() { return relief::list_presets(user_dirs()); }
 
 // ---- interruptible calls -------------------------------------------------------------------
 struct Hooks {
@@ -172,11 +176,7 @@ json recipe_document(const py::object& recipe) {
   else throw relief::Error("recipe", "expected a preset name, a JSON file path or a dict, got " + py::cast<std::string>(py::str(py::type::of(recipe).attr("__name__"))));
   const bool file_like = is_path || src.find('/') != std::string::npos || src.ends_with(".json") || std::filesystem::exists(src);
   if (!file_like) return preset_doc(src);
-  std::ifstream in(src, std::ios::binary);
-  if (!in) throw relief::Error("recipe", "cannot read '" + src + "'");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  json doc = relief::parse_json(ss.str(), "'" + src + "'", "recipe");
+  json doc = relief::read_recipe_file(src);  // its file names resolve against its folder
   if (!doc.is_object()) throw relief::Error("recipe", "expected a JSON object in '" + src + "'");
   return doc;
 }

@@ -155,20 +155,32 @@ WriterPlan select_writers(const std::string& formats, const ExportOptions& optio
 
 // ---- generate -----------------------------------------------------------------------------------
 
+GeneratePlan plan(const GenerateSettings& s) {
+  const Recipe& recipe = s.recipe;
+  GeneratePlan p;
+  p.options = s.options ? *s.options : recipe.export_settings ? recipe.export_settings->options : ExportOptions{};
+  p.option_path = s.option_path ? OptionPath(s.option_path) : OptionPath([](const std::string& name) { return "export." + name; });
+  validate_export_options(p.options, p.option_path);
+  p.formats_path = s.formats ? s.formats_path : "export.formats";
+  std::string formats = s.formats ? *s.formats : recipe.export_settings ? recipe.export_settings->formats : "";
+  if (formats == "default") formats.clear();
+  p.writers = select_writers(formats, p.options, p.formats_path);
+  if (p.writers.has("engine")) check_engine_size(p.options, recipe.world.nx, recipe.world.nz, p.option_path, s.size_path);
+  check_memory(recipe, p.writers.with_mesh(), s.memory_budget_bytes);
+  for (const WriterDef* w : p.writers.writers)
+    for (const std::string& f : w->files) p.files.push_back({f, w->name, 0});
+  return p;
+}
+
 Generated generate_keep(GenerateSettings s, Output& out) {
   const auto t_start = Clock::now();
   Recipe& recipe = s.recipe;
 
   // 1. Plan: every refusal before any work.
-  const ExportOptions options = s.options ? *s.options : recipe.export_settings ? recipe.export_settings->options : ExportOptions{};
-  const OptionPath option_path =
-      s.option_path ? OptionPath(s.option_path) : OptionPath([](const std::string& name) { return "export." + name; });
-  validate_export_options(options, option_path);
-  std::string formats = s.formats ? *s.formats : recipe.export_settings ? recipe.export_settings->formats : "";
-  if (formats == "default") formats.clear();
-  const WriterPlan plan = select_writers(formats, options, s.formats ? s.formats_path : "export.formats");
-  if (plan.has("engine")) check_engine_size(options, recipe.world.nx, recipe.world.nz, option_path, s.size_path);
-  check_memory(recipe, plan.with_mesh(), s.memory_budget_bytes);
+  const GeneratePlan planned = plan(s);
+  const ExportOptions& options = planned.options;
+  const OptionPath& option_path = planned.option_path;
+  const WriterPlan& plan = planned.writers;
   if (s.terrain && !recipe.seed) throw Error("seed", "a terrain given to generate() needs the recipe's seed");
   const Frame whole = recipe.world.frame();
   if (s.terrain && (s.terrain->frame.nx != whole.nx || s.terrain->frame.nz != whole.nz || s.terrain->frame.ix0 != 0 ||
@@ -217,7 +229,7 @@ Generated generate_keep(GenerateSettings s, Output& out) {
     if (w->applies && !w->applies(*terrain)) {
       const bool named = plan.is_named(w);
       if (named && !w->needs.empty())
-        throw Error(s.formats ? s.formats_path : "export.formats", w->name + " needs " + w->needs);
+        throw Error(planned.formats_path, w->name + " needs " + w->needs);
       if (!named) {
         rep.skipped.push_back(w->name);
         continue;

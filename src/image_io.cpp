@@ -500,24 +500,6 @@ std::shared_ptr<const Raster> cached_raster(const std::string& file, RasterForma
   return r;
 }
 
-// ---- recipe-relative input paths ----------------------------------------------------------------
-
-void resolve_input_paths(json& doc, const std::string& base_dir) {
-  if (!doc.is_object() || !doc.contains("stages") || !doc["stages"].is_array()) return;
-  std::error_code ec;
-  std::filesystem::path base = std::filesystem::absolute(base_dir.empty() ? "." : base_dir, ec);
-  if (ec) base = base_dir;
-  for (json& s : doc["stages"]) {
-    if (!s.is_object()) continue;
-    auto st = s.find("stage");
-    if (st == s.end() || !st->is_string() || st->get<std::string>() != "image") continue;
-    auto p = s.find("path");
-    if (p == s.end() || !p->is_string()) continue;
-    const std::string file = p->get<std::string>();
-    if (!file.empty() && std::filesystem::path(file).is_relative()) *p = (base / file).lexically_normal().string();
-  }
-}
-
 // ---- GeoTIFF ----------------------------------------------------------------------------------
 
 std::string encode_geotiff_height(const Terrain& t) {

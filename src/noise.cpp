@@ -600,6 +600,13 @@ std::array<std::uint8_t, 512> seeded_permutation(std::uint64_t seed) {
 
 // ---- Noise ----------------------------------------------------------------------------------------
 
+struct Noise::State {
+  std::vector<detail::NoiseOctave> octaves;   // 1 for Fractal::None, else s_.octaves
+  std::array<detail::NoiseOctave, 2> warp{};  // n1 (x displacement), n2 (z displacement); if warp_m > 0
+  double inv_amp_sum = 1.0;                   // 1 / Σ aₖ
+  detail::NoiseKernelArgs args;               // the kernels' view of all this (pointers into it)
+};
+
 Noise::Noise(const NoiseSettings& s) : s_(s) {
   if (unsigned(s.basis) > unsigned(NoiseBasis::Gradient)) throw Error("basis", "unknown noise basis");
   if (unsigned(s.fractal) > unsigned(Fractal::Billow)) throw Error("fractal", "unknown fractal mode");
@@ -623,8 +630,9 @@ Noise::Noise(const NoiseSettings& s) : s_(s) {
     throw Error("warp_m", "expected a finite distance >= 0 m, got " + num(s.warp_m));
   require_positive("warp_frequency", s.warp_frequency);
 
+  auto st = std::make_shared<State>();
   const int count = s.fractal == Fractal::None ? 1 : s.octaves;
-  octaves_.reserve(std::size_t(count));
+  st->octaves.reserve(std::size_t(count));
   double f = s.frequency, amp = 1.0, amp_sum = 0.0;
   for (int k = 0; k < count; ++k) {
     const double fx = f * s.scale_x, fz = f * s.scale_z;
@@ -632,17 +640,31 @@ Noise::Noise(const NoiseSettings& s) : s_(s) {
       throw Error(k == 0 ? "frequency" : "lacunarity",
                   "octave " + std::to_string(k) + " has frequency " + num(fx) + " x " + num(fz) +
                       " and amplitude " + num(amp) + "; expected finite and > 0");
-    octaves_.push_back(make_octave(s, std::uint64_t(k), fx, fz, amp));
+    st->octaves.push_back(make_octave(s, std::uint64_t(k), fx, fz, amp));
     amp_sum += amp;
     f *= s.lacunarity;
     amp *= s.persistence;
   }
   if (!std::isfinite(amp_sum)) throw Error("persistence", "the octave amplitudes overflow: " + num(s.persistence));
-  inv_amp_sum_ = 1.0 / amp_sum;
+  st->inv_amp_sum = 1.0 / amp_sum;
   if (s.warp_m > 0.0)
     for (int w = 0; w < 2; ++w)
-      warp_[std::size_t(w)] = make_octave(s, kWarpIndex + std::uint64_t(w), s.warp_frequency,
+      st->warp[std::size_t(w)] = make_octave(s, kWarpIndex + std::uint64_t(w), s.warp_frequency,
                                                   s.warp_frequency, 1.0);
+  detail::NoiseKernelArgs& a = st->args;
+  a.basis = s.basis;
+  a.fractal = s.fractal;
+  a.cellular = s.cellular;
+  a.jitter = s.jitter;
+  a.periodic = s.period_x_m > 0.0 || s.period_z_m > 0.0;
+  a.warp = s.warp_m > 0.0;
+  a.dyadic = dyadic(s, st->octaves.size());
+  a.warp_m = s.warp_m;
+  a.inv_amp_sum = st->inv_amp_sum;
+  a.octaves = st->octaves.data();
+  a.count = int(st->octaves.size());
+  a.warp_octaves = st->warp.data();
+  state_ = std::move(st);
 }
 
 template <class XAt>
@@ -658,13 +680,13 @@ void Noise::run(double z_m, XAt x_at, int n, float* out) const {
     for (int i = 0; i < m; ++i) xs[i] = x_at(start + i);
     if (warp) {
       // Both displacements are sampled at the unwarped position, then applied together.
-      octave_chunk<true>(basis, ret, jitter, warp_[1], xs, nullptr, z_m, m, nb);
+      octave_chunk<true>(basis, ret, jitter, state_->warp[1], xs, nullptr, z_m, m, nb);
       for (int i = 0; i < m; ++i) zs[i] = z_m + s_.warp_m * nb[i];
-      octave_chunk<true>(basis, ret, jitter, warp_[0], xs, nullptr, z_m, m, nb);
+      octave_chunk<true>(basis, ret, jitter, state_->warp[0], xs, nullptr, z_m, m, nb);
       for (int i = 0; i < m; ++i) xs[i] = xs[i] + s_.warp_m * nb[i];
     }
     for (int i = 0; i < m; ++i) acc[i] = 0.0;
-    for (const detail::NoiseOctave& o : octaves_) {
+    for (const detail::NoiseOctave& o : state_->octaves) {
       if (warp)
         octave_chunk<false>(basis, ret, jitter, o, xs, zs, 0.0, m, nb);
       else
@@ -688,9 +710,9 @@ void Noise::run(double z_m, XAt x_at, int n, float* out) const {
     }
     float* dst = out + start;
     if (s_.fractal == Fractal::Ridged) {
-      for (int i = 0; i < m; ++i) dst[i] = float(2.0 * (acc[i] * inv_amp_sum_) - 1.0);
+      for (int i = 0; i < m; ++i) dst[i] = float(2.0 * (acc[i] * state_->inv_amp_sum) - 1.0);
     } else {
-      for (int i = 0; i < m; ++i) dst[i] = float(acc[i] * inv_amp_sum_);
+      for (int i = 0; i < m; ++i) dst[i] = float(acc[i] * state_->inv_amp_sum);
     }
   }
 }
@@ -703,12 +725,12 @@ void Noise::run_gradient(double z_m, XAt x_at, int n, float* out) const {
   float acc[kChunk];
   DyAxis dx[kChunk], dz[kChunk];  // per-sample dyadic lattice state (x; z when warped)
   const bool warp = s_.warp_m > 0.0;
-  const float inv = float(inv_amp_sum_);
+  const float inv = float(state_->inv_amp_sum);
   for (int start = 0; start < n; start += kChunk) {
     const int m = std::min(kChunk, n - start);
     for (int i = 0; i < m; ++i) xs[i] = x_at(start + i);
     if (warp) {
-      const detail::NoiseOctave &w0 = warp_[0], &w1 = warp_[1];
+      const detail::NoiseOctave &w0 = state_->warp[0], &w1 = state_->warp[1];
       const GRow r1 = grow(w1, z_m * w1.freq_z + w1.offset_z), r0 = grow(w0, z_m * w0.freq_z + w0.offset_z);
       for (int i = 0; i < m; ++i) {
         const float n1 = gradient_core(w1, r1, xs[i] * w1.freq_x + w1.offset_x);
@@ -718,13 +740,13 @@ void Noise::run_gradient(double z_m, XAt x_at, int n, float* out) const {
       }
     }
     for (int i = 0; i < m; ++i) acc[i] = 0.0f;
-    const bool dy = dyadic(s_, octaves_.size());
-    const detail::NoiseOctave& o0 = octaves_[0];
+    const bool dy = dyadic(s_, state_->octaves.size());
+    const detail::NoiseOctave& o0 = state_->octaves[0];
     DyAxis dzr{};  // the row's z lattice state (dyadic, no warp)
     const GAxis az0 = dy_start(z_m * o0.freq_z + o0.offset_z, dzr);
     const bool ridged = s_.fractal == Fractal::Ridged;
-    for (std::size_t k = 0; k < octaves_.size(); ++k) {
-      const detail::NoiseOctave& o = octaves_[k];
+    for (std::size_t k = 0; k < state_->octaves.size(); ++k) {
+      const detail::NoiseOctave& o = state_->octaves[k];
       const float a = float(o.amp);
       const float sc = o.ridge_scale;  // ridged: √a folded into the corner offsets
       auto scaled = [&](const GRow& r) { return ridged ? scale_row(r, sc) : r; };
@@ -774,26 +796,9 @@ void Noise::row_reference(double z_m, std::int64_t i0, double dx_m, int n, float
     run(z_m, [=](int i) { return double(i0 + i) * dx_m; }, n, out);
 }
 
-detail::NoiseKernelArgs Noise::kernel_args() const {
-  detail::NoiseKernelArgs a;
-  a.basis = s_.basis;
-  a.fractal = s_.fractal;
-  a.cellular = s_.cellular;
-  a.jitter = s_.jitter;
-  a.periodic = s_.period_x_m > 0.0 || s_.period_z_m > 0.0;
-  a.warp = s_.warp_m > 0.0;
-  a.dyadic = dyadic(s_, octaves_.size());
-  a.warp_m = s_.warp_m;
-  a.inv_amp_sum = inv_amp_sum_;
-  a.octaves = octaves_.data();
-  a.count = int(octaves_.size());
-  a.warp_octaves = warp_.data();
-  return a;
-}
-
 void Noise::row(double z_m, std::int64_t i0, double dx_m, int n, float* out) const {
   if (n <= 0) return;
-  detail::noise_row_simd(kernel_args(), z_m, i0, dx_m, n, out);
+  detail::noise_row_simd(state_->args, z_m, i0, dx_m, n, out);
 }
 
 NoiseColumns Noise::columns(std::int64_t i0, double dx_m, int n) const {
@@ -802,7 +807,7 @@ NoiseColumns Noise::columns(std::int64_t i0, double dx_m, int n) const {
   c.i0_ = i0;
   c.dx_ = dx_m;
   c.n_ = std::max(n, 0);
-  const detail::NoiseKernelArgs a = kernel_args();
+  const detail::NoiseKernelArgs a = state_->args;
   if (c.n_ == 0 || !detail::noise_columns_supported(a)) return c;
   c.stride_ = (c.n_ + 15) / 16 * 16;
   c.count_ = a.count;
@@ -817,17 +822,17 @@ NoiseColumns Noise::columns(std::int64_t i0, double dx_m, int n) const {
 
 void Noise::row(double z_m, const NoiseColumns& c, float* out) const {
   if (c.n_ <= 0) return;
-  if (c.owner_ != this || !c.data_ || c.count_ != int(octaves_.size())) {
+  if (c.owner_ != this || !c.data_ || c.count_ != int(state_->octaves.size())) {
     row(z_m, c.i0_, c.dx_, c.n_, out);
     return;
   }
-  detail::noise_row_columns_simd(kernel_args(), z_m, c.data_.get(), c.stride_, c.n_, out);
+  detail::noise_row_columns_simd(state_->args, z_m, c.data_.get(), c.stride_, c.n_, out);
 }
 
 void Noise::rows(const double* z_m, int nrows, std::int64_t i0, double dx_m, int n, float* out,
                  std::ptrdiff_t stride) const {
   if (n <= 0 || nrows <= 0) return;
-  const detail::NoiseKernelArgs a = kernel_args();
+  const detail::NoiseKernelArgs a = state_->args;
   if (nrows == 1 || !detail::noise_columns_supported(a)) {
     for (int r = 0; r < nrows; ++r) row(z_m[r], i0, dx_m, n, out + r * stride);
     return;

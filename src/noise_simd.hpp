@@ -1,6 +1,7 @@
 #pragma once
 // Internal: the Highway row kernels behind Noise::row (src/noise_simd.cpp) and the constants they
 // share with the scalar reference (src/noise.cpp). Not installed, not an API.
+#include <array>
 #include <cmath>
 #include <cstdint>
 #include <string>
@@ -9,6 +10,21 @@
 #include "relief/noise.hpp"
 
 namespace relief::detail {
+
+// Everything the row kernels need for one octave (or one warp noise), precomputed by Noise's
+// constructor (src/noise.cpp). Shared by the scalar and the SIMD kernels.
+struct NoiseOctave {
+  double freq_x = 0.0, freq_z = 0.0;        // lattice cells per metre (anisotropy, period rounding)
+  double offset_x = 0.0, offset_z = 0.0;    // seeded lattice offset in [0, 256) cells
+  std::int64_t period_x = 0, period_z = 0;  // lattice cells per period; 0 = not periodic
+  double inv_period_x = 0.0, inv_period_z = 0.0;  // 1 / period (0 when not periodic)
+  double amp = 1.0;                         // persistenceᵏ
+  float ridge_scale = 1.0f;                 // float(√amp): ridged Gradient's corner-offset scale
+  std::uint64_t key = 0;                    // lattice hash key (Value, Simplex, Cellular)
+  std::uint32_t key32 = 0;                  // lattice hash key (Gradient)
+  std::array<std::uint8_t, 512> perm{};     // doubled permutation (Perlin)
+  std::array<std::int32_t, 512> perm32{};   // the same, widened for SIMD gathers (Perlin)
+};
 
 // 1.5·2⁵²: for an integer-valued double |x| ≤ 2⁵¹, the bits of x + kMagicInt minus the bits of
 // kMagicInt are x as a two's complement int64 (same exponent, mantissa linear in x).

@@ -261,26 +261,6 @@ void apply_override(json& doc, const std::string& assignment) {
 
 namespace {
 
-std::vector<std::filesystem::path> user_preset_dirs() {
-  std::vector<std::filesystem::path> dirs;
-  if (const char* env = std::getenv("RELIEF_PRESETS")) {
-    std::string s = env;
-    std::size_t start = 0;
-    while (start <= s.size()) {
-      auto end = s.find(':', start);
-      std::string d = s.substr(start, end == std::string::npos ? std::string::npos : end - start);
-      if (!d.empty()) dirs.emplace_back(d);
-      if (end == std::string::npos) break;
-      start = end + 1;
-    }
-  }
-  if (const char* xdg = std::getenv("XDG_CONFIG_HOME"); xdg && *xdg)
-    dirs.emplace_back(std::filesystem::path(xdg) / "relief" / "presets");
-  else if (const char* home = std::getenv("HOME"); home && *home)
-    dirs.emplace_back(std::filesystem::path(home) / ".config" / "relief" / "presets");
-  return dirs;
-}
-
 std::string read_text(const std::filesystem::path& p) {
   std::ifstream in(p, std::ios::binary);
   if (!in) throw Error("preset", "cannot read '" + p.string() + "'");
@@ -290,7 +270,8 @@ std::string read_text(const std::filesystem::path& p) {
 }
 
 // name → (origin, text); user presets replace built-ins of the same name; earlier dirs win.
-std::vector<std::pair<std::string, std::pair<std::string, std::string>>> all_presets(bool read_user_text) {
+std::vector<std::pair<std::string, std::pair<std::string, std::string>>> all_presets(const std::vector<std::string>& user_dirs,
+                                                                               bool read_user_text) {
   std::vector<std::pair<std::string, std::pair<std::string, std::string>>> out;
   auto put = [&](const std::string& name, std::string origin, std::string text) {
     for (auto& e : out)
@@ -298,7 +279,8 @@ std::vector<std::pair<std::string, std::pair<std::string, std::string>>> all_pre
     out.push_back({name, {std::move(origin), std::move(text)}});
   };
   std::error_code ec;
-  for (auto& d : user_preset_dirs()) {
+  for (const std::string& dir : user_dirs) {
+    const std::filesystem::path d(dir);
     if (!std::filesystem::is_directory(d, ec)) continue;
     std::vector<std::filesystem::path> files;
     for (auto& e : std::filesystem::directory_iterator(d, ec))
@@ -323,9 +305,29 @@ std::vector<std::pair<std::string, std::pair<std::string, std::string>>> all_pre
 
 }  // namespace
 
-std::vector<PresetInfo> list_presets() {
+std::vector<std::string> user_preset_dirs(const char* relief_presets, const char* xdg_config_home, const char* home) {
+  std::vector<std::string> dirs;
+  if (relief_presets) {
+    const std::string_view s = relief_presets;
+    std::size_t start = 0;
+    while (start <= s.size()) {
+      const auto end = s.find(':', start);
+      const std::string_view d = s.substr(start, end == std::string_view::npos ? std::string_view::npos : end - start);
+      if (!d.empty()) dirs.emplace_back(d);
+      if (end == std::string_view::npos) break;
+      start = end + 1;
+    }
+  }
+  if (xdg_config_home && *xdg_config_home)
+    dirs.push_back((std::filesystem::path(xdg_config_home) / "relief" / "presets").string());
+  else if (home && *home)
+    dirs.push_back((std::filesystem::path(home) / ".config" / "relief" / "presets").string());
+  return dirs;
+}
+
+std::vector<PresetInfo> list_presets(const std::vector<std::string>& user_dirs) {
   std::vector<PresetInfo> out;
-  for (auto& [name, ot] : all_presets(true)) {
+  for (auto& [name, ot] : all_presets(user_dirs, true)) {
     PresetInfo pi{name, "", ot.first};
     try {
       json doc = parse_json(ot.second, "preset");
@@ -339,8 +341,8 @@ std::vector<PresetInfo> list_presets() {
   return out;
 }
 
-json load_preset(const std::string& name) {
-  auto all = all_presets(true);
+json load_preset(const std::string& name, const std::vector<std::string>& user_dirs) {
+  auto all = all_presets(user_dirs, true);
   for (auto& [n, ot] : all) {
     if (n != name) continue;
     return parse_json(ot.second, "'" + ot.first + "'", "preset");
@@ -352,6 +354,50 @@ json load_preset(const std::string& name) {
   for (auto& n : names) list += (list.empty() ? "" : ", ") + n;
   throw Error("preset", "unknown preset " + quote(name) + (near.empty() ? "" : " (did you mean '" + near + "'?)") +
                             "; available: " + list);
+}
+
+// ---- recipe files -------------------------------------------------------------------------------
+
+namespace {
+void resolve_file(json& value, const std::filesystem::path& base) {
+  const std::string file = value.get<std::string>();
+  if (!file.empty() && std::filesystem::path(file).is_relative()) value = (base / file).lexically_normal().string();
+}
+
+// The file names a recipe holds: every string member named "texture" below `v` (colour levels,
+// biome types and their colours, climate table entries), and the "path" of an image stage.
+void resolve_files(json& v, const std::filesystem::path& base) {
+  if (v.is_array()) {
+    for (json& e : v) resolve_files(e, base);
+  } else if (v.is_object()) {
+    const auto stage = v.find("stage");
+    const bool image = stage != v.end() && stage->is_string() && stage->get<std::string>() == "image";
+    for (auto it = v.begin(); it != v.end(); ++it) {
+      if ((it.key() == "texture" || (image && it.key() == "path")) && it.value().is_string())
+        resolve_file(it.value(), base);
+      else
+        resolve_files(it.value(), base);
+    }
+  }
+}
+}  // namespace
+
+void resolve_recipe_files(json& doc, const std::string& base_dir) {
+  if (!doc.is_object() || !doc.contains("stages")) return;
+  std::error_code ec;
+  std::filesystem::path base = std::filesystem::absolute(base_dir.empty() ? "." : base_dir, ec);
+  if (ec) base = base_dir;
+  resolve_files(doc["stages"], base);
+}
+
+json read_recipe_file(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error("recipe", "cannot read '" + path + "'");
+  std::stringstream ss;
+  ss << in.rdbuf();
+  json doc = parse_json(ss.str(), "'" + path + "'", "recipe");
+  resolve_recipe_files(doc, std::filesystem::path(path).parent_path().string());
+  return doc;
 }
 
 }  // namespace relief

@@ -130,4 +130,17 @@ inline double from_reference_elevation(double at, double sea) {
   return sea + (at - kReferenceSea) * ((1.0 - sea) / (1.0 - kReferenceSea));
 }
 
+// Gradient fBm of `octaves` octaves whose first octave has wavelength `wavelength_m` (gain 0.5,
+// lacunarity 2): the slow climate fields of `biomes` (aridity, ruggedness) and `climate`
+// (temperature, moisture).
+inline NoiseSettings gradient_fbm(double wavelength_m, int octaves, std::uint64_t seed) {
+  NoiseSettings s;
+  s.basis = NoiseBasis::Gradient;
+  s.fractal = Fractal::Fbm;
+  s.octaves = octaves;
+  s.frequency = 1.0 / wavelength_m;
+  s.seed = seed;
+  return s;
+}
+
 }  // namespace relief::detail

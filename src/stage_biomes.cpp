@@ -67,16 +67,6 @@ std::uint64_t name_hash(const std::string& s) {  // FNV-1a: a type's noise follo
   return h;
 }
 
-NoiseSettings climate_noise(double wavelength_m, std::uint64_t seed) {
-  NoiseSettings s;
-  s.basis = NoiseBasis::Gradient;
-  s.fractal = Fractal::Fbm;
-  s.octaves = 3;
-  s.frequency = 1.0 / wavelength_m;
-  s.seed = seed;
-  return s;
-}
-
 }  // namespace
 
 std::vector<BiomeType> default_biome_types() {
@@ -153,8 +143,8 @@ RegionMap::RegionMap(const BiomesParams& p, std::uint64_t seed, double x0_m, dou
   ncz_ = int(cell(z1_m) - cell(z0_m)) + 1 + 2 * margin_;
   const std::uint64_t s_points = hash64(seed, 0x706f696e74ull), s_prio = hash64(seed, 0x7072696full),
                       s_gumbel = hash64(seed, 0x67756d62ull);
-  const Noise aridity(climate_noise(p.climate_wavelength_m, hash64(seed, 0x61726964ull)));
-  const Noise rugged(climate_noise(p.climate_wavelength_m, hash64(seed, 0x72756767ull)));
+  const Noise aridity(detail::gradient_fbm(p.climate_wavelength_m, 3, hash64(seed, 0x61726964ull)));
+  const Noise rugged(detail::gradient_fbm(p.climate_wavelength_m, 3, hash64(seed, 0x72756767ull)));
   cells_.resize(std::size_t(ncx_) * std::size_t(ncz_));
   constexpr double kInvTwoSigma2 = 1.0 / (2.0 * 0.25 * 0.25);
   detail::parallel_rows(ncz_, [&](int b) {

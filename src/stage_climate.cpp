@@ -141,16 +141,6 @@ struct ClimateParams {
   double beach_height = 0.006;
 };
 
-Noise field(double wavelength, std::uint64_t seed) {
-  NoiseSettings s;
-  s.basis = NoiseBasis::Gradient;
-  s.fractal = Fractal::Fbm;
-  s.octaves = 4;
-  s.frequency = 1.0 / wavelength;
-  s.seed = seed;
-  return Noise(s);
-}
-
 void apply_climate(Terrain& t, const ClimateParams& p, const Context& ctx) {
   const Frame& fr = t.frame;
   const std::string path = "stages[" + std::to_string(ctx.stage_index) + "]";
@@ -180,8 +170,8 @@ void apply_climate(Terrain& t, const ClimateParams& p, const Context& ctx) {
   std::vector<unsigned char> water(fr.count());
   for (std::size_t k = 0; k < water.size(); ++k) water[k] = double(h.data[k]) <= sea;
   const std::vector<float> dist = detail::distance_transform(water, fr.nx, fr.nz);
-  const Noise nt = field(p.temperature_wavelength_m, ctx.stage_seed(1));
-  const Noise nm = field(p.moisture_wavelength_m, ctx.stage_seed(2));
+  const Noise nt(detail::gradient_fbm(p.temperature_wavelength_m, 4, ctx.stage_seed(1)));
+  const Noise nm(detail::gradient_fbm(p.moisture_wavelength_m, 4, ctx.stage_seed(2)));
   Layer& temp = t.layer("temperature", 1);
   Layer& moist = t.layer("moisture", 1);
   Layer& biome = t.layer("biome", 1);

@@ -45,6 +45,15 @@ void require_height(Terrain& t) {
     throw Error("", "layer 'height' must have one channel and one value per sample");
 }
 
+// A pointwise kernel on t's height layer (checked): Fn applies the row parameters `k` to each row.
+template <class Row, void (*Fn)(const Row&, float*, int)>
+struct HeightKernel : RowKernel {
+  Row k;
+  int nx = 0;
+  explicit HeightKernel(Terrain& t) : RowKernel("height"), nx(t.frame.nx) { require_height(t); }
+  void apply_row(int, float* row) const override { Fn(k, row, nx); }
+};
+
 // ================================================================================ redistribute
 
 struct RedistributeParams {
@@ -57,20 +66,13 @@ struct RedistributeParams {
 // (pointwise.hpp: LandOnly). Heights are clamped to [0, 1] first, so negative heights become 0 and
 // stay 0. pow is our own exp2(exponent · log2 e) in single precision (pointwise.hpp:
 // RedistributeRow; relative error ≤ 1.5e-6, the same bits on every SIMD target); exponent 1 is exact.
-struct RedistributeKernel final : RowKernel {
-  detail::RedistributeRow k;
-  int nx = 0;
-  RedistributeKernel() : RowKernel("height") {}
-  void apply_row(int, float* row) const override { detail::redistribute_row(k, row, nx); }
-};
+using RedistributeKernel = HeightKernel<detail::RedistributeRow, detail::redistribute_row>;
 
 std::unique_ptr<RowKernel> prepare_redistribute(Terrain& t, const RedistributeParams& p, const Context&) {
-  require_height(t);
-  auto r = std::make_unique<RedistributeKernel>();
+  auto r = std::make_unique<RedistributeKernel>(t);
   r->k.land = detail::LandOnly::make(p.land_only, t.frame.sea_level);
   r->k.set_exponent(p.exponent);
   r->k.modifier = float(p.modifier);
-  r->nx = t.frame.nx;
   return r;
 }
 
@@ -94,12 +96,7 @@ struct TerraceParams {
 //         the plateaus. Continuous and non-decreasing in e; w = 0 is exactly `round`.
 // t = e·n is rounded to float, so a sample within half an ulp of a step edge may land on the
 // other side of it (the same on every target and at every resolution).
-struct TerraceKernel final : RowKernel {
-  detail::TerraceRow k;
-  int nx = 0;
-  TerraceKernel() : RowKernel("height") {}
-  void apply_row(int, float* row) const override { detail::terrace_row(k, row, nx); }
-};
+using TerraceKernel = HeightKernel<detail::TerraceRow, detail::terrace_row>;
 
 // filter_samples > 0: band-limited terraces. A terrace is a periodic function of elevation; on a
 // slope it becomes a periodic function of position whose period is (1/n) / |∇e| samples. Where
@@ -178,14 +175,12 @@ void apply_terrace_filtered(Terrain& t, const TerraceParams& p) {
 }
 
 std::unique_ptr<RowKernel> prepare_terrace(Terrain& t, const TerraceParams& p, const Context&) {
-  require_height(t);
-  auto r = std::make_unique<TerraceKernel>();
+  auto r = std::make_unique<TerraceKernel>(t);
   r->k.levels = float(p.levels);
   r->k.smooth = p.mode == TerraceMode::Smooth && p.wall > 0.0;
   r->k.wall = float(p.wall);
   r->k.wall_lo = float(0.5 * (1.0 - p.wall));
   r->k.land = detail::LandOnly::make(p.land_only, t.frame.sea_level);
-  r->nx = t.frame.nx;
   return r;
 }
 
@@ -298,19 +293,15 @@ struct CurveParams {
 // AVX-512), the segment's coefficients are looked up by lane permutation (one compare and one add
 // per interior point, eight permutations); beyond that, one compare and eight selects per interior
 // point. AVX2, 4096², 1 thread: 7 points 76 → 52 ms, 4 points 49 → 44 ms.
-struct CurveKernel final : RowKernel {
-  detail::CurveRow k;
-  std::vector<float> x0, h, c0, c1, c2, c3, lo, hi;
-  int nx = 0;
-  CurveKernel() : RowKernel("height") {}
-  void apply_row(int, float* row) const override { detail::curve_row(k, row, nx); }
+struct CurveKernel final : HeightKernel<detail::CurveRow, detail::curve_row> {
+  using HeightKernel::HeightKernel;
+  std::vector<float> x0, h, c0, c1, c2, c3, lo, hi;  // the tables k points into
 };
 
 std::unique_ptr<RowKernel> prepare_curve(Terrain& t, const CurveParams& p, const Context&) {
-  require_height(t);
+  auto r = std::make_unique<CurveKernel>(t);
   const std::vector<CurvePoint>& c = p.points;
   const std::vector<double> m = detail::monotone_tangents(c);
-  auto r = std::make_unique<CurveKernel>();
   for (std::size_t k = 0; k + 1 < c.size(); ++k) {
     const double h = c[k + 1].x - c[k].x, dy = c[k + 1].y - c[k].y;
     const double hm0 = h * m[k], hm1 = h * m[k + 1];
@@ -334,7 +325,6 @@ std::unique_ptr<RowKernel> prepare_curve(Terrain& t, const CurveParams& p, const
   r->k.first_y = float(c.front().y);
   r->k.last_x = detail::float_at_least(c.back().x);
   r->k.last_y = float(c.back().y);
-  r->nx = t.frame.nx;
   return r;
 }
 

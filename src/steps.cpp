@@ -67,14 +67,13 @@ Rgbf prop_color(const std::string& type) {
 struct Font {
   FT_Library lib = nullptr;
   FT_Face face = nullptr;
-  Font() {
-    const char* env = std::getenv("RELIEF_FONT");
-    std::string path = env && *env ? env : "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
+  explicit Font(const std::string& file) {
+    const std::string path = file.empty() ? std::string(kDefaultCaptionFont) : file;
     if (FT_Init_FreeType(&lib)) throw Error("steps", "cannot initialise FreeType");
     if (FT_New_Face(lib, path.c_str(), 0, &face)) {
       FT_Done_FreeType(lib);
       throw Error("steps", "cannot load the caption font '" + path +
-                               "' (install fonts-dejavu-core, or set RELIEF_FONT to a TrueType file)");
+                               "' (install fonts-dejavu-core, or name another TrueType file: relief reads $RELIEF_FONT)");
     }
   }
   ~Font() {
@@ -99,9 +98,10 @@ std::vector<std::uint32_t> utf8(const std::string& s) {
   return out;
 }
 
-// Width in pixels of `text` at the face's current size.
-int text_width(Font& f, const std::vector<std::uint32_t>& text) {
-  int pen = 0;
+// Lays `text` out from pen position `pen` with kerning, loading each glyph with `load_flags`: calls
+// glyph(pen) for every glyph that loads (it is f.face->glyph), then advances. Returns the final pen.
+template <class G>
+int lay_out(Font& f, const std::vector<std::uint32_t>& text, int pen, FT_Int32 load_flags, G&& glyph) {
   FT_UInt prev = 0;
   for (std::uint32_t cp : text) {
     const FT_UInt gi = FT_Get_Char_Index(f.face, cp);
@@ -110,11 +110,16 @@ int text_width(Font& f, const std::vector<std::uint32_t>& text) {
       FT_Get_Kerning(f.face, prev, gi, FT_KERNING_DEFAULT, &k);
       pen += int(k.x >> 6);
     }
-    if (FT_Load_Glyph(f.face, gi, FT_LOAD_DEFAULT) == 0) pen += int(f.face->glyph->advance.x >> 6);
     prev = gi;
+    if (FT_Load_Glyph(f.face, gi, load_flags)) continue;
+    glyph(pen);
+    pen += int(f.face->glyph->advance.x >> 6);
   }
   return pen;
 }
+
+// Width in pixels of `text` at the face's current size.
+int text_width(Font& f, const std::vector<std::uint32_t>& text) { return lay_out(f, text, 0, FT_LOAD_DEFAULT, [](int) {}); }
 
 // Draws `text` with its baseline at y, starting at x, clipped to max_width (ending in "…" if cut).
 void draw_text(Font& f, std::vector<std::uint8_t>& img, int W, int H, int x, int y, const std::string& s, Rgbf color,
@@ -131,17 +136,7 @@ void draw_text(Font& f, std::vector<std::uint8_t>& img, int W, int H, int x, int
     }
     text.insert(text.end(), ell.begin(), ell.end());
   }
-  int pen = x;
-  FT_UInt prev = 0;
-  for (std::uint32_t cp : text) {
-    const FT_UInt gi = FT_Get_Char_Index(f.face, cp);
-    if (prev && gi && FT_HAS_KERNING(f.face)) {
-      FT_Vector k;
-      FT_Get_Kerning(f.face, prev, gi, FT_KERNING_DEFAULT, &k);
-      pen += int(k.x >> 6);
-    }
-    prev = gi;
-    if (FT_Load_Glyph(f.face, gi, FT_LOAD_RENDER)) continue;
+  lay_out(f, text, x, FT_LOAD_RENDER, [&](int pen) {
     const FT_GlyphSlot g = f.face->glyph;
     const FT_Bitmap& bm = g->bitmap;
     for (unsigned r = 0; r < bm.rows; ++r)
@@ -153,8 +148,7 @@ void draw_text(Font& f, std::vector<std::uint8_t>& img, int W, int H, int x, int
         const float col[3] = {color.r, color.g, color.b};
         for (int ch = 0; ch < 3; ++ch) p[ch] = std::uint8_t(std::lround(p[ch] * (1.0 - a) + col[ch] * 255.0 * a));
       }
-    pen += int(g->advance.x >> 6);
-  }
+  });
 }
 
 }  // namespace
@@ -228,9 +222,10 @@ StepImage render_step(const Terrain& t, int max_px) {
 
 std::string encode_step_png(const StepImage& s) { return encode_png_rgb8(s.rgb, s.width, s.height); }
 
-std::string contact_sheet_png(const std::vector<StepImage>& steps, const std::string& title, int columns, int thumb_px) {
+std::string contact_sheet_png(const std::vector<StepImage>& steps, const std::string& title, int columns, int thumb_px,
+                              const std::string& font_file) {
   if (steps.empty()) throw Error("steps", "no stage pictures to put on a contact sheet");
-  Font font;
+  Font font(font_file);
   columns = std::clamp(columns, 1, int(steps.size()));
   const int rows = (int(steps.size()) + columns - 1) / columns;
   const int margin = 14, caption_h = 24, title_h = 40;

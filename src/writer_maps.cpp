@@ -22,6 +22,7 @@
 #include <OpenEXR/ImfOutputFile.h>
 
 #include <algorithm>
+#include <limits>
 #include <cmath>
 #include <cstring>
 #include <numeric>
@@ -123,29 +124,22 @@ std::string encode_normal_map(const Terrain& t, int bits, bool directx) {
   if (bits != 8 && bits != 16) throw Error("normal_bits", "expected 8 or 16, got " + std::to_string(bits));
   const Normals nm{f, h};
   const double g_sign = directx ? 1.0 : -1.0;
-  const std::size_t n = f.count() * 3;
-  if (bits == 8) {
-    std::vector<std::uint8_t> px(n);
+  // (n + 1) / 2 in 8 or 16 bits per channel.
+  auto encode = [&](auto sample) {
+    using T = decltype(sample);
+    constexpr double kMax = double(std::numeric_limits<T>::max());
+    std::vector<T> px(f.count() * 3);
     detail::parallel_rows(f.nz, [&](int j) {
       for (int i = 0; i < f.nx; ++i) {
         double v[3];
         nm.at(i, j, v);
         const double c[3] = {v[0], g_sign * v[2], v[1]};
-        for (int k = 0; k < 3; ++k) px[(std::size_t(j) * f.nx + i) * 3 + k] = std::uint8_t(std::lround((c[k] + 1) * 0.5 * 255));
+        for (int k = 0; k < 3; ++k) px[(std::size_t(j) * f.nx + i) * 3 + k] = T(std::lround((c[k] + 1) * 0.5 * kMax));
       }
     });
-    return encode_png_pixels(px.data(), px.size(), f.nx, f.nz, 8, 3);
-  }
-  std::vector<std::uint16_t> px(n);
-  detail::parallel_rows(f.nz, [&](int j) {
-    for (int i = 0; i < f.nx; ++i) {
-      double v[3];
-      nm.at(i, j, v);
-      const double c[3] = {v[0], g_sign * v[2], v[1]};
-      for (int k = 0; k < 3; ++k) px[(std::size_t(j) * f.nx + i) * 3 + k] = std::uint16_t(std::lround((c[k] + 1) * 0.5 * 65535));
-    }
-  });
-  return encode_png_pixels(px.data(), px.size() * 2, f.nx, f.nz, 16, 3);
+    return encode_png_pixels(px.data(), px.size() * sizeof(T), f.nx, f.nz, int(8 * sizeof(T)), 3);
+  };
+  return bits == 8 ? encode(std::uint8_t{}) : encode(std::uint16_t{});
 }
 
 std::string encode_hillshade(const Terrain& t, double azimuth_deg, double altitude_deg) {

@@ -14,6 +14,7 @@
 
 #include <nlohmann/json.hpp>
 
+#include "relief/output.hpp"
 #include "support.hpp"
 
 namespace fs = std::filesystem;
@@ -28,6 +29,15 @@ Result cli(const std::string& args) { return relief::test::relief_cli(args); }
 using relief::test::TempDir;
 
 constexpr auto expect_bad_input = relief::test::expect_cli_error;
+
+// height.r16 of `relief generate ARGS --size 33 --formats heightmap -q` in a fresh folder (a failed
+// run is a test failure and gives "").
+std::string heights_of(const std::string& args) {
+  TempDir d;
+  const Result r = cli("generate " + args + " --size 33 --formats heightmap -q -o " + d.path.string());
+  EXPECT_EQ(r.code, 0) << args << "\n" << r.out;
+  return slurp(d.path / "height.r16");
+}
 
 }  // namespace
 
@@ -94,22 +104,16 @@ TEST(Cli, OutputIsByteIdenticalForAnyThreadCount) {
   }
 }
 
-TEST(Cli, DifferentSeedsGiveDifferentHeights) {
-  TempDir a, b;
-  ASSERT_EQ(cli("generate --seed 1 --size 33 --formats heightmap -q -o " + a.path.string()).code, 0);
-  ASSERT_EQ(cli("generate --seed 2 --size 33 --formats heightmap -q -o " + b.path.string()).code, 0);
-  EXPECT_NE(slurp(a.path / "height.r16"), slurp(b.path / "height.r16"));
-}
+TEST(Cli, DifferentSeedsGiveDifferentHeights) { EXPECT_NE(heights_of("--seed 1"), heights_of("--seed 2")); }
 
 TEST(Cli, RandomSeedIsPrintedAndReproduces) {
-  TempDir a, b;
+  TempDir a;
   Result r = cli("generate --size 33 --formats heightmap -o " + a.path.string());
   ASSERT_EQ(r.code, 0) << r.out;
   auto pos = r.out.find("--seed ");
   ASSERT_NE(pos, std::string::npos) << r.out;
   std::string seed = r.out.substr(pos + 7, r.out.find(')', pos) - pos - 7);
-  ASSERT_EQ(cli("generate --size 33 --formats heightmap -q --seed " + seed + " -o " + b.path.string()).code, 0);
-  EXPECT_EQ(slurp(a.path / "height.r16"), slurp(b.path / "height.r16"));
+  EXPECT_EQ(slurp(a.path / "height.r16"), heights_of("--seed " + seed));
 }
 
 TEST(Cli, SavedRecipeReproducesTheResult) {
@@ -126,10 +130,7 @@ TEST(Cli, SavedRecipeReproducesTheResult) {
 }
 
 TEST(Cli, SetOverridesChangeTheResult) {
-  TempDir a, b;
-  ASSERT_EQ(cli("generate --seed 3 --size 33 --formats heightmap -q -o " + a.path.string()).code, 0);
-  ASSERT_EQ(cli("generate --seed 3 --size 33 --formats heightmap -q --set 'stages[0].octaves=2' -o " + b.path.string()).code, 0);
-  EXPECT_NE(slurp(a.path / "height.r16"), slurp(b.path / "height.r16"));
+  EXPECT_NE(heights_of("--seed 3"), heights_of("--seed 3 --set 'stages[0].octaves=2'"));
 }
 
 TEST(CliBadInput, OutOfRangeParameter) {
@@ -240,6 +241,32 @@ TEST(CliIslands, DefaultSetSkipsIslandWritersWithNothingToWrite) {
   EXPECT_FALSE(fs::exists(d.path / "biome.png"));
   // Asked for by name, the writer says what is missing.
   expect_bad_input("generate island --seed 1 --size 33 -q --formats biomes -o " + d.path.string(), "biomes needs a 'biome' layer");
+}
+
+TEST(CliRecipeFile, TextureResolvesAgainstTheRecipeFolderFromAnyWorkingDirectory) {
+  TempDir d;
+  fs::create_directories(d.path / "recipes" / "tex");
+  fs::create_directories(d.path / "elsewhere");
+  relief::Layer px;
+  px.channels = 3;
+  px.data.assign(12, 0.5f);
+  relief::write_file_atomic(d / "recipes/tex/moss.png", relief::encode_png_rgb8(px, 2, 2));
+  relief::test::write_text(d.path / "recipes" / "r.json", R"({"world": {"size": 17}, "stages": [{"stage": "noise"},
+    {"stage": "color", "levels": [{"at": 1, "color": "#000000", "texture": "tex/moss.png", "tile_m": 10}]}]})");
+  // Run from a folder without the texture: the name is the recipe folder's.
+  const std::string run = "cd " + d / "elsewhere" + " && " + RELIEF_BINARY + " generate ../recipes/r.json --seed 1 -q --formats albedo -o out";
+  const Result ok = relief::test::sh(run + " --save-recipe saved.json");
+  ASSERT_EQ(ok.code, 0) << ok.out;
+  const auto saved = nlohmann::json::parse(slurp(d.path / "elsewhere" / "saved.json"));
+  EXPECT_EQ(saved["stages"][1]["levels"][0]["texture"], (fs::absolute(d.path) / "recipes" / "tex" / "moss.png").string());
+  // The saved recipe (absolute names) replays from yet another folder, byte for byte.
+  const Result again = relief::test::sh("cd " + d.path.string() + " && " + RELIEF_BINARY + " generate elsewhere/saved.json -q -o out2");
+  ASSERT_EQ(again.code, 0) << again.out;
+  EXPECT_EQ(slurp(d.path / "out2" / "albedo.png"), slurp(d.path / "elsewhere" / "out" / "albedo.png"));
+  // A name typed on the command line is the working directory's.
+  const Result typed = relief::test::sh(run + " --set 'stages[1].levels[0].texture=\"tex/moss.png\"'");
+  EXPECT_EQ(typed.code, 2) << typed.out;
+  EXPECT_NE(typed.out.find("cannot read texture 'tex/moss.png'"), std::string::npos) << typed.out;
 }
 
 TEST(CliIslands, BadIslandParametersExit2NamingTheField) {

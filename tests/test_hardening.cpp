@@ -98,11 +98,10 @@ TEST(HostileJson, DescribeIsBoundedInLengthAndDepth) {
 TEST(HostileJson, UserPresetNestedTooDeepIsAnError) {
   relief::test::TempDir d("relief-deep-preset");
   std::ofstream(d / "deep.json") << nested(100000);
-  ::setenv("RELIEF_PRESETS", d.path.c_str(), 1);
-  const std::string m = error_of([] { (void)load_preset("deep"); });
+  const std::vector<std::string> dirs{d.path.string()};
+  const std::string m = error_of([&] { (void)load_preset("deep", dirs); });
   bool listed = false;
-  for (auto& p : list_presets()) listed = listed || p.name == "deep";
-  ::unsetenv("RELIEF_PRESETS");
+  for (auto& p : list_presets(dirs)) listed = listed || p.name == "deep";
   EXPECT_NE(m.find("preset: '"), std::string::npos) << m;
   EXPECT_NE(m.find("deeper than 128"), std::string::npos) << m;
   EXPECT_TRUE(listed);
@@ -328,6 +327,34 @@ TEST(StudioRequest, MoreStagesThanTheLimitAreRefusedBeforeParsing) {
   }
   EXPECT_EQ(relief::cli::parse_studio_request(relief::cli::Endpoint::Generate, body(3, "noise"), s).recipe.stages.size(), 3u);
   EXPECT_EQ(relief::cli::StudioSettings{}.max_stages, 64);
+}
+
+// Issue 19: the server never opens a file a client names. An image stage (whose parsing would read
+// the file's header) and a colour texture are refused before parsing, naming the field.
+TEST(StudioRequest, FilesNamedByTheClientAreRefusedBeforeAnythingIsRead) {
+  relief::cli::StudioSettings s;
+  const std::pair<std::string, std::string> cases[] = {
+      {R"({"stage": "image", "path": "/etc/passwd"})", "stages[1].path"},
+      {R"({"stage": "color", "levels": [{"at": 0.5, "color": "#808080", "texture": "/etc/passwd"}]})",
+       "stages[1].levels[0].texture"},
+  };
+  for (const auto& [stage, field] : cases) {
+    const std::string body = R"({"recipe": {"world": {"size": 17}, "stages": [{"stage": "noise"}, )" + stage + "]}}";
+    for (auto e : {relief::cli::Endpoint::Resolve, relief::cli::Endpoint::Generate, relief::cli::Endpoint::Export}) {
+      try {
+        (void)relief::cli::parse_studio_request(e, e == relief::cli::Endpoint::Export ? body.substr(0, body.size() - 1) + R"(, "format": "heightmap"})" : body, s);
+        ADD_FAILURE() << "accepted " << stage;
+      } catch (const relief::cli::ApiError& err) {
+        EXPECT_EQ(err.status(), 400);
+        EXPECT_EQ(err.path(), field);
+        EXPECT_NE(err.message().find("does not read files named by a request"), std::string::npos) << err.message();
+      }
+    }
+  }
+  // An empty texture names no file.
+  EXPECT_NO_THROW((void)relief::cli::parse_studio_request(
+      relief::cli::Endpoint::Resolve,
+      R"({"recipe": {"world": {"size": 17}, "stages": [{"stage": "noise"}, {"stage": "color", "levels": [{"at": 0.5, "color": "#808080", "texture": ""}]}]}})", s));
 }
 
 TEST(StudioRequest, WorkBudgetIsTheOptionOrAQuarterOfMemoryAtMost4GiB) {

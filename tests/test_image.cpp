@@ -215,7 +215,7 @@ TEST(ImageStage, RelativePathResolvesAgainstTheRecipeFolder) {
   EXPECT_EQ(saved["stages"][0]["path"], (d.path / "in" / "sketch.exr").string());
   json doc = {{"stages", json::array({{{"stage", "image"}, {"path", "a/b.png"}}, {{"stage", "noise"}, {"path", "x"}},
                                       {{"stage", "image"}, {"path", "/abs.png"}}})}};
-  resolve_input_paths(doc, "/base/dir");
+  resolve_recipe_files(doc, "/base/dir");
   EXPECT_EQ(doc["stages"][0]["path"], "/base/dir/a/b.png");
   EXPECT_EQ(doc["stages"][1]["path"], "x");  // not an image stage
   EXPECT_EQ(doc["stages"][2]["path"], "/abs.png");
@@ -510,9 +510,7 @@ namespace {
 
 json example_doc(const std::string& name) {
   const std::string file = std::string(RELIEF_SOURCE_DIR) + "/examples/" + name + "/recipe.json";
-  json doc = parse_json(test::slurp(file), file);
-  resolve_input_paths(doc, std::filesystem::path(file).parent_path().string());
-  return doc;
+  return read_recipe_file(file);
 }
 
 TEST(Examples, RealDemDrainsEverywhereAfterFill) {

@@ -381,22 +381,17 @@ TEST(Periodic, WithoutPeriodDoesNotRepeat) {
 }
 
 TEST(Periodic, SimplexWithPeriodThrows) {
-  NoiseSettings s;
-  s.basis = NoiseBasis::Simplex;
-  s.period_x_m = 1000;
-  try {
-    Noise n(s);
-    FAIL() << "expected relief::Error";
-  } catch (const Error& e) {
-    EXPECT_EQ(e.path(), "period_x_m");
-  }
-  s.period_x_m = 0;
-  s.period_z_m = 500;
-  try {
-    Noise n(s);
-    FAIL() << "expected relief::Error";
-  } catch (const Error& e) {
-    EXPECT_EQ(e.path(), "period_z_m");
+  for (double NoiseSettings::*period : {&NoiseSettings::period_x_m, &NoiseSettings::period_z_m}) {
+    NoiseSettings s;
+    s.basis = NoiseBasis::Simplex;
+    s.*period = 500;
+    const std::string field = period == &NoiseSettings::period_x_m ? "period_x_m" : "period_z_m";
+    try {
+      Noise n(s);
+      ADD_FAILURE() << "expected relief::Error for " << field;
+    } catch (const Error& e) {
+      EXPECT_EQ(e.path(), field);
+    }
   }
 }
 

@@ -223,23 +223,48 @@ TEST(Presets, UnknownPresetSuggestsNearest) {
   }
 }
 
-TEST(Presets, UserFolderFromEnvironmentIsListedAndLoaded) {
+TEST(Presets, UserFolderIsListedAndLoaded) {
   const relief::test::TempDir tmp("relief-presets");
   const std::filesystem::path& dir = tmp.path;
   {
     std::ofstream(dir / "my-valley.json") << R"({"description": "my own valley", "stages": [{"stage": "noise"}]})";
   }
-  ::setenv("RELIEF_PRESETS", dir.c_str(), 1);
+  const std::vector<std::string> dirs{dir.string()};
   bool found = false;
-  for (auto& p : list_presets())
+  for (auto& p : list_presets(dirs))
     if (p.name == "my-valley") {
       found = true;
       EXPECT_EQ(p.description, "my own valley");
       EXPECT_EQ(p.origin, (dir / "my-valley.json").string());
     }
   EXPECT_TRUE(found);
-  EXPECT_EQ(load_preset("my-valley")["description"], "my own valley");
+  EXPECT_EQ(load_preset("my-valley", dirs)["description"], "my own valley");
+  // The library reads no environment: without the folder the preset is unknown, whatever is set.
+  ::setenv("RELIEF_PRESETS", dir.c_str(), 1);
+  EXPECT_THROW(load_preset("my-valley"), Error);
   ::unsetenv("RELIEF_PRESETS");
+}
+
+TEST(Presets, UserFoldersFollowTheEnvironmentConvention) {
+  using V = std::vector<std::string>;
+  EXPECT_EQ(user_preset_dirs("a::b:", "/x", "/h"), (V{"a", "b", "/x/relief/presets"}));
+  EXPECT_EQ(user_preset_dirs(nullptr, "", "/h"), (V{"/h/.config/relief/presets"}));  // empty XDG: HOME
+  EXPECT_EQ(user_preset_dirs(nullptr, nullptr, nullptr), V{});
+}
+
+TEST(RecipeFiles, RelativeFileNamesResolveAgainstTheRecipeFolder) {
+  const relief::test::TempDir tmp("relief-recipe-files");
+  const std::filesystem::path dir = std::filesystem::absolute(tmp.path);
+  relief::test::write_text(dir / "r.json", R"({"stages": [
+    {"stage": "color", "levels": [{"at": 1, "color": "#000000", "texture": "tex/../moss.png"}]},
+    {"stage": "biomes", "types": [{"name": "a", "texture": "/abs/a.png", "colors": [{"at": 1, "color": "#000000", "texture": "b.png"}]}]},
+    {"stage": "tilemap", "texture": 0.5}]})");
+  const json doc = read_recipe_file((dir / "r.json").string());
+  EXPECT_EQ(doc["stages"][0]["levels"][0]["texture"], (dir / "moss.png").string());
+  EXPECT_EQ(doc["stages"][1]["types"][0]["texture"], "/abs/a.png");  // absolute: as written
+  EXPECT_EQ(doc["stages"][1]["types"][0]["colors"][0]["texture"], (dir / "b.png").string());
+  EXPECT_EQ(doc["stages"][2]["texture"], 0.5);  // the tilemap's strength is no file name
+  EXPECT_THROW((void)read_recipe_file((dir / "none.json").string()), Error);
 }
 
 // ---- the "export" block ------------------------------------------------------------------------

@@ -28,6 +28,7 @@
 #include <tbb/task_arena.h>
 
 #include "bench.hpp"
+#include "environment.hpp"
 #include "relief/export.hpp"
 #include "studio.hpp"
 #include "relief/explain.hpp"
@@ -126,14 +127,8 @@ json read_recipe_doc(const CliGenerate& s) {
   std::string src = !s.preset.empty() ? s.preset : s.recipe.empty() ? "island" : s.recipe;
   const bool file_like = s.preset.empty() && !s.recipe.empty() &&
                          (src.find('/') != std::string::npos || src.ends_with(".json") || std::filesystem::exists(src));
-  if (!file_like) return load_preset(src);
-  std::ifstream in(src, std::ios::binary);
-  if (!in) throw Error("recipe", "cannot read '" + src + "'");
-  std::stringstream ss;
-  ss << in.rdbuf();
-  json doc = parse_json(ss.str(), "'" + src + "'", "recipe");
-  resolve_input_paths(doc, std::filesystem::path(src).parent_path().string());  // image paths: the recipe's folder
-  return doc;
+  if (!file_like) return load_preset(src, cli::env_preset_dirs());
+  return read_recipe_file(src);  // its file names resolve against its folder
 }
 
 void parse_size(const std::string& text, json& doc) {
@@ -217,6 +212,18 @@ void take_interrupts() {
     dprintf(2, "%srelief: interrupted by %s; no file was changed\n", clear, signal_name(sig));
     ::_exit(128 + sig);
   }).detach();
+}
+
+// Runs `f`; an output error it throws (Error("output", …): the file's place cannot be written) is
+// rethrown under `flag`, the option that chose that place (--steps, --save-recipe).
+template <class F>
+auto as_flag(const char* flag, F&& f) {
+  try {
+    return f();
+  } catch (const Error& e) {
+    if (e.path() != "output") throw;
+    throw Error(flag, e.message());
+  }
 }
 
 // The files the previous run into `dir` wrote, from its report.json's manifest ("files"): plain
@@ -316,13 +323,8 @@ int cmd_generate(const CliGenerate& s) {
   FileOutput files(s.out_dir, FileOutput::Mode::OnCommit, sync);
   std::unique_ptr<FileOutput> step_files, recipe_file;
   std::string recipe_name;
-  if (!s.steps_dir.empty()) {
-    try {
-      step_files = std::make_unique<FileOutput>(s.steps_dir, FileOutput::Mode::OnCommit, sync);
-    } catch (const Error& e) {
-      throw Error("--steps", std::string(e.what()).substr(e.path().empty() ? 0 : e.path().size() + 2));
-    }
-  }
+  if (!s.steps_dir.empty())
+    step_files = as_flag("--steps", [&] { return std::make_unique<FileOutput>(s.steps_dir, FileOutput::Mode::OnCommit, sync); });
   if (!s.save_recipe.empty()) {
     namespace fs = std::filesystem;
     const fs::path target(s.save_recipe);
@@ -333,17 +335,13 @@ int cmd_generate(const CliGenerate& s) {
     const fs::path dir = target.parent_path().empty() ? fs::path(".") : target.parent_path();
     // The saved recipe must not replace a file of this run (e.g. --save-recipe out/report.json -o out).
     if (fs::weakly_canonical(dir, ec) == fs::weakly_canonical(fs::path(s.out_dir), ec)) {
-      const WriterPlan plan = select_writers(fmt, export_options, "--formats");
-      for (const WriterDef* w : plan.writers)
-        for (const std::string& f : w->files)
-          if (f == recipe_name)
-            throw Error("--save-recipe", "\"" + s.save_recipe + "\" is a file this run writes (" + w->name + "); choose another name");
+      for (const GeneratedFile& f : plan(g).files)
+        if (f.name == recipe_name)
+          throw Error("--save-recipe", "\"" + s.save_recipe + "\" is a file this run writes (" + f.writer + "); choose another name");
     }
-    try {
-      recipe_file = std::make_unique<FileOutput>(dir.string(), FileOutput::Mode::OnCommit, FileOutput::Sync::Durable);
-    } catch (const Error& e) {
-      throw Error("--save-recipe", std::string(e.what()).substr(e.path().empty() ? 0 : e.path().size() + 2));
-    }
+    recipe_file = as_flag("--save-recipe", [&] {
+      return std::make_unique<FileOutput>(dir.string(), FileOutput::Mode::OnCommit, FileOutput::Sync::Durable);
+    });
   }
 
   Progress prog{is_tty() && !s.quiet};
@@ -369,22 +367,15 @@ int cmd_generate(const CliGenerate& s) {
   g.before_commit = [&](const Terrain&, const Recipe& resolved) {
     print_seed(*resolved.seed);
     // Errors of these files name the flag that chose their place.
-    auto as = [](const char* flag, const std::function<void()>& f) {
-      try {
-        f();
-      } catch (const Error& e) {
-        if (e.path() != "output") throw;
-        throw Error(flag, std::string(e.what()).substr(e.path().size() + 2));
-      }
-    };
     if (step_files)
-      as("--steps", [&] {
+      as_flag("--steps", [&] {
         for (auto& im : steps) step_files->put(im.file, encode_step_png(im));
         step_files->put("steps.png", contact_sheet_png(steps, resolved.name + " \u2014 seed " + std::to_string(*resolved.seed) + ", " +
                                                                   std::to_string(resolved.world.nx) + "x" +
-                                                                  std::to_string(resolved.world.nz) + ", step by step"));
+                                                                  std::to_string(resolved.world.nz) + ", step by step",
+                                                              4, 256, cli::env_caption_font()));
       });
-    if (recipe_file) as("--save-recipe", [&] { recipe_file->put(recipe_name, resolved.to_json().dump(2) + "\n"); });
+    if (recipe_file) as_flag("--save-recipe", [&] { recipe_file->put(recipe_name, resolved.to_json().dump(2) + "\n"); });
   };
   if (step_files) g.also_commit.push_back(step_files.get());
   if (recipe_file) g.also_commit.push_back(recipe_file.get());
@@ -419,7 +410,7 @@ int cmd_generate(const CliGenerate& s) {
 }
 
 int cmd_presets(bool as_json) {
-  auto list = list_presets();
+  auto list = list_presets(cli::env_preset_dirs());
   if (as_json) {
     json a = json::array();
     for (auto& p : list) a.push_back({{"name", p.name}, {"description", p.description}, {"origin", p.origin}});

@@ -15,6 +15,7 @@
 //     (Admission) and two generation slots bound what runs at once.
 //   * Binary frames ("RLF1", studio_frame.hpp): the layers and points of a result, as the page reads them.
 #include "studio.hpp"
+#include "environment.hpp"
 #include "studio_cache.hpp"
 #include "studio_frame.hpp"
 #include "studio_request.hpp"
@@ -613,12 +614,12 @@ void Studio::routes(httplib::Server& svr) {
   };
   svr.Get("/api/presets", guard([](const httplib::Request&, httplib::Response& res) {
     json a = json::array();
-    for (auto& p : list_presets()) a.push_back({{"name", p.name}, {"description", p.description}, {"origin", p.origin}});
+    for (auto& p : list_presets(cli::env_preset_dirs())) a.push_back({{"name", p.name}, {"description", p.description}, {"origin", p.origin}});
     send_json(res, 200, a);
   }));
   svr.Get(R"(/api/presets/([^/]+))", guard([](const httplib::Request& req, httplib::Response& res) {
     try {
-      send_json(res, 200, load_preset(req.matches[1]));
+      send_json(res, 200, load_preset(req.matches[1], cli::env_preset_dirs()));
     } catch (const Error& e) {
       send_error(res, ApiError{404, e.path(), e.message()});
     }

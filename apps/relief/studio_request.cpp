@@ -31,6 +31,24 @@ json parse_body(std::string_view text, const std::vector<std::string>& allowed, 
   return body;
 }
 
+// The path of the first field below `v` that names a file ("" if none): the "path" of an
+// {"stage": "image"} object, or a non-empty string "texture". Bounded by parse_body's depth limit.
+std::string file_field(const json& v, const std::string& at) {
+  if (v.is_array()) {
+    for (std::size_t i = 0; i < v.size(); ++i)
+      if (std::string f = file_field(v[i], at + "[" + std::to_string(i) + "]"); !f.empty()) return f;
+  } else if (v.is_object()) {
+    const auto stage = v.find("stage");
+    if (stage != v.end() && stage->is_string() && stage->get<std::string>() == "image") return at + ".path";
+    for (auto it = v.begin(); it != v.end(); ++it) {
+      if (it.key() == "texture" && it.value().is_string() && !it.value().get<std::string>().empty())
+        return at + ".texture";
+      if (std::string f = file_field(it.value(), at + "." + it.key()); !f.empty()) return f;
+    }
+  }
+  return "";
+}
+
 }  // namespace
 
 StudioRequest parse_studio_request(Endpoint e, std::string_view text, const StudioSettings& s) {
@@ -45,6 +63,13 @@ StudioRequest parse_studio_request(Endpoint e, std::string_view text, const Stud
     throw ApiError{400, "stages",
                    "the studio runs at most " + std::to_string(s.max_stages) + " stages per recipe (--max-stages), got " +
                        std::to_string(rj["stages"].size()) + " (use `relief generate` for longer recipes)"};
+  // The server never opens a file a client names: an image stage's "path" and a colour's
+  // "texture" are refused before parsing (which would already read the image's header).
+  if (const json& rj = r.body["recipe"]; rj.is_object() && rj.contains("stages"))
+    if (const std::string field = file_field(rj["stages"], "stages"); !field.empty())
+      throw ApiError{400, field,
+                     "the studio does not read files named by a request (image inputs and textures): use `relief "
+                     "generate` with the recipe file"};
   try {
     r.recipe = parse_recipe(r.body["recipe"]);
   } catch (const Error& err) {

@@ -114,6 +114,21 @@ struct GenerateReport {
   std::vector<std::string> skipped;      // writers of the default set or "all" that did not apply
 };
 
+// Step 1 alone: what generate(settings, …) would write, without running anything. Throws the
+// errors generate() throws while planning (formats, writer options, engine size, memory), naming
+// the same fields. Front ends use it to check their own files against the run's (the CLI refuses a
+// --save-recipe name the run writes).
+struct GeneratePlan {
+  ExportOptions options;     // the writer options in force, validated
+  OptionPath option_path;    // how errors name an option (settings.option_path, else "export.NAME")
+  std::string formats_path;  // how errors name the format list (settings.formats_path or "export.formats")
+  WriterPlan writers;        // select_writers' plan
+  // The files the planned writers declare (WriterDef::files, in plan order; bytes 0). Chunked and
+  // LOD writers may add numbered names; writers that do not apply to the terrain write none.
+  std::vector<GeneratedFile> files;
+};
+GeneratePlan plan(const GenerateSettings& settings);
+
 // Plans, runs, encodes and commits as described at the top of this file. Throws relief::Error for
 // bad input (naming the field; nothing is written), relief::Cancelled when settings.cancelled
 // says so, and lets std::bad_alloc through. `out` receives every file; when it is a FileOutput in

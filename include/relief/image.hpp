@@ -70,12 +70,6 @@ std::shared_ptr<const Raster> cached_raster(const std::string& file, RasterForma
 // Whether GDAL can be loaded on this machine (libgdal found at run time).
 bool gdal_available();
 
-// Recipe-relative file names of the `image` stage: rewrites every relative, non-empty "path" of a
-// stage object {"stage": "image", …} under doc["stages"] to base_dir / path, absolute and
-// lexically normal. Absolute names stay. Call it on a recipe document read from a file, with the
-// file's folder, before --set overrides are applied (a name typed on the command line is relative
-// to the working directory). Kept as one function so it can join the resolution of textures.
-void resolve_input_paths(json& doc, const std::string& base_dir);
 
 // GeoTIFF of the height in metres (y_m, sea surface at 0): one Float32 band, deflate-compressed,
 // nx × nz pixels, pixel-is-area, no CRS (a local frame in metres). GeoTransform

@@ -59,24 +59,6 @@ struct NoiseSettings {
   std::uint64_t seed = 0;
 };
 
-namespace detail {
-struct NoiseKernelArgs;  // src/noise_simd.hpp
-// Everything the row kernels need for one octave (or one warp noise), precomputed by Noise's
-// constructor. An implementation detail shared by the scalar and the SIMD kernels; not an API.
-struct NoiseOctave {
-  double freq_x = 0.0, freq_z = 0.0;        // lattice cells per metre (anisotropy, period rounding)
-  double offset_x = 0.0, offset_z = 0.0;    // seeded lattice offset in [0, 256) cells
-  std::int64_t period_x = 0, period_z = 0;  // lattice cells per period; 0 = not periodic
-  double inv_period_x = 0.0, inv_period_z = 0.0;  // 1 / period (0 when not periodic)
-  double amp = 1.0;                         // persistenceᵏ
-  float ridge_scale = 1.0f;                 // float(√amp): ridged Gradient's corner-offset scale
-  std::uint64_t key = 0;                    // lattice hash key (Value, Simplex, Cellular)
-  std::uint32_t key32 = 0;                  // lattice hash key (Gradient)
-  std::array<std::uint8_t, 512> perm{};     // doubled permutation (Perlin)
-  std::array<std::int32_t, 512> perm32{};   // the same, widened for SIMD gathers (Perlin)
-};
-}  // namespace detail
-
 class Noise;
 
 // The terms of a window of columns that depend only on x (per octave: the lattice cells' hash
@@ -177,16 +159,16 @@ class Noise {
   const NoiseSettings& settings() const { return s_; }
 
  private:
-  detail::NoiseKernelArgs kernel_args() const;
   template <class XAt>
   void run(double z_m, XAt x_at, int n, float* out) const;
   template <class XAt>
   void run_gradient(double z_m, XAt x_at, int n, float* out) const;
 
   NoiseSettings s_;
-  std::vector<detail::NoiseOctave> octaves_;   // 1 for Fractal::None, else s_.octaves
-  std::array<detail::NoiseOctave, 2> warp_{};  // n1 (x displacement), n2 (z displacement); if warp_m > 0
-  double inv_amp_sum_ = 1.0;                   // 1 / Σ aₖ
+  // The octaves' precomputed lattice terms and tables (src/noise.cpp): built by the constructor,
+  // immutable after it, so copies of a Noise share them.
+  struct State;
+  std::shared_ptr<const State> state_;
 };
 
 // ---- single-octave bases (for tests and reference; values nominally in [−1, 1]) -------------

@@ -39,7 +39,8 @@ constexpr Rgb rgb_hex(std::uint32_t v) {
   return Rgb{float((v >> 16) & 255) / 255.0f, float((v >> 8) & 255) / 255.0f, float(v & 255) / 255.0f};
 }
 // A colour level: elevation (or other value) threshold and its colour. Optional texture image:
-// a PNG file (path relative to the working directory) tiled every `tile_m` metres in world x/z,
+// a PNG file tiled every `tile_m` metres in world x/z (a relative name is the recipe file's
+// folder's when the recipe was read by read_recipe_file, else the working directory's),
 // used instead of the flat colour; a missing or undecodable file is an Error naming the level.
 struct Level {
   double at = 0;
@@ -126,6 +127,17 @@ Field<P> field_info(std::string name, ParamType type, std::string description, E
   return f;
 }
 
+// A field whose value is read by `read(json, path)` (validating, throwing Error naming `path`) and
+// written by `write(value)`: what every builder below but the numbers and choices is.
+template <class P, class T, class Read, class Write>
+Field<P> bound(T P::*m, std::string name, ParamType type, std::string description, Effect effect, double min, double max,
+               Read read, Write write) {
+  Field<P> f = field_info<P>(std::move(name), type, std::move(description), effect, min, max);
+  f.read = [m, read](P& p, const json& v, const std::string& path) { p.*m = read(v, path); };
+  f.write = [m, write](const P& p) { return json(write(p.*m)); };
+  return f;
+}
+
 // Numbers and booleans: the type follows the member (int / std::int64_t / double / bool).
 template <class P, class T>
 Field<P> param(T P::*m, std::string name, double min, double max, std::string unit, std::string description,
@@ -180,70 +192,64 @@ Field<P> choice(E P::*m, std::string name, ChoiceNames<E> names, std::string des
 
 template <class P>
 Field<P> text(std::string P::*m, std::string name, std::string description, Effect effect = Effect::Regenerate) {
-  Field<P> f = field_info<P>(std::move(name), ParamType::Text, std::move(description), effect);
-  f.read = [m](P& p, const json& v, const std::string& path) {
-    if (!v.is_string()) throw Error(path, "expected a string, got " + describe(v));
-    p.*m = v.get<std::string>();
-  };
-  f.write = [m](const P& p) { return json(p.*m); };
-  return f;
+  return bound(
+      m, std::move(name), ParamType::Text, std::move(description), effect, 0, 0,
+      [](const json& v, const std::string& path) {
+        if (!v.is_string()) throw Error(path, "expected a string, got " + describe(v));
+        return v.get<std::string>();
+      },
+      [](const std::string& t) { return t; });
 }
 
 // A list of names ["plains", "forest"] (each a non-empty string; the list may be empty).
 template <class P>
 Field<P> names(std::vector<std::string> P::*m, std::string name, std::string description,
                Effect effect = Effect::Regenerate) {
-  Field<P> f = field_info<P>(std::move(name), ParamType::Names, std::move(description), effect);
-  f.read = [m](P& p, const json& v, const std::string& path) { p.*m = read_names(v, path); };
-  f.write = [m](const P& p) { return json(p.*m); };
-  return f;
+  return bound(m, std::move(name), ParamType::Names, std::move(description), effect, 0, 0, read_names,
+               [](const std::vector<std::string>& v) { return v; });
 }
 
 template <class P>
 Field<P> color(Rgb P::*m, std::string name, std::string description, Effect effect = Effect::Recolour) {
-  Field<P> f = field_info<P>(std::move(name), ParamType::Color, std::move(description), effect);
-  f.read = [m](P& p, const json& v, const std::string& path) { p.*m = read_color(v, path); };
-  f.write = [m](const P& p) { return write_color(p.*m); };
-  return f;
+  return bound(m, std::move(name), ParamType::Color, std::move(description), effect, 0, 0, read_color, write_color);
 }
 
 // Control points [[x, y], …], x strictly increasing, each coordinate in [min, max].
 template <class P>
 Field<P> curve(std::vector<CurvePoint> P::*m, std::string name, double min, double max, std::string description,
                Effect effect = Effect::Regenerate) {
-  Field<P> f = field_info<P>(std::move(name), ParamType::Curve, std::move(description), effect, min, max);
-  f.read = [m, min, max](P& p, const json& v, const std::string& path) { p.*m = read_curve(v, path, min, max); };
-  f.write = [m](const P& p) {
-    json a = json::array();
-    for (auto& c : p.*m) a.push_back(json::array({c.x, c.y}));
-    return a;
-  };
-  return f;
+  return bound(
+      m, std::move(name), ParamType::Curve, std::move(description), effect, min, max,
+      [min, max](const json& v, const std::string& path) { return read_curve(v, path, min, max); },
+      [](const std::vector<CurvePoint>& points) {
+        json a = json::array();
+        for (auto& c : points) a.push_back(json::array({c.x, c.y}));
+        return a;
+      });
 }
 
 // Colour levels [{"at": 0.4, "color": "#rrggbb", "name": "sand"}, …], `at` non-decreasing in [min, max].
 template <class P>
 Field<P> levels(std::vector<Level> P::*m, std::string name, double min, double max, std::string description,
                 Effect effect = Effect::Recolour) {
-  Field<P> f = field_info<P>(std::move(name), ParamType::Levels, std::move(description), effect, min, max);
-  f.read = [m, min, max](P& p, const json& v, const std::string& path) { p.*m = read_levels(v, path, min, max); };
-  f.write = [m](const P& p) { return write_levels(p.*m); };
-  return f;
+  return bound(
+      m, std::move(name), ParamType::Levels, std::move(description), effect, min, max,
+      [min, max](const json& v, const std::string& path) { return read_levels(v, path, min, max); }, write_levels);
 }
 
 // A list of integers, each in [min, max] (may be empty), e.g. [0, 0, 2, 3].
 template <class P>
 Field<P> int_list(std::vector<int> P::*m, std::string name, int min, int max, std::string description,
                   Effect effect = Effect::Regenerate) {
-  Field<P> f = field_info<P>(std::move(name), ParamType::IntList, std::move(description), effect, min, max);
-  f.read = [m, min, max](P& p, const json& v, const std::string& path) {
-    if (!v.is_array()) throw Error(path, "expected a list of integers, got " + describe(v));
-    std::vector<int> out;
-    for (std::size_t k = 0; k < v.size(); ++k) out.push_back(int(read_int(v[k], path + "[" + std::to_string(k) + "]", min, max)));
-    p.*m = std::move(out);
-  };
-  f.write = [m](const P& p) { return json(p.*m); };
-  return f;
+  return bound(
+      m, std::move(name), ParamType::IntList, std::move(description), effect, min, max,
+      [min, max](const json& v, const std::string& path) {
+        if (!v.is_array()) throw Error(path, "expected a list of integers, got " + describe(v));
+        std::vector<int> out;
+        for (std::size_t k = 0; k < v.size(); ++k) out.push_back(int(read_int(v[k], path + "[" + std::to_string(k) + "]", min, max)));
+        return out;
+      },
+      [](const std::vector<int>& v) { return v; });
 }
 
 // A parsed table: the fields of P plus helpers to read/write a whole object.

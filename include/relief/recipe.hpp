@@ -84,11 +84,37 @@ std::vector<ParamInfo> world_params();
 struct PresetInfo {
   std::string name, description, origin;  // origin: "built-in" or the file path
 };
-// Built-in presets, then user presets from $RELIEF_PRESETS (':'-separated folders) and
-// ~/.config/relief/presets (or $XDG_CONFIG_HOME/relief/presets). A user preset with a built-in's
-// name replaces it. Unreadable files are skipped in the listing but reported when loaded.
-std::vector<PresetInfo> list_presets();
-// The recipe document of a preset; throws Error("preset", …) with the nearest name.
-json load_preset(const std::string& name);
+// Built-in presets, then user presets: the recipe files (NAME.json) in `user_dirs`, searched in
+// order (earlier folders win). A user preset with a built-in's name replaces it. Unreadable files
+// are skipped in the listing but reported when loaded. The library reads no environment variable:
+// front ends pass the folders (the CLI and the studio pass user_preset_dirs() of their environment).
+std::vector<PresetInfo> list_presets(const std::vector<std::string>& user_dirs = {});
+// The recipe document of a preset (searched as list_presets does); throws Error("preset", …) with
+// the nearest name. Presets are not files a recipe path is relative to: a texture a user preset
+// names resolves against the working directory, as does one in a recipe given as a document.
+json load_preset(const std::string& name, const std::vector<std::string>& user_dirs = {});
+// The user preset folders of the usual convention, from the values of the environment variables of
+// the same names (nullptr = unset): every folder of $RELIEF_PRESETS (':'-separated, empty items
+// skipped), then $XDG_CONFIG_HOME/relief/presets when XDG_CONFIG_HOME is set and not empty, else
+// $HOME/.config/relief/presets (nothing when HOME is unset or empty too).
+std::vector<std::string> user_preset_dirs(const char* relief_presets, const char* xdg_config_home, const char* home);
+
+// ---- recipe files ---------------------------------------------------------------------------
+// File names in a recipe (every "texture" of colour levels, biome types and their colours, and
+// climate table entries; the "path" of an image stage) are relative to the recipe file's folder,
+// not to the working directory.
+//
+// Reads a recipe file: its JSON (parse_json, depth-limited) with every relative file name resolved
+// by resolve_recipe_files against the file's folder. Throws Error("recipe", …) when the file
+// cannot be read or is not valid JSON. The returned document holds absolute file names, so a
+// resolved recipe written from it (Recipe::to_json, --save-recipe) finds the same files from any
+// folder. Values put into the document afterwards (the CLI's --set) are not touched: a file name
+// typed on the command line is relative to the working directory.
+json read_recipe_file(const std::string& path);
+// Rewrites every relative, non-empty string named "texture" under doc["stages"], and the "path"
+// of every {"stage": "image", …}, to
+// base_dir / NAME, made absolute (against the working directory) and lexically normal. Absolute
+// names, empty strings and non-string values (the tilemap's numeric `texture`) stay as they are.
+void resolve_recipe_files(json& doc, const std::string& base_dir);
 
 }  // namespace relief

@@ -29,10 +29,12 @@ std::string step_file_name(int index, const std::string& stage);
 std::string encode_step_png(const StepImage& s);
 
 // A contact sheet: the steps in reading order, `columns` per row, each scaled to fit a
-// thumb_px × thumb_px box, captioned below, with `title` on top. Text is set with FreeType in
-// DejaVu Sans (fonts-dejavu-core; $RELIEF_FONT names another TrueType file). Throws Error("steps",
-// …) when the font cannot be loaded or `steps` is empty.
+// thumb_px × thumb_px box, captioned below, with `title` on top. Text is set with FreeType in the
+// TrueType font `font_file`, "" = kDefaultCaptionFont (DejaVu Sans, Debian's fonts-dejavu-core).
+// The library reads no environment variable: the CLI passes $RELIEF_FONT. Throws Error("steps", …)
+// when the font cannot be loaded or `steps` is empty.
+inline constexpr const char* kDefaultCaptionFont = "/usr/share/fonts/truetype/dejavu/DejaVuSans.ttf";
 std::string contact_sheet_png(const std::vector<StepImage>& steps, const std::string& title, int columns = 4,
-                              int thumb_px = 256);
+                              int thumb_px = 256, const std::string& font_file = "");
 
 }  // namespace relief
