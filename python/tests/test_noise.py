@@ -1,5 +1,4 @@
 """relief.noise: the library's noise over grids and point arrays."""
-import threading
 
 import numpy as np
 import pytest
@@ -42,24 +41,3 @@ def test_ridged_and_billow():
     a = rn.ridged(grid=(32, 32), octaves=4, frequency=0.05)
     b = rn.billow(grid=(32, 32), octaves=4, frequency=0.05)
     assert not np.array_equal(a, b)
-
-
-def test_fbm_releases_the_gil():
-    ticks = []
-    stop = threading.Event()
-
-    def spin():
-        while not stop.is_set():
-            ticks.append(1)
-
-    th = threading.Thread(target=spin)
-    th.start()
-    try:
-        before = len(ticks)
-        for _ in range(5):
-            rn.fbm(grid=(2048, 512), basis="perlin", octaves=6, frequency=0.01, threads=1)
-        during = len(ticks) - before
-    finally:
-        stop.set()
-        th.join()
-    assert during > 100
