@@ -22,6 +22,7 @@
 #include <fstream>
 #include <limits>
 #include <list>
+#include <map>
 #include <mutex>
 #include <sstream>
 #include <system_error>
@@ -449,8 +450,32 @@ std::string read_file_bytes(const std::string& file, const std::string& field_pa
   return bytes;
 }
 
+// ---- rasters in memory ------------------------------------------------------------------------
+
+std::mutex memory_m;
+std::map<std::string, std::weak_ptr<const Raster>, std::less<>> memory_rasters;
+
+bool is_memory_path(const std::string& p) { return std::string_view(p).starts_with(kMemoryRasterPrefix); }
+
+std::shared_ptr<const Raster> memory_raster(const std::string& path, const std::string& field_path) {
+  std::lock_guard lock(memory_m);
+  const auto it = memory_rasters.find(path);
+  std::shared_ptr<const Raster> r = it == memory_rasters.end() ? nullptr : it->second.lock();
+  if (!r) throw Error(field_path, "'" + path + "' is not held in memory (any more)");
+  return r;
+}
+
 Raster read_or_probe(const std::string& file, RasterFormat format, const std::string& field_path, bool header_only) {
   if (file.empty()) throw Error(field_path, "expected a file name, got \"\"");
+  if (is_memory_path(file)) {
+    const std::shared_ptr<const Raster> m = memory_raster(file, field_path);
+    if (!header_only) return *m;
+    Raster r;  // the header: everything but the values
+    r.width = m->width, r.height = m->height, r.code_max = m->code_max, r.format = m->format;
+    r.has_range_m = m->has_range_m, r.min_m = m->min_m, r.max_m = m->max_m;
+    r.has_geo = m->has_geo, r.geo_x0 = m->geo_x0, r.geo_z0 = m->geo_z0, r.pixel_x_m = m->pixel_x_m, r.pixel_z_m = m->pixel_z_m;
+    return r;
+  }
   if (file.rfind("/vsi", 0) == 0) throw Error(field_path, "GDAL virtual file systems (/vsi…) are not read: name a file");
   // The first bytes decide the format; GDAL reads its files itself (sidecars, overviews).
   std::string head = read_file_bytes(file, field_path, 16);
@@ -475,8 +500,19 @@ Raster probe_raster(const std::string& file, RasterFormat format, const std::str
 Raster decode_raster(std::string_view bytes, const std::string& name, RasterFormat format, const std::string& field_path) {
   return decode_any(bytes, bytes.size(), name, format, field_path, nullptr, false);
 }
+Raster probe_raster_bytes(std::string_view bytes, const std::string& name, RasterFormat format, const std::string& field_path) {
+  return decode_any(bytes, bytes.size(), name, format, field_path, nullptr, true);
+}
+
+void register_memory_raster(const std::string& path, std::shared_ptr<const Raster> raster) {
+  std::lock_guard lock(memory_m);
+  for (auto it = memory_rasters.begin(); it != memory_rasters.end();)
+    it = it->second.expired() ? memory_rasters.erase(it) : std::next(it);
+  memory_rasters[path] = std::move(raster);
+}
 
 std::shared_ptr<const Raster> cached_raster(const std::string& file, RasterFormat format, const std::string& field_path) {
+  if (is_memory_path(file)) return memory_raster(file, field_path);
   std::error_code ec;
   const std::string abs = std::filesystem::absolute(file, ec).lexically_normal().string();
   const auto size = std::filesystem::file_size(file, ec);

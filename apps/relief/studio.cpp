@@ -50,6 +50,7 @@
 
 #include "relief/explain.hpp"
 #include "relief/generate.hpp"
+#include "relief/image.hpp"
 #include "relief/output.hpp"
 #include "relief/pipeline.hpp"
 #include "relief/recipe.hpp"
@@ -77,20 +78,23 @@ void send_json(httplib::Response& res, int status, const json& body) {
 
 // The 405 for a method an API path does not serve: {the Allow value (POST or GET), the message}.
 std::optional<std::pair<std::string, std::string>> api_method_error(const std::string& method, const std::string& path) {
-  const bool post = path == "/api/generate" || path == "/api/steps" || path == "/api/export" || path == "/api/resolve";
+  const bool post = path == "/api/generate" || path == "/api/steps" || path == "/api/export" || path == "/api/resolve" ||
+                    path == "/api/save" || path == "/api/upload";
   const bool get = path == "/api/presets" || path == "/api/params" || path == "/api/stats" || path.starts_with("/api/presets/");
   const char* allow = post ? "POST" : get ? "GET" : nullptr;
   if (!allow || method == allow || (get && method == "HEAD")) return std::nullopt;
   return std::pair<std::string, std::string>{allow, printable_text(method.substr(0, 20)) + " is not supported here: use " + allow +
-                                                        (post ? " with a JSON body {\"recipe\": …}" : "")};
+                                                        (path == "/api/upload" ? " with the file's bytes as the body"
+                                                         : post                  ? " with a JSON body {\"recipe\": …}"
+                                                                                 : "")};
 }
 
 // A request refused or stopped by one of the studio's limits (studio.hpp): a 503 whose body says
 // which limit ("time_budget", "memory", "shutdown"), with Retry-After when trying again later helps.
 class LimitError : public ApiError {
  public:
-  LimitError(std::string limit, std::string message, int retry_after_s = 0)
-      : ApiError(503, "", std::move(message)), limit(std::move(limit)), retry_after_s(retry_after_s) {}
+  LimitError(std::string limit, std::string message, int retry_after_s = 0, int status = 503, std::string path = "")
+      : ApiError(status, std::move(path), std::move(message)), limit(std::move(limit)), retry_after_s(retry_after_s) {}
   std::string limit;
   int retry_after_s;
 };
@@ -164,9 +168,20 @@ bool peer_closed(int fd) {
 
 // ---- sessions and run control -------------------------------------------------------------------
 
+// An upload (POST /api/upload): its bytes (saved beside a recipe), its decoded raster (registered
+// with the library under `path`, which reads it from memory) and the memory it holds.
+struct Upload {
+  std::string name, path;  // NAME of "upload:NAME"; the library's in-memory path
+  std::shared_ptr<const std::string> bytes;
+  std::shared_ptr<const Raster> raster;
+  std::size_t held = 0;  // bytes + 4 per pixel
+};
+
 struct Session {
   std::atomic<std::uint64_t> latest{0};
   std::timed_mutex running;  // at most one generation in flight per client
+  std::atomic<std::int64_t> seen{0};  // the last request's time (steady clock, ns)
+  std::map<std::string, Upload> uploads;  // by NAME; guarded by Studio::uploads_m_
 };
 
 enum class StopReason : int { None = 0, Superseded, TimeBudget, Disconnected, Shutdown };
@@ -355,7 +370,19 @@ class Studio {
   using Request = StudioRequest;
   using Generated = CachedRun;
 
-  Request parse_request(const httplib::Request& req, Endpoint e) const { return parse_studio_request(e, req.body, s_); }
+  // Parses a request against its session's uploads, which it keeps alive while it runs.
+  Request parse_request(const httplib::Request& req, Endpoint e) {
+    std::shared_ptr<Session> session = session_of(req);
+    UploadPaths paths;
+    std::vector<std::shared_ptr<const Raster>> keep;
+    if (session) {
+      std::lock_guard lk(uploads_m_);
+      for (auto& [name, u] : session->uploads) paths[name] = u.path, keep.push_back(u.raster);
+    }
+    Request r = parse_studio_request(e, req.body, s_, paths);
+    r.keep_alive.assign(keep.begin(), keep.end());
+    return r;
+  }
   std::shared_ptr<Session> session_of(const httplib::Request& req);
   Generated generate(const Recipe& r, const Frame& f, RunControl& ctl, bool all_snapshots) {
     RunOptions opt;
@@ -372,6 +399,8 @@ class Studio {
   void api_generate(const httplib::Request& req, httplib::Response& res);
   void api_steps(const httplib::Request& req, httplib::Response& res);
   void api_export(const httplib::Request& req, httplib::Response& res);
+  void api_upload(const httplib::Request& req, httplib::Response& res);
+  void api_save(const httplib::Request& req, httplib::Response& res);
 
   StudioSettings s_;
   StageCache cache_;
@@ -382,6 +411,8 @@ class Studio {
   std::atomic<std::uint64_t> refused_busy_{0};
   std::mutex sessions_m_;
   std::unordered_map<std::string, std::shared_ptr<Session>> sessions_;
+  std::mutex uploads_m_;  // every session's uploads
+  std::atomic<std::uint64_t> upload_serial_{0};
 };
 
 std::shared_ptr<Session> Studio::session_of(const httplib::Request& req) {
@@ -397,6 +428,7 @@ std::shared_ptr<Session> Studio::session_of(const httplib::Request& req) {
     }
     s = std::make_shared<Session>();
   }
+  s->seen = Clock::now().time_since_epoch().count();
   return s;
 }
 
@@ -462,7 +494,7 @@ void Studio::with_run(const httplib::Request& req, Endpoint e, const Request& r,
   } catch (const Cancelled&) {
     stopped();
   } catch (const Error& e) {
-    throw ApiError{400, e.path(), e.message()};
+    throw ApiError{400, e.path(), client_text(r, e.message())};
   } catch (const std::bad_alloc&) {
     throw ApiError{413, "world.size", "out of memory; choose a smaller size"};
   }
@@ -498,7 +530,7 @@ void Studio::api_generate(const httplib::Request& req, httplib::Response& res) {
     json h;
     h["seed"] = *r.recipe.seed;
     h["frame"] = frame_json(t.frame);
-    h["recipe"] = r.recipe.to_json();
+    h["recipe"] = client_recipe_json(r);
     h["timings"] = g.timings;
     h["first_stage"] = g.first_stage;
     json avail = json::object(), layers = json::object();
@@ -598,6 +630,152 @@ void Studio::api_export(const httplib::Request& req, httplib::Response& res) {
   });
 }
 
+std::string mib(std::uint64_t bytes) { return std::to_string(bytes >> 20) + " MiB"; }
+
+// The formats an upload may have, by its first bytes (or an .r16/.raw name): PNG, OpenEXR, TIFF
+// (GeoTIFF, through GDAL from memory) and r16. Other GDAL formats are not taken from a client: some
+// (VRT, for one) name other files, which the server would then read.
+std::optional<RasterFormat> upload_format(std::string_view b, const std::string& name) {
+  auto starts = [&](std::string_view m) { return b.starts_with(m); };
+  using namespace std::string_view_literals;
+  if (starts("\x89PNG\r\n\x1a\n"sv)) return RasterFormat::Png;
+  if (starts("\x76\x2f\x31\x01"sv)) return RasterFormat::Exr;
+  if (starts("II*\0"sv) || starts("MM\0*"sv) || starts("II+\0"sv) || starts("MM\0+"sv)) return RasterFormat::Gdal;
+  if (name.ends_with(".r16") || name.ends_with(".raw") || name.ends_with(".R16") || name.ends_with(".RAW")) return RasterFormat::R16;
+  return std::nullopt;
+}
+
+void Studio::api_upload(const httplib::Request& req, httplib::Response& res) {
+  std::shared_ptr<Session> session = session_of(req);
+  if (!session)
+    throw ApiError{400, "X-Relief-Client", "missing: an upload needs the X-Relief-Client header (uploads are kept per session)"};
+  if (!req.has_param("name"))
+    throw ApiError{400, "name", "missing: POST /api/upload?name=FILE_NAME with the file's bytes as the body"};
+  const std::string name = upload_name(req.get_param_value("name"));
+  if (name.empty()) throw ApiError{400, "name", "expected a file name with a letter, digit, '-' or '_' in it"};
+  const std::string& bytes = req.body;
+  if (bytes.size() > s_.max_upload_bytes)
+    throw LimitError{"upload_bytes",
+                     "upload too large: " + quote(name) + " is " + std::to_string(bytes.size()) + " bytes; the studio takes at most " +
+                         mib(s_.max_upload_bytes) + " per file",
+                     0, 413, "body"};
+  const std::optional<RasterFormat> format = upload_format(bytes, name);
+  if (!format)
+    throw ApiError{415, "body",
+                   quote(name) + " is not an image the studio reads (" + std::to_string(bytes.size()) +
+                       " bytes): upload a PNG (8- or 16-bit), an OpenEXR, a GeoTIFF or Relief's .r16"};
+  // The header first: the pixel count is refused before anything is decoded.
+  Raster head;
+  try {
+    head = probe_raster_bytes(bytes, name, *format, "body");
+  } catch (const Error& e) {
+    throw ApiError{415, "body", e.message()};
+  }
+  const std::uint64_t pixels = std::uint64_t(head.width) * std::uint64_t(head.height);
+  if (pixels > s_.max_upload_pixels)
+    throw LimitError{"upload_pixels",
+                     "upload too large: " + quote(name) + " is " + std::to_string(head.width) + "x" + std::to_string(head.height) +
+                         " pixels; the studio takes at most " + std::to_string(s_.max_upload_pixels) + " pixels per file (4097x4097)",
+                     0, 413, "body"};
+  const std::size_t held = bytes.size() + std::size_t(pixels) * sizeof(float);
+  auto session_check = [&] {  // under uploads_m_
+    std::size_t others = 0;
+    for (auto& [n, u] : session->uploads)
+      if (n != name) others += u.held;
+    if (others + held > s_.max_session_upload_bytes)
+      throw LimitError{"session_uploads",
+                       "upload refused: this session's uploads would hold " + std::to_string(others + held) +
+                           " bytes (files plus 4 bytes per pixel decoded); the studio keeps at most " +
+                           mib(s_.max_session_upload_bytes) + " per session (an upload of the same name replaces the old one)",
+                       0, 413, "body"};
+  };
+  {
+    std::lock_guard lk(uploads_m_);
+    session_check();
+  }
+  // Decoding is admitted like a generation (its raster and the decoder's buffer).
+  const std::uint64_t estimate = held + pixels * 8;
+  if (!admission_.try_admit(estimate)) {
+    ++refused_busy_;
+    throw LimitError{"memory", "the studio is busy: try the upload again shortly", 2};
+  }
+  struct Admitted {
+    Admission& a;
+    std::uint64_t bytes;
+    ~Admitted() { a.release(bytes); }
+  } admitted{admission_, estimate};
+  Upload u;
+  try {
+    u.raster = std::make_shared<const Raster>(decode_raster(bytes, name, *format, "body"));
+  } catch (const Error& e) {
+    throw ApiError{415, "body", e.message()};
+  } catch (const std::bad_alloc&) {
+    throw ApiError{413, "body", "out of memory decoding " + quote(name)};
+  }
+  u.name = name;
+  u.path = std::string(kMemoryRasterPrefix) + "upload-" + std::to_string(++upload_serial_) + "/" + name;
+  u.bytes = std::make_shared<const std::string>(bytes);
+  u.held = held;
+  register_memory_raster(u.path, u.raster);
+  std::size_t session_bytes = 0;
+  {
+    std::lock_guard lk(uploads_m_);
+    session_check();  // again: another upload of this session may have landed meanwhile
+    session->uploads[name] = u;
+    for (auto& [n, x] : session->uploads) session_bytes += x.held;
+    // All sessions: past the total, the uploads of the sessions least recently seen go first.
+    std::vector<std::shared_ptr<Session>> all;
+    {
+      std::lock_guard sk(sessions_m_);
+      for (auto& [id, ss] : sessions_) all.push_back(ss);
+    }
+    std::size_t total = 0;
+    for (auto& ss : all)
+      for (auto& [n, x] : ss->uploads) total += x.held;
+    std::sort(all.begin(), all.end(), [](auto& a, auto& b) { return a->seen.load() < b->seen.load(); });
+    for (auto& ss : all) {
+      if (total <= s_.max_upload_total_bytes) break;
+      if (ss == session) continue;
+      for (auto& [n, x] : ss->uploads) total -= x.held;
+      ss->uploads.clear();
+    }
+  }
+  send_json(res, 200,
+            {{"name", name},
+             {"path", std::string(kUploadPrefix) + name},
+             {"width", u.raster->width},
+             {"height", u.raster->height},
+             {"format", u.raster->format},
+             {"bytes", bytes.size()},
+             {"session_bytes", session_bytes},
+             {"limits",
+              {{"max_upload_bytes", s_.max_upload_bytes},
+               {"max_upload_pixels", s_.max_upload_pixels},
+               {"max_session_upload_bytes", s_.max_session_upload_bytes}}}});
+}
+
+void Studio::api_save(const httplib::Request& req, httplib::Response& res) {
+  Request r = parse_request(req, Endpoint::Save);
+  std::map<std::string, std::string> files;
+  files["recipe.json"] = client_recipe_json(r, true).dump(2, ' ', false, json::error_handler_t::replace) + "\n";
+  if (!r.uploads.empty()) {
+    std::shared_ptr<Session> session = session_of(req);
+    std::lock_guard lk(uploads_m_);
+    for (auto& [path, name] : r.uploads) {
+      const Upload* u = nullptr;
+      if (session)
+        if (auto it = session->uploads.find(name); it != session->uploads.end() && it->second.path == path) u = &it->second;
+      if (!u) throw ApiError{409, "recipe", "the upload " + quote(name) + " was replaced or dropped while saving; save again"};
+      files[name] = *u->bytes;
+    }
+  }
+  res.set_header("Content-Disposition", content_disposition(r.recipe.name + "-" + std::to_string(*r.recipe.seed) + ".zip"));
+  res.set_content(zip_files(files, [] {}), "application/zip");
+  json names = json::array();
+  for (auto& [n, b] : files) names.push_back(n);
+  res.set_header("X-Relief-Files", names.dump());
+}
+
 void Studio::routes(httplib::Server& svr) {
   // Every handler maps ApiError / relief::Error to a JSON 4xx; anything else becomes a 500 JSON
   // (set_exception_handler) and the server keeps serving.
@@ -625,16 +803,26 @@ void Studio::routes(httplib::Server& svr) {
     }
   }));
   svr.Get("/api/params", guard([](const httplib::Request&, httplib::Response& res) {
-    send_json(res, 200, parameter_table_json());
+    // The parameters that name a file get their bytes by upload in the studio ("upload": true; the
+    // page offers a file picker and drag and drop for them).
+    json t = parameter_table_json();
+    if (t.contains("stages") && t["stages"].is_array())
+      for (json& st : t["stages"])
+        if (st.value("name", std::string()) == "image" && st.contains("params") && st["params"].is_array())
+          for (json& p : st["params"])
+            if (p.value("name", std::string()) == "path") p["upload"] = true;
+    send_json(res, 200, t);
   }));
   svr.Get("/api/stats", guard([this](const httplib::Request&, httplib::Response& res) { send_json(res, 200, stats()); }));
   svr.Post("/api/resolve", guard([this](const httplib::Request& req, httplib::Response& res) {
     Request r = parse_request(req, Endpoint::Resolve);
-    send_json(res, 200, {{"recipe", r.recipe.to_json()}});
+    send_json(res, 200, {{"recipe", client_recipe_json(r)}});
   }));
   svr.Post("/api/generate", guard([this](const httplib::Request& req, httplib::Response& res) { api_generate(req, res); }));
   svr.Post("/api/steps", guard([this](const httplib::Request& req, httplib::Response& res) { api_steps(req, res); }));
   svr.Post("/api/export", guard([this](const httplib::Request& req, httplib::Response& res) { api_export(req, res); }));
+  svr.Post("/api/upload", guard([this](const httplib::Request& req, httplib::Response& res) { api_upload(req, res); }));
+  svr.Post("/api/save", guard([this](const httplib::Request& req, httplib::Response& res) { api_save(req, res); }));
   // Any other method on an API path is a 405 naming the one that works: answered before routing
   // (see api_method_error), so that a PUT or a bodiless POST gets it too, not httplib's 400.
   // Static files: only the embedded bundle, looked up by exact path, so no request can reach the
@@ -723,13 +911,17 @@ int run_studio(const StudioSettings& s) {
   // bounded separately), so have plenty, and let idle connections go quickly.
   svr.new_task_queue = [] { return new httplib::ThreadPool(32); };
   svr.set_keep_alive_timeout(2);
-  svr.set_payload_max_length(s.max_body);
+  // Uploads take up to max_upload_bytes (refused in the handler with the limit named, a little
+  // beyond by httplib); the JSON endpoints' bodies are refused past max_body before they are read.
+  svr.set_payload_max_length(std::max(s.max_body, s.max_upload_bytes + (std::size_t(1) << 20)));
   svr.set_read_timeout(10, 0);
   svr.set_write_timeout(30, 0);
-  svr.set_error_handler([](const httplib::Request& req, httplib::Response& res) {
+  svr.set_error_handler([&s](const httplib::Request& req, httplib::Response& res) {
     if (!res.body.empty()) return;  // the handler already said what went wrong
     json b;
-    b["error"] = res.status == 413   ? "request body too large"
+    b["error"] = res.status == 413 && req.path == "/api/upload"
+                     ? "upload too large: the studio takes at most " + mib(s.max_upload_bytes) + " per file"
+                 : res.status == 413 ? "request body too large (limit " + std::to_string(s.max_body) + " bytes)"
                  : res.status == 404 ? "no such page: " + req.path.substr(0, 200)
                                      : "HTTP " + std::to_string(res.status);
     res.set_content(b.dump(-1, ' ', false, json::error_handler_t::replace), "application/json");
@@ -748,7 +940,7 @@ int run_studio(const StudioSettings& s) {
   // A page on another origin must not drive the studio (a local server is reachable from any
   // tab), and on loopback only loopback names are served (no DNS rebinding to a foreign name).
   const bool loopback = s.host == "127.0.0.1" || s.host == "localhost" || s.host == "::1";
-  svr.set_pre_routing_handler([loopback](const httplib::Request& req, httplib::Response& res) {
+  svr.set_pre_routing_handler([loopback, &s](const httplib::Request& req, httplib::Response& res) {
     if (loopback) {
       const std::string host = req.get_header_value("Host");
       const std::string name = host.starts_with("[") ? host.substr(0, host.find(']') + 1) : host.substr(0, host.find(':'));
@@ -774,6 +966,16 @@ int run_studio(const StudioSettings& s) {
     // so the content type is set to JSON before the body is read; max_body is the one limit.
     // (Pre-routing runs before httplib reads the body; the Request is not const in httplib.)
     if (req.method == "POST" && req.path.starts_with("/api/")) {
+      // A JSON body past max_body is refused before it is read (uploads have their own limit).
+      if (req.path != "/api/upload" && req.has_header("Content-Length")) {
+        const std::string n = req.get_header_value("Content-Length");
+        const unsigned long long len = std::strtoull(n.c_str(), nullptr, 10);
+        if (len > s.max_body) {
+          res.set_header("Connection", "close");
+          send_error(res, ApiError{413, "", "request body too large: " + std::to_string(len) + " bytes, limit " + std::to_string(s.max_body)});
+          return httplib::Server::HandlerResponse::Handled;
+        }
+      }
       auto& headers = const_cast<httplib::Request&>(req).headers;
       headers.erase("Content-Type");
       headers.emplace("Content-Type", "application/json");

@@ -10,6 +10,13 @@
 //                                           per-stage timings
 //   POST /api/steps     {recipe}    binary frame with every stage's height and colour
 //   POST /api/export    {recipe, format, file?}   one file, or a zip of the format's files
+//   POST /api/upload?name=NAME   the raw bytes of an image (PNG 8/16-bit, OpenEXR, Relief's .r16,
+//                                GeoTIFF); needs X-Relief-Client. {name, path: "upload:NAME", width,
+//                                height, format, bytes, session_bytes, limits}. An image stage's
+//                                "path": "upload:NAME" then reads it (from memory) in that client's
+//                                requests; the same NAME again replaces it.
+//   POST /api/save      {recipe}    a zip of recipe.json and the uploads it names, its paths "NAME"
+//                                   (relative to recipe.json: `relief generate recipe.json` reads them)
 //   GET  /api/stats                 {running, admitted_bytes, work_budget_bytes, limits, cancelled,
 //                                   refused}: what runs now and why work was stopped or refused
 // Errors are JSON {"error": "path: message", "path": "path"} with a 4xx status; 409 means that a
@@ -31,11 +38,18 @@
 //   * shutdown: SIGINT/SIGTERM cancels the work running (answered 503) and stops the server; a
 //     stop that takes longer than 2 s (a request body still arriving, a stage between checks)
 //     ends the process anyway, with exit code 0.
+//   * uploads: one file at most max_upload_bytes and max_upload_pixels (checked from its header
+//     before decoding); one session's uploads at most max_session_upload_bytes held (bytes + 4 per
+//     pixel); beyond max_upload_total_bytes for all sessions, the uploads of the sessions least
+//     recently seen are dropped. Bytes that are not an image the studio reads: 415.
+//   * files: the server never opens a file a request names (image paths other than "upload:NAME",
+//     colour textures: 400 naming the field); uploads are decoded from memory.
 // Work stops at the next check: between stages, and inside long stages and writers when they
 // report progress (erosion rounds, flow phases, OBJ blocks); the longest stretch without a check
 // is one noise stage (about 2 s for a cellular one of 16 warped octaves at 1025² on one thread). A long chain of fused row stages (more than 8 noise, island, … in a row) runs
 // unfused, so that it is checked between its stages too (the bytes are the same).
 #include <cstddef>
+#include <cstdint>
 #include <string>
 
 namespace relief::cli {
@@ -52,6 +66,12 @@ struct StudioSettings {
   int max_stages = 64;             // stages per recipe (the presets have at most 10)
   int time_budget_s = 120;         // seconds a generate, steps or export request may run
   std::size_t work_mib = 0;        // memory budget of the requests running at once; 0 = automatic
+  // Uploads (POST /api/upload): kept in memory per session (X-Relief-Client). An upload holds its
+  // bytes plus its decoded raster (4 bytes per pixel); the limits are 413s naming the limit.
+  std::size_t max_upload_bytes = std::size_t(32) << 20;           // one file's bytes
+  std::uint64_t max_upload_pixels = std::uint64_t(4097) * 4097;   // one file's pixels (read from its header)
+  std::size_t max_session_upload_bytes = std::size_t(256) << 20;  // held by one session's uploads
+  std::size_t max_upload_total_bytes = std::size_t(1) << 30;      // held by all sessions (least recently used dropped)
 };
 
 // The memory budget for requests running at once (StudioSettings::work_mib): work_mib MiB, or when

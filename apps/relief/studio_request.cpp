@@ -31,28 +31,73 @@ json parse_body(std::string_view text, const std::vector<std::string>& allowed, 
   return body;
 }
 
-// The path of the first field below `v` that names a file ("" if none): the "path" of an
-// {"stage": "image"} object, or a non-empty string "texture". Bounded by parse_body's depth limit.
-std::string file_field(const json& v, const std::string& at) {
+// Every field below `v` that names a file: the "path" of an {"stage": "image"} object and a
+// non-empty string "texture". An image path "upload:NAME" of an upload in `uploads` is replaced by
+// its in-memory path (recorded in r.uploads); "" is left to the stage (refused when it runs);
+// anything else is refused, naming the field. Bounded by parse_body's depth limit.
+void check_files(json& v, const std::string& at, const UploadPaths& uploads, StudioRequest& r) {
   if (v.is_array()) {
-    for (std::size_t i = 0; i < v.size(); ++i)
-      if (std::string f = file_field(v[i], at + "[" + std::to_string(i) + "]"); !f.empty()) return f;
+    for (std::size_t i = 0; i < v.size(); ++i) check_files(v[i], at + "[" + std::to_string(i) + "]", uploads, r);
   } else if (v.is_object()) {
     const auto stage = v.find("stage");
-    if (stage != v.end() && stage->is_string() && stage->get<std::string>() == "image") return at + ".path";
+    const bool image = stage != v.end() && stage->is_string() && stage->get<std::string>() == "image";
     for (auto it = v.begin(); it != v.end(); ++it) {
+      const std::string field = at + "." + it.key();
+      if (image && it.key() == "path") {
+        if (!it.value().is_string()) continue;  // parse_recipe names the wrong type
+        const std::string path = it.value().get<std::string>();
+        if (path.empty()) continue;
+        if (!path.starts_with(kUploadPrefix))
+          throw ApiError{400, field,
+                         "the studio does not read files named by a request: upload the image (drop it on the image stage, "
+                         "or use its file button) and use the \"upload:NAME\" path it gets, or run the recipe with `relief generate`"};
+        const std::string name = path.substr(kUploadPrefix.size());
+        const auto u = uploads.find(name);
+        if (u == uploads.end()) {
+          std::string list;
+          for (auto& [n, p] : uploads) list += (list.empty() ? "" : ", ") + n;
+          throw ApiError{400, field,
+                         "no upload named " + quote(name) + " in this session (uploads are kept per page session; upload the file again)" +
+                             (list.empty() ? std::string() : "; uploaded: " + list)};
+        }
+        r.uploads[u->second] = name;
+        it.value() = u->second;
+        continue;
+      }
       if (it.key() == "texture" && it.value().is_string() && !it.value().get<std::string>().empty())
-        return at + ".texture";
-      if (std::string f = file_field(it.value(), at + "." + it.key()); !f.empty()) return f;
+        throw ApiError{400, field,
+                       "the studio does not read files named by a request (colour textures): use `relief generate` with the "
+                       "recipe file"};
+      check_files(it.value(), field, uploads, r);
     }
   }
-  return "";
+}
+
+void replace_all(std::string& s, const std::string& from, const std::string& to) {
+  if (from.empty()) return;
+  for (std::size_t at = s.find(from); at != std::string::npos; at = s.find(from, at + to.size())) s.replace(at, from.size(), to);
+}
+
+// Gives every image path of `v` that is an in-memory path of r back as `prefix` + NAME.
+void client_paths(json& v, const StudioRequest& r, const std::string& prefix) {
+  if (v.is_array()) {
+    for (json& e : v) client_paths(e, r, prefix);
+  } else if (v.is_object()) {
+    for (auto it = v.begin(); it != v.end(); ++it) {
+      if (it.key() == "path" && it.value().is_string()) {
+        const auto u = r.uploads.find(it.value().get<std::string>());
+        if (u != r.uploads.end()) it.value() = prefix + u->second;
+      } else {
+        client_paths(it.value(), r, prefix);
+      }
+    }
+  }
 }
 
 }  // namespace
 
-StudioRequest parse_studio_request(Endpoint e, std::string_view text, const StudioSettings& s) {
-  static const std::vector<std::string> fields[] = {{"recipe"}, {"recipe", "layers"}, {"recipe"}, {"recipe", "format", "file"}};
+StudioRequest parse_studio_request(Endpoint e, std::string_view text, const StudioSettings& s, const UploadPaths& uploads) {
+  static const std::vector<std::string> fields[] = {{"recipe"}, {"recipe", "layers"}, {"recipe"}, {"recipe", "format", "file"}, {"recipe"}};
   const int max_size = e == Endpoint::Generate || e == Endpoint::Steps ? s.max_preview : s.max_export;
   StudioRequest r;
   r.body = parse_body(text, fields[int(e)], s);
@@ -63,19 +108,15 @@ StudioRequest parse_studio_request(Endpoint e, std::string_view text, const Stud
     throw ApiError{400, "stages",
                    "the studio runs at most " + std::to_string(s.max_stages) + " stages per recipe (--max-stages), got " +
                        std::to_string(rj["stages"].size()) + " (use `relief generate` for longer recipes)"};
-  // The server never opens a file a client names: an image stage's "path" and a colour's
-  // "texture" are refused before parsing (which would already read the image's header).
-  if (const json& rj = r.body["recipe"]; rj.is_object() && rj.contains("stages"))
-    if (const std::string field = file_field(rj["stages"], "stages"); !field.empty())
-      throw ApiError{400, field,
-                     "the studio does not read files named by a request (image inputs and textures): use `relief "
-                     "generate` with the recipe file"};
+  // The server never opens a file a client names: an image stage's "path" must name an upload of
+  // this session, and a colour's "texture" is refused, before parsing (which reads the image's header).
+  if (json& rj = r.body["recipe"]; rj.is_object() && rj.contains("stages")) check_files(rj["stages"], "stages", uploads, r);
   try {
     r.recipe = parse_recipe(r.body["recipe"]);
   } catch (const Error& err) {
     // Recipe paths stay relative to the recipe (as on the command line and in the panel).
-    if (err.path().empty()) throw ApiError{400, "recipe", err.message()};
-    throw ApiError{400, err.path(), err.message()};
+    if (err.path().empty()) throw ApiError{400, "recipe", client_text(r, err.message())};
+    throw ApiError{400, err.path(), client_text(r, err.message())};
   }
   const World& w = r.recipe.world;
   if (w.nx > max_size || w.nz > max_size)
@@ -142,6 +183,26 @@ StudioRequest parse_studio_request(Endpoint e, std::string_view text, const Stud
     }
   }
   return r;
+}
+
+json client_recipe_json(const StudioRequest& r, bool saved) {
+  json j = r.recipe.to_json();
+  if (!r.uploads.empty() && j.contains("stages")) client_paths(j["stages"], r, saved ? "" : std::string(kUploadPrefix));
+  return j;
+}
+
+std::string client_text(const StudioRequest& r, std::string text) {
+  for (auto& [path, name] : r.uploads) replace_all(text, path, std::string(kUploadPrefix) + name);
+  return text;
+}
+
+std::string upload_name(std::string_view name) {
+  if (const auto slash = name.find_last_of("/\\"); slash != std::string_view::npos) name = name.substr(slash + 1);
+  std::string out;
+  for (char c : name.substr(0, 100)) out += std::isalnum(static_cast<unsigned char>(c)) || c == '.' || c == '-' || c == '_' ? c : '_';
+  while (!out.empty() && out.front() == '.') out.erase(0, 1);
+  if (out == "recipe.json") out = "upload-recipe.json";
+  return out;
 }
 
 std::string content_disposition(std::string_view filename) {

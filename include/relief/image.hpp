@@ -67,6 +67,21 @@ Raster probe_raster(const std::string& file, RasterFormat format, const std::str
 // modification time (a few entries, least recently used dropped first). Thread-safe.
 std::shared_ptr<const Raster> cached_raster(const std::string& file, RasterFormat format, const std::string& field_path);
 
+// Reads only the header of bytes in memory (decode_raster's checks before decoding: dimensions
+// against kMaxRasterPixels and memory), so a caller can refuse a raster by its size before decoding it.
+Raster probe_raster_bytes(std::string_view bytes, const std::string& name, RasterFormat format, const std::string& field_path);
+
+// Rasters held in memory (the studio's uploads: its server never reads a file a client names). An
+// image stage whose path starts with kMemoryRasterPrefix reads the raster registered under that
+// exact path and never the file system (probe_raster, read_raster and cached_raster alike; the
+// stage's format parameter is not used: the raster was decoded before it was registered). The
+// registry holds each raster weakly: it is there while the caller that registered it keeps its
+// shared_ptr; a path with no live raster is an Error naming field_path. Registering a path again
+// replaces it. A recipe file's relative paths are made absolute (resolve_recipe_files), so a
+// recipe read from disk never names one. Thread-safe.
+inline constexpr std::string_view kMemoryRasterPrefix = "memory:";
+void register_memory_raster(const std::string& path, std::shared_ptr<const Raster> raster);
+
 // Whether GDAL can be loaded on this machine (libgdal found at run time).
 bool gdal_available();
 

@@ -96,7 +96,13 @@ test('presets and the parameter table come from the registries', async () => {
   assert.ok(presets.some((p) => p.name === 'island' && p.origin === 'built-in'));
   const table = await (await fetch(server.url + '/api/params')).json();
   const cli = JSON.parse(execFileSync(RELIEF, ['explain', '--json'], { encoding: 'utf8' }));
-  assert.deepEqual(table, cli, 'the studio serves exactly `relief explain --json`');
+  // The one addition: the parameters that name a file are marked `upload` (their bytes come by upload).
+  const uploads = [];
+  for (const st of table.stages)
+    for (const p of st.params)
+      if ('upload' in p) uploads.push(`${st.name}.${p.name}=${p.upload}`), delete p.upload;
+  assert.deepEqual(uploads, ['image.path=true']);
+  assert.deepEqual(table, cli, 'the studio serves exactly `relief explain --json` (plus the upload marks)');
   await expectError(await fetch(server.url + '/api/presets/islnd'), 404, { path: 'preset', match: /did you mean 'island'/ });
 });
 
