@@ -62,6 +62,11 @@ class RELIEF_OT_bake(bpy.types.Operator):
     def invoke(self, context, event):
         if bpy.app.background:
             return self.execute(context)
+        return self.start_modal(context)
+
+    def start_modal(self, context):
+        """Starts the run on a thread and the timer that drives modal(); blender/tests/test_bake_modal.py
+        calls it (and modal) directly, since background mode has no event loop."""
         scn = context.scene
         s = props.ensure_recipe(scn)
         live.cancel()
