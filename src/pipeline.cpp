@@ -29,9 +29,11 @@ std::uint64_t estimate_memory_bytes(const Recipe& r, bool with_mesh) {
   for (const RecipeStage& st : r.stages) {
     const StageMemory& m = st.def->memory;
     for (auto& [name, channels] : m.layers) layers[name] = std::max(layers[name], channels);
-    scratch = std::max(scratch, m.scratch_per_sample * n);
-    if (m.layer_param.empty() && !m.encode_bytes) continue;
     const json p = st.stage->params();
+    // A stage with a `mask` (stage_masked.cpp) also keeps a copy of the layer it changes.
+    const bool masked = p.contains("mask") && p["mask"].is_string() && !p["mask"].get<std::string>().empty();
+    scratch = std::max(scratch, (m.scratch_per_sample + (masked ? 4 : 0)) * n);
+    if (m.layer_param.empty() && !m.encode_bytes) continue;
     if (!m.layer_param.empty() && p.contains(m.layer_param) && p[m.layer_param].is_string())
       layers[p[m.layer_param].get<std::string>()] = std::max(layers[p[m.layer_param].get<std::string>()], 1);
     if (m.encode_bytes) stage_encode = std::max(stage_encode, m.encode_bytes(p));

@@ -37,14 +37,21 @@ json StageDef::to_json() const {
 
 const std::vector<StageDef>& stage_registry() {
   static const std::vector<StageDef> all = {
-      stages::noise(),    stages::redistribute(), stages::terrace(), stages::island(),
-      stages::curve(),    stages::slope(),        stages::colorize(), stages::hillshade(),
-      stages::tilemap(),
-      stages::hydraulic(), stages::thermal(),     stages::fill(),     stages::flow(),
-      stages::stream_power(),
+      // The stages that change height take the optional `mask` (stage_masked.cpp).
+      stages::masked(stages::noise(), "height", "layer"),
+      stages::masked(stages::redistribute()),
+      stages::masked(stages::terrace()),
+      stages::masked(stages::island()),
+      stages::masked(stages::curve()),
+      stages::slope(),    stages::colorize(), stages::hillshade(), stages::tilemap(),
+      stages::masked(stages::hydraulic()),
+      stages::masked(stages::thermal()),
+      stages::fill(),     stages::flow(),
+      stages::masked(stages::stream_power()),
       stages::biomes(),   stages::volcano(),      stages::features(), stages::jiggle(),
       stages::props(),    stages::climate(),  stages::image(),
-      stages::mask(),     stages::mix(),      stages::amplify(),
+      stages::mask(),     stages::mix(),
+      stages::masked(stages::amplify(), "height", "layer"),
   };
   return all;
 }

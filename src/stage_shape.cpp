@@ -358,6 +358,7 @@ StageDef terrace() {
             "that fade into the slope instead of aliasing into moiré rings (2 suits most); 0 = off (pointwise)"),
   }};
   // A row stage (fused, pointwise) unless filter_samples > 0, which reads the input's gradient.
+  auto typed = std::make_shared<const Table<P>>(table);  // the filtered form reads the same typed params
   StageDef d = make_row_stage<P>("terrace", "Terraces: round(e·n)/n, or smooth terraces with sloped walls",
                                  std::move(table), prepare_terrace);
   auto row_parse = d.parse;
@@ -370,16 +371,12 @@ StageDef terrace() {
   };
   d.halo_rule = "1 sample when filter_samples > 0 (the input's gradient), else pointwise";
   d.memory.scratch_per_sample = 4;  // filter_samples > 0: a copy of the input heights
-  d.parse = [row_parse](const json& obj, const std::string& path) -> std::unique_ptr<Stage> {
-    std::unique_ptr<Stage> s = row_parse(obj, path);
-    const json resolved = s->params();
-    if (!(resolved.value("filter_samples", 0.0) > 0.0)) return s;
+  d.parse = [row_parse, typed](const json& obj, const std::string& path) -> std::unique_ptr<Stage> {
+    std::unique_ptr<Stage> s = row_parse(obj, path);  // validates, and serves params()
+    P p = typed->read(obj, path, {"stage", "label"});
+    if (!(p.filter_samples > 0.0)) return s;
     auto f = std::make_unique<Filtered>();
-    f->p.levels = resolved.at("levels").get<int>();
-    f->p.mode = resolved.at("mode").get<std::string>() == "smooth" ? TerraceMode::Smooth : TerraceMode::Round;
-    f->p.wall = resolved.at("wall").get<double>();
-    f->p.land_only = resolved.at("land_only").get<bool>();
-    f->p.filter_samples = resolved.at("filter_samples").get<double>();
+    f->p = std::move(p);
     f->row = std::move(s);
     return f;
   };

@@ -29,4 +29,8 @@ StageDef mask();         // stage_mask.cpp: 0..1 masks from elevation, slope, cu
 StageDef mix();          // stage_mask.cpp: two layers combined through a mask
 StageDef amplify();      // stage_amplify.cpp: slope-following fractal detail on a coarse input
 
+// stage_masked.cpp: `d` with the optional `mask` parameter (a 0..1 layer scaling the stage's effect
+// on the layer it changes: `layer`, or the value of its string parameter `layer_param`).
+StageDef masked(StageDef d, std::string layer = "height", std::string layer_param = "");
+
 }  // namespace relief::stages
