@@ -75,3 +75,41 @@ export async function waitIdle(page, count = 1, timeout = 60000) {
     { timeout, polling: 50 },
   );
 }
+
+// A greyscale PNG (8- or 16-bit) of `value(x, y)` (codes), for upload tests; deflate from node's zlib.
+export async function greyPng(width, height, bits, value = () => 0) {
+  const zlib = await import('node:zlib');
+  const crcTable = Array.from({ length: 256 }, (_, n) => {
+    let c = n;
+    for (let k = 0; k < 8; k++) c = c & 1 ? 0xedb88320 ^ (c >>> 1) : c >>> 1;
+    return c >>> 0;
+  });
+  const crc32 = (buf) => {
+    let c = 0xffffffff;
+    for (const b of buf) c = crcTable[(c ^ b) & 0xff] ^ (c >>> 8);
+    return (c ^ 0xffffffff) >>> 0;
+  };
+  const chunk = (type, data) => {
+    const len = Buffer.alloc(4);
+    len.writeUInt32BE(data.length);
+    const td = Buffer.concat([Buffer.from(type, 'latin1'), data]);
+    const crc = Buffer.alloc(4);
+    crc.writeUInt32BE(crc32(td));
+    return Buffer.concat([len, td, crc]);
+  };
+  const ihdr = Buffer.alloc(13);
+  ihdr.writeUInt32BE(width, 0);
+  ihdr.writeUInt32BE(height, 4);
+  ihdr[8] = bits;  // colour type 0 (grey), deflate, filter 0, no interlace
+  const bpp = bits / 8, stride = 1 + width * bpp;
+  const raw = Buffer.alloc(stride * height);
+  for (let y = 0; y < height; y++)
+    for (let x = 0; x < width; x++) {
+      const v = value(x, y);
+      if (!v) continue;
+      if (bits === 16) raw.writeUInt16BE(v, y * stride + 1 + 2 * x);
+      else raw[y * stride + 1 + x] = v;
+    }
+  const sig = Buffer.from([0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a]);
+  return Buffer.concat([sig, chunk('IHDR', ihdr), chunk('IDAT', zlib.deflateSync(raw)), chunk('IEND', Buffer.alloc(0))]);
+}

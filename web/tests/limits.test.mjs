@@ -6,7 +6,7 @@
 import { test } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
-import { startStudio } from './harness.mjs';
+import { startStudio, greyPng } from './harness.mjs';
 
 // A recipe that runs for many seconds at 1025² on one thread: `n` simplex noise stages of 16 warped
 // octaves each (about 0.3 s a stage here; a long chain of them is run unfused, so it is checked
@@ -194,5 +194,48 @@ test('SIGTERM with a long generation running stops the server within 2.5 s', asy
   if (r.status !== undefined) {
     assert.equal(r.status, 503, r.body);
     assert.match(r.body, /shutting down/);
+  }
+});
+
+test('uploads: a file over the size or pixel limit, or past the session limit, is a 413 naming the limit; the server serves on', async () => {
+  const server = await startStudio(['--threads', '1']);
+  const upload = (name, bytes, client = 'up-1') =>
+    fetch(`${server.url}/api/upload?name=${encodeURIComponent(name)}`, { method: 'POST', headers: { 'X-Relief-Client': client }, body: bytes });
+  const expect413 = async (res, limit, match) => {
+    const body = await res.json();
+    assert.equal(res.status, 413, body.error);
+    assert.equal(body.limit, limit, body.error);
+    assert.equal(body.path, 'body', body.error);
+    assert.match(body.error, match);
+  };
+  const served = async () => assert.equal((await post(server, '/api/generate', { recipe: smallRecipe() })).status, 200);
+  try {
+    // Bytes: at most 32 MiB per file (refused without decoding: these bytes are no image at all).
+    await expect413(await upload('huge.png', Buffer.alloc((32 << 20) + 1)), 'upload_bytes', /33554433 bytes; the studio takes at most 32 MiB per file/);
+    await served();
+    // Pixels: at most 4097x4097, read from the header before anything is decoded (this 4098² PNG
+    // is 17 KB and would decode to 64 MiB of floats).
+    const wide = await greyPng(4098, 4098, 8);
+    assert.ok(wide.length < 100000);
+    await expect413(await upload('wide.png', wide), 'upload_pixels', /4098x4098 pixels; the studio takes at most 16785409 pixels per file/);
+    await served();
+    // A session holds at most 256 MiB (files plus 4 bytes per decoded pixel): three 4097² images
+    // fit (64 MiB each), a fourth does not; the same name again replaces, and another session has
+    // its own allowance.
+    const big = await greyPng(4097, 4097, 8, (x, y) => (x === y ? 200 : 0));
+    for (const n of ['a.png', 'b.png', 'c.png']) assert.equal((await upload(n, big)).status, 200, n);
+    await expect413(await upload('d.png', big), 'session_uploads', /at most 256 MiB per session/);
+    assert.equal((await upload('c.png', big)).status, 200, 'replacing c.png');
+    assert.equal((await upload('d.png', big, 'up-2')).status, 200, 'another session');
+    // What was refused is not there; what was kept is.
+    const recipe = (p) => ({ name: 'u', seed: 1, world: { size: 33 }, stages: [{ stage: 'image', path: p }] });
+    const refused = await post(server, '/api/generate', { recipe: recipe('upload:d.png') }, { headers: { 'Content-Type': 'application/json', 'X-Relief-Client': 'up-1' } });
+    assert.equal(refused.status, 400);
+    assert.equal((await refused.json()).path, 'stages[0].path');
+    const kept = await post(server, '/api/generate', { recipe: recipe('upload:a.png') }, { headers: { 'Content-Type': 'application/json', 'X-Relief-Client': 'up-1' } });
+    assert.equal(kept.status, 200);
+    await served();
+  } finally {
+    await stopClean(server);
   }
 });

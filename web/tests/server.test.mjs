@@ -9,7 +9,7 @@ import { execFileSync } from 'node:child_process';
 import fs from 'node:fs';
 import os from 'node:os';
 import path from 'node:path';
-import { startStudio, RELIEF } from './harness.mjs';
+import { startStudio, RELIEF, greyPng } from './harness.mjs';
 import { decodeFrame } from '../src/api.js';
 
 let server;
@@ -375,4 +375,150 @@ test('hostile requests (issue 16): nesting, content types, methods, layers, engi
   }
   assert.match(stderr, /relief: error: --host: .*"nosuchhost\.invalid": it does not resolve/);
   assert.equal((await post('/api/resolve', { recipe: r })).status, 200);
+});
+
+// ---- uploads (issue 19): an image stage reads an uploaded file from memory; the server never
+// reads a path the client names. Limits: limits.test.mjs.
+const upload = (name, bytes, client) =>
+  fetch(`${server.url}/api/upload?name=${encodeURIComponent(name)}`, {
+    method: 'POST',
+    headers: client ? { 'X-Relief-Client': client } : {},
+    body: bytes,
+  });
+const imageRecipe = (p, extra = {}) => ({ name: 'sketch', seed: 5, world: { size: 65 }, stages: [{ stage: 'image', path: p, ...extra }] });
+
+// A 16-bit greyscale PNG written by the CLI (the island's height.png), alone in a folder.
+function cliHeightPng() {
+  const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'relief-upload-'));
+  execFileSync(RELIEF, ['generate', '--preset', 'island', '--size', '65', '--seed', '3', '--formats', 'heightmap', '-o', path.join(dir, 'gen')]);
+  const png = fs.readFileSync(path.join(dir, 'gen', 'height.png'));
+  assert.equal(png[24], 16, '16-bit');
+  fs.mkdirSync(path.join(dir, 'in'));
+  fs.writeFileSync(path.join(dir, 'in', 'sketch.png'), png);
+  return { dir, png, r16: fs.readFileSync(path.join(dir, 'gen', 'height.r16')) };
+}
+
+test('uploads: non-image bytes, paths instead of uploads, other sessions: 4xx naming the field; the server serves on', async () => {
+  const client = { 'X-Relief-Client': 'uploader-1' };
+  // Bytes that are no image: 415 naming the body, and nothing kept.
+  for (const [name, bytes] of [
+    ['notes.png', Buffer.from('just some text, not a PNG\n')],
+    ['empty.png', Buffer.alloc(0)],
+    ['broken.png', Buffer.concat([Buffer.from([0x89, 0x50, 0x4e, 0x47, 0x0d, 0x0a, 0x1a, 0x0a]), Buffer.alloc(40, 7)])],
+    ['virtual.vrt', Buffer.from('<VRTDataset rasterXSize="2" rasterYSize="2"><VRTRasterBand band="1"><SimpleSource><SourceFilename>/etc/passwd</SourceFilename></SimpleSource></VRTRasterBand></VRTDataset>')],
+  ]) {
+    const body = await expectError(await upload(name, bytes, 'uploader-1'), 415, { path: 'body' });
+    assert.match(body.error, /not an image the studio reads|not a PNG image that can be decoded/, body.error);
+    await goodGenerate(client);
+  }
+  // Without a session there is nowhere to keep it; without a name it cannot be referred to.
+  const { dir, png } = cliHeightPng();
+  await expectError(await upload('a.png', png), 400, { path: 'X-Relief-Client' });
+  await expectError(await fetch(`${server.url}/api/upload`, { method: 'POST', headers: client, body: png }), 400, { path: 'name' });
+  await expectError(await fetch(`${server.url}/api/upload?name=${encodeURIComponent('../..')}`, { method: 'POST', headers: client, body: png }), 400, { path: 'name' });
+  await goodGenerate(client);
+  // A file-system path, even one that exists, is refused before anything is read: a 400 naming
+  // stages[i].path, on every endpoint that takes a recipe.
+  const file = path.join(dir, 'in', 'sketch.png');
+  for (const p of [file, '/etc/passwd', 'sketch.png', 'memory:upload-1/sketch.png', '../in/sketch.png']) {
+    for (const [ep, extra] of [['/api/resolve', {}], ['/api/generate', {}], ['/api/steps', {}], ['/api/export', { format: 'heightmap' }], ['/api/save', {}]]) {
+      const recipe = { ...imageRecipe(p), stages: [{ stage: 'noise' }, { stage: 'image', path: p }] };
+      await expectError(await post(ep, { recipe, ...extra }, client), 400, { path: 'stages[1].path', match: /does not read files named by a request/ });
+    }
+    await goodGenerate(client);
+  }
+  // An upload is its session's: another client (or none) cannot name it.
+  const ok = await upload('sketch.png', png, 'uploader-1');
+  assert.equal(ok.status, 200, await ok.clone().text());
+  assert.equal((await ok.json()).path, 'upload:sketch.png');
+  assert.equal((await post('/api/generate', { recipe: imageRecipe('upload:sketch.png') }, client)).status, 200);
+  await expectError(await post('/api/generate', { recipe: imageRecipe('upload:sketch.png') }, { 'X-Relief-Client': 'uploader-2' }), 400, {
+    path: 'stages[0].path',
+    match: /no upload named "sketch.png" in this session/,
+  });
+  await expectError(await post('/api/generate', { recipe: imageRecipe('upload:sketch.png') }), 400, { path: 'stages[0].path' });
+  await expectError(await post('/api/generate', { recipe: imageRecipe('upload:other.png') }, client), 400, {
+    path: 'stages[0].path',
+    match: /uploaded: sketch\.png/,
+  });
+  // Errors about an upload name it as the client does, not by the server's in-memory name.
+  await expectError(await post('/api/generate', { recipe: imageRecipe('upload:sketch.png', { placement: 'georeference' }) }, client), 400, {
+    path: 'stages[0].placement',
+    match: /'upload:sketch\.png' has no georeference/,
+  });
+  await goodGenerate(client);
+  fs.rmSync(dir, { recursive: true, force: true });
+});
+
+test('an uploaded 16-bit PNG gives the heights `relief generate` reads from the file', async () => {
+  const { dir, png, r16 } = cliHeightPng();
+  const client = { 'X-Relief-Client': 'uploader-3' };
+  const up = await upload('sketch.png', png, 'uploader-3');
+  assert.equal(up.status, 200, await up.clone().text());
+  const info = await up.json();
+  assert.deepEqual([info.name, info.path, info.width, info.height, info.format], ['sketch.png', 'upload:sketch.png', 65, 65, 'png']);
+  // The recipe the page gets back keeps the upload's name.
+  const resolved = (await (await post('/api/resolve', { recipe: imageRecipe('upload:sketch.png') }, client)).json()).recipe;
+  assert.equal(resolved.stages[0].path, 'upload:sketch.png');
+  const res = await post('/api/generate', { recipe: imageRecipe('upload:sketch.png'), layers: ['height'] }, client);
+  assert.equal(res.status, 200);
+  const frame = decodeFrame(await res.arrayBuffer());
+  assert.equal(frame.header.recipe.stages[0].path, 'upload:sketch.png');
+  const h = frame.layers.height.data;
+  // The CLI on the same file, beside its recipe.
+  fs.writeFileSync(path.join(dir, 'in', 'recipe.json'), JSON.stringify(imageRecipe('sketch.png')));
+  execFileSync(RELIEF, ['generate', path.join(dir, 'in', 'recipe.json'), '--formats', 'heightmap', '-o', path.join(dir, 'cli')]);
+  const cli = fs.readFileSync(path.join(dir, 'cli', 'height.r16'));
+  assert.equal(h.length, 65 * 65);
+  let worst = 0;
+  for (let k = 0; k < h.length; k++) worst = Math.max(worst, Math.abs(h[k] * 65535 - cli.readUInt16LE(2 * k)));
+  assert.ok(worst <= 0.5, `studio heights differ from the CLI's by ${worst} codes`);
+  assert.ok(cli.equals(r16), 'the image stage reads back the island exactly');
+  // An export of the same recipe writes the CLI's bytes.
+  const ex = await post('/api/export', { recipe: imageRecipe('upload:sketch.png'), format: 'heightmap', file: 'height.r16' }, client);
+  assert.equal(ex.status, 200);
+  assert.ok(Buffer.from(await ex.arrayBuffer()).equals(cli), 'export height.r16 = the CLI run on the file');
+  // A new upload under the same name replaces it, and the stage cache does not serve the old one.
+  const ramp = await greyPng(65, 65, 16, (x) => x * 1000);
+  assert.equal((await upload('sketch.png', ramp, 'uploader-3')).status, 200);
+  const res2 = await post('/api/generate', { recipe: imageRecipe('upload:sketch.png'), layers: ['height'] }, client);
+  assert.equal(res2.status, 200);
+  const h2 = decodeFrame(await res2.arrayBuffer()).layers.height.data;
+  for (let k = 0; k < h2.length; k += 97) assert.equal(Math.round(h2[k] * 65535), (k % 65) * 1000, `sample ${k}`);
+  fs.rmSync(dir, { recursive: true, force: true });
+});
+
+test('saving a recipe with an upload: a zip of recipe.json and the image, which `relief generate` reads', async () => {
+  const { dir, png } = cliHeightPng();
+  const client = { 'X-Relief-Client': 'uploader-4' };
+  assert.equal((await upload('my sketch.png', png, 'uploader-4')).status, 200);
+  const recipe = { ...imageRecipe('upload:my_sketch.png'), name: 'saved' };
+  recipe.stages.push({ stage: 'color' });
+  const res = await post('/api/save', { recipe }, client);
+  assert.equal(res.status, 200, await res.clone().text());
+  assert.equal(res.headers.get('content-type'), 'application/zip');
+  assert.match(res.headers.get('content-disposition'), /filename="saved-5\.zip"/);
+  const zip = path.join(dir, 'saved.zip');
+  fs.writeFileSync(zip, Buffer.from(await res.arrayBuffer()));
+  const out = path.join(dir, 'unpacked');
+  const names = JSON.parse(execFileSync('/usr/bin/python3', ['-c', `
+import json, sys, zipfile
+z = zipfile.ZipFile(sys.argv[1])
+assert z.testzip() is None
+z.extractall(sys.argv[2])
+print(json.dumps(sorted(z.namelist())))
+`, zip, out], { encoding: 'utf8' }));
+  assert.deepEqual(names, ['my_sketch.png', 'recipe.json']);
+  assert.ok(fs.readFileSync(path.join(out, 'my_sketch.png')).equals(png), 'the uploaded bytes, unchanged');
+  const saved = JSON.parse(fs.readFileSync(path.join(out, 'recipe.json'), 'utf8'));
+  assert.equal(saved.stages[0].path, 'my_sketch.png', 'the path is the file beside the recipe');
+  assert.equal(saved.seed, 5);
+  // The unpacked folder runs as it is, from any working directory, with the studio's heights.
+  execFileSync(path.resolve(RELIEF), ['generate', path.join(out, 'recipe.json'), '--formats', 'heightmap', '-o', path.join(dir, 'cli')], { cwd: os.tmpdir() });
+  const ex = await post('/api/export', { recipe, format: 'heightmap', file: 'height.r16' }, client);
+  assert.ok(Buffer.from(await ex.arrayBuffer()).equals(fs.readFileSync(path.join(dir, 'cli', 'height.r16'))));
+  // A recipe without uploads saves as recipe.json alone.
+  const plain = await post('/api/save', { recipe: await preset() }, client);
+  assert.equal(plain.status, 200);
+  fs.rmSync(dir, { recursive: true, force: true });
 });
