@@ -98,3 +98,37 @@ export async function exportFormat(recipe, format, file) {
   }
   return { blob: await res.blob(), filename: m ? m[1] : `${format}.bin`, files };
 }
+
+// Uploads a file for an image stage (kept in memory by the server for this page's session).
+// Returns {name, path: "upload:NAME", width, height, format, bytes, session_bytes, limits}.
+export async function upload(file, name = file.name) {
+  const res = await fetch(`api/upload?name=${encodeURIComponent(name)}`, {
+    method: 'POST',
+    headers: { 'X-Relief-Client': clientId },
+    body: file,
+  });
+  if (!res.ok) throw await failure(res);
+  return res.json();
+}
+
+// A zip of recipe.json and the uploads it names (paths relative to recipe.json). Returns {blob, filename}.
+export async function saveZip(recipe) {
+  const res = await postJson('api/save', { recipe });
+  const m = /filename="([^"]+)"/.exec(res.headers.get('Content-Disposition') || '');
+  return { blob: await res.blob(), filename: m ? m[1] : 'recipe.zip' };
+}
+
+// Whether a recipe names an upload ("upload:NAME" in any image path).
+export function namesUpload(recipe) {
+  let found = false;
+  const walk = (v) => {
+    if (found || !v || typeof v !== 'object') return;
+    if (Array.isArray(v)) return v.forEach(walk);
+    for (const [k, x] of Object.entries(v)) {
+      if (k === 'path' && typeof x === 'string' && x.startsWith('upload:')) found = true;
+      else walk(x);
+    }
+  };
+  walk(recipe && recipe.stages);
+  return found;
+}

@@ -15,10 +15,22 @@ export function download(blob, filename) {
   setTimeout(() => URL.revokeObjectURL(url), 60000);
 }
 
-$('save').onclick = () => {
+// A recipe that names uploaded images is saved as a zip of recipe.json and the images beside it
+// (its paths the file names, so `relief generate recipe.json` runs in the unpacked folder).
+$('save').onclick = async () => {
   if (!state.recipe) return;
   const r = requestRecipe({ fullSize: true });
-  download(new Blob([JSON.stringify(r, null, 2) + '\n'], { type: 'application/json' }), `${r.name || 'recipe'}-${r.seed}.json`);
+  if (!api.namesUpload(r)) {
+    download(new Blob([JSON.stringify(r, null, 2) + '\n'], { type: 'application/json' }), `${r.name || 'recipe'}-${r.seed}.json`);
+    return;
+  }
+  try {
+    const { blob, filename } = await api.saveZip(r);
+    download(blob, filename);
+    toast(`Saved ${filename}: recipe.json with its images beside it`, 'info', 3000);
+  } catch (e) {
+    toast(`Save failed: ${e.message}`);
+  }
 };
 $('load').onclick = () => $('load-file').click();
 $('load-file').onchange = async () => {

@@ -71,6 +71,18 @@ export function selectPresetOption(name) {
 export const panel = new Panel($('panel-box'), {
   onChange: ({ finished }) => generator.request(finished ? 'now-coalesced' : 'drag'),
   onHelp: help,
+  onUpload: async (file, path) => {
+    toast(`Uploading ${file.name}…`, 'info', 0);
+    try {
+      const u = await api.upload(file);
+      toast(`${path} ← ${u.name} (${u.width}×${u.height} ${u.format}, ${(u.bytes / 1024).toFixed(0)} KiB; kept by the studio for this page)`, 'info', 4000);
+      return u.path;
+    } catch (e) {
+      toast(`Could not upload ${file.name}: ${e.message}`);
+      return null;
+    }
+  },
+  onNoUploadTarget: (file) => toast(`No stage takes a file: add an image stage (Add a stage ▸ image), then drop ${file.name} on it`),
   onStructure: (recipe) => {
     // A stage was added or removed: resolve (fills defaults, checks) and rebuild the panel.
     adopt(recipe).catch((e) => toast(`Could not change the stages: ${e.message}`));

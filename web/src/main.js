@@ -63,6 +63,12 @@ $('size').onchange = () => {
   generator.request('now');
 };
 $('play').onclick = playStages;
+// A file dropped outside the panel (which takes image files) is not opened by the browser in
+// place of the studio.
+for (const type of ['dragover', 'drop'])
+  window.addEventListener(type, (e) => {
+    if (e.dataTransfer && [...e.dataTransfer.types].includes('Files') && !e.defaultPrevented) e.preventDefault();
+  });
 document.addEventListener('keydown', (e) => {
   if (e.key !== 'Escape') return;
   if (walk.active) exitWalk();

@@ -36,11 +36,43 @@ export class Panel {
     this.cb = callbacks;
     this.gui = null;
     this.controllers = new Map();  // path → lil-gui controller
+    this.uploads = [];             // the controls of parameters that take a file: {path, stage, take(file)}
+    // A file dropped on the panel goes to the file control of the stage it lands on, else to the
+    // first one in the panel.
+    container.addEventListener('dragover', (e) => {
+      if (!e.dataTransfer || ![...e.dataTransfer.types].includes('Files')) return;
+      e.preventDefault();
+      e.dataTransfer.dropEffect = this.uploads.length ? 'copy' : 'none';
+      container.classList.add('dropping');
+    });
+    container.addEventListener('dragleave', (e) => {
+      if (!container.contains(e.relatedTarget)) container.classList.remove('dropping');
+    });
+    container.addEventListener('drop', (e) => {
+      container.classList.remove('dropping');
+      const file = e.dataTransfer && e.dataTransfer.files && e.dataTransfer.files[0];
+      if (!file) return;
+      e.preventDefault();
+      this.dropFile(file, e.target);
+    });
+  }
+
+  // Sends `file` to the upload control of the stage under `target` (an element), else the first one.
+  dropFile(file, target) {
+    const folder = target && target.closest ? target.closest('[data-stage]') : null;
+    const stage = folder ? folder.dataset.stage : null;
+    const u = this.uploads.find((x) => x.stage === stage) || this.uploads[0];
+    if (!u) {
+      if (this.cb.onNoUploadTarget) this.cb.onNoUploadTarget(file);
+      return Promise.resolve(false);
+    }
+    return u.take(file);
   }
 
   build(recipe, table) {
     if (this.gui) this.gui.destroy();
     this.controllers.clear();
+    this.uploads = [];
     this.recipe = recipe;
     this.table = table;
     const gui = new GUI({ container: this.container, title: 'Recipe', width: 330 });
@@ -143,9 +175,39 @@ export class Panel {
         c = folder.add(obj, info.name);
         this.decorate(c, info, path, null);
         c.onFinishChange(() => changed(true));
+        if (info.upload) this.addUpload(folder, obj, info, path, c, changed);
         return;
     }
     this.decorate(c, info, path, changed);
+  }
+
+  // A parameter that names a file (the table marks it `upload`): the server reads no file a page
+  // names, so the file is uploaded (a file picker, or a file dropped on the panel) and the
+  // parameter set to the "upload:NAME" the server gives it.
+  addUpload(folder, obj, info, path, text, changed) {
+    const input = document.createElement('input');
+    input.type = 'file';
+    input.hidden = true;
+    input.dataset.upload = path;
+    const take = async (file) => {
+      const name = this.cb.onUpload ? await this.cb.onUpload(file, path) : null;
+      if (!name) return false;
+      obj[info.name] = name;
+      text.updateDisplay();
+      changed(true);
+      return true;
+    };
+    input.onchange = () => {
+      const file = input.files[0];
+      input.value = '';
+      if (file) take(file);
+    };
+    const button = folder.add({ choose: () => input.click() }, 'choose').name(`📂 ${info.name}: choose or drop a file…`);
+    button.domElement.appendChild(input);
+    button.domElement.dataset.uploadButton = path;
+    button.domElement.title = 'Upload an image (PNG 8/16-bit, OpenEXR, GeoTIFF, .r16) for this stage; or drop the file on the panel';
+    const folderEl = folder.domElement.closest('[data-stage]');
+    this.uploads.push({ path, stage: folderEl ? folderEl.dataset.stage : null, take });
   }
 
   decorate(c, info, path, changed) {

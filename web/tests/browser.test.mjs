@@ -4,7 +4,7 @@
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
-import { startStudio, launchBrowser, waitIdle } from './harness.mjs';
+import { startStudio, launchBrowser, waitIdle, greyPng } from './harness.mjs';
 
 let server, browser;
 before(async () => {
@@ -364,6 +364,48 @@ test('uploading a broken recipe shows a clear message and the page keeps working
   await waitIdle(page, gens + 1);
   assert.notEqual(await page.evaluate(() => window.studio.state.recipe.stages[0].octaves), before.stages[0].octaves);
   // The only console errors are the browser's notes of the refused request (HTTP 400).
+  assert.ok(errors.every((e) => /status of 400/.test(e)), errors.join('\n'));
+  await page.close();
+});
+
+test('an image stage takes a file by its picker or dropped on the panel; Save makes a zip with the image', async () => {
+  const { page, errors } = await open('?size=129');
+  // A recipe with an image stage that has no file yet (its run is refused until it has one).
+  const doc = { name: 'sketch', seed: 3, world: { size: 129 }, stages: [{ stage: 'image', path: '' }, { stage: 'color' }] };
+  await page.setInputFiles('#load-file', { name: 'sketch.json', mimeType: 'application/json', buffer: Buffer.from(JSON.stringify(doc)) });
+  await page.waitForFunction(() => window.studio.state.recipe.name === 'sketch' && window.studio.idle);
+  // The file picker of stages[0].path: a 16-bit ramp along x.
+  const ramp = await greyPng(129, 129, 16, (x) => x * 500);
+  let gens = await page.evaluate(() => window.studio.state.generations);
+  await page.setInputFiles('input[data-upload="stages[0].path"]', { name: 'ramp.png', mimeType: 'image/png', buffer: ramp });
+  await waitIdle(page, gens + 1);
+  assert.equal(await page.evaluate(() => window.studio.state.recipe.stages[0].path), 'upload:ramp.png');
+  const row = await page.evaluate(() => Array.from(window.studio.state.result.layers.height.data.slice(0, 129)));
+  row.forEach((h, x) => assert.ok(Math.abs(h * 65535 - x * 500) <= 0.5, `x ${x}: ${h}`));
+  // A file dropped on the panel (on the stage's folder) replaces it.
+  gens = await page.evaluate(() => window.studio.state.generations);
+  const flat = await greyPng(129, 129, 8, () => 51);
+  await page.evaluate((bytes) => {
+    const dt = new DataTransfer();
+    dt.items.add(new File([new Uint8Array(bytes)], 'flat.png', { type: 'image/png' }));
+    const target = document.querySelector('#panel [data-stage="0"]');
+    target.dispatchEvent(new DragEvent('dragover', { dataTransfer: dt, bubbles: true, cancelable: true }));
+    target.dispatchEvent(new DragEvent('drop', { dataTransfer: dt, bubbles: true, cancelable: true }));
+  }, [...flat]);
+  await waitIdle(page, gens + 1);
+  assert.equal(await page.evaluate(() => window.studio.state.recipe.stages[0].path), 'upload:flat.png');
+  assert.equal(await page.evaluate(() => window.studio.state.result.layers.height.data[1000]), Math.fround(51 / 255));
+  // Save: recipe.json and flat.png, the recipe's path the file beside it.
+  const [dl] = await Promise.all([page.waitForEvent('download'), page.click('#save')]);
+  assert.equal(dl.suggestedFilename(), 'sketch-3.zip');
+  const { execFileSync } = await import('node:child_process');
+  const listing = JSON.parse(execFileSync('/usr/bin/python3', ['-c', `
+import json, sys, zipfile
+z = zipfile.ZipFile(sys.argv[1])
+print(json.dumps({'names': sorted(z.namelist()), 'path': json.loads(z.read('recipe.json'))['stages'][0]['path'], 'png': list(z.read('flat.png')[:4])}))
+`, await dl.path()], { encoding: 'utf8' }));
+  assert.deepEqual(listing, { names: ['flat.png', 'recipe.json'], path: 'flat.png', png: [0x89, 0x50, 0x4e, 0x47] });
+  // The only console errors are the browser's notes of the run refused before a file was chosen.
   assert.ok(errors.every((e) => /status of 400/.test(e)), errors.join('\n'));
   await page.close();
 });
