@@ -86,6 +86,13 @@ const char kBytes[] = "{}[]\":,.-+0123456789eE \n\\tfnu";
 
 std::string mutate(const std::vector<std::string>& corpus, Rng& rng) {
   std::string s = corpus[rng.below(corpus.size())];
+  // Replaces a random number (numbers) or string token of s with a random entry of `values`.
+  auto swap_token = [&](bool numbers, const auto& values) {
+    auto t = tokens(s, numbers);
+    if (t.empty()) return;
+    auto [a, b] = t[rng.below(t.size())];
+    s.replace(a, b - a, values[rng.below(std::size(values))]);
+  };
   const std::size_t steps = 1 + rng.below(4);
   for (std::size_t m = 0; m < steps; ++m) {
     switch (rng.below(9)) {
@@ -116,20 +123,12 @@ std::string mutate(const std::vector<std::string>& corpus, Rng& rng) {
         break;
       }
       case 6:
-      case 7: {  // number swap
-        auto t = tokens(s, true);
-        if (t.empty()) break;
-        auto [a, b] = t[rng.below(t.size())];
-        s.replace(a, b - a, kNumbers[rng.below(std::size(kNumbers))]);
+      case 7:  // number swap
+        swap_token(true, kNumbers);
         break;
-      }
-      case 8: {  // string swap
-        auto t = tokens(s, false);
-        if (t.empty()) break;
-        auto [a, b] = t[rng.below(t.size())];
-        s.replace(a, b - a, kStrings[rng.below(std::size(kStrings))]);
+      case 8:  // string swap
+        swap_token(false, kStrings);
         break;
-      }
     }
   }
   return s;
