@@ -508,7 +508,9 @@ json Studio::stats() {
           {"admitted_bytes", used},
           {"work_budget_bytes", admission_.budget()},
           {"limits", {{"max_stages", s_.max_stages}, {"time_budget_s", s_.time_budget_s}, {"max_preview", s_.max_preview},
-                      {"max_export", s_.max_export}}},
+                      {"max_export", s_.max_export}, {"max_upload_bytes", s_.max_upload_bytes},
+                      {"max_upload_pixels", s_.max_upload_pixels}, {"max_session_upload_bytes", s_.max_session_upload_bytes},
+                      {"max_upload_total_bytes", s_.max_upload_total_bytes}}},
           {"cancelled", c},
           {"refused", {{"memory", refused_busy_.load()}}}};
 }
