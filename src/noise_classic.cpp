@@ -20,6 +20,10 @@
 #include <cstdint>
 #include <vector>
 
+#if defined(__x86_64__) && defined(__GNUC__)
+#include <immintrin.h>
+#endif
+
 #include "relief/noise.hpp"
 
 namespace relief::classic {
@@ -410,6 +414,119 @@ __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) vo
   for (std::size_t k = 0; k < n; ++k) out[k] = acc[k] / max;
 }
 
+#if defined(__x86_64__) && defined(__GNUC__)
+// snoise2_flat_block written out for AVX2 (8 lanes), for CPUs with AVX2 but not AVX-512 (those
+// keep the x86-64-v4 clone). The compiler's v3 clone of the loop above spends a third of its work
+// turning the packed gradient codes into floats (shift, mask, subtract, convert per component) and
+// emulates the table gather with 8 extracts and inserts. Here a gradient component is one
+// vpermps of a constant 8-entry table indexed by the code's low 3 bits (entry c = (c & 3) − 1,
+// the same float the scalar code makes), and the gather is vpgatherdd. Every floating-point
+// operation is the scalar code's, in its order (lattice_floor and positive_part as integer and mask
+// operations on the same values), so the bits are those of simplex2_t: tests/test_noise_classic.cpp
+// and python/tests/test_compat.py check them. Measured on an AMD EPYC (Zen 3): see README (Python).
+#define RELIEF_AVX2 __attribute__((target("avx2"), always_inline)) inline
+RELIEF_AVX2 __m256 lfloor_avx2(__m256 v) {  // lattice_floor: float(t - (float(t) > v)), t = int(v)
+  const __m256i t = _mm256_cvttps_epi32(v);
+  const __m256i gt = _mm256_castps_si256(_mm256_cmp_ps(_mm256_cvtepi32_ps(t), v, _CMP_GT_OQ));
+  return _mm256_cvtepi32_ps(_mm256_add_epi32(t, gt));
+}
+RELIEF_AVX2 __m256 positive_part_avx2(__m256 v) { return _mm256_and_ps(v, _mm256_cmp_ps(v, _mm256_setzero_ps(), _CMP_GT_OQ)); }
+RELIEF_AVX2 __m256 grad_avx2(__m256i code) {  // (code & 3) - 1 as a float, from the code's low 3 bits
+  return _mm256_permutevar8x32_ps(_mm256_setr_ps(-1.0f, 0.0f, 1.0f, 2.0f, -1.0f, 0.0f, 1.0f, 2.0f), code);
+}
+RELIEF_AVX2 __m256 kernel_avx2(__m256 e, __m256 d) { return _mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(_mm256_mul_ps(e, e), e), e), d); }
+
+// One simplex2_t over 8 lanes, in two halves so that a block can run them as two loops: the first
+// (skew, lattice cell, x0/y0, the gather of the cell's gradient codes) for every point, then the
+// second (the three corners' kernels). Each loop has short dependency chains, so the gather's
+// latency overlaps with other points' work instead of stalling one long chain.
+RELIEF_AVX2 __m256i simplex2_cell_avx2(const std::int32_t* g4, __m256 x, __m256 y, __m256& x0, __m256& y0) {
+  const __m256 s = _mm256_mul_ps(_mm256_add_ps(x, y), _mm256_set1_ps(F2));
+  const __m256 i = lfloor_avx2(_mm256_add_ps(x, s));
+  const __m256 j = lfloor_avx2(_mm256_add_ps(y, s));
+  const __m256 t = _mm256_mul_ps(_mm256_add_ps(i, j), _mm256_set1_ps(G2));
+  x0 = _mm256_sub_ps(x, _mm256_sub_ps(i, t));
+  y0 = _mm256_sub_ps(y, _mm256_sub_ps(j, t));
+  const __m256i m255 = _mm256_set1_epi32(255);
+  const __m256i I = _mm256_and_si256(_mm256_cvttps_epi32(i), m255);
+  const __m256i J = _mm256_and_si256(_mm256_cvttps_epi32(j), m255);
+  return _mm256_i32gather_epi32(reinterpret_cast<const int*>(g4), _mm256_add_epi32(_mm256_slli_epi32(J, 8), I), 4);
+}
+
+RELIEF_AVX2 __m256 simplex2_corners_avx2(__m256 x0, __m256 y0, __m256i cell) {
+  const __m256 g2 = _mm256_set1_ps(G2), g2x2m = _mm256_set1_ps(G2 * 2.0f), one = _mm256_set1_ps(1.0f), half = _mm256_set1_ps(0.5f);
+  const __m256 i1 = _mm256_cmp_ps(x0, y0, _CMP_GT_OQ);  // x0 > y0
+  const __m256 j1 = _mm256_cmp_ps(x0, y0, _CMP_LE_OQ);  // x0 <= y0
+  const __m256 x2 = _mm256_sub_ps(_mm256_add_ps(x0, g2x2m), one);
+  const __m256 y2 = _mm256_sub_ps(_mm256_add_ps(y0, g2x2m), one);
+  const __m256 x1 = _mm256_add_ps(_mm256_sub_ps(x0, _mm256_and_ps(i1, one)), g2);
+  const __m256 y1 = _mm256_add_ps(_mm256_sub_ps(y0, _mm256_and_ps(j1, one)), g2);
+  // Corner 1's code at bit 8 − 4·i1 (i1 as the mask −1/0: 8 + 4·mask).
+  const __m256i c1 = _mm256_srlv_epi32(cell, _mm256_add_epi32(_mm256_set1_epi32(8), _mm256_slli_epi32(_mm256_castps_si256(i1), 2)));
+  const __m256i c2 = _mm256_srli_epi32(cell, 12);
+  const __m256 f0 = _mm256_sub_ps(_mm256_sub_ps(half, _mm256_mul_ps(x0, x0)), _mm256_mul_ps(y0, y0));
+  const __m256 f1 = _mm256_sub_ps(_mm256_sub_ps(half, _mm256_mul_ps(x1, x1)), _mm256_mul_ps(y1, y1));
+  const __m256 f2 = _mm256_sub_ps(_mm256_sub_ps(half, _mm256_mul_ps(x2, x2)), _mm256_mul_ps(y2, y2));
+  const __m256 d0 = _mm256_add_ps(_mm256_mul_ps(grad_avx2(cell), x0), _mm256_mul_ps(grad_avx2(_mm256_srli_epi32(cell, 2)), y0));
+  const __m256 d1 = _mm256_add_ps(_mm256_mul_ps(grad_avx2(c1), x1), _mm256_mul_ps(grad_avx2(_mm256_srli_epi32(c1, 2)), y1));
+  const __m256 d2 = _mm256_add_ps(_mm256_mul_ps(grad_avx2(c2), x2), _mm256_mul_ps(grad_avx2(_mm256_srli_epi32(cell, 14)), y2));
+  const __m256 e0 = positive_part_avx2(f0), e1 = positive_part_avx2(f1), e2 = positive_part_avx2(f2);
+  const __m256 sum = _mm256_add_ps(_mm256_add_ps(kernel_avx2(e0, d0), kernel_avx2(e1, d1)), kernel_avx2(e2, d2));
+  return _mm256_mul_ps(sum, _mm256_set1_ps(70.0f));
+}
+
+// One octave over a block (n a multiple of 8, at most kBlock): acc = n(x·freq + base, y·freq + base)
+// for the first octave (freq = 1: x·1 is x), acc += n(…)·amp for the others, as snoise2_flat_block.
+__attribute__((target("avx2"))) void snoise2_octave_avx2(const std::int32_t* g4, const float* __restrict x, const float* __restrict y,
+                                                         std::size_t n, float freq, float base, float amp, bool first,
+                                                         float* __restrict acc) {
+  alignas(32) float X0[kBlock], Y0[kBlock];
+  alignas(32) std::int32_t C[kBlock];
+  const __m256 fr = _mm256_set1_ps(freq), b = _mm256_set1_ps(base), am = _mm256_set1_ps(amp);
+  for (std::size_t k = 0; k < n; k += 8) {
+    __m256 x0, y0;
+    const __m256i c = simplex2_cell_avx2(g4, _mm256_add_ps(_mm256_mul_ps(_mm256_loadu_ps(x + k), fr), b),
+                                         _mm256_add_ps(_mm256_mul_ps(_mm256_loadu_ps(y + k), fr), b), x0, y0);
+    _mm256_store_ps(X0 + k, x0);
+    _mm256_store_ps(Y0 + k, y0);
+    _mm256_store_si256(reinterpret_cast<__m256i*>(C + k), c);
+  }
+  for (std::size_t k = 0; k < n; k += 8) {
+    const __m256 v =
+        simplex2_corners_avx2(_mm256_load_ps(X0 + k), _mm256_load_ps(Y0 + k), _mm256_load_si256(reinterpret_cast<const __m256i*>(C + k)));
+    _mm256_store_ps(acc + k, first ? v : _mm256_add_ps(_mm256_load_ps(acc + k), _mm256_mul_ps(v, am)));
+  }
+}
+
+// The same sums as snoise2_flat_block; n is a multiple of 8.
+__attribute__((target("avx2"))) void snoise2_flat_block_avx2(const Tables& T, const float* __restrict x, const float* __restrict y,
+                                                             std::size_t n, int octaves, float persistence, float lacunarity,
+                                                             float base, float* __restrict out) {
+  alignas(32) float acc[kBlock];
+  const std::int32_t* g4 = T.g4.data();
+  snoise2_octave_avx2(g4, x, y, n, 1.0f, base, 1.0f, true, acc);
+  float freq = 1.0f, amp = 1.0f, max = 1.0f;
+  for (int o = 1; o < octaves; ++o) {
+    freq *= lacunarity;
+    amp *= persistence;
+    max += amp;
+    snoise2_octave_avx2(g4, x, y, n, freq, base, amp, false, acc);
+  }
+  const __m256 mx = _mm256_set1_ps(max);
+  for (std::size_t k = 0; k < n; k += 8) _mm256_storeu_ps(out + k, _mm256_div_ps(_mm256_load_ps(acc + k), mx));
+}
+
+bool use_avx2_kernel() {
+  // Not where target_clones picks the x86-64-v4 clone (AVX-512 F, BW, CD, DQ and VL).
+  static const bool v4 = __builtin_cpu_supports("avx512f") && __builtin_cpu_supports("avx512bw") &&
+                         __builtin_cpu_supports("avx512cd") && __builtin_cpu_supports("avx512dq") && __builtin_cpu_supports("avx512vl");
+  static const bool yes = __builtin_cpu_supports("avx2") && !v4;
+  return yes;
+}
+#else
+bool use_avx2_kernel() { return false; }
+#endif
+
 __attribute__((target_clones("arch=x86-64-v4", "arch=x86-64-v3", "default"))) void snoise3_block(
     const Tables& T, const float* __restrict x, const float* __restrict y, const float* __restrict z, std::size_t n, int octaves,
     float persistence, float lacunarity, float* __restrict out) {
@@ -485,8 +602,17 @@ void snoise2(const float* x, const float* y, std::size_t n, const ClassicFractal
     }
     return;
   }
+  const bool avx2 = use_avx2_kernel();
   for (std::size_t k0 = 0; k0 < n; k0 += kBlock) {
     const std::size_t m = n - k0 < kBlock ? n - k0 : kBlock;
+#if defined(__x86_64__) && defined(__GNUC__)
+    if (avx2) {
+      const std::size_t m8 = m & ~std::size_t(7);
+      if (m8) snoise2_flat_block_avx2(T, x + k0, y + k0, m8, f.octaves, f.persistence, f.lacunarity, base, out + k0);
+      if (m8 < m) snoise2_flat_block(T, x + k0 + m8, y + k0 + m8, m - m8, f.octaves, f.persistence, f.lacunarity, base, out + k0 + m8);
+      continue;
+    }
+#endif
     snoise2_flat_block(T, x + k0, y + k0, m, f.octaves, f.persistence, f.lacunarity, base, out + k0);
   }
 }
