@@ -17,6 +17,10 @@
 //   * A. B. Kahn, "Topological sorting of large networks", CACM 5(11), 1962.
 #include "relief/hydrology.hpp"
 
+#include <tbb/blocked_range.h>
+#include <tbb/parallel_for.h>
+
+#include <atomic>
 #include <cmath>
 #include <cstring>
 #include <limits>
@@ -208,6 +212,45 @@ void fill_depressions(T* z, int nx, int nz, T sea, T epsilon) {
   }
 }
 
+template <class T>
+bool already_drains(const T* z, int nx, int nz, T sea, T epsilon) {
+  using K = decltype(order_key(T()));
+  // The level fill_depressions gives a cell filled from a cell at level l (the same expression).
+  // It never decreases as l grows, so some neighbour r passes (z[r] < z[c] ≤ level(z[r])) exactly
+  // when the lowest neighbour does: one minimum over the 3×3 block, then one comparison.
+  auto fill_level = [epsilon](T l) {
+    T next = from_key(K(order_key(l) + 1));
+    if (!(next > l)) next = from_key(K(order_key(l) + 2));
+    if (l + epsilon > next) next = l + epsilon;
+    return next;
+  };
+  if (nx < 3 || nz < 3) return true;  // every cell is on the border: an outlet
+  std::atomic<bool> ok{true};
+  tbb::parallel_for(tbb::blocked_range<int>(1, nz - 1, 16), [&](const tbb::blocked_range<int>& rows) {
+    std::vector<T> low(static_cast<std::size_t>(nx));
+    for (int j = rows.begin(); j < rows.end() && ok.load(std::memory_order_relaxed); ++j) {
+      const T* up = z + std::size_t(j - 1) * nx;
+      const T* row = z + std::size_t(j) * nx;
+      const T* down = z + std::size_t(j + 1) * nx;
+      for (int i = 0; i < nx; ++i) {  // column minimum of the rows above and below, and this row
+        const T a = up[i] < down[i] ? up[i] : down[i];
+        low[std::size_t(i)] = a;
+      }
+      bool row_ok = true;
+      for (int i = 1; i + 1 < nx; ++i) {
+        T m = low[std::size_t(i - 1)] < low[std::size_t(i)] ? low[std::size_t(i - 1)] : low[std::size_t(i)];
+        m = m < low[std::size_t(i + 1)] ? m : low[std::size_t(i + 1)];
+        m = m < row[i - 1] ? m : row[i - 1];
+        m = m < row[i + 1] ? m : row[i + 1];
+        const T zc = row[i];
+        row_ok &= zc < sea || (m < zc && !(zc < fill_level(m)));
+      }
+      if (!row_ok) ok.store(false, std::memory_order_relaxed);
+    }
+  });
+  return ok.load();
+}
+
 void flow_order(const std::uint32_t* rec, std::size_t n, std::vector<std::uint32_t>& order, std::uint32_t* count) {
   // Donor counts (at most 8 in D8; 0xFF marks a cell already placed in the order).
   std::vector<std::uint8_t> donors(n, 0);
@@ -250,6 +293,8 @@ std::size_t count_pits(const T* z, int nx, int nz, T sea) {
 
 template void fill_depressions<float>(float*, int, int, float, float);
 template void fill_depressions<double>(double*, int, int, double, double);
+template bool already_drains<float>(const float*, int, int, float, float);
+template bool already_drains<double>(const double*, int, int, double, double);
 template std::size_t count_pits<float>(const float*, int, int, float);
 template std::size_t count_pits<double>(const double*, int, int, double);
 

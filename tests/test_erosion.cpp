@@ -276,6 +276,65 @@ TEST(Fill, MatchesABinaryHeapPriorityFlood) {
   }
 }
 
+TEST(Fill, AlreadyDrainsHoldsExactlyWhenTheFillWouldChangeNothing) {
+  // On raw and filled islands, with and without ε, and with single pits dug in: whenever the check
+  // says the surface drains, the fill leaves every bit; a surface the fill changes never passes.
+  int passed = 0, failed = 0;
+  for (std::uint64_t seed : {1, 2, 3, 4}) {
+    for (float eps : {0.0f, 1e-6f, 1e-4f}) {
+      Terrain t = island(97, seed);
+      std::vector<float> z = t.get("height").data;
+      const float sea = float(t.frame.sea_level);
+      for (int round = 0; round < 3; ++round) {
+        const bool drains = hydro::already_drains<float>(z.data(), 97, 97, sea, eps);
+        std::vector<float> filled = z;
+        hydro::fill_depressions<float>(filled.data(), 97, 97, sea, eps);
+        if (drains) {
+          ASSERT_EQ(filled, z) << "seed " << seed << " eps " << eps << " round " << round;
+        }
+        passed += drains;
+        failed += !drains;
+        if (round == 0) {
+          ASSERT_FALSE(drains) << "a raw fBm island has pits";
+          z = filled;
+        } else if (round == 1) {
+          if (eps == 0.0f) {
+            ASSERT_TRUE(drains) << "a surface filled with ε = 0 drains as it is";
+          }
+          for (int k = 0; k < 8; ++k)  // dig a pit: one land cell below all its neighbours
+            z[std::size_t(30 + hydro::kDj[k]) * 97 + std::size_t(30 + hydro::kDi[k])] =
+                std::max(z[std::size_t(30 + hydro::kDj[k]) * 97 + std::size_t(30 + hydro::kDi[k])], sea + 0.2f);
+          z[std::size_t(30) * 97 + 30] = sea + 0.1f;
+        } else {
+          ASSERT_FALSE(drains) << "a dug pit";
+        }
+      }
+    }
+  }
+  EXPECT_GT(passed, 3);
+  EXPECT_GT(failed, 3);
+}
+
+TEST(Flow, AfterAFillStageFlowDoesNotFillAgainAndGivesTheSameResult) {
+  // fill then flow: the flow stage sees a surface that drains (already_drains) and skips its own
+  // fill; its flow, water and rivers equal those of flow on the raw surface, which fills it itself.
+  for (auto depressions : {"fill", "lakes"}) {
+    Terrain a = island(129, 5), b = island(129, 5);
+    const float sea = float(a.frame.sea_level);
+    apply(st::fill(), json::object(), a);
+    ASSERT_TRUE(hydro::already_drains<float>(a.get("height").data.data(), 129, 129, sea, 0.0f));
+    std::vector<float> twice = a.get("height").data;
+    hydro::fill_depressions<float>(twice.data(), 129, 129, sea, 0.0f);
+    ASSERT_EQ(twice, a.get("height").data) << "filling a filled surface changes nothing";
+    apply(st::flow(), json{{"depressions", depressions}}, a);
+    apply(st::flow(), json{{"depressions", "fill"}}, b);  // on the raw surface: flow fills it itself
+    EXPECT_EQ(a.get("flow").data, b.get("flow").data) << depressions;
+    EXPECT_EQ(a.get("water").data, b.get("water").data) << depressions;
+    EXPECT_EQ(a.rivers.size(), b.rivers.size()) << depressions;
+    EXPECT_TRUE(a.lakes.empty()) << depressions << ": a filled surface has no depressions left";
+  }
+}
+
 // ==================================================================================== flow
 
 TEST(Flow, AccumulationOnATiltedPlaneCountsTheCellsUpstream) {

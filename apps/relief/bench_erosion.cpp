@@ -103,6 +103,32 @@ void bench_erosion(const BenchSettings& s, json& entries) {
     record("fill + d8 + accumulation", m, threads, t,
            {{"fill_median_ms", part[0]}, {"d8_median_ms", part[1]}, {"accumulation_median_ms", part[2]}});
     std::printf("    parts (median ms): fill %.1f, d8 %.1f, accumulation %.1f\n", part[0], part[1], part[2]);
+
+    // A recipe with `fill` then `flow`: the flow stage checks that the height already drains (one
+    // pass, hydrology.hpp already_drains) instead of filling it again. The check's cost as a ratio
+    // to a plain copy of the layer, and the flow stage on a filled height against the raw one.
+    std::vector<float> filled = b0;
+    hydro::fill_depressions<float>(filled.data(), m, m, sea, 0.0f);
+    bool drains = false;
+    const Sample copy = time_runs(s.runs, [&] { arena.execute([&] { b = filled; }); });
+    const Sample check = time_runs(s.runs, [&] {
+      arena.execute([&] { drains = hydro::already_drains<float>(filled.data(), m, m, sea, 0.0f); });
+    });
+    record("already_drains check (filled)", m, threads, check, {{"vs_copy", check.median / copy.median}, {"drains", drains}});
+    const StageDef* flow = find_stage("flow");
+    auto flow_stage = flow->parse(json{{"stage", "flow"}}, "bench");
+    Terrain raw_t = big, filled_t = big;
+    filled_t.get("height").data = filled;
+    Context ctx;
+    Terrain w;
+    const Sample on_raw = time_runs(
+        std::max(3, s.runs / 2 + 1), [&] { arena.execute([&] { flow_stage->apply(w, ctx); }); }, [&] { w = raw_t; });
+    record("flow stage on the raw height", m, threads, on_raw, json::object());
+    const Sample on_filled = time_runs(
+        std::max(3, s.runs / 2 + 1), [&] { arena.execute([&] { flow_stage->apply(w, ctx); }); }, [&] { w = filled_t; });
+    record("flow stage after a fill stage", m, threads, on_filled, {{"vs_raw", on_filled.median / on_raw.median}});
+    std::printf("    flow after fill: %.2fx flow on the raw height (the fill is not repeated); check %.2fx a copy\n",
+                on_filled.median / on_raw.median, check.median / copy.median);
   }
 }
 

@@ -35,6 +35,16 @@ inline bool on_border(int i, int j, int nx, int nz) { return i == 0 || j == 0 ||
 template <class T>
 void fill_depressions(T* z, int nx, int nz, T sea, T epsilon);
 
+// True when fill_depressions(z, nx, nz, sea, epsilon) would change no value: every cell that is
+// not an outlet (map border, or below `sea`) has a neighbour r with z[r] < z[c] and z[c] at or
+// above r's fill level max(z[r] + epsilon, next float above z[r]). Then the flood reaches every
+// cell uphill of an outlet without raising it (each cell is closed, unchanged, by the traversal of
+// such a neighbour), so a surface that an earlier `fill` with the same epsilon (or a larger one)
+// left drains as it is. One row-parallel pass over the lowest neighbour of each cell, stopping
+// early once a row fails; never changes z.
+template <class T>
+bool already_drains(const T* z, int nx, int nz, T sea, T epsilon);
+
 // D8 steepest descent: rec[c] = the neighbour with the largest drop / distance, if that drop is
 // > 0; rec[c] = c for outlets and for pits (no lower neighbour). Ties go to the first neighbour in
 // the order E, SE, S, SW, W, NW, N, NE. Row-parallel, Highway SIMD (src/hydrology_d8.cpp; every
