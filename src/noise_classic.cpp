@@ -216,8 +216,8 @@ __attribute__((always_inline)) inline float simplex4_t(const Tables& T, float x,
   auto term = [&](float tt, int g, float a, float b, float cc, float d) {
     const int zero = g >> 3, sg = g & 7;
     auto comp = [&](int axis) {
-      const int r = axis - (axis > zero);
-      return float((axis != zero) * (1 - 2 * ((sg >> (2 - r)) & 1)));
+      const int r = axis - (axis > zero);  // 3 only for axis == zero, whose component is 0 anyway
+      return float((axis != zero) * (1 - 2 * ((sg >> ((2 - r) & 3)) & 1)));  // & 3: no negative shift
     };
     float e = positive_part(tt);  // the package keeps tt = 0 too: the same zero
     e *= e;
