@@ -6,6 +6,9 @@
 //   "POST /api/generate\n{…}"      (resolve, generate, steps, export)
 //   "GET /api/presets/NAME"        (NAME as the server hands it over, e.g. "../../etc/passwd")
 //   "CLIENT ID"                    (the X-Relief-Client header value)
+//   "UPLOAD NAME"                  (an upload's ?name=, made safe by upload_name)
+// Request bodies may name the upload "upload:a.png" (the session holds one upload of that name);
+// accepted requests are also turned back into the client's recipe (as sent and as saved).
 // Any other first line is sent to /api/generate whole (so byte-level mutations of the first line
 // still exercise the parser). Passes when the request is accepted or refused with relief::Error
 // (the studio's ApiError is one); any other exception escapes.
@@ -14,6 +17,8 @@
 #include <cstdio>
 #include <string>
 
+#include "relief/image.hpp"
+#include "relief/params.hpp"
 #include "relief/recipe.hpp"
 #include "studio_request.hpp"
 
@@ -31,6 +36,14 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       (void)load_preset(first.substr(17));
     } else if (first.rfind("CLIENT ", 0) == 0) {
       (void)valid_client_id(first.substr(7));
+    } else if (first.rfind("UPLOAD ", 0) == 0) {
+      // The promise of upload_name: a plain file name, never a path, never the saved recipe's own.
+      const std::string n = upload_name(text.substr(7));
+      if (n.size() > 100 || n.find('/') != std::string::npos || n.find('\\') != std::string::npos ||
+          (!n.empty() && n[0] == '.') || n == "recipe.json" || !is_utf8(n)) {
+        std::fprintf(stderr, "fuzz_studio_request: upload_name gave an unsafe name\n");
+        std::abort();
+      }
     } else {
       Endpoint e = Endpoint::Generate;
       std::string body = text;
@@ -38,7 +51,11 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       else if (first == "POST /api/generate") e = Endpoint::Generate, body = rest;
       else if (first == "POST /api/steps") e = Endpoint::Steps, body = rest;
       else if (first == "POST /api/export") e = Endpoint::Export, body = rest;
-      const StudioRequest r = parse_studio_request(e, body, s);
+      else if (first == "POST /api/save") e = Endpoint::Save, body = rest;
+      const UploadPaths uploads = {{"a.png", std::string(kMemoryRasterPrefix) + "fuzz/a.png"}};
+      const StudioRequest r = parse_studio_request(e, body, s, uploads);
+      (void)client_recipe_json(r, false).dump();
+      (void)client_recipe_json(r, true).dump();
       // What the handlers rely on: a seed, a size within the endpoint's limit, a writer for exports.
       const int limit = e == Endpoint::Generate || e == Endpoint::Steps ? s.max_preview : s.max_export;
       if (!r.recipe.seed || r.frame.nx > limit || r.frame.nz > limit || (e == Endpoint::Export && !r.writer)) {
