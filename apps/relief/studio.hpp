@@ -45,9 +45,10 @@
 //   * files: the server never opens a file a request names (image paths other than "upload:NAME",
 //     colour textures: 400 naming the field); uploads are decoded from memory.
 // Work stops at the next check: between stages, and inside long stages and writers when they
-// report progress (erosion rounds, flow phases, OBJ blocks); the longest stretch without a check
-// is one noise stage (about 2 s for a cellular one of 16 warped octaves at 1025² on one thread). A long chain of fused row stages (more than 8 noise, island, … in a row) runs
-// unfused, so that it is checked between its stages too (the bytes are the same).
+// report progress (erosion rounds, flow phases, OBJ blocks), and between the row blocks of every
+// row pass (at most 16 a pass). A long chain of fused row stages (more than 8 noise, island, … in
+// a row) runs unfused, so that no pass holds more than 8 stages' work between two checks (the
+// bytes are the same).
 #include <cstddef>
 #include <cstdint>
 #include <string>
