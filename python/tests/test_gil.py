@@ -128,7 +128,7 @@ def test_encode_releases_the_gil(big_terrain):
 
 def test_fbm_releases_the_gil():
     with Spinner() as s:
-        _, windows = call_window(s, lambda: rn.fbm(grid=(2048, 1024), basis="perlin", octaves=6, frequency=0.01, threads=1))
+        _, windows = call_window(s, lambda: rn.fbm(grid=(2048, 2048), basis="perlin", octaves=6, frequency=0.01, threads=1))
     check_windows(s, windows, "noise.fbm")
 
 
@@ -141,7 +141,7 @@ def test_compat_snoise2_arrays_release_the_gil(dtype):
     rc.threads = 1
     try:
         with Spinner() as s:
-            out, windows = call_window(s, lambda: rc.snoise2(x, y, octaves=24))
+            out, windows = call_window(s, lambda: rc.snoise2(x, y, octaves=32))
     finally:
         rc.threads = old
     assert out.shape == (n, n) and np.isfinite(out).all()
