@@ -253,6 +253,14 @@ Texture make_texture(Kind kind, int S, std::uint64_t seed) {
   Texture t;
   const auto px = [&](int x, int y) { return unit_double(hash64(seed ^ 0x7069786Cull, std::uint64_t(x), std::uint64_t(y))); };
   t.L.assign(std::size_t(S) * S, 0.0f);
+  // L = grain(a, r) per pixel: a the noise there, r the pixel's own hash in [0, 1).
+  const auto grained = [&](const std::vector<float>& a, auto grain) {
+    for (int y = 0; y < S; ++y)
+      for (int x = 0; x < S; ++x) {
+        const std::size_t i = std::size_t(y) * S + x;
+        t.L[i] = float(grain(a[i], px(x, y)));
+      }
+  };
   switch (kind) {
     case Kind::Deep:
     case Kind::Water: {  // long horizontal swells with a few bright glints
@@ -264,21 +272,13 @@ Texture make_texture(Kind kind, int S, std::uint64_t seed) {
     }
     case Kind::Sand: {  // fine grain and a few dark specks
       auto a = periodic(S, NoiseBasis::Value, Fractal::Fbm, 2, cells(S, 5), cells(S, 5), seed);
-      for (int y = 0; y < S; ++y)
-        for (int x = 0; x < S; ++x) {
-          const double r = px(x, y);
-          t.L[std::size_t(y) * S + x] = float(0.6 * a[std::size_t(y) * S + x] + (r - 0.5) * 0.8 - (r > 0.96 ? 1.5 : 0.0));
-        }
+      grained(a, [](float n, double r) { return 0.6 * n + (r - 0.5) * 0.8 - (r > 0.96 ? 1.5 : 0.0); });
       t.amp = 0.07;
       break;
     }
     case Kind::Grass: {  // soft patches with light and dark tufts
       auto a = periodic(S, NoiseBasis::Perlin, Fractal::Fbm, 2, cells(S, 8), cells(S, 8), seed);
-      for (int y = 0; y < S; ++y)
-        for (int x = 0; x < S; ++x) {
-          const double r = px(x, y);
-          t.L[std::size_t(y) * S + x] = float(a[std::size_t(y) * S + x] * 0.8 + (r > 0.9 ? 0.9 : r < 0.08 ? -0.9 : 0.0));
-        }
+      grained(a, [](float n, double r) { return n * 0.8 + (r > 0.9 ? 0.9 : r < 0.08 ? -0.9 : 0.0); });
       t.amp = 0.09;
       break;
     }
