@@ -4,6 +4,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <optional>
 
 #include "relief/noise.hpp"
 #include "relief/pipeline.hpp"
@@ -14,17 +15,30 @@ using namespace relief;
 
 namespace {
 
-std::string error_of(const json& doc) {
+// The Error parse_recipe throws for doc, if any.
+std::optional<Error> parse_error(const json& doc) {
   try {
     parse_recipe(doc);
   } catch (const Error& e) {
-    return e.what();
+    return e;
   }
-  return "";
+  return std::nullopt;
+}
+
+std::string error_of(const json& doc) {
+  const auto e = parse_error(doc);
+  return e ? e->what() : "";
 }
 
 json minimal() {
   return json::parse(R"({"world": {"size": 33}, "stages": [{"stage": "noise", "octaves": 4}]})");
+}
+
+// The error of minimal() with its stage's `key` set to `value` ("" when it parses).
+std::string stage_error(const std::string& key, const json& value) {
+  json doc = minimal();
+  doc["stages"][0][key] = value;
+  return error_of(doc);
 }
 
 }  // namespace
@@ -49,37 +63,28 @@ TEST(Recipe, ResolvedRecipeRoundTrips) {
 }
 
 TEST(Recipe, OutOfRangeIntegerNamesFieldExpectedAndGot) {
-  json doc = minimal();
-  doc["stages"][0]["octaves"] = 40;
-  EXPECT_EQ(error_of(doc), "stages[0].octaves: expected an integer in 1..16, got 40");
+  EXPECT_EQ(stage_error("octaves", 40), "stages[0].octaves: expected an integer in 1..16, got 40");
 }
 
 TEST(Recipe, WrongTypeNamesField) {
-  json doc = minimal();
-  doc["stages"][0]["octaves"] = "six";
-  EXPECT_EQ(error_of(doc), "stages[0].octaves: expected an integer in 1..16, got \"six\"");
-  doc["stages"][0]["octaves"] = 4.5;
-  EXPECT_EQ(error_of(doc), "stages[0].octaves: expected an integer in 1..16, got 4.5");
+  EXPECT_EQ(stage_error("octaves", "six"), "stages[0].octaves: expected an integer in 1..16, got \"six\"");
+  EXPECT_EQ(stage_error("octaves", 4.5), "stages[0].octaves: expected an integer in 1..16, got 4.5");
 }
 
 TEST(Recipe, NonFiniteFloatIsRejected) {
   // JSON has no NaN literal; nlohmann stores NaN from code, which is how a caller could pass it.
-  json doc = minimal();
-  doc["stages"][0]["lacunarity"] = std::nan("");
-  EXPECT_NE(error_of(doc).find("stages[0].lacunarity: expected a number in 1..4, got a non-finite value"), std::string::npos);
+  EXPECT_NE(stage_error("lacunarity", std::nan(""))
+                .find("stages[0].lacunarity: expected a number in 1..4, got a non-finite value"),
+            std::string::npos);
 }
 
 TEST(Recipe, UnknownStageSuggestsNearest) {
-  json doc = minimal();
-  doc["stages"][0]["stage"] = "noize";
-  std::string e = error_of(doc);
+  const std::string e = stage_error("stage", "noize");
   EXPECT_NE(e.find("stages[0].stage: unknown stage \"noize\" (did you mean 'noise'?)"), std::string::npos) << e;
 }
 
 TEST(Recipe, UnknownParameterSuggestsNearest) {
-  json doc = minimal();
-  doc["stages"][0]["octave"] = 3;
-  EXPECT_EQ(error_of(doc), "stages[0].octave: unknown parameter (did you mean 'octaves'?)");
+  EXPECT_EQ(stage_error("octave", 3), "stages[0].octave: unknown parameter (did you mean 'octaves'?)");
 }
 
 TEST(Recipe, SeedRange) {
@@ -375,12 +380,8 @@ Table<Shaded> shaded_table() {
   return {{choice(&Shaded::shade, "shade", {{Shade::Light, "light"}, {Shade::Dark, "dark"}}, "A choice")}};
 }
 std::string error_path(const json& doc) {
-  try {
-    parse_recipe(doc);
-  } catch (const Error& e) {
-    return e.path();
-  }
-  return "no error";
+  const auto e = parse_error(doc);
+  return e ? e->path() : "no error";
 }
 }  // namespace
 
