@@ -39,6 +39,15 @@ NoiseSettings single(NoiseBasis b, double frequency = 1.0 / 10.0) {
   return s;
 }
 
+// The default fractal over four octaves (the default seed).
+NoiseSettings four_octaves(NoiseBasis b, double frequency) {
+  NoiseSettings s;
+  s.basis = b;
+  s.octaves = 4;
+  s.frequency = frequency;
+  return s;
+}
+
 struct Stats {
   double min = 1e300, max = -1e300, mean = 0, sd = 0;
   std::size_t count = 0;
@@ -351,10 +360,7 @@ TEST(Periodic, RepeatsAlongXAndZAcrossOctaves) {
 
 TEST(Periodic, HoldsWithWarp) {
   for (NoiseBasis b : kPeriodicBases) {
-    NoiseSettings s;
-    s.basis = b;
-    s.octaves = 4;
-    s.frequency = 1.0 / 90.0;
+    NoiseSettings s = four_octaves(b, 1.0 / 90.0);
     s.period_x_m = s.period_z_m = 512.0;
     s.warp_m = 40.0;
     s.warp_frequency = 1.0 / 150.0;
@@ -408,10 +414,7 @@ TEST(Periodic, TinyPeriodStillWellDefined) {
 TEST(Anisotropy, ScaleXIsEvaluatingAtScaledX) {
   // (i0 + i)·2dx = 2·((i0 + i)·dx) exactly, and frequency·2 is exact: bit-identical.
   for (NoiseBasis b : kAllBases) {
-    NoiseSettings s;
-    s.basis = b;
-    s.octaves = 4;
-    s.frequency = 1.0 / 37.0;
+    const NoiseSettings s = four_octaves(b, 1.0 / 37.0);
     NoiseSettings sx = s;
     sx.scale_x = 2.0;
     EXPECT_EQ(row_of(Noise(sx), 12.25, -40, 0.9, 300), row_of(Noise(s), 12.25, -40, 1.8, 300)) << name(b);
