@@ -86,6 +86,21 @@ json flat_type(const std::string& name, double lift, double protect = 1.0, json 
           {"colors", json::array({{{"at", 0.5}, {"color", "#808080"}}})}};
 }
 
+// The steepest slope (degrees) where the land ends above 0.3, after biomes of one flat type `lift`
+// high (and `params`) over a round island 1500 m across on f.
+double steepest_flat_biome(const relief::Frame& f, double lift, json params) {
+  Terrain t = round_island(f, 1500.0);
+  params["types"] = json::array({flat_type("cliffy", lift)});
+  params["bridge"] = "cliffy";
+  params["beach_lift"] = 0.0;
+  run(st::biomes(), params, t);
+  double worst = 0;
+  for (int j = 1; j + 1 < f.nz; ++j)
+    for (int i = 1; i + 1 < f.nx; ++i)
+      if (double(at(t, "height", i, j)) > 0.3) worst = std::max(worst, slope_deg(t, i, j));
+  return worst;
+}
+
 relief::detail::BiomesParams parse_biomes(const json& params) {
   // The RegionMap needs the parsed params; parse them with the stage's own table through a recipe.
   json doc = {{"world", {{"size", 3}}}, {"stages", json::array({params})}};
@@ -304,17 +319,7 @@ TEST(Blend, NoSeaCliffs) {
   // sea: the steepest slope on land is about 1.5 · 105 / 150 (smoothstep's steepest) ≈ 46°, not a
   // cliff; without the fade the land jumps 105 m within a sample.
   const relief::Frame f = square(257, 4000.0, 500.0, 0.3);
-  auto worst_slope = [&](double coast_m) {
-    Terrain t = round_island(f, 1500.0);
-    run(st::biomes(), {{"types", json::array({flat_type("cliffy", 0.3)})}, {"bridge", "cliffy"}, {"beach_lift", 0.0},
-                       {"coast_m", coast_m}},
-        t);
-    double worst = 0;
-    for (int j = 1; j + 1 < f.nz; ++j)
-      for (int i = 1; i + 1 < f.nx; ++i)
-        if (double(at(t, "height", i, j)) > 0.3) worst = std::max(worst, slope_deg(t, i, j));
-    return worst;
-  };
+  auto worst_slope = [&](double coast_m) { return steepest_flat_biome(f, 0.3, {{"coast_m", coast_m}}); };
   EXPECT_GT(worst_slope(0.0), 70.0);
   EXPECT_LT(worst_slope(150.0), 48.0);
 }
@@ -325,15 +330,7 @@ TEST(Blend, CoastSlopeBoundsTheFadeIn) {
   // the lift is tall, to 1.5 · 105 / tan 25° ≈ 338 m here, and leaves low biomes at coast_m.
   const relief::Frame f = square(257, 4000.0, 500.0, 0.3);
   auto worst_slope = [&](double lift, double coast_slope_deg) {
-    Terrain t = round_island(f, 1500.0);
-    run(st::biomes(), {{"types", json::array({flat_type("cliffy", lift)})}, {"bridge", "cliffy"}, {"beach_lift", 0.0},
-                       {"coast_m", 150.0}, {"coast_slope_deg", coast_slope_deg}},
-        t);
-    double worst = 0;
-    for (int j = 1; j + 1 < f.nz; ++j)
-      for (int i = 1; i + 1 < f.nx; ++i)
-        if (double(at(t, "height", i, j)) > 0.3) worst = std::max(worst, slope_deg(t, i, j));
-    return worst;
+    return steepest_flat_biome(f, lift, {{"coast_m", 150.0}, {"coast_slope_deg", coast_slope_deg}});
   };
   EXPECT_GT(worst_slope(0.3, 0.0), 40.0);
   EXPECT_LT(worst_slope(0.3, 25.0), 26.0);
