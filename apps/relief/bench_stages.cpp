@@ -35,10 +35,14 @@ std::vector<float> noise_field(int size) {
   return t.get("height").data;
 }
 
+// The inputs' folder once made (removed at exit by the object below; nothing to do otherwise).
+std::filesystem::path made_dir;
+
 const ImageInputs& image_inputs() {
   static ImageInputs* in = [] {
     auto* x = new ImageInputs;
     x->dir = std::filesystem::temp_directory_path() / ("relief-bench-sizes-" + std::to_string(::getpid()));
+    made_dir = x->dir;
     std::filesystem::create_directories(x->dir);
     x->input = (x->dir / "input_1025.exr").string();
     x->sketch = (x->dir / "sketch_257.exr").string();
@@ -56,7 +60,7 @@ const ImageInputs& image_inputs() {
 struct ImageInputsCleanup {
   ~ImageInputsCleanup() {
     std::error_code ec;
-    std::filesystem::remove_all(std::filesystem::temp_directory_path() / ("relief-bench-sizes-" + std::to_string(::getpid())), ec);
+    if (!made_dir.empty()) std::filesystem::remove_all(made_dir, ec);
   }
 } image_inputs_cleanup;
 
