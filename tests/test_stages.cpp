@@ -456,6 +456,39 @@ TEST(Slope, Seed001DivideByEightAtBorder) {
   EXPECT_FLOAT_EQ(L(t, "slope", 1, 0), 0.1875f);
 }
 
+TEST(Slope, InteriorFastPathGivesTheBitsOfTheGeneralFormula) {
+  // A rough, non-square field: every sample's slope and slope_deg equal, bit for bit, the general
+  // per-sample formula (mean absolute difference to the neighbours that exist; central
+  // differences of metres, one-sided at the border; atan of the gradient's length).
+  relief::Frame f = square(37, 700.0, 250.0, 0.3);
+  f.nx = 37, f.nz = 23;
+  Terrain t = grid(f, [](int i, int j) { return 0.5 + 0.4 * std::sin(0.9 * i + 0.31 * j * j) * std::cos(0.17 * i * j); });
+  for (const char* border : {"mean", "eight"}) {
+    Terrain u = t;
+    run(st::slope(), {{"border", border}}, u);
+    const bool eight = std::string(border) == "eight";
+    const auto& h = u.get("height").data;
+    auto y = [&](int a, int b) { return f.y_m(h[std::size_t(b) * f.nx + a]); };
+    for (int j = 0; j < f.nz; ++j)
+      for (int i = 0; i < f.nx; ++i) {
+        const double e = h[std::size_t(j) * f.nx + i];
+        double sum = 0;
+        int count = 0;
+        for (int dj = -1; dj <= 1; ++dj)
+          for (int di = -1; di <= 1; ++di) {
+            const int a = i + di, b = j + dj;
+            if ((di == 0 && dj == 0) || a < 0 || b < 0 || a >= f.nx || b >= f.nz) continue;
+            sum += std::fabs(e - double(h[std::size_t(b) * f.nx + a]));
+            ++count;
+          }
+        const int i0 = std::max(i - 1, 0), i1 = std::min(i + 1, f.nx - 1), j0 = std::max(j - 1, 0), j1 = std::min(j + 1, f.nz - 1);
+        const double dx = (y(i1, j) - y(i0, j)) / ((i1 - i0) * f.cell_m()), dz = (y(i, j1) - y(i, j0)) / ((j1 - j0) * f.cell_m());
+        ASSERT_EQ(L(u, "slope", i, j), float(eight ? sum / 8.0 : sum / count)) << border << " " << i << "," << j;
+        ASSERT_EQ(L(u, "slope_deg", i, j), float(std::atan(std::hypot(dx, dz)) * (180.0 / kPi))) << i << "," << j;
+      }
+  }
+}
+
 // ===================================================================================== color
 
 namespace {

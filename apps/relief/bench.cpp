@@ -19,7 +19,7 @@ struct Group {
 };
 const Group kGroups[] = {{"noise", bench_noise},     {"stages", bench_stages},   {"regenerate", bench_regenerate},
                          {"presets", bench_presets}, {"tilemap", bench_tilemap}, {"erosion", bench_erosion},
-                         {"islands", bench_islands}, {"export", bench_export}};
+                         {"islands", bench_islands}, {"export", bench_export},   {"dem", bench_dem}};
 }  // namespace
 
 bool is_bench_group(const std::string& name) {

@@ -113,5 +113,6 @@ void bench_tilemap(const BenchSettings& s, json& entries);
 void bench_erosion(const BenchSettings& s, json& entries);
 void bench_islands(const BenchSettings& s, json& entries);
 void bench_export(const BenchSettings& s, json& entries);
+void bench_dem(const BenchSettings& s, json& entries);  // slope and hillshade against GDAL
 
 }  // namespace relief::cli
