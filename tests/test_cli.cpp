@@ -10,6 +10,7 @@
 #include <filesystem>
 #include <fstream>
 #include <map>
+#include <set>
 #include <sstream>
 
 #include <nlohmann/json.hpp>
@@ -485,6 +486,27 @@ TEST(CliBench, JsonEntriesNameTheCaseTheMachineAndThePeer) {
   EXPECT_EQ(noise, 2 * 11);
   EXPECT_GE(regenerate, 2);
   EXPECT_EQ(per_threads.size(), 2u);
+}
+
+// The dem group: the slope and hillshade stages, each with GDAL's gdaldem measured in the same run
+// (GDAL is installed by scripts/setup.sh) and the ratios to it and to a copy.
+TEST(CliBench, DemCasesCarryGdalAsThePeer) {
+  TempDir dir;
+  const std::string out = dir / "bench.json";
+  Result r = cli("bench --cases dem --runs 1 --threads 1 --noise-size 64 --json " + out);
+  ASSERT_EQ(r.code, 0) << r.out;
+  const nlohmann::json doc = nlohmann::json::parse(slurp(out));
+  std::set<std::string> names;
+  for (const auto& e : doc["entries"]) {
+    const std::string name = e["name"];
+    names.insert(name);
+    EXPECT_EQ(e["size"][0], 65) << name;
+    for (const char* key : {"median_ms", "cpu_median_ms", "msamples_per_s", "vs_copy", "ratio", "vs_peer", "vs_peer_cpu"})
+      ASSERT_TRUE(e.contains(key)) << name << " has no " << key;
+    EXPECT_NE(e["peer"]["name"].get<std::string>().find("GDAL gdaldem"), std::string::npos) << name;
+    EXPECT_NEAR(e["ratio"].get<double>() * e["vs_peer"].get<double>(), 1.0, 1e-9) << name;
+  }
+  EXPECT_EQ(names, (std::set<std::string>{"slope stage", "hillshade stage"}));
 }
 
 // Issue 16 §3: every file a run writes — the output folder, the step pictures, the saved recipe —
