@@ -482,14 +482,19 @@ std::vector<double> blocks(const std::vector<float>& v) {
   return out;
 }
 
-TEST(AmplifyStage, KeepsTheSketchAndAddsDetail) {
-  TempDir d("relief-image");
-  // A 33² sketch: an island with a ridge, smooth at its own resolution.
+// A 33² sketch in DIR/sketch.exr, an island with a ridge, smooth at its own resolution, and the
+// image stage that reads it.
+json island_sketch(const TempDir& d) {
   write_bytes(d / "sketch.exr", exr_of(33, 33, [](int c, int r) {
                 const double x = (c - 16) / 16.0, z = (r - 16) / 16.0;
                 return 0.25 + 0.5 * std::exp(-3 * (x * x + z * z)) + 0.1 * std::exp(-40 * (x - z) * (x - z));
               }));
-  const json sketch = {{"stage", "image"}, {"path", d / "sketch.exr"}};
+  return {{"stage", "image"}, {"path", d / "sketch.exr"}};
+}
+
+TEST(AmplifyStage, KeepsTheSketchAndAddsDetail) {
+  TempDir d("relief-image");
+  const json sketch = island_sketch(d);
   const auto base = run_height(world_recipe(257, 257, json::array({sketch})));
   const auto amp = run_height(world_recipe(257, 257, json::array({sketch, {{"stage", "amplify"}, {"wavelength_m", 125}}})));
   EXPECT_GE(correlation(blocks(amp), blocks(base)), 0.98);
@@ -791,11 +796,7 @@ TEST(AmplifyStage, DetailSpectrumFollowsThePersistence) {
   // tells the persistences apart: a stage that ignored its persistence (0.5 always) gives −2.14 where
   // −3.03 and −1.03 are expected (checked by linking such a stage).
   TempDir d("relief-image");
-  write_bytes(d / "sketch.exr", exr_of(33, 33, [](int c, int r) {
-                const double x = (c - 16) / 16.0, z = (r - 16) / 16.0;
-                return 0.25 + 0.5 * std::exp(-3 * (x * x + z * z)) + 0.1 * std::exp(-40 * (x - z) * (x - z));
-              }));
-  const json sketch = {{"stage", "image"}, {"path", d / "sketch.exr"}};
+  const json sketch = island_sketch(d);
   const auto base = run_height(world_recipe(257, 257, json::array({sketch}), 2560));
   const int n = 257, f0 = 4, bands = 5;
   for (double p : {0.35, 0.5, 0.7}) {
