@@ -28,14 +28,8 @@ argv = sys.argv[sys.argv.index("--") + 1:] if "--" in sys.argv else []
 WORK = argv[argv.index("--work") + 1] if "--work" in argv else "/tmp/relief-blender-test"
 RELIEF = os.environ["RELIEF_BINARY"]
 SEED = 7
-failures = []
-
-
-def check(cond, what):
-    if not cond:
-        failures.append(what)
-        print("FAIL:", what, flush=True)
-    return cond
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from checks import check, finish  # noqa: E402
 
 
 def cli(out, *args):
@@ -444,9 +438,4 @@ except RuntimeError:
 check(r == {"CANCELLED"} and "stages[0].octaves" in s.status, "a bad recipe is refused naming the field (%s)" % s.status)
 check(s.recipe_json == keep, "a refused recipe leaves the current one")
 
-print("\n%d failure(s)" % len(failures))
-for f in failures:
-    print("  -", f)
-if failures:
-    sys.exit(1)
-print("blender add-on tests: OK")
+finish("blender add-on tests")

@@ -11,6 +11,7 @@ status text while the run goes on, Esc (and Blender's cancel()) stop the run and
 preview untouched, a finished bake replaces the preview (one terrain, the bake size), the timer and
 progress bar are always released. Every failure is collected and the script exits 1 at the end.
 """
+import os
 import sys
 import time
 import types
@@ -19,14 +20,8 @@ import addon_utils
 import bpy
 import numpy as np
 
-failures = []
-
-
-def check(cond, what):
-    if not cond:
-        failures.append(what)
-        print("FAIL:", what, flush=True)
-    return cond
+sys.path.insert(0, os.path.dirname(os.path.abspath(__file__)))
+from checks import check, finish  # noqa: E402
 
 
 mod = addon_utils.enable("relief_blender", default_set=True, handle_error=None)
@@ -205,9 +200,4 @@ check(img is not None and img.packed_file is not None and tuple(img.size) == (25
 check(bpy.ops.relief.bake(size=257) == {"FINISHED"}, "the synchronous bake runs")
 check(np.array_equal(heights(), z), "the modal bake builds what the synchronous bake builds")
 
-print("\n%d failure(s)" % len(failures))
-for f in failures:
-    print("  -", f)
-if failures:
-    sys.exit(1)
-print("blender modal bake tests: OK")
+finish("blender modal bake tests")
