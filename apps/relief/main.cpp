@@ -195,12 +195,31 @@ std::atomic<bool> g_finished{false};
 
 const char* signal_name(int sig) { return sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "a signal"; }
 
-void take_interrupts() {
+sigset_t interrupt_signals() {
   sigset_t set;
   sigemptyset(&set);
   sigaddset(&set, SIGINT);
   sigaddset(&set, SIGTERM);
-  pthread_sigmask(SIG_BLOCK, &set, nullptr);  // before any other thread exists: they inherit it
+  return set;
+}
+
+// The signals are blocked from the process's first moments, before main() and before any thread
+// (a slow start, e.g. a sanitizer build under load, takes long enough for a Ctrl-C to land there):
+// a signal that arrives before `generate` starts its sigwait thread waits for it instead of ending
+// the process without a message. Other commands unblock them (unblock_interrupts).
+__attribute__((constructor(101))) void block_interrupts_early() {
+  const sigset_t set = interrupt_signals();
+  pthread_sigmask(SIG_BLOCK, &set, nullptr);
+}
+
+void unblock_interrupts() {
+  const sigset_t set = interrupt_signals();
+  pthread_sigmask(SIG_UNBLOCK, &set, nullptr);
+}
+
+void take_interrupts() {
+  const sigset_t set = interrupt_signals();
+  pthread_sigmask(SIG_BLOCK, &set, nullptr);  // still blocked since block_interrupts_early; threads inherit it
   std::thread([set] {
     int sig = 0;
     if (sigwait(&set, &sig) != 0) return;
@@ -753,6 +772,7 @@ int main(int argc, char** argv) {
       g_finished = true;
       return code;
     }
+    unblock_interrupts();  // the other commands end on Ctrl-C as any program does (the studio takes them itself)
     if (*pre) return cmd_presets(presets_json);
     if (*exp) return cmd_explain(explain_stage, explain_json);
     if (*stu) {
