@@ -362,14 +362,14 @@ namespace {
 
 // ---- mask and mix -----------------------------------------------------------------------------
 
-// A 5×4 world, 10 m cells, height_m 100, sea 0.4, with the given heights (row-major).
-Terrain run_on(const std::vector<float>& h, const json& stages) {
+// Runs `stages` on a terrain of the given layers over a 5×4 world, 10 m cells, height_m 100, sea 0.4.
+Terrain run_layers(const std::map<std::string, std::vector<float>>& layers, const json& stages) {
   json doc = {{"seed", 1}, {"world", {{"size", json::array({5, 4})}, {"width_m", 40}, {"height_m", 100}, {"sea_level", 0.4}}},
               {"stages", stages}};
   const Recipe r = parse_recipe(doc);
   Terrain t;
   t.frame = r.world.frame();
-  t.layer("height", 1).data = h;
+  for (const auto& [name, v] : layers) t.layer(name, 1).data = v;
   for (std::size_t k = 0; k < r.stages.size(); ++k) {
     Context c;
     c.seed = 1;
@@ -378,6 +378,9 @@ Terrain run_on(const std::vector<float>& h, const json& stages) {
   }
   return t;
 }
+
+// The same world with the given heights (row-major).
+Terrain run_on(const std::vector<float>& h, const json& stages) { return run_layers({{"height", h}}, stages); }
 
 const std::vector<float> kSmall = {0.0f, 0.1f, 0.5f, 0.6f, 0.9f,  //
                                    0.2f, 0.3f, 0.5f, 0.7f, 0.8f,  //
@@ -630,22 +633,6 @@ TEST(ImageStage, BlendAddMultiplyMinByHand) {
   }
 }
 
-// Runs `stages` on a terrain of the given layers over run_on's 5×4 world.
-Terrain run_layers(const std::map<std::string, std::vector<float>>& layers, const json& stages) {
-  json doc = {{"seed", 1}, {"world", {{"size", json::array({5, 4})}, {"width_m", 40}, {"height_m", 100}, {"sea_level", 0.4}}},
-              {"stages", stages}};
-  const Recipe r = parse_recipe(doc);
-  Terrain t;
-  t.frame = r.world.frame();
-  for (const auto& [name, v] : layers) t.layer(name, 1).data = v;
-  for (std::size_t k = 0; k < r.stages.size(); ++k) {
-    Context c;
-    c.seed = 1;
-    c.stage_index = int(k);
-    r.stages[k].stage->apply(t, c);
-  }
-  return t;
-}
 
 TEST(MixStage, FractionalMaskIsExactlyALerp) {
   // Per column a and b; per row the mask: 0.25, 0.75, 0.5, then −0.5, 1.5 (clamped to 0, 1), 0, 1, 0.125.
