@@ -523,11 +523,17 @@ json example_doc(const std::string& name) {
   return read_recipe_file(file);
 }
 
+// The real-dem example at the DEM's own resolution (129²), seed 1.
+json real_dem_doc() {
+  json doc = example_doc("real-dem");
+  doc["world"]["size"] = 129;
+  doc["seed"] = 1;
+  return doc;
+}
+
 TEST(Examples, RealDemDrainsEverywhereAfterFill) {
   if (!gdal_available()) GTEST_SKIP() << "GDAL cannot be loaded";
-  json doc = example_doc("real-dem");
-  doc["world"]["size"] = 129;  // the DEM's own resolution
-  doc["seed"] = 1;
+  json doc = real_dem_doc();
   const json stages = doc["stages"];
   // The DEM, roughened with pits (it was drained when Relief made it), then filled.
   const json rough = {{"stage", "noise"}, {"blend", "add"}, {"amplitude", 0.04}, {"octaves", 3}, {"frequency", 40}};
@@ -807,9 +813,7 @@ TEST(AmplifyStage, DetailSpectrumFollowsThePersistence) {
 
 TEST(Examples, RealDemEveryLandSampleDrainsAfterFillAndFlow) {
   if (!gdal_available()) GTEST_SKIP() << "GDAL cannot be loaded";
-  json doc = example_doc("real-dem");
-  doc["world"]["size"] = 129;  // the DEM's own resolution
-  doc["seed"] = 1;
+  json doc = real_dem_doc();
   const json stages = doc["stages"];
   ASSERT_EQ(stages[2]["stage"], "fill");
   ASSERT_EQ(stages[3]["stage"], "flow");
