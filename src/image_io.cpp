@@ -52,6 +52,10 @@ const Gdal* gdal() {
     RELIEF_GDAL_LOAD(GDALGetRasterYSize)
     RELIEF_GDAL_LOAD(GDALGetRasterCount)
     RELIEF_GDAL_LOAD(GDALGetRasterBand)
+    RELIEF_GDAL_LOAD(GDALGetBlockSize)
+    RELIEF_GDAL_LOAD(GDALGetRasterDataType)
+    RELIEF_GDAL_LOAD(GDALGetDataTypeSizeBytes)
+    RELIEF_GDAL_LOAD(GDALGetMetadataItem)
     RELIEF_GDAL_LOAD(GDALRasterIO)
     RELIEF_GDAL_LOAD(GDALGetRasterNoDataValue)
     RELIEF_GDAL_LOAD(GDALGetGeoTransform)
@@ -334,6 +338,10 @@ Raster decode_r16(std::string_view bytes, std::uint64_t file_bytes, const std::s
 // ---- GDAL -------------------------------------------------------------------------------------
 
 #if RELIEF_HAVE_GDAL
+// The most a GDAL block of the file may take to decode (its width × height × data type × the bands
+// stored interleaved with band 1): real elevation rasters use blocks of a few MiB at most.
+constexpr std::uint64_t kMaxGdalBlockBytes = 256ull << 20;
+
 Raster read_gdal(const std::string& open_name, const std::string& name, const std::string& field_path, bool header_only) {
   const detail::Gdal* g = detail::gdal();
   if (!g) throw Error(field_path, "'" + name + "' needs GDAL, which cannot be loaded on this machine (install libgdal32)");
@@ -347,6 +355,23 @@ Raster read_gdal(const std::string& open_name, const std::string& name, const st
   const int w = g->GDALGetRasterXSize(ds), h = g->GDALGetRasterYSize(ds);
   if (w < 1 || h < 1 || g->GDALGetRasterCount(ds) < 1) throw Error(field_path, "'" + name + "' has no raster band");
   check_dimensions(std::uint64_t(w), std::uint64_t(h), "'" + name + "'", field_path);
+  // Reading band 1 makes GDAL decode whole blocks, and a block of a pixel-interleaved file holds
+  // every band: a 9×9 TIFF that declares 256×256 tiles of 20 830 UInt32 bands asks for 5.5 GB per
+  // tile (found by fuzz_image). Refused from the header, as the pixel count is.
+  {
+    GDALRasterBandH b1 = g->GDALGetRasterBand(ds, 1);
+    int bx = 0, by = 0;
+    if (b1) g->GDALGetBlockSize(b1, &bx, &by);
+    const int type_bytes = b1 ? g->GDALGetDataTypeSizeBytes(g->GDALGetRasterDataType(b1)) : 0;
+    const char* il = g->GDALGetMetadataItem(ds, "INTERLEAVE", "IMAGE_STRUCTURE");
+    const std::uint64_t bands = il && std::string(il) == "PIXEL" ? std::uint64_t(g->GDALGetRasterCount(ds)) : 1;
+    const std::uint64_t block = std::uint64_t(std::max(bx, 1)) * std::uint64_t(std::max(by, 1)) *
+                                std::uint64_t(std::max(type_bytes, 1)) * bands;
+    if (!b1 || bx < 1 || by < 1 || type_bytes < 1 || block > kMaxGdalBlockBytes)
+      throw Error(field_path, "'" + name + "' stores its pixels in blocks of " + std::to_string(bx) + "x" + std::to_string(by) +
+                                  " pixels of " + std::to_string(bands) + " interleaved band(s), " + std::to_string(block >> 20) +
+                                  " MiB to read one; at most " + std::to_string(kMaxGdalBlockBytes >> 20) + " MiB are read per block");
+  }
   Raster r;
   r.width = w;
   r.height = h;

@@ -289,6 +289,30 @@ TEST(ImageStageErrors, HugeDimensionsAreRefusedBeforeDecoding) {
   EXPECT_THROW(read_raster(d / "h.r16", RasterFormat::Auto, "p"), Error);
 }
 
+TEST(ImageStageErrors, GdalBlocksOfManyInterleavedBandsAreRefusedFromTheHeader) {
+  // fuzz_image found it: a 642-byte, 9×9 TIFF declaring 256×256 tiles of 20 830 pixel-interleaved
+  // UInt32 bands, whose band 1 GDAL would read through a 5.5 GB tile buffer. The header check
+  // refuses it (from memory and from a file) naming the field, without decoding anything.
+  if (!gdal_available()) GTEST_SKIP() << "GDAL cannot be loaded";
+  std::string bytes = test::slurp(std::string(RELIEF_SOURCE_DIR) + "/fuzz/corpus/image/bad-geotiff-interleaved-bomb");
+  bytes.erase(0, 1);  // the fuzz target's format byte
+  for (int from_file : {0, 1}) {
+    try {
+      if (from_file) {
+        TempDir d("relief-image");
+        write_bytes(d / "bomb.tif", bytes);
+        read_raster(d / "bomb.tif", RasterFormat::Auto, "stages[0].path");
+      } else {
+        decode_raster(bytes, "bomb.tif", RasterFormat::Auto, "stages[0].path");
+      }
+      FAIL() << "accepted";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.path(), "stages[0].path");
+      EXPECT_NE(e.message().find("20830 interleaved band(s)"), std::string::npos) << e.message();
+    }
+  }
+}
+
 TEST(ImageStageErrors, GeoreferenceWithoutOneAndLerpWithoutMask) {
   TempDir d("relief-image");
   write_bytes(d / "a.exr", exr_of(3, 3, [](int, int) { return 0.5; }));
