@@ -73,9 +73,8 @@ GDALDatasetH mem_dataset(const GdalDem& g, const std::vector<float>& metres, int
 }
 
 // gdaldem PROCESSING (Horn's kernel, GDAL's default) of `src` into a new in-memory dataset.
-bool gdal_dem_run(const GdalDem& g, GDALDatasetH src, const char* processing, int threads) {
-  // GDAL's DEM processing runs on one thread; GDAL_NUM_THREADS does not apply to it.
-  (void)threads;
+// GDAL's DEM processing runs on one thread whatever the arena (GDAL_NUM_THREADS does not apply).
+bool gdal_dem_run(const GdalDem& g, GDALDatasetH src, const char* processing) {
   char* argv[] = {const_cast<char*>("-of"), const_cast<char*>("MEM"), const_cast<char*>("-compute_edges"), nullptr};
   GDALDEMProcessingOptions* o = g.GDALDEMProcessingOptionsNew(argv, nullptr);
   int usage_error = 0;
@@ -134,7 +133,7 @@ void bench_dem(const BenchSettings& s, json& entries) {
       if (const GdalDem* g = gdal_dem()) {
         GDALDatasetH src = mem_dataset(*g, metres, n, f.cell_m());
         bool ok = true;
-        const Sample peer = time_runs(s.runs, [&] { ok = ok && gdal_dem_run(*g, src, c.gdal, threads); });
+        const Sample peer = time_runs(s.runs, [&] { ok = ok && gdal_dem_run(*g, src, c.gdal); });
         g->GDALClose(src);
         if (ok) {
           peer_ms = peer.median, peer_cpu = peer.cpu_median;
