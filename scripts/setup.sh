@@ -26,6 +26,11 @@ packages=(
   pybind11-dev python3-dev python3-pytest python3-noise
   # inputs: GeoTIFF and the other elevation formats GDAL reads, and GDAL's tools in the tests
   libgdal-dev gdal-bin
+  # volumes (caves): OpenVDB for .vdb output and the meshing peer (its headers need Boost, which
+  # the package does not pull in); python3-openvdb reads our .vdb files back in the tests
+  libopenvdb-dev libboost-dev python3-openvdb
+  # worlds: Open MPI for `mpirun -n P relief world`
+  libopenmpi-dev openmpi-bin
 )
 # Node and npm: any install that provides the commands will do (Debian's nodejs + npm by default).
 command -v node >/dev/null 2>&1 || packages+=(nodejs)
