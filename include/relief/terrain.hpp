@@ -71,6 +71,7 @@ struct Point {
 };
 
 struct TileMap;  // relief/tilemap.hpp
+struct VolumeSpec;  // relief/volume.hpp
 // A river polyline (written by the "flow" stage, read by the rivers.json writer). Vertices run
 // downstream, in world metres (y above the sea surface), each with the discharge through it and the
 // channel width derived from that discharge.
@@ -106,6 +107,10 @@ struct Terrain {
   std::vector<Point> points;
   // Set by the "tilemap" stage: a tile grid of its own size (not a layer of the sample grid).
   std::shared_ptr<const TileMap> tilemap;
+  // Set by the volume stages ("overhangs", "caves"): the density volume over the surface band,
+  // evaluated chunk by chunk from the height layer and these modifiers by the volume writers
+  // (relief/volume.hpp). Null for a pure heightfield.
+  std::shared_ptr<const VolumeSpec> volume;
   std::vector<River> rivers;  // empty unless a stage traced rivers
   std::vector<Lake> lakes;    // empty unless a stage kept lakes
 
