@@ -1,0 +1,103 @@
+#pragma once
+// Noise3: 3D gradient and simplex noise for volumes (caves, overhangs), evaluated a row at a time
+// along x with the same structure, SIMD dispatch and bit-identity rules as the 2D Noise.
+//
+// Sources (implementation in src/noise3.cpp, src/noise3_simd.cpp):
+//   * Ken Perlin, "Improving Noise", SIGGRAPH 2002: gradient noise with quintic fade and a fixed
+//     set of gradients along the directions from a cube's centre to its edges.
+//   * Ken Perlin, "Noise hardware", SIGGRAPH 2001 course notes, and Stefan Gustavson, "Simplex
+//     noise demystified" (2005): 3D simplex noise on the skewed cubic lattice (skew (x+y+z)/3,
+//     unskew (x+y+z)/6), the simplex picked by ranking the cell coordinates, radial kernels.
+//   * Arithmetic lattice hashing as in the 2D Gradient basis (noise.hpp) and FastNoise2.
+//   * F. K. Musgrave, "Texturing and Modeling" ch. 16: fBm, ridged, billow (as Noise).
+//
+// Coordinates are world metres: x along a row, y (up) and z per row. The lattice frequency of
+// octave k is fₖ = frequency·lacunarityᵏ cycles per metre along y, fₖ·scale_x along x and
+// fₖ·scale_z along z (y is not scaled: callers pass a scaled y). Everything is a pure function of
+// (settings, seed, x, y, z): any window of the world gives the same values, so volume chunks that
+// share a boundary layer of samples agree on it bit for bit.
+//
+// Bases (single octave, in lattice units u = x·fₓ + oₓ, v = y·f_y + o_y, w = z·f_z + o_z, with
+// per-octave seeded offsets oₓ, o_y, o_z in [0, 256) cells so octaves do not share lattice points):
+//
+//   Gradient  3D gradient noise (Perlin's construction). The lattice split (floor, fraction) is
+//             done in double, everything after it in float. Corner (X, Y, Z) (cell indices modulo
+//             2³²) gets gradient G[k], k = the top 4 bits of
+//                 h = ((X·Pₓ) ⊕ (Y·P_y) ⊕ (Z·P_z ⊕ keyₖ))·M   (32-bit, Pₓ = 0x9E3779B1,
+//                 P_y = 0x85EBCA6B, P_z = 0xC2B2AE35, M = 0x27D4EB2F),
+//             and contributes G·d = G_x·d_x + (G_y·d_y + G_z·d_z) (that association, in float),
+//             d the offset from the corner. The eight contributions are blended with the quintic
+//             fade 6t⁵ − 15t⁴ + 10t³: first along x, then y, then z (lerp(t, a, b) = a + t·(b − a)).
+//             The 16 gradients: Perlin 2002's 12 cube-edge directions (±1, ±1, 0), (±1, 0, ±1),
+//             (0, ±1, ±1) and the 4 vertices of a regular tetrahedron (1, 1, 1), (1, −1, −1),
+//             (−1, 1, −1), (−1, −1, 1), all scaled to one length L = 1.3247. The set has mean 0
+//             and isotropic second moments (Σ G·Gᵀ ∝ I), so the derivative variance is the same
+//             along x, y and z; L makes the variance equal to the 2D Gradient basis's
+//             (σ ≈ 0.253: Var = (L²/3)·∫ Σ w²|d|² = (1.375/2)·∫₂ Σ w²|d|², tests/test_noise3.cpp).
+//             Bound: |n| < 1.05, the largest only where all eight corners draw their best
+//             gradient (probability 16⁻⁸ per cell); results are clamped to [−1, 1].
+//             No dyadic lattice: every octave splits its own position in double (each octave
+//             has its own offsets), at any lacunarity.
+//   Simplex   3D simplex noise (Gustavson's skewed cubic lattice): the position is skewed
+//             in double, s = (u + (v + w))/3, (u, v, w) + s split into a cell (I, J, K) (modulo
+//             2³²) and a fraction, the rest in float: t = ((x + y) + z)/6, d₀ = fraction − t, the
+//             four vertices of the simplex holding the point ((0,0,0), the axis of the largest
+//             coordinate of d₀, the two largest, (1,1,1); ties go to x before y before z),
+//             each contributing max(0, ½ − |d|²)⁴·(G·d) with d its offset in input space and G
+//             from the same 16 gradients and hash as Gradient (G·d = (G_x·d_x + G_y·d_y) +
+//             G_z·d_z here), summed in vertex order and scaled by 81.4. r² = ½ keeps the
+//             kernel inside the simplex: continuous everywhere. The sup over positions and
+//             gradient draws of the unscaled sum is 0.0122767 (numerically), so |n| ≤ 0.9994.
+//             σ ≈ 0.39 at one octave.
+//
+// Fractals, with aₖ = persistenceᵏ and the sum in float: fBm Σ aₖ·nₖ / Σ aₖ; billow
+// Σ aₖ·(2|nₖ| − 1) / Σ aₖ; ridged 2·Σ aₖ·(1 − |nₖ|)² / Σ aₖ − 1 (evaluated as acc·(2·inv) − 1,
+// inv = float(1/Σ aₖ)); None: n₀ (octaves ignored). Normalised by the analytic amplitude sum,
+// never by a map's min/max; every result is clamped to [−1, 1] (NaN becomes −1).
+//
+// Precision: positions are doubles; the lattice split is exact for |lattice coordinate| < 2⁵¹
+// and float-precise (~6e-8 of a cell) after it, independent of the distance from the origin. One
+// octave repeats every 2³² cells. Non-finite coordinates give unspecified values, never UB.
+//
+// Evaluation is vectorised with Google Highway and dispatched at run time to the best target the
+// CPU supports, like Noise (noise_simd_target() names it); every target gives row_reference()'s
+// bits exactly (no FMA contraction, no reassociation; tests/test_noise3.cpp forces each target).
+#include <cstddef>
+#include <cstdint>
+#include <memory>
+
+#include "relief/noise.hpp"
+
+namespace relief {
+
+class Noise3 {
+ public:
+  // s.basis: Gradient or Simplex (anything else throws relief::Error("basis", ...)); s.fractal
+  // None/Fbm/Ridged/Billow; octaves, frequency, lacunarity, persistence, scale_x, scale_z, seed as in
+  // Noise. Periods, warp and cellular options are not supported: a non-zero period_x_m, period_z_m or
+  // warp_m throws relief::Error naming that field. The other fields are validated exactly as Noise
+  // validates them (same fields, same messages).
+  explicit Noise3(const NoiseSettings& s);
+
+  // out[i] = value at (x = double(i0 + i)·dx_m, y_m, z_m), i in [0, n); n ≤ 0 writes nothing.
+  // Values in [−1, 1]. Thread-safe, const.
+  void row(double y_m, double z_m, std::int64_t i0, double dx_m, int n, float* out) const;
+  // Row r (0 ≤ r < nrows) at (y_m[r], z_m[r]) goes to out + r·stride: the same bits as
+  // row(y_m[r], z_m[r], i0, dx_m, n, out + r·stride). For Gradient the x-only terms are computed
+  // once per strip of columns (kept within ~32 KiB) and reused by every row; for Simplex it is
+  // plain rows.
+  void rows(const double* y_m, const double* z_m, int nrows, std::int64_t i0, double dx_m, int n, float* out,
+            std::ptrdiff_t stride) const;
+  // Same bits as row(), by the plain scalar reference (no SIMD, no dispatch).
+  void row_reference(double y_m, double z_m, std::int64_t i0, double dx_m, int n, float* out) const;
+  // One value, bit-identical to row() at that point.
+  float at(double x_m, double y_m, double z_m) const;
+  const NoiseSettings& settings() const { return s_; }
+
+ private:
+  NoiseSettings s_;
+  struct State;  // per-octave lattice terms (src/noise3.cpp); immutable, shared by copies
+  std::shared_ptr<const State> state_;
+};
+
+}  // namespace relief

@@ -1,0 +1,383 @@
+// Highway row kernels for Noise3 (3D gradient and simplex noise), with run-time dispatch.
+//
+// Sources: the algorithms of noise3.cpp (Perlin 2002, Perlin 2001 / Gustavson 2005 simplex,
+// Musgrave's fractals); Google Highway's foreach_target and HWY_DYNAMIC_DISPATCH; arithmetic
+// lattice hashing as FastNoise2 does it.
+//
+// Structure. Noise3::row computes each octave's (y, z) terms once per row (noise3_row_terms, in
+// scalar code: the same for every target); the kernels here walk the row a float vector at a time
+// (two double vectors' worth: 8 samples on AVX2, 16 on AVX-512) through all octaves with the
+// accumulator in a register.
+//   Gradient  per sample and octave only the x split (in double) and the eight corners: hash
+//             (xor, multiply, shift), G_x looked up and multiplied by the x offset, plus the row's
+//             precomputed G_y·d_y + G_z·d_z for that corner (a 16-entry table per (y, z) corner),
+//             then seven lerps. Lookups are in-register permutes: one vpermps for G_x (G[k] and
+//             G[k + 8] share G_x) and two plus a blend on the hash's sign bit (bit 3 of k) for the
+//             row table on AVX2; one vpermps each on AVX-512; gathers on SSE4 and the fallbacks.
+//             Noise3::rows precomputes the x terms per strip of columns and reuses them per row.
+//   Simplex   the skew and split in double, the rest in float: ranking by three compares, the
+//             four vertices' hashes by selects between precomputed lattice terms, three table
+//             lookups per vertex.
+//
+// Exactness: the same IEEE operations in the same order as the scalar reference, no FMA (the
+// preamble turns contraction off), integer work exact; so every target gives the reference's
+// bits (tests/test_noise3.cpp forces each one).
+#include <cstdint>
+#include <cstring>
+
+#include "noise3_simd.hpp"
+#include "noise_simd.hpp"
+
+#undef HWY_TARGET_INCLUDE
+#define HWY_TARGET_INCLUDE "noise3_simd.cpp"
+#include "hwy_kernels.hpp"
+
+HWY_BEFORE_NAMESPACE();
+namespace relief::detail {
+namespace HWY_NAMESPACE {
+namespace {
+
+namespace hn = hwy::HWY_NAMESPACE;
+
+using DD = hn::ScalableTag<double>;
+using DI = hn::RebindToSigned<DD>;
+using DU = hn::RebindToUnsigned<DD>;
+using DFh = hn::Rebind<float, DD>;
+#if HWY_TARGET == HWY_SCALAR
+constexpr int kHalves = 1;
+using DF = DFh;
+#else
+constexpr int kHalves = 2;
+using DF = hn::Twice<DFh>;
+#endif
+using DU32 = hn::RebindToUnsigned<DF>;
+using DI32 = hn::RebindToSigned<DF>;
+using VD = hn::Vec<DD>;
+using VF = hn::Vec<DF>;
+using VU32 = hn::Vec<DU32>;
+using MF = hn::Mask<DF>;
+
+enum { kFbm = 0, kRidged = 1, kBillow = 2 };
+
+// ---- shared helpers (as noise_simd.cpp's) -------------------------------------------------------
+
+// Float vector from kHalves double vectors (lanes of u[0] first), rounded to nearest.
+HWY_INLINE VF JoinDemote(const VD (&u)[kHalves]) {
+#if HWY_TARGET == HWY_SCALAR
+  return hn::DemoteTo(DF(), u[0]);
+#else
+  const DFh dfh;
+  return hn::Combine(DF(), hn::DemoteTo(dfh, u[1]), hn::DemoteTo(dfh, u[0]));
+#endif
+}
+// The low 32 bits of the int64 held by integer-valued doubles (|x| ≤ 2⁵¹), as noise3.cpp's low32.
+HWY_INLINE VU32 JoinLow32(const VD (&x)[kHalves]) {
+  const DD d;
+  const VD m = hn::Set(d, kMagicInt);
+#if HWY_TARGET == HWY_SCALAR
+  return hn::TruncateTo(DU32(), hn::BitCast(DU(), hn::Add(x[0], m)));
+#else
+  const DU32 du32;
+  return hn::ConcatEven(du32, hn::BitCast(du32, hn::Add(x[1], m)), hn::BitCast(du32, hn::Add(x[0], m)));
+#endif
+}
+HWY_INLINE VF Fade(VF t) {
+  const DF df;
+  const VF t3 = hn::Mul(hn::Mul(t, t), t);
+  return hn::Mul(t3, hn::Add(hn::Mul(t, hn::Sub(hn::Mul(t, hn::Set(df, 6.0f)), hn::Set(df, 15.0f))), hn::Set(df, 10.0f)));
+}
+HWY_INLINE VF Lerp(VF t, VF a, VF b) { return hn::Add(a, hn::Mul(t, hn::Sub(b, a))); }
+
+// Sample positions x = double(i0 + start + i)·dx, as kHalves double vectors.
+HWY_INLINE void Positions(std::int64_t first, double dx, VD (&x)[kHalves]) {
+  const DD d;
+  const DI di;
+  const int N = int(hn::Lanes(d));
+  for (int h = 0; h < kHalves; ++h)
+    x[h] = hn::Mul(hn::ConvertTo(d, hn::Add(hn::Iota(di, 0), hn::Set(di, first + std::int64_t(h) * N))), hn::Set(d, dx));
+}
+
+// ---- gradient table lookups --------------------------------------------------------------------------
+
+// G_x[k], k = h >> 28 in 0..15.
+HWY_INLINE VF LookupX(VU32 k) {
+#if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX3
+  return VF{_mm512_permutexvar_ps(k.raw, _mm512_loadu_ps(kG3X))};
+#elif HWY_ARCH_X86 && HWY_TARGET == HWY_AVX2
+  return VF{_mm256_permutevar8x32_ps(_mm256_loadu_ps(kG3X), k.raw)};  // G_x[k] = G_x[k + 8]: k's low 3 bits
+#else
+  return hn::GatherIndex(DF(), kG3X, hn::BitCast(DI32(), k));
+#endif
+}
+// table[k] for a 16-entry table, k = h >> 28 (so h's sign bit is k's bit 3).
+HWY_INLINE VF Lookup16(const float* table, VU32 k, VU32 h) {
+#if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX3
+  (void)h;
+  return VF{_mm512_permutexvar_ps(k.raw, _mm512_loadu_ps(table))};
+#elif HWY_ARCH_X86 && HWY_TARGET == HWY_AVX2
+  const __m256 lo = _mm256_permutevar8x32_ps(_mm256_loadu_ps(table), k.raw);
+  const __m256 hi = _mm256_permutevar8x32_ps(_mm256_loadu_ps(table + 8), k.raw);
+  return VF{_mm256_blendv_ps(lo, hi, _mm256_castsi256_ps(h.raw))};
+#else
+  (void)h;
+  return hn::GatherIndex(DF(), table, hn::BitCast(DI32(), k));
+#endif
+}
+
+// ---- fractal folding and the end of a vector -------------------------------------------------------
+
+template <int kFr>
+HWY_INLINE VF Fold(VF acc, VF amp, VF n) {
+  const DF df;
+  if constexpr (kFr == kFbm) {
+    return hn::Add(acc, hn::Mul(amp, n));
+  } else if constexpr (kFr == kRidged) {
+    const VF r = hn::Sub(hn::Set(df, 1.0f), hn::Abs(n));
+    return hn::Add(acc, hn::Mul(amp, hn::Mul(r, r)));
+  } else {
+    return hn::Add(acc, hn::Mul(amp, hn::Sub(hn::Mul(hn::Set(df, 2.0f), hn::Abs(n)), hn::Set(df, 1.0f))));
+  }
+}
+// Normalise (ridged: acc·(2·inv) − 1), clamp as the reference's v > −1 ? v : −1, v < 1 ? v : 1,
+// store (a partial vector at the row's end).
+template <int kFr>
+HWY_INLINE void Finish(VF acc, float inv, int start, int NF, int n, float* HWY_RESTRICT out) {
+  const DF df;
+  const VF one = hn::Set(df, 1.0f), mone = hn::Set(df, -1.0f);
+  VF v = kFr == kRidged ? hn::Sub(hn::Mul(acc, hn::Set(df, inv + inv)), one) : hn::Mul(acc, hn::Set(df, inv));
+  v = hn::IfThenElse(v > mone, v, mone);
+  v = hn::IfThenElse(v < one, v, one);
+  if (start + NF <= n) {
+    hn::StoreU(v, df, out + start);
+  } else {
+    HWY_ALIGN float tmp[64];
+    hn::Store(v, df, tmp);
+    std::memcpy(out + start, tmp, std::size_t(n - start) * sizeof(float));
+  }
+}
+
+// ---- Gradient ----------------------------------------------------------------------------------------
+
+struct XTerms {
+  VU32 xp0;         // X·Pₓ
+  VF fx, fx1, sx;   // fraction, fraction − 1, fade
+};
+HWY_INLINE XTerms XSplit(const VD (&x)[kHalves], const Noise3Octave& o) {
+  const DD d;
+  const DF df;
+  const DU32 du32;
+  VD fl[kHalves], fr[kHalves];
+  for (int h = 0; h < kHalves; ++h) {
+    const VD u = hn::Add(hn::Mul(x[h], hn::Set(d, o.freq_x)), hn::Set(d, o.offset_x));
+    fl[h] = hn::Floor(u);
+    fr[h] = hn::Sub(u, fl[h]);
+  }
+  XTerms t;
+  t.fx = JoinDemote(fr);
+  t.xp0 = hn::Mul(JoinLow32(fl), hn::Set(du32, kG3Px));
+  t.fx1 = hn::Sub(t.fx, hn::Set(df, 1.0f));
+  t.sx = Fade(t.fx);
+  return t;
+}
+HWY_INLINE XTerms XLoad(const std::uint32_t* c, std::size_t S) {
+  const DF df;
+  const DU32 du32;
+  XTerms t;
+  t.xp0 = hn::Load(du32, c);
+  t.fx = hn::BitCast(df, hn::Load(du32, c + S));
+  t.fx1 = hn::BitCast(df, hn::Load(du32, c + 2 * S));
+  t.sx = hn::BitCast(df, hn::Load(du32, c + 3 * S));
+  return t;
+}
+
+// G·d at a corner: G_x[k]·d_x + t[k], t the row's G_y·d_y + G_z·d_z for this (y, z) corner.
+HWY_INLINE VF Corner(VU32 xp, VU32 yz, VF ax, const float* t) {
+  const DU32 du32;
+  const VU32 h = hn::Mul(hn::Xor(xp, yz), hn::Set(du32, kG3M));
+  const VU32 k = hn::ShiftRight<28>(h);
+  return hn::Add(hn::Mul(LookupX(k), ax), Lookup16(t, k, h));
+}
+HWY_INLINE VF Gradient3(const XTerms& x, const Noise3Row& r) {
+  const DF df;
+  const DU32 du32;
+  const VU32 xp1 = hn::Add(x.xp0, hn::Set(du32, kG3Px));
+  VF l[4];
+  for (int c = 0; c < 4; ++c) {
+    const VU32 yz = hn::Set(du32, r.yz[c]);
+    l[c] = Lerp(x.sx, Corner(x.xp0, yz, x.fx, r.t[c]), Corner(xp1, yz, x.fx1, r.t[c]));
+  }
+  const VF sy = hn::Set(df, r.sy);
+  return Lerp(hn::Set(df, r.sz), Lerp(sy, l[0], l[1]), Lerp(sy, l[2], l[3]));
+}
+
+// kCols: the x terms come from Noise3::rows' column arrays instead of the positions.
+template <int kFr, bool kCols>
+HWY_NOINLINE void RowGradient3(const Noise3Args& a, const Noise3Row* rows, std::int64_t i0, double dx,
+                               const std::uint32_t* cols, int stride, int n, float* out) {
+  const DD d;
+  const DF df;
+  const int NF = kHalves * int(hn::Lanes(d));
+  const std::size_t S = std::size_t(stride);
+  for (int start = 0; start < n; start += NF) {
+    VD x[kHalves];
+    if constexpr (!kCols) Positions(i0 + start, dx, x);
+    VF acc = hn::Zero(df);
+    for (int k = 0; k < a.count; ++k) {
+      XTerms xt;
+      if constexpr (kCols)
+        xt = XLoad(cols + std::size_t(k) * kG3ColumnArrays * S + std::size_t(start), S);
+      else
+        xt = XSplit(x, a.octaves[k]);
+      acc = Fold<kFr>(acc, hn::Set(df, a.octaves[k].amp), Gradient3(xt, rows[k]));
+    }
+    Finish<kFr>(acc, a.inv, start, NF, n, out);
+  }
+}
+
+HWY_NOINLINE void ColumnsGradient3(const Noise3Args& a, std::int64_t i0, double dx, int npad, std::uint32_t* cols,
+                                   int stride) {
+  const DD d;
+  const DF df;
+  const DU32 du32;
+  const int NF = kHalves * int(hn::Lanes(d));
+  const std::size_t S = std::size_t(stride);
+  for (int start = 0; start < npad; start += NF) {
+    VD x[kHalves];
+    Positions(i0 + start, dx, x);
+    for (int k = 0; k < a.count; ++k) {
+      const XTerms t = XSplit(x, a.octaves[k]);
+      std::uint32_t* c = cols + std::size_t(k) * kG3ColumnArrays * S + std::size_t(start);
+      hn::Store(t.xp0, du32, c);
+      hn::Store(hn::BitCast(du32, t.fx), du32, c + S);
+      hn::Store(hn::BitCast(du32, t.fx1), du32, c + 2 * S);
+      hn::Store(hn::BitCast(du32, t.sx), du32, c + 3 * S);
+    }
+  }
+  (void)df;
+}
+
+// ---- Simplex -----------------------------------------------------------------------------------------
+
+// One vertex: max(0, ½ − |d|²)⁴·((G_x·d_x + G_y·d_y) + G_z·d_z), G from the hash of its lattice terms.
+HWY_INLINE VF Term(VU32 hx, VU32 hy, VU32 hz, VF dx, VF dy, VF dz) {
+  const DF df;
+  const DU32 du32;
+  VF att = hn::Sub(hn::Sub(hn::Sub(hn::Set(df, kS3R2), hn::Mul(dx, dx)), hn::Mul(dy, dy)), hn::Mul(dz, dz));
+  att = hn::IfThenElseZero(att > hn::Zero(df), att);
+  const VU32 h = hn::Mul(hn::Xor(hn::Xor(hx, hy), hz), hn::Set(du32, kG3M));
+  const VU32 k = hn::ShiftRight<28>(h);
+  const VF dot = hn::Add(hn::Add(hn::Mul(LookupX(k), dx), hn::Mul(Lookup16(kG3Y, k, h), dy)),
+                         hn::Mul(Lookup16(kG3Z, k, h), dz));
+  const VF a2 = hn::Mul(att, att);
+  return hn::Mul(hn::Mul(a2, a2), dot);
+}
+
+HWY_INLINE VF Simplex3(const VD (&x)[kHalves], const Noise3Octave& o, const Noise3Row& r) {
+  const DD d;
+  const DF df;
+  const DU32 du32;
+  const VD v = hn::Set(d, r.v), w = hn::Set(d, r.w), vw = hn::Set(d, r.vw), skew = hn::Set(d, kS3Skew);
+  VD fl[3][kHalves], fr[3][kHalves];
+  for (int h = 0; h < kHalves; ++h) {
+    const VD u = hn::Add(hn::Mul(x[h], hn::Set(d, o.freq_x)), hn::Set(d, o.offset_x));
+    const VD s = hn::Mul(hn::Add(u, vw), skew);
+    const VD p[3] = {hn::Add(u, s), hn::Add(v, s), hn::Add(w, s)};
+    for (int c = 0; c < 3; ++c) {
+      fl[c][h] = hn::Floor(p[c]);
+      fr[c][h] = hn::Sub(p[c], fl[c][h]);
+    }
+  }
+  const VF xf = JoinDemote(fr[0]), yf = JoinDemote(fr[1]), zf = JoinDemote(fr[2]);
+  const VF t = hn::Mul(hn::Add(hn::Add(xf, yf), zf), hn::Set(df, kS3Unskew));
+  const VF x0 = hn::Sub(xf, t), y0 = hn::Sub(yf, t), z0 = hn::Sub(zf, t);
+  const MF cxy = x0 >= y0, cyz = y0 >= z0, cxz = x0 >= z0;
+  const MF i1 = hn::And(cxy, cxz), j1 = hn::AndNot(cxy, cyz), k1 = hn::Not(hn::Or(cxz, cyz));
+  const MF i2 = hn::Or(cxy, cxz), j2 = hn::Or(hn::Not(cxy), cyz), k2 = hn::Not(hn::And(cxz, cyz));
+  const VU32 px = hn::Set(du32, kG3Px), py = hn::Set(du32, kG3Py), pz = hn::Set(du32, kG3Pz), key = hn::Set(du32, o.key);
+  const VU32 xp0 = hn::Mul(JoinLow32(fl[0]), px), xp1 = hn::Add(xp0, px);
+  const VU32 yp0 = hn::Mul(JoinLow32(fl[1]), py), yp1 = hn::Add(yp0, py);
+  const VU32 zr = hn::Mul(JoinLow32(fl[2]), pz);
+  const VU32 zp0 = hn::Xor(zr, key), zp1 = hn::Xor(hn::Add(zr, pz), key);
+  const VF one = hn::Set(df, 1.0f), g1 = hn::Set(df, kS3Unskew), g2 = hn::Set(df, kS3Unskew2), half = hn::Set(df, 0.5f);
+  auto sel = [&](MF m, VU32 a1, VU32 a0) { return hn::IfThenElse(hn::RebindMask(du32, m), a1, a0); };
+  auto off = [&](VF p0, MF m, VF g) { return hn::Add(hn::Sub(p0, hn::IfThenElseZero(m, one)), g); };
+  const VF t0 = Term(xp0, yp0, zp0, x0, y0, z0);
+  const VF t1 = Term(sel(i1, xp1, xp0), sel(j1, yp1, yp0), sel(k1, zp1, zp0), off(x0, i1, g1), off(y0, j1, g1),
+                     off(z0, k1, g1));
+  const VF t2 = Term(sel(i2, xp1, xp0), sel(j2, yp1, yp0), sel(k2, zp1, zp0), off(x0, i2, g2), off(y0, j2, g2),
+                     off(z0, k2, g2));
+  const VF t3 = Term(xp1, yp1, zp1, hn::Sub(x0, half), hn::Sub(y0, half), hn::Sub(z0, half));
+  return hn::Mul(hn::Add(hn::Add(hn::Add(t0, t1), t2), t3), hn::Set(df, kS3Scale));
+}
+
+template <int kFr>
+HWY_NOINLINE void RowSimplex3(const Noise3Args& a, const Noise3Row* rows, std::int64_t i0, double dx, int n,
+                              float* out) {
+  const DD d;
+  const DF df;
+  const int NF = kHalves * int(hn::Lanes(d));
+  for (int start = 0; start < n; start += NF) {
+    VD x[kHalves];
+    Positions(i0 + start, dx, x);
+    VF acc = hn::Zero(df);
+    for (int k = 0; k < a.count; ++k)
+      acc = Fold<kFr>(acc, hn::Set(df, a.octaves[k].amp), Simplex3(x, a.octaves[k], rows[k]));
+    Finish<kFr>(acc, a.inv, start, NF, n, out);
+  }
+}
+
+int FractalKind(Fractal f) { return f == Fractal::Ridged ? kRidged : f == Fractal::Billow ? kBillow : kFbm; }
+
+}  // namespace
+
+void Row3Kernel(const Noise3Args& a, const Noise3Row* rows, std::int64_t i0, double dx, int n, float* out) {
+  const int fr = FractalKind(a.fractal);
+  if (a.basis == NoiseBasis::Gradient) {
+    if (fr == kRidged) RowGradient3<kRidged, false>(a, rows, i0, dx, nullptr, 0, n, out);
+    else if (fr == kBillow) RowGradient3<kBillow, false>(a, rows, i0, dx, nullptr, 0, n, out);
+    else RowGradient3<kFbm, false>(a, rows, i0, dx, nullptr, 0, n, out);
+  } else {
+    if (fr == kRidged) RowSimplex3<kRidged>(a, rows, i0, dx, n, out);
+    else if (fr == kBillow) RowSimplex3<kBillow>(a, rows, i0, dx, n, out);
+    else RowSimplex3<kFbm>(a, rows, i0, dx, n, out);
+  }
+}
+
+void Columns3Kernel(const Noise3Args& a, std::int64_t i0, double dx, int npad, std::uint32_t* cols, int stride) {
+  ColumnsGradient3(a, i0, dx, npad, cols, stride);
+}
+
+void RowColumns3Kernel(const Noise3Args& a, const Noise3Row* rows, const std::uint32_t* cols, int stride, int n,
+                       float* out) {
+  const int fr = FractalKind(a.fractal);
+  if (fr == kRidged) RowGradient3<kRidged, true>(a, rows, 0, 0.0, cols, stride, n, out);
+  else if (fr == kBillow) RowGradient3<kBillow, true>(a, rows, 0, 0.0, cols, stride, n, out);
+  else RowGradient3<kFbm, true>(a, rows, 0, 0.0, cols, stride, n, out);
+}
+
+}  // namespace HWY_NAMESPACE
+}  // namespace relief::detail
+HWY_AFTER_NAMESPACE();
+
+#if HWY_ONCE
+namespace relief::detail {
+
+HWY_EXPORT(Row3Kernel);
+HWY_EXPORT(Columns3Kernel);
+HWY_EXPORT(RowColumns3Kernel);
+
+void noise3_row_simd(const Noise3Args& a, const Noise3Row* rows, std::int64_t i0, double dx, int n, float* out) {
+  HWY_DYNAMIC_DISPATCH(Row3Kernel)(a, rows, i0, dx, n, out);
+}
+
+void noise3_columns_simd(const Noise3Args& a, std::int64_t i0, double dx, int npad, std::uint32_t* cols, int stride) {
+  HWY_DYNAMIC_DISPATCH(Columns3Kernel)(a, i0, dx, npad, cols, stride);
+}
+
+void noise3_row_columns_simd(const Noise3Args& a, const Noise3Row* rows, const std::uint32_t* cols, int stride, int n,
+                             float* out) {
+  HWY_DYNAMIC_DISPATCH(RowColumns3Kernel)(a, rows, cols, stride, n, out);
+}
+
+}  // namespace relief::detail
+#endif  // HWY_ONCE

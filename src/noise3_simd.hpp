@@ -1,0 +1,95 @@
+#pragma once
+// Internal: what Noise3's scalar reference (src/noise3.cpp) and its Highway row kernels
+// (src/noise3_simd.cpp) share: the gradient set, hash constants, per-octave and per-row terms.
+// Not installed, not an API.
+#include <cstdint>
+
+#include "relief/noise.hpp"
+
+namespace relief::detail {
+
+// Hash multipliers (odd 32-bit constants: 2³²/φ, murmur3's c1 and fmix32 constants, xxHash's
+// PRIME32_4): h = ((X·Pₓ) ⊕ (Y·P_y) ⊕ (Z·P_z ⊕ key))·M, gradient k = h >> 28.
+constexpr std::uint32_t kG3Px = 0x9E3779B1u;
+constexpr std::uint32_t kG3Py = 0x85EBCA6Bu;
+constexpr std::uint32_t kG3Pz = 0xC2B2AE35u;
+constexpr std::uint32_t kG3M = 0x27D4EB2Fu;
+
+// Gradient length L: Var₃ = (L²/3)·I₃ equals Var₂ = (1.375/2)·I₂, the 2D Gradient basis's, with
+// I₂ = ∫[0,1]² Σ_c w_c²|d_c|² = 0.0930623 and I₃ = ∫[0,1]³ Σ_c w_c²|d_c|² = 0.1093784 (quintic
+// fade weights; midpoint quadrature): L = √(3·0.0639803/0.1093784) = 1.3247.
+constexpr double kG3Length = 1.3247;
+constexpr double kG3Edge = kG3Length * 0.70710678118654752;   // L/√2: cube-edge components
+constexpr double kG3Tetra = kG3Length * 0.57735026918962576;  // L/√3: tetrahedron components
+// The 16 gradients, ordered so that G[k] and G[k + 8] share their x component (the AVX2 kernel
+// looks G_x up with one 8-entry permute): k = 0..5 and 8..13 the 12 cube edges, 6, 7, 14, 15 the
+// tetrahedron.
+#define RELIEF_G3_E float(kG3Edge)
+#define RELIEF_G3_T float(kG3Tetra)
+alignas(64) constexpr float kG3X[16] = {RELIEF_G3_E,  RELIEF_G3_E,  -RELIEF_G3_E, -RELIEF_G3_E, 0.0f, 0.0f,
+                                        RELIEF_G3_T,  -RELIEF_G3_T, RELIEF_G3_E,  RELIEF_G3_E,  -RELIEF_G3_E, -RELIEF_G3_E,
+                                        0.0f,         0.0f,         RELIEF_G3_T,  -RELIEF_G3_T};
+alignas(64) constexpr float kG3Y[16] = {RELIEF_G3_E,  0.0f,         RELIEF_G3_E,  0.0f,         RELIEF_G3_E, RELIEF_G3_E,
+                                        RELIEF_G3_T,  RELIEF_G3_T,  -RELIEF_G3_E, 0.0f,         -RELIEF_G3_E, 0.0f,
+                                        -RELIEF_G3_E, -RELIEF_G3_E, -RELIEF_G3_T, -RELIEF_G3_T};
+alignas(64) constexpr float kG3Z[16] = {0.0f,        RELIEF_G3_E,  0.0f,         RELIEF_G3_E,  RELIEF_G3_E, -RELIEF_G3_E,
+                                        RELIEF_G3_T, -RELIEF_G3_T, 0.0f,         -RELIEF_G3_E, 0.0f,         -RELIEF_G3_E,
+                                        -RELIEF_G3_E, RELIEF_G3_E, -RELIEF_G3_T, RELIEF_G3_T};
+#undef RELIEF_G3_E
+#undef RELIEF_G3_T
+
+// Simplex: skew (double), unskew (float), kernel radius², scale (see noise3.hpp).
+constexpr double kS3Skew = 1.0 / 3.0;
+constexpr float kS3Unskew = float(1.0 / 6.0);
+constexpr float kS3Unskew2 = 2.0f * kS3Unskew;  // exact
+constexpr float kS3R2 = 0.5f;
+constexpr float kS3Scale = 81.4f;
+
+// One octave: lattice frequencies (cells per metre), seeded offsets (cells), amplitude, hash key.
+struct Noise3Octave {
+  double freq_x = 0.0, freq_y = 0.0, freq_z = 0.0;
+  double offset_x = 0.0, offset_y = 0.0, offset_z = 0.0;
+  float amp = 1.0f;  // float(persistenceᵏ)
+  std::uint32_t key = 0;
+};
+
+// The terms of one octave that depend only on the row's (y, z), computed once per row by
+// noise3_row_terms() (src/noise3.cpp) for the reference and the kernels alike.
+struct Noise3Row {
+  // Simplex: the row's lattice positions v, w and their sum (the skew adds u + (v + w)).
+  // No default initialisers: Noise3::row keeps 16 of these on the stack and fills only `count`.
+  double v, w, vw;
+  // Gradient: yz[c] = (Y·P_y) ⊕ (Z·P_z ⊕ key) for the four (y, z) corners c = b + 2·e (b: lower /
+  // upper y, e: lower / upper z); ay[c], az[c] the offsets from them; fades sy, sz; and per corner
+  // the 16 values t[c][k] = G_y[k]·ay[c] + G_z[k]·az[c] (float), the row-constant half of G·d.
+  std::uint32_t yz[4];
+  float ay[4], az[4];
+  float sy, sz;
+  alignas(64) float t[4][16];
+};
+void noise3_row_terms(const Noise3Octave& o, NoiseBasis basis, double y_m, double z_m, Noise3Row& r);
+
+// Everything a kernel needs, gathered by Noise3's constructor.
+struct Noise3Args {
+  NoiseBasis basis = NoiseBasis::Gradient;
+  Fractal fractal = Fractal::Fbm;
+  float inv = 1.0f;  // float(1 / Σ aₖ)
+  const Noise3Octave* octaves = nullptr;
+  int count = 0;  // 1..16
+};
+
+// out[i], i in [0, n), n ≥ 1, at x = double(i0 + i)·dx, rows[k] the row terms of octave k: the
+// contract of Noise3::row, on the best Highway target (or the one forced with
+// noise_simd_force_target, noise_simd.hpp).
+void noise3_row_simd(const Noise3Args& a, const Noise3Row* rows, std::int64_t i0, double dx, int n, float* out);
+
+// Gradient's x-only terms for x = double(i0 + i)·dx, i in [0, npad), npad a multiple of 16: per
+// octave k, 4 arrays (X·Pₓ as uint32; the fraction fx, fx − 1, fade(fx) as float bits), entry i of
+// array f at cols[(k·kG3ColumnArrays + f)·stride + i]; stride a multiple of 16, cols 64-byte aligned.
+constexpr int kG3ColumnArrays = 4;
+void noise3_columns_simd(const Noise3Args& a, std::int64_t i0, double dx, int npad, std::uint32_t* cols, int stride);
+// out[i], i in [0, n), from the columns' terms: bit-identical to noise3_row_simd over that window.
+void noise3_row_columns_simd(const Noise3Args& a, const Noise3Row* rows, const std::uint32_t* cols, int stride, int n,
+                             float* out);
+
+}  // namespace relief::detail
