@@ -38,6 +38,7 @@
 #include "relief/pipeline.hpp"
 #include "relief/recipe.hpp"
 #include "relief/steps.hpp"
+#include "relief/world.hpp"
 
 using namespace relief;
 
@@ -428,6 +429,91 @@ int cmd_generate(const CliGenerate& s) {
   return 0;
 }
 
+// ---- relief world -------------------------------------------------------------------------------
+struct CliWorld {
+  CliGenerate recipe;  // recipe, preset, seed, sets, threads, quiet (read as `generate` reads them)
+  std::string size;    // N or NxM, up to kMaxWorldSize
+  int tile = 257;
+  bool force = false;
+};
+
+// --size for a world: N or NxM with kMinSize..kMaxWorldSize samples per axis.
+std::pair<std::int64_t, std::int64_t> parse_world_size(const std::string& text) {
+  const std::string expect = "expected N or NxM with " + std::to_string(kMinSize) + ".." + std::to_string(kMaxWorldSize) +
+                             " samples per axis";
+  auto num = [&](const std::string& t) -> std::int64_t {
+    if (t.empty() || t.size() > 8 || t.find_first_not_of("0123456789") != std::string::npos)
+      throw Error("--size", expect + ", got " + quote(text));
+    return std::stoll(t);
+  };
+  const auto x = text.find_first_of("xX");
+  const std::int64_t nx = num(text.substr(0, x)), nz = x == std::string::npos ? nx : num(text.substr(x + 1));
+  if (nx < kMinSize || nz < kMinSize || nx > kMaxWorldSize || nz > kMaxWorldSize) throw Error("--size", expect + ", got " + quote(text));
+  return {nx, nz};
+}
+
+int cmd_world(const CliWorld& w) {
+  const CliGenerate& s = w.recipe;
+  const auto t_start = std::chrono::steady_clock::now();
+  json doc = read_recipe_doc(s);
+  if (!doc.is_object()) throw Error("recipe", "expected a JSON object, got " + describe(doc));
+  if (s.seed_given) {
+    if (s.seed < 0 || std::uint64_t(s.seed) > kMaxSeed)
+      throw Error("--seed", "expected an integer in 0..9007199254740991, got " + std::to_string(s.seed));
+    doc["seed"] = s.seed;
+  }
+  for (auto& a : s.sets) apply_override(doc, a);
+  WorldSettings ws;
+  ws.recipe = parse_recipe(doc);
+  if (!w.size.empty()) std::tie(ws.nx, ws.nz) = parse_world_size(w.size);
+  ws.tile = w.tile;
+  ws.out_dir = s.out_dir;
+  ws.threads = s.threads;
+  ws.force = w.force;
+  ws.size_path = "--size";
+  ws.tile_path = "--tile";
+  ws.out_path = "--out";
+  ws.force_name = "--force";
+  const bool seed_given = ws.recipe.seed.has_value();
+  Progress prog{is_tty() && !s.quiet};
+  ws.progress = [&](const WorldProgress& p) {
+    char line[256];
+    char left[48] = "";
+    if (p.seconds_left >= 0) std::snprintf(left, sizeof left, ", %.0f s left", p.seconds_left);
+    char stage[96] = "";
+    if (!p.stage_name.empty())
+      std::snprintf(stage, sizeof stage, ", stage %d/%d %.*s", p.stage + 1, p.stages, int(p.stage_name.size()), p.stage_name.data());
+    std::snprintf(line, sizeof line, "tiles %lld/%lld%s%s%s", (long long)p.tiles_done, (long long)p.tiles_total,
+                  p.tiles_skipped ? (" (" + std::to_string(p.tiles_skipped) + " resumed)").c_str() : "", stage, left);
+    prog(line, p.fraction);
+  };
+  ws.cancelled = [] { return g_signal.load() != 0; };
+  WorldReport rep;
+  try {
+    rep = build_world(std::move(ws));
+  } catch (const Cancelled&) {
+    prog.done();
+    g_finished = true;
+    const int sig = g_signal.load();
+    std::fprintf(stderr, "relief: interrupted by %s; the finished tiles are kept: run the same command again to resume\n",
+                 signal_name(sig));
+    return sig ? 128 + sig : 1;
+  }
+  prog.done();
+  if (!s.quiet) {
+    if (!seed_given)
+      std::printf("seed %llu (%s; reproduce with --seed %llu)\n", (unsigned long long)rep.seed,
+                  rep.seed_reused ? "the seed of the world in the folder" : "random", (unsigned long long)rep.seed);
+    const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
+    std::printf("world %lldx%lld in %lldx%lld tiles of %d: %lld built, %lld resumed; %s in %s (world.json, overview.png, report.json)\n",
+                (long long)rep.grid.nx, (long long)rep.grid.nz, (long long)rep.grid.tiles_x, (long long)rep.grid.tiles_z,
+                rep.grid.tile, (long long)rep.tiles_built, (long long)rep.tiles_skipped, human_bytes(rep.store_bytes).c_str(),
+                s.out_dir.c_str());
+    std::printf("%.2f s, peak memory %s\n", total, human_bytes(peak_rss_bytes()).c_str());
+  }
+  return 0;
+}
+
 int cmd_presets(bool as_json) {
   auto list = list_presets(cli::env_preset_dirs());
   if (as_json) {
@@ -636,7 +722,7 @@ void refuse_empty_values(CLI::App* cmd) {
 std::string parse_error_message(const CLI::ParseError& e, const CLI::App& app) {
   const std::string what = e.what();
   if (dynamic_cast<const CLI::RequiredError*>(&e) && what.find("subcommand") != std::string::npos)
-    return "expected a command: generate, presets, explain, bench or studio (see relief --help)";
+    return "expected a command: generate, world, presets, explain, bench or studio (see relief --help)";
   if (dynamic_cast<const CLI::ExtrasError*>(&e)) {
     std::string extra = what.substr(what.find(':') == std::string::npos ? 0 : what.find(':') + 2);
     std::string cmd;
@@ -704,6 +790,25 @@ int main(int argc, char** argv) {
     export_cli.emplace_back(p.name, opt);
   }
 
+  CliWorld wsx;
+  auto* wld = app.add_subcommand("world", "Build a world larger than one map as a tile store (float tiles, world.json, overview.png), resumable");
+  wld->add_option("recipe", wsx.recipe.recipe, "Preset name or recipe JSON file (default: island)");
+  wld->add_option("--preset,-p", wsx.recipe.preset, "Preset name (see `relief presets`)");
+  wsx.recipe.out_dir = "world";
+  wld->add_option("-o,--out", wsx.recipe.out_dir, "Output folder of the tile store (created if missing)")->capture_default_str();
+  std::string world_seed_text;
+  wld->add_option("--seed,-s", world_seed_text,
+                  "Seed, a decimal integer in 0..2^53-1 (default: the recipe's, else that of the same world in the folder, else random)")
+      ->type_name("INT");
+  wld->add_option("--size", wsx.size, "World samples per axis: N or NxM, up to " + std::to_string(kMaxWorldSize) + " (default: the recipe's)");
+  ints.add(wld, "--tile,-t", wsx.tile, 0, kMaxWorldTile, "Tile size in samples, 2^n+1 (tiles share their border samples)");
+  wld->add_option("--set", wsx.recipe.sets, "Override a recipe field: PATH=VALUE, e.g. 'stages[1].octaves=8' (repeatable)");
+  ints.add(wld, "--threads,-j", wsx.recipe.threads, 0, 1024, "Worker threads (0 = all cores); output is identical for any count", false);
+  wld->add_flag("--quiet,-q", wsx.recipe.quiet, "Print nothing but errors");
+  wld->add_flag("--force", wsx.force,
+                "Replace a different world found in the output folder (its world.json, tiles, overview.png and report.json); "
+                "without it such a folder is refused");
+
   bool presets_json = false;
   auto* pre = app.add_subcommand("presets", "List presets: built-in, then $RELIEF_PRESETS folders and ~/.config/relief/presets");
   pre->add_flag("--json", presets_json, "Print as JSON");
@@ -756,7 +861,7 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
-    for (CLI::App* cmd : {gen, pre, exp, ben, stu}) refuse_empty_values(cmd);
+    for (CLI::App* cmd : {gen, wld, pre, exp, ben, stu}) refuse_empty_values(cmd);
     ints.read();
     gs.seed_given = gen->count("--seed") > 0;
     if (gs.seed_given) gs.seed = read_int_flag(seed_text, "--seed", 0, std::int64_t(kMaxSeed), "decimal digits");
@@ -769,6 +874,16 @@ int main(int argc, char** argv) {
       gs.threads = capped_threads(gs.threads);
       take_interrupts();
       const int code = cmd_generate(gs);
+      g_finished = true;
+      return code;
+    }
+    if (*wld) {
+      wsx.recipe.seed_given = wld->count("--seed") > 0;
+      if (wsx.recipe.seed_given) wsx.recipe.seed = read_int_flag(world_seed_text, "--seed", 0, std::int64_t(kMaxSeed), "decimal digits");
+      check_generate_flags(wsx.recipe);
+      wsx.recipe.threads = capped_threads(wsx.recipe.threads);
+      take_interrupts();
+      const int code = cmd_world(wsx);
       g_finished = true;
       return code;
     }

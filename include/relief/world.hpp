@@ -1,0 +1,197 @@
+#pragma once
+// relief::build_world: a world larger than one map, built tile by tile into a tile store, in memory
+// bounded by the tile size, never by the world size (issue 18, phase 1).
+//
+// The world is the recipe's world at `nx` × `nz` samples (WorldSettings; corners included, cells
+// square, as relief/terrain.hpp states): exactly the frame a whole-map run of the same recipe at
+// that size uses (World::frame()), so a world may be larger than kMaxSize, the most one map holds.
+//
+// Tiles. The tile size T is 2ⁿ+1 samples (3 ≤ T ≤ kMaxWorldTile, and not larger than the world
+// along both axes). Tiles share their border samples: tile (X, Z) covers the samples
+//     ix ∈ [X·(T−1), min(X·(T−1) + T, nx)),   iz ∈ [Z·(T−1), min(Z·(T−1) + T, nz)),
+// for X < tiles_x = ceil((nx−1)/(T−1)), Z < tiles_z = ceil((nz−1)/(T−1)). When nx−1 is not a
+// multiple of T−1, the last column of tiles is clipped to the world: it has ((nx−1) mod (T−1)) + 1
+// samples across (at least 2), still sharing its first column with its left neighbour; the same
+// for the last row along z. Nothing lies outside the world: no padding, no extrapolated samples.
+//
+// What each stage guarantees in a world build (its "world" entry in world.json):
+//   exact    pointwise and neighbourhood stages. Each tile is computed by run() on its window
+//            (RunOptions::window): the window grows by the recipe's summed halo, stopping at the
+//            world's edge, and is cropped, so every sample of every layer equals, bit for bit, the
+//            same sample of one whole-map run of the recipe at the world's size, for any tile size
+//            and thread count (tests/test_world.cpp checks it against run()).
+//   refused  global stages (fill, flow, erosion, biomes, climate, props, …): build_world throws
+//            Error("stages[i]", …) before any work, saying the stage has no world support yet.
+//
+// Tile store (the output folder; every file written atomically: temporary file, fsync, rename):
+//   world.json          the manifest (below), written before the first tile ("status": "building")
+//                       and again at the end ("status": "complete", with every tile's checksum);
+//   tiles/x{X}_z{Z}.rtile   one file per tile (X, Z zero-padded to 4+ digits), format below;
+//   overview.png        the whole world, point-sampled every `overview_step` samples so that it is
+//                       at most 2048 px per side, coloured by height (sea below sea_level) and
+//                       hillshaded (8-bit RGB);
+//   report.json         per-stage time (summed over the tiles built), tiles built and skipped,
+//                       peak memory, threads, bytes of the store.
+//
+// Tile file format, version 1 ("rtile"), all integers little-endian:
+//   bytes 0..7     magic "RLFTILE1"
+//   bytes 8..11    u32 H: length of the header
+//   H bytes        header, JSON (UTF-8): {"format": 1, "world_id": "<16 hex>", "tile": [X, Z],
+//                  "window": [ix0, iz0, nx, nz], "layers": [{"name": …, "channels": c}, …],
+//                  "encoding": "float32le-shuffle-zlib", "raw_bytes": R, "zlib_bytes": Z}
+//   Z bytes        zlib stream (RFC 1950) of R bytes: the layers in the header's order (layer names
+//                  in ascending byte order), each as its float32 values (row-major, x fastest,
+//                  channels interleaved: the Layer layout of relief/terrain.hpp), byte-shuffled:
+//                  for a layer of n floats, all n least-significant bytes first, then all second
+//                  bytes, then third, then the n most-significant bytes (lossless; it lets zlib see
+//                  the smooth high bytes together).
+//   4 bytes        u32 CRC-32 (zlib's crc32, ISO-HDLC) of every byte before it.
+// world.json lists each tile's CRC-32 of the whole file (trailer included) and its size.
+//
+// Resuming. world.json holds a `world_id`: a hash of the format version, the resolved recipe
+// (seed, world size and every parameter) and the tile size. A build into a folder whose world.json
+// has the same world_id skips every tile whose file is present, has its magic, a matching world_id
+// and window and a correct CRC-32; the others are (re)built. Tiles depend only on the recipe,
+// seed and window, so a resumed build gives the same bytes as an uninterrupted one. A folder whose
+// world.json has another world_id (or is not a world manifest) is refused (Error naming
+// `out_path`) unless `force`: then the old world's tile files and world.json, overview.png and
+// report.json are removed first (nothing else in the folder is touched). When the recipe has no
+// seed and the folder holds a world of the same recipe otherwise, that world's seed is reused, so
+// that a rerun without --seed resumes; else a random seed is drawn (WorldReport::seed).
+//
+// Disk and memory are checked before any work: the store's size is estimated (zlib's worst-case
+// bound of every tile's raw floats) and a world that the output's file system cannot hold
+// (minus the tiles already there) is refused (Error naming `size_path`); so is a tile whose run
+// (estimate_memory_bytes of the grown tile, times the tiles built at once) exceeds the memory budget
+// (Error naming `tile_path`), and a grid of more than kMaxWorldTiles tiles.
+//
+// Threads: tiles are built concurrently, each tile's run on one thread, when there are at least
+// twice as many tiles as threads; otherwise one tile at a time with every thread. Bytes never
+// depend on it. Peak memory is about (tiles at once) × (one grown tile's run) + the overview
+// (≤ 2048² floats) + 8 bytes per tile.
+//
+// Not stored (yet): points (no local stage makes them today), rivers, lakes, the tilemap, volumes.
+#include <cstdint>
+#include <functional>
+#include <map>
+#include <string>
+#include <string_view>
+#include <vector>
+
+#include "relief/pipeline.hpp"
+#include "relief/recipe.hpp"
+
+namespace relief {
+
+constexpr std::int64_t kMaxWorldSize = 1048577;  // 2^20 + 1 samples per axis
+constexpr int kMaxWorldTile = 8193;             // largest tile, samples per axis
+constexpr std::int64_t kMaxWorldTiles = 1 << 20;  // most tiles in a world
+constexpr int kWorldOverviewMax = 2048;          // overview.png: at most this many pixels per side
+
+// The tile grid of a world (see the top of this file). Pure arithmetic; no files.
+struct WorldGrid {
+  std::int64_t nx = 0, nz = 0;  // world samples per axis
+  int tile = 0;                 // T
+  std::int64_t tiles_x = 0, tiles_z = 0;
+  // The window of tile (X, Z) on the world grid: first sample and sample counts (clipped at the far
+  // edge as documented).
+  struct Window {
+    std::int64_t ix0 = 0, iz0 = 0;
+    int nx = 0, nz = 0;
+  };
+  Window window(std::int64_t X, std::int64_t Z) const;
+  std::int64_t count() const { return tiles_x * tiles_z; }
+};
+// Validates and makes the grid: throws Error(size_path, …) unless kMinSize ≤ nx, nz ≤ kMaxWorldSize,
+// Error(tile_path, …) unless T = 2ⁿ+1 with 3 ≤ T ≤ kMaxWorldTile and T ≤ max(nx, nz), or when the
+// grid would have more than kMaxWorldTiles tiles.
+WorldGrid world_grid(std::int64_t nx, std::int64_t nz, std::int64_t tile, const std::string& size_path = "world.size",
+                     const std::string& tile_path = "tile");
+
+// Relative path of tile (X, Z)'s file in the store: "tiles/x0003_z0012.rtile".
+std::string world_tile_path(std::int64_t X, std::int64_t Z);
+
+struct WorldProgress {
+  std::int64_t tiles_total = 0;
+  std::int64_t tiles_done = 0;     // finished so far, skipped ones included
+  std::int64_t tiles_skipped = 0;  // found finished in the folder (resumed)
+  int stage = 0, stages = 0;       // the stage a tile is running now (0-based) and the recipe's count
+  std::string_view stage_name;     // "" between tiles
+  double fraction = 0;             // 0..1 of the whole build
+  double seconds_left = -1;        // estimate from the tiles built so far (−1 before the first)
+};
+
+struct WorldSettings {
+  Recipe recipe;  // parsed and validated; world.size is replaced by nx × nz
+  std::int64_t nx = 0, nz = 0;  // world samples per axis (0: the recipe's world.size)
+  int tile = 257;
+  std::string out_dir;  // the tile store's folder (created with its parents if missing)
+  int threads = 0;      // 0 = all hardware threads; bytes identical for any count
+  bool force = false;   // replace a different world found in out_dir (see "Resuming")
+  // How errors name the inputs (the CLI: "--size", "--tile", "--out", "--force").
+  std::string size_path = "world.size", tile_path = "tile", out_path = "output", force_name = "force";
+  // Progress: called from one thread at a time (serialised), after each stage of a tile being built
+  // and after each tile.
+  std::function<void(const WorldProgress&)> progress;
+  // Checked between stages and row blocks of every tile being built (run()'s RunOptions::cancelled)
+  // and between tiles; true stops the build with relief::Cancelled. May be called from several
+  // threads at once: make it an atomic read. Finished tiles stay in the store; a rerun resumes.
+  std::function<bool()> cancelled;
+  std::uint64_t memory_budget_bytes = 0;  // 0: memory_budget_bytes() (generate.hpp)
+  // Free bytes assumed for the disk check (0: ask the file system of out_dir's nearest existing
+  // folder). Tests set it to exercise the refusal.
+  std::uint64_t disk_free_bytes = 0;
+  // Called after each tile is written, with its (X, Z) (tests kill or cancel builds part way).
+  std::function<void(std::int64_t X, std::int64_t Z)> after_tile;
+};
+
+struct WorldReport {
+  std::uint64_t seed = 0;
+  bool seed_reused = false;  // the seed came from the world already in the folder
+  std::string world_id;      // 16 hex digits
+  WorldGrid grid;
+  std::vector<std::pair<std::string, int>> layers;  // name → channels, in store order
+  std::int64_t tiles_built = 0, tiles_skipped = 0;
+  std::vector<StageTiming> timings;  // per stage, summed over the tiles built
+  double total_ms = 0;
+  std::uint64_t peak_memory_bytes = 0;
+  std::uint64_t store_bytes = 0;        // tile files, as written or found
+  std::uint64_t estimated_bytes = 0;    // the disk check's bound
+  std::uint64_t tile_memory_bytes = 0;  // the memory check's estimate for the tiles built at once
+  int tiles_at_once = 1;
+  int overview_step = 1;  // overview.png samples every this many world samples
+  json recipe;            // resolved recipe as built (seed and world size set)
+};
+
+// Builds (or resumes) the world as described at the top of this file. Throws relief::Error for bad
+// input before any tile is built (naming the field), relief::Cancelled when settings.cancelled says
+// so (finished tiles stay), and Error("output", …) when a file cannot be written.
+WorldReport build_world(WorldSettings settings);
+
+// ---- reading the store ----------------------------------------------------------------------
+struct WorldTile {
+  std::int64_t X = 0, Z = 0;
+  std::string world_id;
+  WorldGrid::Window window;
+  std::map<std::string, Layer> layers;  // each window.nx × window.nz samples × channels
+};
+// Decodes one tile file (bytes as read). Throws Error("tile", …) naming `origin` for a bad magic,
+// header, size, zlib stream or CRC-32.
+WorldTile decode_world_tile(std::string_view bytes, const std::string& origin = "tile");
+// Reads and decodes `dir`/world_tile_path(X, Z).
+WorldTile read_world_tile(const std::string& dir, std::int64_t X, std::int64_t Z);
+// The manifest of the store in `dir` (Error("output", …) when missing or not a world manifest).
+json read_world_manifest(const std::string& dir);
+// Every tile file of a complete store checked against world.json's CRC-32 and size: returns the
+// paths of the tiles that are missing or differ (empty: the store is intact).
+std::vector<std::string> verify_world(const std::string& dir);
+// The samples of the window [ix0, ix0+nx) × [iz0, iz0+nz) of the store's world, every layer,
+// assembled from the tiles it touches (memory: the window plus one tile). The Terrain's frame is
+// the world frame's window. Throws Error("window", …) when it is not inside the world.
+Terrain read_world_window(const std::string& dir, std::int64_t ix0, std::int64_t iz0, int nx, int nz);
+
+// The world frame of `r` at nx × nz samples: r.world.frame() with the size replaced (the whole-map
+// run's frame at that size, bit for bit).
+Frame world_frame(const Recipe& r, std::int64_t nx, std::int64_t nz);
+
+}  // namespace relief

@@ -1,0 +1,472 @@
+// relief::build_world: a recipe evaluated tile by tile in world coordinates into a tile store
+// (relief/world.hpp). Each tile is run() on its window, which grows by the stages' halos and is
+// cropped (pipeline.cpp), so pointwise and neighbourhood stages are exact; global stages are
+// refused until a world algorithm handles them (Barnes' perimeter methods, issue 18).
+#include <tbb/info.h>
+#include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
+#include <zlib.h>
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <mutex>
+#include <regex>
+
+#include "relief/encode_image.hpp"
+#include "relief/error.hpp"
+#include "relief/file_output.hpp"
+#include "relief/generate.hpp"
+#include "relief/world.hpp"
+#include "world_internal.hpp"
+
+namespace relief {
+namespace {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+double ms_since(Clock::time_point t0) { return std::chrono::duration<double, std::milli>(Clock::now() - t0).count(); }
+
+const char* locality_name(Locality l) {
+  return l == Locality::Pointwise ? "pointwise" : l == Locality::Neighbourhood ? "neighbourhood" : "global";
+}
+
+// The part of the resolved recipe that decides the samples: seed, world and stages (not the name,
+// description or export block).
+json identity_doc(const json& resolved) {
+  json id = json::object();
+  for (const char* k : {"seed", "world", "stages"})
+    if (resolved.contains(k)) id[k] = resolved[k];
+  return id;
+}
+
+std::string world_id_of(const json& resolved, int tile) {
+  return detail::hash_hex("relief-world/1\n" + identity_doc(resolved).dump() + "\ntile=" + std::to_string(tile));
+}
+
+// The nearest existing folder of `p` (for the free-space query).
+fs::path existing_ancestor(fs::path p) {
+  std::error_code ec;
+  p = fs::absolute(p, ec);
+  while (!p.empty() && !fs::exists(p, ec)) {
+    if (p == p.parent_path()) break;
+    p = p.parent_path();
+  }
+  return p;
+}
+
+// Old world files in `dir` that --force removes: world.json, overview.png, report.json and the
+// tile files named as build_world names them (nothing else).
+void remove_old_world(const fs::path& dir) {
+  std::error_code ec;
+  for (const char* f : {"world.json", "overview.png", "report.json"}) fs::remove(dir / f, ec);
+  const std::regex tile_name(R"(x\d{4,}_z\d{4,}\.rtile)");
+  if (fs::is_directory(dir / "tiles", ec))
+    for (const auto& e : fs::directory_iterator(dir / "tiles", ec))
+      if (e.is_regular_file(ec) && std::regex_match(e.path().filename().string(), tile_name)) fs::remove(e.path(), ec);
+}
+
+// overview.png: height coloured by a hypsometric ramp (sea below sea_level), hillshaded by Lambert
+// n·l from the north-west at 45°, computed on the overview grid itself (cell = step · spacing).
+std::string overview_png(const std::vector<float>& h, int w, int hgt, double cell_m, double height_m, double sea) {
+  std::vector<std::uint8_t> rgb(std::size_t(w) * std::size_t(hgt) * 3);
+  const double az = 315.0 * M_PI / 180.0, alt = 45.0 * M_PI / 180.0;
+  const double lx = std::cos(alt) * std::sin(az), ly = std::sin(alt), lz = -std::cos(alt) * std::cos(az);
+  struct Stop {
+    double t, r, g, b;
+  };
+  static const Stop land[] = {{0.0, 70, 130, 60}, {0.35, 150, 160, 90}, {0.7, 130, 100, 70}, {1.0, 245, 245, 245}};
+  auto at = [&](int i, int j) {
+    i = std::clamp(i, 0, w - 1);
+    j = std::clamp(j, 0, hgt - 1);
+    return double(h[std::size_t(j) * std::size_t(w) + std::size_t(i)]);
+  };
+  for (int j = 0; j < hgt; ++j)
+    for (int i = 0; i < w; ++i) {
+      const double e = at(i, j);
+      const int i0 = std::max(0, i - 1), i1 = std::min(w - 1, i + 1), j0 = std::max(0, j - 1), j1 = std::min(hgt - 1, j + 1);
+      const double dx = i1 > i0 ? (at(i1, j) - at(i0, j)) * height_m / ((i1 - i0) * cell_m) : 0.0;
+      const double dz = j1 > j0 ? (at(i, j1) - at(i, j0)) * height_m / ((j1 - j0) * cell_m) : 0.0;
+      const double len = std::sqrt(dx * dx + dz * dz + 1.0);
+      const double shade = std::max(0.0, (-dx * lx + ly - dz * lz) / len);
+      double r, g, b, k;
+      if (e < sea) {
+        const double t = sea > 0 ? std::clamp(e / sea, 0.0, 1.0) : 1.0;
+        r = 10 + 50 * t, g = 40 + 80 * t, b = 90 + 90 * t;
+        k = 0.8 + 0.2 * shade;
+      } else {
+        const double t = sea < 1 ? std::clamp((e - sea) / (1 - sea), 0.0, 1.0) : 0.0;
+        int s = 0;
+        while (s < 2 && t > land[s + 1].t) ++s;
+        const double u = (t - land[s].t) / (land[s + 1].t - land[s].t);
+        r = land[s].r + (land[s + 1].r - land[s].r) * u;
+        g = land[s].g + (land[s + 1].g - land[s].g) * u;
+        b = land[s].b + (land[s + 1].b - land[s].b) * u;
+        k = 0.35 + 0.65 * shade;
+      }
+      std::uint8_t* p = rgb.data() + (std::size_t(j) * std::size_t(w) + std::size_t(i)) * 3;
+      p[0] = std::uint8_t(std::clamp(std::lround(r * k), 0L, 255L));
+      p[1] = std::uint8_t(std::clamp(std::lround(g * k), 0L, 255L));
+      p[2] = std::uint8_t(std::clamp(std::lround(b * k), 0L, 255L));
+    }
+  return encode_png_rgb8(rgb.data(), w, hgt);
+}
+
+void write_or_throw(const fs::path& p, std::string_view bytes, const std::string& out_path) {
+  try {
+    write_file_atomic(p.string(), bytes);
+  } catch (const Error& e) {
+    throw Error(out_path, e.message());
+  }
+}
+
+}  // namespace
+
+WorldReport build_world(WorldSettings s) {
+  const auto t_start = Clock::now();
+  WorldReport rep;
+  Recipe r = std::move(s.recipe);
+  const std::int64_t nx = s.nx > 0 ? s.nx : r.world.nx, nz = s.nz > 0 ? s.nz : r.world.nz;
+  const WorldGrid grid = world_grid(nx, nz, s.tile, s.size_path, s.tile_path);
+  rep.grid = grid;
+  r.world.nx = int(grid.nx);
+  r.world.nz = int(grid.nz);
+  const Frame frame = r.world.frame();
+
+  // 1. Stages: every one must have a world algorithm (for now: be local).
+  int halo = 0;
+  json stages = json::array();
+  for (std::size_t i = 0; i < r.stages.size(); ++i) {
+    const RecipeStage& st = r.stages[i];
+    const Reach re = st.stage->reach(frame);
+    if (re.locality == Locality::Global)
+      throw Error("stages[" + std::to_string(i) + "]",
+                  "'" + st.def->name + "' has no world support yet: it needs the whole map (" +
+                      (re.why.empty() ? "a global stage" : re.why) +
+                      "); world builds run pointwise and neighbourhood stages for now — leave it out, or build one map "
+                      "with `relief generate`");
+    if (re.locality == Locality::Neighbourhood) halo += std::max(0, re.halo);
+    stages.push_back({{"index", i},
+                      {"stage", st.def->name},
+                      {"label", st.label},
+                      {"locality", locality_name(re.locality)},
+                      {"halo", re.locality == Locality::Neighbourhood ? re.halo : 0},
+                      {"world", "exact"}});
+  }
+
+  // 2. The folder: the same world (resume), a different one (refuse unless forced), or none.
+  const fs::path dir(s.out_dir);
+  std::error_code ec;
+  json old;
+  bool have_old = false;
+  if (fs::exists(dir / "world.json", ec)) {
+    bool ok = false;
+    const std::string text = detail::read_file_bytes((dir / "world.json").string(), ok);
+    old = json::parse(text, nullptr, false);
+    have_old = true;
+  }
+  const std::string recipe_id = [&] {
+    json j = r.to_json();
+    j.erase("seed");
+    return world_id_of(j, grid.tile);
+  }();
+  if (!r.seed) {
+    if (have_old && old.is_object() && old.value("recipe_id", "") == recipe_id && old.contains("seed") &&
+        old["seed"].is_number_unsigned()) {
+      r.seed = old["seed"].get<std::uint64_t>();
+      rep.seed_reused = true;
+    } else {
+      r.seed = random_seed();
+    }
+  }
+  rep.seed = *r.seed;
+  const json resolved = r.to_json();
+  rep.recipe = resolved;
+  rep.world_id = world_id_of(resolved, grid.tile);
+  if (have_old) {
+    const bool same = old.is_object() && old.value("format", "") == "relief-world" && old.value("world_id", "") == rep.world_id;
+    if (!same && !s.force) {
+      std::string what = "something that is not a Relief world manifest";
+      if (old.is_object() && old.value("format", "") == "relief-world") {
+        const json& fr = old.value("frame", json::object());
+        what = "another world (recipe " + quote(old.value("recipe", json::object()).value("name", "?")) +
+               (fr.contains("size") ? ", " + fr["size"].dump() : "") + ", tile " +
+               old.value("grid", json::object()).value("tile", json(0)).dump() +
+               (old.contains("seed") ? ", seed " + old["seed"].dump() : "") + ")";
+      }
+      throw Error(s.out_path, "the folder " + quote(s.out_dir) + " holds " + what +
+                                  ", not this one (its world.json differs in recipe, seed, size or tile); choose another folder, "
+                                  "or pass " + s.force_name + " to replace it");
+    }
+    if (!same) remove_old_world(dir);
+  }
+
+  // 3. The layers the recipe leaves: from a run on a small window (same names and channels).
+  {
+    RunOptions probe;
+    probe.threads = 1;
+    probe.window = frame.window(0, 0, int(std::min<std::int64_t>(grid.nx, 5)), int(std::min<std::int64_t>(grid.nz, 5)));
+    const RunResult res = run(r, probe);
+    for (auto& [name, l] : res.terrain.layers) rep.layers.emplace_back(name, l.channels);
+  }
+  std::uint64_t channels = 0;
+  for (auto& [name, c] : rep.layers) channels += std::uint64_t(c);
+
+  // 4. Disk: zlib's bound of every tile's raw floats, against the free space (plus tiles there).
+  {
+    std::uint64_t need = 4096;  // world.json, report.json, overview.png beyond their sizes below
+    for (int kx = 0; kx < 2; ++kx)
+      for (int kz = 0; kz < 2; ++kz) {
+        // The four kinds of tile: full, clipped in x, clipped in z, the corner.
+        const std::int64_t cols = kx == 0 ? grid.tiles_x - 1 : 1, rows = kz == 0 ? grid.tiles_z - 1 : 1;
+        const WorldGrid::Window w = grid.window(kx == 0 ? 0 : grid.tiles_x - 1, kz == 0 ? 0 : grid.tiles_z - 1);
+        const std::uint64_t raw = std::uint64_t(w.nx) * std::uint64_t(w.nz) * channels * 4;
+        need += std::uint64_t(cols * rows) * (compressBound(uLong(raw)) + 1024);
+      }
+    need += std::uint64_t(grid.count()) * 64 + std::uint64_t(kWorldOverviewMax) * kWorldOverviewMax * 3;
+    rep.estimated_bytes = need;
+    std::uint64_t present = 0;
+    if (fs::is_directory(dir / "tiles", ec))
+      for (const auto& e : fs::directory_iterator(dir / "tiles", ec))
+        if (e.is_regular_file(ec)) present += e.file_size(ec);
+    std::uint64_t free_bytes = s.disk_free_bytes;
+    if (free_bytes == 0) {
+      const fs::space_info sp = fs::space(existing_ancestor(dir), ec);
+      free_bytes = ec ? UINT64_MAX : sp.available;
+    }
+    if (need > free_bytes + present)
+      throw Error(s.size_path, "a " + std::to_string(grid.nx) + "x" + std::to_string(grid.nz) + " world with " +
+                                   std::to_string(channels) + " float channels needs up to " + human_bytes(need) +
+                                   " on disk, but " + quote(s.out_dir) + " has " + human_bytes(free_bytes) +
+                                   " free; choose a smaller size or free some space");
+  }
+
+  // 5. Memory: the tiles built at once, each a run on the grown tile, plus its encoding.
+  const int threads = s.threads > 0 ? capped_threads(s.threads) : tbb::info::default_concurrency();
+  const int at_once = grid.count() >= 2 * std::int64_t(threads) ? threads : 1;
+  rep.tiles_at_once = at_once;
+  {
+    Recipe grown = r;
+    grown.world.nx = int(std::min<std::int64_t>(grid.nx, grid.tile + 2 * std::int64_t(halo)));
+    grown.world.nz = int(std::min<std::int64_t>(grid.nz, grid.tile + 2 * std::int64_t(halo)));
+    const std::uint64_t raw = std::uint64_t(grid.tile) * std::uint64_t(grid.tile) * channels * 4;
+    const std::uint64_t per_tile = estimate_memory_bytes(grown, false) + 2 * raw + compressBound(uLong(raw));
+    const int step = int((grid.nx - 1 + kWorldOverviewMax - 2) / (kWorldOverviewMax - 1));
+    const std::uint64_t overview = std::uint64_t((grid.nx - 1) / std::max(1, step) + 1) * std::uint64_t((grid.nz - 1) / std::max(1, step) + 1) * 7;
+    rep.tile_memory_bytes = std::uint64_t(at_once) * per_tile + overview + std::uint64_t(grid.count()) * 16;
+    const std::uint64_t budget = s.memory_budget_bytes ? s.memory_budget_bytes : memory_budget_bytes();
+    if (budget && rep.tile_memory_bytes > budget)
+      throw Error(s.tile_path, "tiles of " + std::to_string(grid.tile) + " samples (" + std::to_string(at_once) +
+                                   " at once) need about " + human_bytes(rep.tile_memory_bytes) + ", but the limit here is " +
+                                   human_bytes(budget) + "; choose a smaller tile or fewer threads");
+  }
+
+  // 6. The manifest, before the first tile.
+  const int step = int(std::max<std::int64_t>(1, (std::max(grid.nx, grid.nz) - 1 + kWorldOverviewMax - 2) / (kWorldOverviewMax - 1)));
+  rep.overview_step = step;
+  const int ow = int((grid.nx - 1) / step + 1), oh = int((grid.nz - 1) / step + 1);
+  json manifest = {
+      {"format", "relief-world"},
+      {"version", 1},
+      {"status", "building"},
+      {"world_id", rep.world_id},
+      {"recipe_id", recipe_id},
+      {"seed", rep.seed},
+      {"frame",
+       {{"size", {grid.nx, grid.nz}},
+        {"spacing_m", frame.spacing_m},
+        {"width_m", frame.world_width_m},
+        {"depth_m", frame.world_depth_m},
+        {"height_m", frame.height_m},
+        {"sea_level", frame.sea_level},
+        {"convention", "sample (i, j) at x = i·spacing_m, z = j·spacing_m; corners included; row-major, x fastest"}}},
+      {"grid",
+       {{"tile", grid.tile},
+        {"tiles", {grid.tiles_x, grid.tiles_z}},
+        {"shared_border", 1},
+        {"tile_window", "tile (X, Z) covers samples [X*(tile-1), min(X*(tile-1)+tile, size)) per axis; the last row and "
+                        "column are clipped to the world when size-1 is not a multiple of tile-1"},
+        {"path", "tiles/x{X:04}_z{Z:04}.rtile"}}},
+      {"layers", json::array()},
+      {"tile_format", {{"magic", "RLFTILE1"}, {"version", 1}, {"encoding", "float32le-shuffle-zlib"}, {"checksum", "crc32 trailer"}}},
+      {"halo", halo},
+      {"stages", stages},
+      {"overview", {{"file", "overview.png"}, {"step", step}, {"size", {ow, oh}}}},
+      {"recipe", resolved}};
+  for (auto& [name, c] : rep.layers) manifest["layers"].push_back({{"name", name}, {"channels", c}});
+  fs::create_directories(dir / "tiles", ec);
+  if (ec) throw Error(s.out_path, "cannot create " + quote((dir / "tiles").string()) + ": " + ec.message());
+  remove_dead_temporaries(dir.string());
+  remove_dead_temporaries((dir / "tiles").string());
+  write_or_throw(dir / "world.json", manifest.dump(2) + "\n", s.out_path);
+
+  // 7. The tiles.
+  const std::int64_t total = grid.count();
+  std::vector<std::uint32_t> crcs(std::size_t(total), 0);
+  std::vector<std::uint64_t> sizes(std::size_t(total), 0);
+  std::vector<float> overview(std::size_t(ow) * std::size_t(oh), 0.0f);
+  std::vector<double> stage_ms(r.stages.size(), 0.0);
+  std::vector<bool> fused(r.stages.size(), false);
+  std::mutex m;  // progress, timings, counters
+  std::int64_t done = 0, skipped = 0, built = 0;
+  double built_units = 0;  // tiles' worth of building finished (for the time estimate)
+  double last_fraction = 0;
+  const auto t_tiles = Clock::now();
+  auto report = [&](std::string_view stage_name, int stage, double tile_fraction) {  // under m
+    if (!s.progress) return;
+    WorldProgress p;
+    p.tiles_total = total;
+    p.tiles_done = done;
+    p.tiles_skipped = skipped;
+    p.stage = stage;
+    p.stages = int(r.stages.size());
+    p.stage_name = stage_name;
+    last_fraction = std::max(last_fraction, std::min(1.0, (double(done) + tile_fraction) / double(total)));
+    p.fraction = last_fraction;
+    const double units = built_units + tile_fraction;
+    if (units > 0.05) {
+      const double elapsed = std::chrono::duration<double>(Clock::now() - t_tiles).count();
+      p.seconds_left = elapsed / units * std::max(0.0, double(total - done) - tile_fraction);
+    }
+    s.progress(p);
+  };
+  auto cancelled = [&] { return s.cancelled && s.cancelled(); };
+  auto take_overview = [&](const WorldTile& t) {
+    auto it = t.layers.find("height");
+    if (it == t.layers.end()) return;
+    const WorldGrid::Window& w = t.window;
+    const bool last_x = w.ix0 + w.nx == grid.nx, last_z = w.iz0 + w.nz == grid.nz;
+    // Each tile writes the samples it owns (its shared last row and column belong to the next tile).
+    for (int j = 0; j < w.nz - (last_z ? 0 : 1); ++j) {
+      const std::int64_t iz = w.iz0 + j;
+      if (iz % step) continue;
+      for (int i = 0; i < w.nx - (last_x ? 0 : 1); ++i) {
+        const std::int64_t ix = w.ix0 + i;
+        if (ix % step) continue;
+        overview[std::size_t(iz / step) * std::size_t(ow) + std::size_t(ix / step)] =
+            it->second.data[std::size_t(j) * std::size_t(w.nx) * std::size_t(it->second.channels) + std::size_t(i) * std::size_t(it->second.channels)];
+      }
+    }
+  };
+  const int run_threads = at_once > 1 ? 1 : threads;
+  auto do_tile = [&](std::int64_t k) {
+    if (cancelled()) throw Cancelled();
+    const std::int64_t X = k % grid.tiles_x, Z = k / grid.tiles_x;
+    const WorldGrid::Window w = grid.window(X, Z);
+    const fs::path path = dir / world_tile_path(X, Z);
+    // A finished tile of this world: verified and skipped.
+    if (have_old && fs::exists(path, ec)) {
+      bool ok = false;
+      const std::string bytes = detail::read_file_bytes(path.string(), ok);
+      if (ok) {
+        try {
+          const WorldTile t = decode_world_tile(bytes, path.string());
+          if (t.world_id == rep.world_id && t.X == X && t.Z == Z && t.window.ix0 == w.ix0 && t.window.iz0 == w.iz0 &&
+              t.window.nx == w.nx && t.window.nz == w.nz) {
+            take_overview(t);
+            crcs[std::size_t(k)] = detail::crc32_of(bytes);
+            sizes[std::size_t(k)] = bytes.size();
+            std::lock_guard<std::mutex> lock(m);
+            ++done;
+            ++skipped;
+            report("", 0, 0.0);
+            return;
+          }
+        } catch (const Error&) {
+          // damaged or foreign: rebuilt below
+        }
+      }
+    }
+    RunOptions opt;
+    opt.threads = run_threads;
+    opt.window = frame.window(w.ix0, w.iz0, w.nx, w.nz);
+    opt.cancelled = s.cancelled;
+    opt.progress = [&](std::string_view name, double f) {
+      std::lock_guard<std::mutex> lock(m);
+      const int stage = std::min(int(r.stages.size()) - 1, int(f * double(r.stages.size())));
+      report(name == "done" ? std::string_view() : name, std::max(0, stage), at_once > 1 ? 0.0 : f);
+    };
+    RunResult res = run(r, opt);
+    WorldTile t;
+    t.X = X;
+    t.Z = Z;
+    t.world_id = rep.world_id;
+    t.window = w;
+    t.layers = std::move(res.terrain.layers);
+    res.terrain = Terrain();
+    const std::string bytes = detail::encode_tile(t);
+    write_or_throw(path, bytes, s.out_path);
+    take_overview(t);
+    crcs[std::size_t(k)] = detail::crc32_of(bytes);
+    sizes[std::size_t(k)] = bytes.size();
+    {
+      std::lock_guard<std::mutex> lock(m);
+      for (std::size_t i = 0; i < res.timings.size() && i < stage_ms.size(); ++i) {
+        stage_ms[i] += res.timings[i].ms;
+        fused[i] = fused[i] || res.timings[i].fused;
+      }
+      ++done;
+      ++built;
+      built_units += 1.0;
+      report("", 0, 0.0);
+    }
+    if (s.after_tile) s.after_tile(X, Z);
+  };
+  if (at_once > 1) {
+    tbb::task_arena arena(at_once);
+    arena.execute([&] {
+      tbb::parallel_for(std::int64_t(0), total, [&](std::int64_t k) { do_tile(k); }, tbb::simple_partitioner());
+    });
+  } else {
+    for (std::int64_t k = 0; k < total; ++k) do_tile(k);
+  }
+  rep.tiles_built = built;
+  rep.tiles_skipped = skipped;
+  for (std::size_t i = 0; i < r.stages.size(); ++i)
+    rep.timings.push_back({r.stages[i].def->name, r.stages[i].label, stage_ms[i], fused[i]});
+  for (std::uint64_t b : sizes) rep.store_bytes += b;
+
+  // 8. Overview, report, then the manifest marks the build complete.
+  write_or_throw(dir / "overview.png", overview_png(overview, ow, oh, frame.spacing_m * step, frame.height_m, frame.sea_level),
+                 s.out_path);
+  rep.peak_memory_bytes = peak_rss_bytes();
+  rep.total_ms = ms_since(t_start);
+  json st = json::array();
+  for (auto& t : rep.timings) {
+    json e = {{"stage", t.name}, {"label", t.label}, {"ms", t.ms}};
+    if (t.fused) e["fused"] = true;
+    st.push_back(e);
+  }
+  const json report_doc = {
+      {"world_id", rep.world_id},
+      {"seed", rep.seed},
+      {"size", {grid.nx, grid.nz}},
+      {"tile", grid.tile},
+      {"tiles", {{"total", total}, {"built", built}, {"skipped", skipped}, {"at_once", at_once}}},
+      {"performance",
+       {{"threads", threads},
+        {"stages", st},
+        {"total_ms", rep.total_ms},
+        {"peak_memory_bytes", rep.peak_memory_bytes},
+        {"estimated_memory_bytes", rep.tile_memory_bytes}}},
+      {"store_bytes", rep.store_bytes},
+      {"estimated_store_bytes", rep.estimated_bytes}};
+  write_or_throw(dir / "report.json", report_doc.dump(2) + "\n", s.out_path);
+  json tiles = json::array();
+  for (std::int64_t k = 0; k < total; ++k) {
+    const std::int64_t X = k % grid.tiles_x, Z = k / grid.tiles_x;
+    const WorldGrid::Window w = grid.window(X, Z);
+    tiles.push_back({{"tile", {X, Z}},
+                     {"window", {w.ix0, w.iz0, w.nx, w.nz}},
+                     {"crc32", detail::hex32(crcs[std::size_t(k)])},
+                     {"bytes", sizes[std::size_t(k)]}});
+  }
+  manifest["status"] = "complete";
+  manifest["tiles"] = std::move(tiles);
+  write_or_throw(dir / "world.json", manifest.dump(1) + "\n", s.out_path);
+  return rep;
+}
+
+}  // namespace relief

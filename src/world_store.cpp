@@ -1,0 +1,297 @@
+// The world tile store (relief/world.hpp): the tile grid, the tile file format (float32,
+// byte-shuffled, zlib, CRC-32 trailer), the manifest reader, verification and window reads.
+#include <zlib.h>
+
+#include <algorithm>
+#include <bit>
+#include <cstdio>
+#include <cstring>
+#include <filesystem>
+#include <fstream>
+#include <sstream>
+
+#include "relief/error.hpp"
+#include "relief/world.hpp"
+#include "world_internal.hpp"
+
+namespace relief {
+
+static_assert(std::endian::native == std::endian::little, "the tile store writes the host's floats as little-endian");
+
+namespace {
+constexpr char kMagic[8] = {'R', 'L', 'F', 'T', 'I', 'L', 'E', '1'};
+
+std::uint32_t get_u32(const unsigned char* p) {
+  return std::uint32_t(p[0]) | std::uint32_t(p[1]) << 8 | std::uint32_t(p[2]) << 16 | std::uint32_t(p[3]) << 24;
+}
+void put_u32(std::string& s, std::uint32_t v) {
+  for (int k = 0; k < 4; ++k) s.push_back(char((v >> (8 * k)) & 0xFF));
+}
+}  // namespace
+
+namespace detail {
+
+std::uint32_t crc32_of(std::string_view bytes) {
+  return std::uint32_t(::crc32_z(0L, reinterpret_cast<const Bytef*>(bytes.data()), bytes.size()));
+}
+
+std::string hex32(std::uint32_t v) {
+  char b[9];
+  std::snprintf(b, sizeof b, "%08x", v);
+  return b;
+}
+
+std::string hash_hex(std::string_view text) {
+  std::uint64_t h = 0xcbf29ce484222325ull;  // FNV-1a, 64-bit
+  for (unsigned char c : text) h = (h ^ c) * 0x100000001b3ull;
+  char b[17];
+  std::snprintf(b, sizeof b, "%016llx", (unsigned long long)h);
+  return b;
+}
+
+std::string read_file_bytes(const std::string& path, bool& ok) {
+  std::ifstream f(path, std::ios::binary);
+  ok = bool(f);
+  if (!ok) return {};
+  std::stringstream s;
+  s << f.rdbuf();
+  return s.str();
+}
+
+std::string encode_tile(const WorldTile& t) {
+  json layers = json::array();
+  std::size_t raw = 0;
+  const std::size_t n = std::size_t(t.window.nx) * std::size_t(t.window.nz);
+  for (auto& [name, l] : t.layers) {
+    if (l.data.size() != n * std::size_t(l.channels))
+      throw Error("tile", "layer '" + name + "' has " + std::to_string(l.data.size()) + " values, expected " +
+                              std::to_string(n * std::size_t(l.channels)));
+    layers.push_back({{"name", name}, {"channels", l.channels}});
+    raw += l.data.size() * 4;
+  }
+  // Byte-shuffled floats, layer after layer.
+  std::string shuffled(raw, '\0');
+  std::size_t at = 0;
+  for (auto& [name, l] : t.layers) {
+    const std::size_t m = l.data.size();
+    const unsigned char* src = reinterpret_cast<const unsigned char*>(l.data.data());
+    for (std::size_t b = 0; b < 4; ++b) {
+      char* dst = shuffled.data() + at + b * m;
+      for (std::size_t k = 0; k < m; ++k) dst[k] = char(src[4 * k + b]);
+    }
+    at += 4 * m;
+  }
+  uLongf zlen = compressBound(uLong(raw));
+  std::string z(zlen, '\0');
+  if (compress2(reinterpret_cast<Bytef*>(z.data()), &zlen, reinterpret_cast<const Bytef*>(shuffled.data()), uLong(raw), 1) != Z_OK)
+    throw Error("output", "zlib could not compress a tile");
+  z.resize(zlen);
+  shuffled = std::string();
+  const json header = {{"format", 1},
+                       {"world_id", t.world_id},
+                       {"tile", {t.X, t.Z}},
+                       {"window", {t.window.ix0, t.window.iz0, t.window.nx, t.window.nz}},
+                       {"layers", layers},
+                       {"encoding", "float32le-shuffle-zlib"},
+                       {"raw_bytes", raw},
+                       {"zlib_bytes", z.size()}};
+  const std::string h = header.dump();
+  std::string out;
+  out.reserve(8 + 4 + h.size() + z.size() + 4);
+  out.append(kMagic, 8);
+  put_u32(out, std::uint32_t(h.size()));
+  out += h;
+  out += z;
+  put_u32(out, crc32_of(out));
+  return out;
+}
+
+}  // namespace detail
+
+WorldGrid::Window WorldGrid::window(std::int64_t X, std::int64_t Z) const {
+  Window w;
+  w.ix0 = X * (tile - 1);
+  w.iz0 = Z * (tile - 1);
+  w.nx = int(std::min<std::int64_t>(tile, nx - w.ix0));
+  w.nz = int(std::min<std::int64_t>(tile, nz - w.iz0));
+  return w;
+}
+
+WorldGrid world_grid(std::int64_t nx, std::int64_t nz, std::int64_t tile, const std::string& size_path,
+                     const std::string& tile_path) {
+  if (nx < kMinSize || nz < kMinSize || nx > kMaxWorldSize || nz > kMaxWorldSize)
+    throw Error(size_path, "expected " + std::to_string(kMinSize) + ".." + std::to_string(kMaxWorldSize) +
+                               " samples per axis, got " + std::to_string(nx) + "x" + std::to_string(nz));
+  const bool pow2_plus_1 = tile >= 3 && ((tile - 1) & (tile - 2)) == 0;
+  if (!pow2_plus_1 || tile > kMaxWorldTile)
+    throw Error(tile_path, "expected a tile size of 2^n+1 samples in 3.." + std::to_string(kMaxWorldTile) +
+                               " (e.g. 257, 513, 1025), got " + std::to_string(tile));
+  if (tile > std::max(nx, nz))
+    throw Error(tile_path, "the tile (" + std::to_string(tile) + " samples) is larger than the world (" + std::to_string(nx) +
+                               "x" + std::to_string(nz) + "); choose a tile of at most " + std::to_string(std::max(nx, nz)) +
+                               " samples, or `relief generate` for one map");
+  WorldGrid g;
+  g.nx = nx;
+  g.nz = nz;
+  g.tile = int(tile);
+  g.tiles_x = (nx - 1 + tile - 2) / (tile - 1);
+  g.tiles_z = (nz - 1 + tile - 2) / (tile - 1);
+  if (g.tiles_x * g.tiles_z > kMaxWorldTiles)
+    throw Error(tile_path, "a tile of " + std::to_string(tile) + " samples makes " + std::to_string(g.tiles_x) + "x" +
+                               std::to_string(g.tiles_z) + " tiles, more than the " + std::to_string(kMaxWorldTiles) +
+                               " a world may have; choose a larger tile");
+  return g;
+}
+
+std::string world_tile_path(std::int64_t X, std::int64_t Z) {
+  char b[64];
+  std::snprintf(b, sizeof b, "tiles/x%04lld_z%04lld.rtile", (long long)X, (long long)Z);
+  return b;
+}
+
+WorldTile decode_world_tile(std::string_view bytes, const std::string& origin) {
+  auto bad = [&](const std::string& why) { return Error("tile", origin + ": " + why); };
+  if (bytes.size() < 16 || std::memcmp(bytes.data(), kMagic, 8) != 0) throw bad("not a Relief tile file (bad magic)");
+  const auto* u = reinterpret_cast<const unsigned char*>(bytes.data());
+  const std::uint32_t stored = get_u32(u + bytes.size() - 4);
+  if (detail::crc32_of(bytes.substr(0, bytes.size() - 4)) != stored) throw bad("CRC-32 mismatch (the file is damaged or incomplete)");
+  const std::uint32_t hlen = get_u32(u + 8);
+  if (std::uint64_t(hlen) + 16 > bytes.size()) throw bad("header length beyond the file");
+  const json h = json::parse(bytes.substr(12, hlen), nullptr, false);
+  if (!h.is_object() || h.value("format", 0) != 1 || !h.contains("window") || !h.contains("layers") || !h.contains("tile"))
+    throw bad("header is not a version-1 tile header");
+  WorldTile t;
+  try {
+    t.world_id = h.at("world_id").get<std::string>();
+    t.X = h.at("tile").at(0).get<std::int64_t>();
+    t.Z = h.at("tile").at(1).get<std::int64_t>();
+    const json& w = h.at("window");
+    t.window.ix0 = w.at(0).get<std::int64_t>();
+    t.window.iz0 = w.at(1).get<std::int64_t>();
+    t.window.nx = w.at(2).get<int>();
+    t.window.nz = w.at(3).get<int>();
+    if (t.window.nx < 1 || t.window.nz < 1 || t.window.nx > kMaxWorldTile || t.window.nz > kMaxWorldTile)
+      throw bad("window size out of range");
+    const std::size_t n = std::size_t(t.window.nx) * std::size_t(t.window.nz);
+    std::size_t raw = 0;
+    for (const json& l : h.at("layers")) {
+      const int c = l.at("channels").get<int>();
+      if (c < 1 || c > 16) throw bad("layer channel count out of range");
+      raw += n * std::size_t(c) * 4;
+    }
+    if (h.at("raw_bytes").get<std::uint64_t>() != raw) throw bad("raw_bytes does not match the layers");
+    const std::uint64_t zlen = h.at("zlib_bytes").get<std::uint64_t>();
+    if (12 + std::uint64_t(hlen) + zlen + 4 != bytes.size()) throw bad("zlib_bytes does not match the file size");
+    std::string shuffled(raw, '\0');
+    uLongf out_len = uLongf(raw);
+    if (uncompress(reinterpret_cast<Bytef*>(shuffled.data()), &out_len, u + 12 + hlen, uLong(zlen)) != Z_OK || out_len != raw)
+      throw bad("zlib stream does not decode to raw_bytes");
+    std::size_t at = 0;
+    for (const json& l : h.at("layers")) {
+      Layer layer;
+      layer.channels = l.at("channels").get<int>();
+      const std::size_t m = n * std::size_t(layer.channels);
+      layer.data.resize(m);
+      auto* dst = reinterpret_cast<unsigned char*>(layer.data.data());
+      for (std::size_t b = 0; b < 4; ++b) {
+        const char* src = shuffled.data() + at + b * m;
+        for (std::size_t k = 0; k < m; ++k) dst[4 * k + b] = static_cast<unsigned char>(src[k]);
+      }
+      at += 4 * m;
+      t.layers[l.at("name").get<std::string>()] = std::move(layer);
+    }
+  } catch (const json::exception& e) {
+    throw bad(std::string("malformed header: ") + e.what());
+  }
+  return t;
+}
+
+WorldTile read_world_tile(const std::string& dir, std::int64_t X, std::int64_t Z) {
+  const std::string path = (std::filesystem::path(dir) / world_tile_path(X, Z)).string();
+  bool ok = false;
+  const std::string bytes = detail::read_file_bytes(path, ok);
+  if (!ok) throw Error("tile", "cannot read '" + path + "'");
+  return decode_world_tile(bytes, path);
+}
+
+json read_world_manifest(const std::string& dir) {
+  const std::string path = (std::filesystem::path(dir) / "world.json").string();
+  bool ok = false;
+  const std::string text = detail::read_file_bytes(path, ok);
+  if (!ok) throw Error("output", "no world manifest '" + path + "'");
+  json m = json::parse(text, nullptr, false);
+  if (!m.is_object() || m.value("format", "") != "relief-world" || !m.contains("world_id"))
+    throw Error("output", "'" + path + "' is not a Relief world manifest");
+  return m;
+}
+
+std::vector<std::string> verify_world(const std::string& dir) {
+  const json m = read_world_manifest(dir);
+  std::vector<std::string> bad;
+  if (m.value("status", "") != "complete" || !m.contains("tiles")) {
+    bad.push_back("world.json (the build is not complete)");
+    return bad;
+  }
+  for (const json& t : m.at("tiles")) {
+    const std::string rel = world_tile_path(t.at("tile").at(0).get<std::int64_t>(), t.at("tile").at(1).get<std::int64_t>());
+    bool ok = false;
+    const std::string bytes = detail::read_file_bytes((std::filesystem::path(dir) / rel).string(), ok);
+    if (!ok || bytes.size() != t.at("bytes").get<std::uint64_t>() || detail::hex32(detail::crc32_of(bytes)) != t.at("crc32"))
+      bad.push_back(rel);
+  }
+  return bad;
+}
+
+Terrain read_world_window(const std::string& dir, std::int64_t ix0, std::int64_t iz0, int nx, int nz) {
+  const json m = read_world_manifest(dir);
+  const json& fr = m.at("frame");
+  const WorldGrid g = world_grid(fr.at("size").at(0).get<std::int64_t>(), fr.at("size").at(1).get<std::int64_t>(),
+                                 m.at("grid").at("tile").get<int>());
+  if (nx < 1 || nz < 1 || ix0 < 0 || iz0 < 0 || ix0 + nx > g.nx || iz0 + nz > g.nz)
+    throw Error("window", "expected a window inside the " + std::to_string(g.nx) + "x" + std::to_string(g.nz) + " world, got [" +
+                              std::to_string(ix0) + ", " + std::to_string(iz0) + "] + " + std::to_string(nx) + "x" + std::to_string(nz));
+  Terrain t;
+  Frame f;
+  f.world_width_m = fr.at("width_m").get<double>();
+  f.world_depth_m = fr.at("depth_m").get<double>();
+  f.spacing_m = fr.at("spacing_m").get<double>();
+  f.height_m = fr.at("height_m").get<double>();
+  f.sea_level = fr.at("sea_level").get<double>();
+  t.frame = f.window(ix0, iz0, nx, nz);
+  for (const json& l : m.at("layers")) t.layer(l.at("name").get<std::string>(), l.at("channels").get<int>());
+  const std::int64_t step = g.tile - 1;
+  const std::int64_t X0 = std::min(ix0 / step, g.tiles_x - 1), X1 = std::min((ix0 + nx - 1) / step, g.tiles_x - 1);
+  const std::int64_t Z0 = std::min(iz0 / step, g.tiles_z - 1), Z1 = std::min((iz0 + nz - 1) / step, g.tiles_z - 1);
+  for (std::int64_t Z = Z0; Z <= Z1; ++Z)
+    for (std::int64_t X = X0; X <= X1; ++X) {
+      const WorldTile tile = read_world_tile(dir, X, Z);
+      const WorldGrid::Window w = g.window(X, Z);
+      if (tile.world_id != m.at("world_id") || tile.window.ix0 != w.ix0 || tile.window.iz0 != w.iz0 || tile.window.nx != w.nx ||
+          tile.window.nz != w.nz)
+        throw Error("tile", world_tile_path(X, Z) + " is not the manifest's tile");
+      // The overlap of this tile with the window.
+      const std::int64_t a0 = std::max(ix0, w.ix0), a1 = std::min(ix0 + nx, w.ix0 + w.nx);
+      const std::int64_t b0 = std::max(iz0, w.iz0), b1 = std::min(iz0 + nz, w.iz0 + w.nz);
+      for (auto& [name, dst] : t.layers) {
+        auto it = tile.layers.find(name);
+        if (it == tile.layers.end() || it->second.channels != dst.channels)
+          throw Error("tile", world_tile_path(X, Z) + " lacks layer '" + name + "'");
+        const std::size_t c = std::size_t(dst.channels);
+        for (std::int64_t z = b0; z < b1; ++z) {
+          const float* src = it->second.data.data() + (std::size_t(z - w.iz0) * std::size_t(w.nx) + std::size_t(a0 - w.ix0)) * c;
+          float* out = dst.data.data() + (std::size_t(z - iz0) * std::size_t(nx) + std::size_t(a0 - ix0)) * c;
+          std::copy(src, src + std::size_t(a1 - a0) * c, out);
+        }
+      }
+    }
+  return t;
+}
+
+Frame world_frame(const Recipe& r, std::int64_t nx, std::int64_t nz) {
+  World w = r.world;
+  w.nx = int(nx);
+  w.nz = int(nz);
+  return w.frame();
+}
+
+}  // namespace relief

@@ -1,0 +1,473 @@
+// World builds (relief/world.hpp, issue 18 phase 1): tiles of pointwise and neighbourhood stages
+// equal the whole-map run byte for byte; the tile store round-trips; resuming (after a cancel or a
+// SIGKILL of the CLI) gives the bytes of an uninterrupted build; bad input is refused up front.
+#include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
+
+#include <chrono>
+#include <cstring>
+#include <filesystem>
+#include <limits>
+#include <map>
+#include <set>
+#include <thread>
+
+#include "relief/error.hpp"
+#include "relief/pipeline.hpp"
+#include "relief/world.hpp"
+#include "support.hpp"
+#include "world_internal.hpp"
+
+using namespace relief;
+using relief::test::TempDir;
+namespace fs = std::filesystem;
+
+namespace {
+
+Recipe recipe_of(json doc, std::uint64_t seed = 11) {
+  doc["seed"] = seed;
+  return parse_recipe(doc);
+}
+
+json preset_doc(const std::string& name) { return load_preset(name); }
+
+// noise → thermal (halo 2·ceil(distance/cell)) → slope-dependent colour → hillshade: the widest
+// halos of the local stages.
+json thermal_doc() {
+  json doc = load_preset("island");
+  json stages = json::array();
+  stages.push_back(doc["stages"][0]);
+  stages.push_back(doc["stages"][1]);
+  stages.push_back({{"stage", "thermal"}, {"distance_m", 40.0}});
+  stages.push_back({{"stage", "slope"}});
+  stages.push_back(doc["stages"][3]);
+  stages.push_back(doc["stages"][4]);
+  doc["stages"] = stages;
+  return doc;
+}
+
+WorldSettings settings(const Recipe& r, std::int64_t nx, std::int64_t nz, int tile, const std::string& dir, int threads = 2) {
+  WorldSettings s;
+  s.recipe = r;
+  s.nx = nx;
+  s.nz = nz;
+  s.tile = tile;
+  s.out_dir = dir;
+  s.threads = threads;
+  return s;
+}
+
+// The whole-map run of `r` at nx × nz.
+Terrain whole_map(Recipe r, int nx, int nz) {
+  r.world.nx = nx;
+  r.world.nz = nz;
+  RunOptions opt;
+  opt.threads = 2;
+  return run(r, opt).terrain;
+}
+
+void expect_same_layers(const Terrain& whole, const Terrain& world) {
+  ASSERT_EQ(whole.layers.size(), world.layers.size());
+  for (auto& [name, a] : whole.layers) {
+    ASSERT_TRUE(world.has(name)) << name;
+    const Layer& b = world.layers.at(name);
+    ASSERT_EQ(a.channels, b.channels) << name;
+    ASSERT_EQ(a.data.size(), b.data.size()) << name;
+    std::size_t first = a.data.size();
+    for (std::size_t k = 0; k < a.data.size() && first == a.data.size(); ++k)
+      if (std::memcmp(&a.data[k], &b.data[k], 4) != 0) first = k;
+    EXPECT_EQ(first, a.data.size()) << "layer " << name << " differs first at value " << first;
+  }
+}
+
+// Every regular file under `dir` (relative path → bytes), leaving out report.json (times).
+std::map<std::string, std::string> store_files(const fs::path& dir) {
+  std::map<std::string, std::string> files;
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    if (e.is_regular_file()) {
+      const std::string rel = fs::relative(e.path(), dir).string();
+      if (rel != "report.json") files[rel] = relief::test::slurp(e.path());
+    }
+  return files;
+}
+
+void expect_same_store(const fs::path& a, const fs::path& b) {
+  const auto fa = store_files(a), fb = store_files(b);
+  ASSERT_EQ(fa.size(), fb.size());
+  for (auto& [name, bytes] : fa) {
+    ASSERT_TRUE(fb.count(name)) << name;
+    EXPECT_TRUE(bytes == fb.at(name)) << name << " differs";
+  }
+}
+
+std::size_t count_tiles(const fs::path& dir) {
+  std::error_code ec;
+  std::size_t n = 0;
+  for (const auto& e : fs::directory_iterator(dir / "tiles", ec))
+    if (e.path().extension() == ".rtile") ++n;
+  return n;
+}
+
+}  // namespace
+
+// ---- the grid --------------------------------------------------------------------------------
+
+TEST(WorldGrid, TilesShareBordersAndTheLastOnesAreClipped) {
+  const WorldGrid g = world_grid(257, 257, 33);
+  EXPECT_EQ(g.tiles_x, 8);
+  EXPECT_EQ(g.tiles_z, 8);
+  EXPECT_EQ(g.window(1, 0).ix0, 32);
+  EXPECT_EQ(g.window(7, 7).ix0 + g.window(7, 7).nx, 257);
+  const WorldGrid c = world_grid(300, 200, 65);
+  EXPECT_EQ(c.tiles_x, 5);  // 299 = 4·64 + 43
+  EXPECT_EQ(c.tiles_z, 4);  // 199 = 3·64 + 7
+  EXPECT_EQ(c.window(4, 0).ix0, 256);
+  EXPECT_EQ(c.window(4, 0).nx, 44);
+  EXPECT_EQ(c.window(0, 3).nz, 8);
+  EXPECT_EQ(c.window(3, 2).nx, 65);
+  // A tile longer than one axis but not the other: one clipped tile along that axis.
+  const WorldGrid n = world_grid(513, 100, 129);
+  EXPECT_EQ(n.tiles_z, 1);
+  EXPECT_EQ(n.window(0, 0).nz, 100);
+  EXPECT_EQ(world_tile_path(3, 12), "tiles/x0003_z0012.rtile");
+}
+
+TEST(WorldGrid, BadTilesAndSizesNameTheField) {
+  for (int t : {0, 1, 2, 64, 100, 16385}) {
+    try {
+      world_grid(1025, 1025, t, "--size", "--tile");
+      ADD_FAILURE() << "tile " << t << " accepted";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.path(), "--tile") << t;
+    }
+  }
+  try {
+    world_grid(257, 129, 513, "--size", "--tile");
+    ADD_FAILURE() << "tile larger than the world accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.path(), "--tile");
+    EXPECT_NE(e.message().find("larger than the world"), std::string::npos) << e.what();
+  }
+  EXPECT_THROW(world_grid(1, 257, 33), Error);
+  EXPECT_THROW(world_grid(kMaxWorldSize + 1, 257, 33), Error);
+  EXPECT_THROW(world_grid(kMaxWorldSize, kMaxWorldSize, 33), Error);  // 32768² tiles: too many
+}
+
+// ---- exactness ---------------------------------------------------------------------------------
+
+TEST(WorldExact, IslandTilesEqualTheWholeMapAtSeveralTileSizes) {
+  const Recipe r = recipe_of(preset_doc("island"));
+  const Terrain whole = whole_map(r, 257, 257);
+  for (int tile : {33, 65, 129, 257}) {
+    SCOPED_TRACE("tile " + std::to_string(tile));
+    TempDir d("world-exact");
+    const WorldReport rep = build_world(settings(r, 257, 257, tile, d / "w"));
+    EXPECT_EQ(rep.tiles_built, rep.grid.count());
+    const Terrain world = read_world_window(d / "w", 0, 0, 257, 257);
+    expect_same_layers(whole, world);
+    EXPECT_TRUE(verify_world(d / "w").empty());
+  }
+}
+
+TEST(WorldExact, ClippedEdgeTilesOfANonSquareWorldEqualTheWholeMap) {
+  // 300 × 200: neither side is a multiple of the tile; the last column and row are clipped.
+  const Recipe r = recipe_of(preset_doc("desert"), 5);
+  const Terrain whole = whole_map(r, 300, 200);
+  TempDir d("world-clip");
+  build_world(settings(r, 300, 200, 65, d / "w"));
+  expect_same_layers(whole, read_world_window(d / "w", 0, 0, 300, 200));
+  // A window across tile borders reads the same samples.
+  const Terrain part = read_world_window(d / "w", 50, 60, 100, 90);
+  const Layer& h = part.get("height");
+  for (int j = 0; j < 90; ++j)
+    for (int i = 0; i < 100; ++i)
+      ASSERT_EQ(std::memcmp(&h.data[std::size_t(j) * 100 + i], &whole.get("height").data[std::size_t(60 + j) * 300 + 50 + i], 4), 0);
+}
+
+TEST(WorldExact, WideHalosOfThermalSlopeAndColourAreExact) {
+  const Recipe r = recipe_of(thermal_doc(), 3);
+  const Terrain whole = whole_map(r, 257, 257);
+  for (int tile : {33, 129}) {
+    SCOPED_TRACE("tile " + std::to_string(tile));
+    TempDir d("world-thermal");
+    const WorldReport rep = build_world(settings(r, 257, 257, tile, d / "w"));
+    expect_same_layers(whole, read_world_window(d / "w", 0, 0, 257, 257));
+    const json m = read_world_manifest(d / "w");
+    EXPECT_GT(m["halo"].get<int>(), 4);  // thermal's halo is in
+    for (const json& st : m["stages"]) EXPECT_EQ(st["world"], "exact");
+    EXPECT_EQ(m["stages"][2]["locality"], "neighbourhood");
+  }
+}
+
+TEST(WorldExact, BytesDoNotDependOnTheThreadCount) {
+  const Recipe r = recipe_of(preset_doc("island"));
+  TempDir a("world-t1"), b("world-t2");
+  const WorldReport ra = build_world(settings(r, 257, 257, 33, a / "w", 1));
+  const WorldReport rb = build_world(settings(r, 257, 257, 33, b / "w", 2));
+  EXPECT_EQ(ra.tiles_at_once, 1);
+  EXPECT_EQ(rb.tiles_at_once, 2);  // tile-parallel
+  expect_same_store(a.path / "w", b.path / "w");
+}
+
+// ---- the store -----------------------------------------------------------------------------------
+
+TEST(WorldStore, ManifestDescribesTheWorldAndTheTilesVerify) {
+  const Recipe r = recipe_of(preset_doc("island"));
+  TempDir d("world-store");
+  const WorldReport rep = build_world(settings(r, 257, 129, 65, d / "w"));
+  const json m = read_world_manifest(d / "w");
+  EXPECT_EQ(m["status"], "complete");
+  EXPECT_EQ(m["frame"]["size"], json::array({257, 129}));
+  EXPECT_EQ(m["grid"]["tiles"], json::array({4, 2}));
+  EXPECT_EQ(m["tiles"].size(), 8u);
+  EXPECT_EQ(m["world_id"], rep.world_id);
+  EXPECT_EQ(m["seed"], 11);
+  EXPECT_EQ(m["recipe"]["world"]["size"], json::array({257, 129}));
+  std::set<std::string> layers;
+  for (const json& l : m["layers"]) layers.insert(l["name"].get<std::string>());
+  EXPECT_EQ(layers, (std::set<std::string>{"albedo", "color", "height", "shade"}));  // colour and hillshade's layers
+  const json report = json::parse(relief::test::slurp(d.path / "w" / "report.json"));
+  EXPECT_EQ(report["tiles"]["built"], 8);
+  EXPECT_EQ(report["performance"]["stages"].size(), r.stages.size());
+  // overview.png: a PNG of the world's size (under 2048 px, so one pixel per sample).
+  const auto png = relief::test::decode_png(relief::test::slurp(d.path / "w" / "overview.png"));
+  EXPECT_EQ(png.width(), 257);
+  EXPECT_EQ(png.height(), 129);
+  EXPECT_TRUE(verify_world(d / "w").empty());
+  // One flipped byte in a tile: the verification names it, decoding refuses it.
+  const fs::path t = d.path / "w" / world_tile_path(2, 1);
+  std::string bytes = relief::test::slurp(t);
+  bytes[bytes.size() / 2] ^= 0x01;
+  relief::test::write_text(t, bytes);
+  const auto bad = verify_world(d / "w");
+  ASSERT_EQ(bad.size(), 1u);
+  EXPECT_EQ(bad[0], world_tile_path(2, 1));
+  EXPECT_THROW(decode_world_tile(bytes), Error);
+  // A rerun rebuilds the damaged tile (and only it) and the store verifies again.
+  const WorldReport again = build_world(settings(r, 257, 129, 65, d / "w"));
+  EXPECT_EQ(again.tiles_built, 1);
+  EXPECT_EQ(again.tiles_skipped, 7);
+  EXPECT_TRUE(verify_world(d / "w").empty());
+}
+
+TEST(WorldStore, TileFilesRoundTrip) {
+  WorldTile t;
+  t.X = 2;
+  t.Z = 5;
+  t.world_id = "0123456789abcdef";
+  t.window = {64, 160, 33, 17};
+  Layer h;
+  h.data.resize(33 * 17);
+  for (std::size_t k = 0; k < h.data.size(); ++k) h.data[k] = float(k) * 0.001f - 0.2f;
+  h.data[7] = -0.0f;
+  h.data[8] = std::numeric_limits<float>::quiet_NaN();
+  h.data[9] = std::numeric_limits<float>::infinity();
+  Layer c;
+  c.channels = 3;
+  c.data.resize(33 * 17 * 3, 0.25f);
+  t.layers["height"] = h;
+  t.layers["color"] = c;
+  const std::string bytes = detail::encode_tile(t);
+  EXPECT_EQ(bytes.substr(0, 8), "RLFTILE1");
+  const WorldTile u = decode_world_tile(bytes);
+  EXPECT_EQ(u.X, 2);
+  EXPECT_EQ(u.Z, 5);
+  EXPECT_EQ(u.world_id, t.world_id);
+  EXPECT_EQ(u.window.ix0, 64);
+  EXPECT_EQ(u.window.nz, 17);
+  ASSERT_EQ(u.layers.size(), 2u);
+  EXPECT_TRUE(relief::test::same_bits(u.layers.at("height").data, h.data));  // -0, NaN, inf kept
+  EXPECT_EQ(u.layers.at("color").channels, 3);
+  EXPECT_TRUE(relief::test::same_bits(u.layers.at("color").data, c.data));
+  EXPECT_EQ(detail::encode_tile(u), bytes);  // deterministic
+  // Round trip through a real build's file: decode what the builder wrote and compare with run().
+  const Recipe r = recipe_of(preset_doc("hills"));
+  TempDir w("world-rt2");
+  build_world(settings(r, 65, 65, 33, w / "w"));
+  const WorldTile back = read_world_tile(w / "w", 1, 0);
+  EXPECT_EQ(back.X, 1);
+  EXPECT_EQ(back.window.ix0, 32);
+  EXPECT_EQ(back.window.nx, 33);
+  Recipe rr = r;
+  rr.world.nx = rr.world.nz = 65;
+  RunOptions opt;
+  opt.window = rr.world.frame().window(32, 0, 33, 33);
+  const Terrain direct = run(rr, opt).terrain;
+  for (auto& [name, l] : direct.layers) {
+    ASSERT_TRUE(back.layers.count(name)) << name;
+    EXPECT_TRUE(relief::test::same_bits(l.data, back.layers.at(name).data)) << name;
+  }
+  // Truncated and empty files are refused, naming the file.
+  const std::string full = relief::test::slurp(w.path / "w" / world_tile_path(1, 0));
+  EXPECT_THROW(decode_world_tile(full.substr(0, full.size() - 9), "x"), Error);
+  EXPECT_THROW(decode_world_tile("", "x"), Error);
+}
+
+// ---- resuming -----------------------------------------------------------------------------------
+
+TEST(WorldResume, CancelledBuildResumesToTheSameBytes) {
+  const Recipe r = recipe_of(preset_doc("island"));
+  TempDir ref("world-ref"), part("world-part");
+  build_world(settings(r, 257, 257, 33, ref / "w"));
+  WorldSettings s = settings(r, 257, 257, 33, part / "w", 1);
+  int n = 0;
+  s.after_tile = [&](std::int64_t, std::int64_t) {
+    if (++n == 10) throw Cancelled();
+  };
+  EXPECT_THROW(build_world(s), Cancelled);
+  EXPECT_EQ(read_world_manifest(part / "w")["status"], "building");
+  EXPECT_EQ(count_tiles(part.path / "w"), 10u);
+  const WorldReport rep = build_world(settings(r, 257, 257, 33, part / "w"));
+  EXPECT_EQ(rep.tiles_skipped, 10);
+  EXPECT_EQ(rep.tiles_built, 54);
+  expect_same_store(ref.path / "w", part.path / "w");
+}
+
+TEST(WorldResume, WithoutASeedTheFolderSeedIsReused) {
+  json doc = preset_doc("hills");
+  doc.erase("seed");
+  const Recipe r = parse_recipe(doc);
+  TempDir d("world-seed");
+  const WorldReport a = build_world(settings(r, 129, 129, 33, d / "w"));
+  const WorldReport b = build_world(settings(r, 129, 129, 33, d / "w"));
+  EXPECT_FALSE(a.seed_reused);
+  EXPECT_TRUE(b.seed_reused);
+  EXPECT_EQ(a.seed, b.seed);
+  EXPECT_EQ(b.tiles_skipped, b.grid.count());
+}
+
+// ---- refusals -------------------------------------------------------------------------------------
+
+TEST(WorldErrors, GlobalStagesAreRefusedUpFront) {
+  const Recipe r = recipe_of(preset_doc("river-island"));  // noise, island, redistribute, stream_power, …
+  TempDir d("world-global");
+  try {
+    build_world(settings(r, 257, 257, 65, d / "w"));
+    ADD_FAILURE() << "a global stage was accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.path(), "stages[3]");
+    EXPECT_NE(e.message().find("no world support yet"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(d.path / "w"));  // nothing written
+}
+
+TEST(WorldErrors, AFolderHoldingADifferentWorldIsRefusedUnlessForced) {
+  const Recipe r = recipe_of(preset_doc("island"));
+  TempDir d("world-diff");
+  build_world(settings(r, 129, 129, 33, d / "w"));
+  const std::string before = relief::test::slurp(d.path / "w" / world_tile_path(0, 0));
+  auto expect_refused = [&](WorldSettings s, const char* what) {
+    s.out_path = "--out";
+    s.force_name = "--force";
+    try {
+      build_world(std::move(s));
+      ADD_FAILURE() << what << " accepted";
+    } catch (const Error& e) {
+      EXPECT_EQ(e.path(), "--out") << what;
+      EXPECT_NE(e.message().find("--force"), std::string::npos) << e.what();
+    }
+  };
+  expect_refused(settings(recipe_of(preset_doc("island"), 12), 129, 129, 33, d / "w"), "another seed");
+  expect_refused(settings(r, 129, 129, 65, d / "w"), "another tile");
+  expect_refused(settings(r, 161, 129, 33, d / "w"), "another size");
+  json changed = preset_doc("island");
+  changed["stages"][0]["octaves"] = 3;
+  expect_refused(settings(recipe_of(changed), 129, 129, 33, d / "w"), "another recipe");
+  EXPECT_EQ(relief::test::slurp(d.path / "w" / world_tile_path(0, 0)), before);  // untouched
+  // --force replaces it: every old tile goes (the new grid has fewer), the new world verifies.
+  WorldSettings s = settings(r, 129, 129, 65, d / "w");
+  s.force = true;
+  const WorldReport rep = build_world(s);
+  EXPECT_EQ(rep.tiles_built, 4);
+  EXPECT_EQ(count_tiles(d.path / "w"), 4u);
+  EXPECT_TRUE(verify_world(d / "w").empty());
+}
+
+TEST(WorldErrors, AWorldTooLargeForTheDiskIsRefusedBeforeStarting) {
+  const Recipe r = recipe_of(preset_doc("island"));
+  TempDir d("world-disk");
+  WorldSettings s = settings(r, 257, 257, 65, d / "w");
+  s.disk_free_bytes = 100000;  // far less than 257² samples of 5 channels
+  try {
+    build_world(s);
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.path(), "world.size");
+    EXPECT_NE(e.message().find("on disk"), std::string::npos) << e.what();
+  }
+  EXPECT_FALSE(fs::exists(d.path / "w"));
+}
+
+TEST(WorldErrors, TilesTooLargeForTheMemoryBudgetAreRefused) {
+  const Recipe r = recipe_of(preset_doc("island"));
+  TempDir d("world-mem");
+  WorldSettings s = settings(r, 1025, 1025, 1025, d / "w");
+  s.memory_budget_bytes = 8 << 20;
+  try {
+    build_world(s);
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.path(), "tile");
+  }
+}
+
+// ---- the CLI -----------------------------------------------------------------------------------
+
+TEST(WorldCli, BuildsAStoreAndRefusesBadInputWithExitCode2) {
+  TempDir d("world-cli");
+  const std::string out = d / "w";
+  const auto ok = relief::test::relief_cli("world island --size 129 --tile 33 --seed 4 -q -o " + out);
+  ASSERT_EQ(ok.code, 0) << ok.out;
+  EXPECT_TRUE(ok.out.empty()) << ok.out;  // -q
+  EXPECT_TRUE(verify_world(out).empty());
+  // The CLI's world equals the library's whole-map run.
+  expect_same_layers(whole_map(recipe_of(preset_doc("island"), 4), 129, 129), read_world_window(out, 0, 0, 129, 129));
+  relief::test::expect_cli_error("world island --size 257 --tile 64 -o " + (d / "a"), "--tile: expected a tile size of 2^n+1");
+  relief::test::expect_cli_error("world island --size 257 --tile 513 -o " + (d / "a"), "larger than the world");
+  relief::test::expect_cli_error("world river-island --size 257 --tile 65 -o " + (d / "a"), "stages[3]: 'stream_power' has no world support yet");
+  relief::test::expect_cli_error("world island --size 129 --tile 33 --seed 5 -q -o " + out, "--out: the folder");
+  relief::test::expect_cli_error("world island --size 1048577 --tile 8193 -o " + (d / "a"), "on disk");
+  relief::test::expect_cli_error("world island --size 1048578 --tile 33 -o " + (d / "a"), "--size");
+  const auto forced = relief::test::relief_cli("world island --size 129 --tile 33 --seed 5 -q --force -o " + out);
+  EXPECT_EQ(forced.code, 0) << forced.out;
+}
+
+// SIGKILL at several points of a CLI build; the rerun gives the uninterrupted build's bytes.
+TEST(WorldCli, ResumeAfterSigkillGivesTheSameBytes) {
+  TempDir ref("world-kill-ref");
+  const std::string args = "world island --size 513 --tile 33 --seed 9 -q -j 1";
+  const auto full = relief::test::relief_cli(args + " -o " + (ref / "w"));
+  ASSERT_EQ(full.code, 0) << full.out;
+  int resumed_partial = 0;
+  for (std::size_t kill_at : {std::size_t(0), std::size_t(20), std::size_t(150)}) {
+    SCOPED_TRACE("kill after " + std::to_string(kill_at) + " tiles");
+    TempDir d("world-kill");
+    const fs::path out = d.path / "w";
+    const pid_t pid = fork();
+    ASSERT_GE(pid, 0);
+    if (pid == 0) {
+      const std::string o = out.string();
+      ::freopen("/dev/null", "w", stdout);
+      ::execl(RELIEF_BINARY, RELIEF_BINARY, "world", "island", "--size", "513", "--tile", "33", "--seed", "9", "-q", "-j", "1",
+              "-o", o.c_str(), (char*)nullptr);
+      ::_exit(127);
+    }
+    const auto t0 = std::chrono::steady_clock::now();
+    while (std::chrono::steady_clock::now() - t0 < std::chrono::seconds(60)) {
+      if (fs::exists(out / "world.json") && count_tiles(out) >= kill_at) break;
+      std::this_thread::sleep_for(std::chrono::microseconds(200));
+    }
+    ::kill(pid, SIGKILL);
+    int st = 0;
+    ::waitpid(pid, &st, 0);
+    if (WIFSIGNALED(st) && fs::exists(out / "world.json") && read_world_manifest(out.string())["status"] == "building") ++resumed_partial;
+    const auto again = relief::test::relief_cli(args + " -o " + out.string());
+    ASSERT_EQ(again.code, 0) << again.out;
+    expect_same_store(ref.path / "w", out);
+    for (const auto& e : fs::recursive_directory_iterator(out))
+      EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos) << e.path();  // no temporaries left
+  }
+  EXPECT_GE(resumed_partial, 2);  // the kills landed mid-build (256 tiles take far longer than the polls)
+}
