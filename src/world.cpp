@@ -290,7 +290,7 @@ WorldReport build_world(WorldSettings s) {
                         "column are clipped to the world when size-1 is not a multiple of tile-1"},
         {"path", "tiles/x{X:04}_z{Z:04}.rtile"}}},
       {"layers", json::array()},
-      {"tile_format", {{"magic", "RLFTILE1"}, {"version", 1}, {"encoding", "float32le-shuffle-zlib"}, {"checksum", "crc32 trailer"}}},
+      {"tile_format", {{"magic", "RLFTILE1"}, {"version", 1}, {"encoding", "float32le-rowdelta-shuffle-zlib"}, {"checksum", "crc32 trailer"}}},
       {"halo", halo},
       {"stages", stages},
       {"overview", {{"file", "overview.png"}, {"step", step}, {"size", {ow, oh}}}},

@@ -9,6 +9,7 @@
 #include <filesystem>
 #include <fstream>
 #include <sstream>
+#include <vector>
 
 #include "relief/error.hpp"
 #include "relief/world.hpp"
@@ -69,22 +70,43 @@ std::string encode_tile(const WorldTile& t) {
     layers.push_back({{"name", name}, {"channels", l.channels}});
     raw += l.data.size() * 4;
   }
-  // Byte-shuffled floats, layer after layer.
+  // Row-delta, byte-shuffled floats, layer after layer (see relief/world.hpp).
   std::string shuffled(raw, '\0');
   std::size_t at = 0;
+  std::vector<std::uint32_t> d;
   for (auto& [name, l] : t.layers) {
-    const std::size_t m = l.data.size();
-    const unsigned char* src = reinterpret_cast<const unsigned char*>(l.data.data());
+    const std::size_t m = l.data.size(), c = std::size_t(l.channels), row = std::size_t(t.window.nx) * c;
+    d.resize(m);
+    std::memcpy(d.data(), l.data.data(), m * 4);
+    for (std::size_t r0 = 0; r0 < m; r0 += row)
+      for (std::size_t k = r0 + row - 1; k >= r0 + c; --k) d[k] -= d[k - c];
     for (std::size_t b = 0; b < 4; ++b) {
       char* dst = shuffled.data() + at + b * m;
-      for (std::size_t k = 0; k < m; ++k) dst[k] = char(src[4 * k + b]);
+      for (std::size_t k = 0; k < m; ++k) dst[k] = char((d[k] >> (8 * b)) & 0xFF);
     }
     at += 4 * m;
   }
-  uLongf zlen = compressBound(uLong(raw));
-  std::string z(zlen, '\0');
-  if (compress2(reinterpret_cast<Bytef*>(z.data()), &zlen, reinterpret_cast<const Bytef*>(shuffled.data()), uLong(raw), 1) != Z_OK)
-    throw Error("output", "zlib could not compress a tile");
+  d = {};
+  z_stream zs{};
+  if (deflateInit2(&zs, 1, Z_DEFLATED, 15, 8, Z_RLE) != Z_OK) throw Error("output", "zlib could not start compressing a tile");
+  std::string z(deflateBound(&zs, uLong(raw)), '\0');
+  // Fed in pieces of at most 1 GiB (zlib counts in 32 bits).
+  std::size_t in_at = 0, out_at = 0;
+  int zr = Z_OK;
+  while (zr == Z_OK) {
+    const std::size_t in_n = std::min<std::size_t>(raw - in_at, std::size_t(1) << 30);
+    const std::size_t out_n = std::min<std::size_t>(z.size() - out_at, std::size_t(1) << 30);
+    zs.next_in = reinterpret_cast<Bytef*>(shuffled.data() + in_at);
+    zs.avail_in = uInt(in_n);
+    zs.next_out = reinterpret_cast<Bytef*>(z.data() + out_at);
+    zs.avail_out = uInt(out_n);
+    zr = deflate(&zs, in_at + in_n == raw ? Z_FINISH : Z_NO_FLUSH);
+    in_at += in_n - zs.avail_in;
+    out_at += out_n - zs.avail_out;
+  }
+  const std::size_t zlen = zs.total_out;
+  deflateEnd(&zs);
+  if (zr != Z_STREAM_END) throw Error("output", "zlib could not compress a tile");
   z.resize(zlen);
   shuffled = std::string();
   const json header = {{"format", 1},
@@ -92,7 +114,7 @@ std::string encode_tile(const WorldTile& t) {
                        {"tile", {t.X, t.Z}},
                        {"window", {t.window.ix0, t.window.iz0, t.window.nx, t.window.nz}},
                        {"layers", layers},
-                       {"encoding", "float32le-shuffle-zlib"},
+                       {"encoding", "float32le-rowdelta-shuffle-zlib"},
                        {"raw_bytes", raw},
                        {"zlib_bytes", z.size()}};
   const std::string h = header.dump();
@@ -192,11 +214,15 @@ WorldTile decode_world_tile(std::string_view bytes, const std::string& origin) {
       layer.channels = l.at("channels").get<int>();
       const std::size_t m = n * std::size_t(layer.channels);
       layer.data.resize(m);
-      auto* dst = reinterpret_cast<unsigned char*>(layer.data.data());
+      std::vector<std::uint32_t> d(m, 0);
       for (std::size_t b = 0; b < 4; ++b) {
-        const char* src = shuffled.data() + at + b * m;
-        for (std::size_t k = 0; k < m; ++k) dst[4 * k + b] = static_cast<unsigned char>(src[k]);
+        const unsigned char* src = reinterpret_cast<const unsigned char*>(shuffled.data()) + at + b * m;
+        for (std::size_t k = 0; k < m; ++k) d[k] |= std::uint32_t(src[k]) << (8 * b);
       }
+      const std::size_t c = std::size_t(layer.channels), row = std::size_t(t.window.nx) * c;
+      for (std::size_t r0 = 0; r0 < m; r0 += row)
+        for (std::size_t k = r0 + c; k < r0 + row; ++k) d[k] += d[k - c];
+      std::memcpy(layer.data.data(), d.data(), m * 4);
       at += 4 * m;
       t.layers[l.at("name").get<std::string>()] = std::move(layer);
     }
