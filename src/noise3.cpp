@@ -66,10 +66,12 @@ inline float lerp(float t, float a, float b) { return a + t * (b - a); }
 
 // ---- Gradient ------------------------------------------------------------------------------------
 
-// G·d at a corner: k from the hash's top 4 bits; G_x·d_x + (G_y·d_y + G_z·d_z).
+// G·d at a corner: k from the hash's top 4 bits; G[k & 7]·d as G_x·d_x + (G_y·d_y + G_z·d_z),
+// negated when k ≥ 8 (G[k + 8] = −G[k]).
 inline float g3_corner(std::uint32_t xp, std::uint32_t yz, float ax, float ay, float az) {
-  const std::uint32_t k = ((xp ^ yz) * detail::kG3M) >> 28;
-  return detail::kG3X[k] * ax + (detail::kG3Y[k] * ay + detail::kG3Z[k] * az);
+  const std::uint32_t k = ((xp ^ yz) * detail::kG3M) >> 28, g = k & 7;
+  const float v = detail::kG3X[g] * ax + (detail::kG3Y[g] * ay + detail::kG3Z[g] * az);
+  return k & 8 ? -v : v;
 }
 
 inline float gradient3(const detail::Noise3Octave& o, const detail::Noise3Row& r, double x) {
@@ -84,12 +86,13 @@ inline float gradient3(const detail::Noise3Octave& o, const detail::Noise3Row& r
 
 // ---- Simplex -------------------------------------------------------------------------------------
 
-// One vertex's term max(0, ½ − |d|²)⁴·(G·d), G from the vertex's hash.
+// One vertex's term max(0, ½ − |d|²)⁴·(G·d), G from the vertex's hash (negated for k ≥ 8, as above).
 inline float s3_term(std::uint32_t xp, std::uint32_t yp, std::uint32_t zp, float dx, float dy, float dz) {
   float att = ((detail::kS3R2 - dx * dx) - dy * dy) - dz * dz;
   att = att > 0.0f ? att : 0.0f;
-  const std::uint32_t k = ((xp ^ yp ^ zp) * detail::kG3M) >> 28;
-  const float dot = (detail::kG3X[k] * dx + detail::kG3Y[k] * dy) + detail::kG3Z[k] * dz;
+  const std::uint32_t k = ((xp ^ yp ^ zp) * detail::kG3M) >> 28, g = k & 7;
+  const float v = (detail::kG3X[g] * dx + detail::kG3Y[g] * dy) + detail::kG3Z[g] * dz;
+  const float dot = k & 8 ? -v : v;
   const float a2 = att * att;
   return (a2 * a2) * dot;
 }

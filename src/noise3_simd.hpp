@@ -9,7 +9,7 @@
 namespace relief::detail {
 
 // Hash multipliers (odd 32-bit constants: 2³²/φ, murmur3's c1 and fmix32 constants, xxHash's
-// PRIME32_4): h = ((X·Pₓ) ⊕ (Y·P_y) ⊕ (Z·P_z ⊕ key))·M, gradient k = h >> 28.
+// PRIME32_4): h = ((X·Pₓ) ⊕ (Y·P_y) ⊕ (Z·P_z ⊕ key))·M, gradient k = h >> 28 (the top 4 bits).
 constexpr std::uint32_t kG3Px = 0x9E3779B1u;
 constexpr std::uint32_t kG3Py = 0x85EBCA6Bu;
 constexpr std::uint32_t kG3Pz = 0xC2B2AE35u;
@@ -19,31 +19,48 @@ constexpr std::uint32_t kG3M = 0x27D4EB2Fu;
 // I₂ = ∫[0,1]² Σ_c w_c²|d_c|² = 0.0930623 and I₃ = ∫[0,1]³ Σ_c w_c²|d_c|² = 0.1093784 (quintic
 // fade weights; midpoint quadrature): L = √(3·0.0639803/0.1093784) = 1.3247.
 constexpr double kG3Length = 1.3247;
-constexpr double kG3Edge = kG3Length * 0.70710678118654752;   // L/√2: cube-edge components
-constexpr double kG3Tetra = kG3Length * 0.57735026918962576;  // L/√3: tetrahedron components
-// The 16 gradients, ordered so that G[k] and G[k + 8] share their x component (the AVX2 kernel
-// looks G_x up with one 8-entry permute): k = 0..5 and 8..13 the 12 cube edges, 6, 7, 14, 15 the
-// tetrahedron.
-#define RELIEF_G3_E float(kG3Edge)
-#define RELIEF_G3_T float(kG3Tetra)
-alignas(64) constexpr float kG3X[16] = {RELIEF_G3_E,  RELIEF_G3_E,  -RELIEF_G3_E, -RELIEF_G3_E, 0.0f, 0.0f,
-                                        RELIEF_G3_T,  -RELIEF_G3_T, RELIEF_G3_E,  RELIEF_G3_E,  -RELIEF_G3_E, -RELIEF_G3_E,
-                                        0.0f,         0.0f,         RELIEF_G3_T,  -RELIEF_G3_T};
-alignas(64) constexpr float kG3Y[16] = {RELIEF_G3_E,  0.0f,         RELIEF_G3_E,  0.0f,         RELIEF_G3_E, RELIEF_G3_E,
-                                        RELIEF_G3_T,  RELIEF_G3_T,  -RELIEF_G3_E, 0.0f,         -RELIEF_G3_E, 0.0f,
-                                        -RELIEF_G3_E, -RELIEF_G3_E, -RELIEF_G3_T, -RELIEF_G3_T};
-alignas(64) constexpr float kG3Z[16] = {0.0f,        RELIEF_G3_E,  0.0f,         RELIEF_G3_E,  RELIEF_G3_E, -RELIEF_G3_E,
-                                        RELIEF_G3_T, -RELIEF_G3_T, 0.0f,         -RELIEF_G3_E, 0.0f,         -RELIEF_G3_E,
-                                        -RELIEF_G3_E, RELIEF_G3_E, -RELIEF_G3_T, RELIEF_G3_T};
-#undef RELIEF_G3_E
-#undef RELIEF_G3_T
+constexpr double kG3C = kG3Length * 0.57735026918962576;   // L/√3
+constexpr double kG3R2C = kG3Length * 0.81649658092772603;  // L·√(2/3)
+// The 16 gradients G[k], k = 0..15: G[k + 8] = −G[k], so a kernel looks up G[k & 7] in 8-entry
+// tables (one in-register permute on AVX2) and flips the sign of the dot product by k's bit 3 (the
+// hash's sign bit). The 8 representatives, all of length L, all with G_x = +L/√3:
+//   k = 0..3  (1, ±1, ±1)·L/√3               the cube's body diagonals (cube A),
+//   k = 4..7  (1, ±√2, 0), (1, 0, ±√2)·L/√3   the same cube turned 45° about the x axis (cube B).
+// Each cube's 8 corners have isotropic second moments, so the union does (Σ G·Gᵀ = 16·(L²/3)·I), and
+// the set is symmetric under turns of 45° about x (y and z alike) and under negation (all odd
+// moments vanish). |G_x| being the same for all 16 is what the row kernel uses: G_x·d_x is
+// ±(L/√3)·d_x, one product per sample shared by four corners, and the only per-corner lookup is the
+// row's G_y·d_y + G_z·d_z. Entries 8..15 of the tables repeat 0..7 (16-lane permutes on AVX-512).
+#define RELIEF_G3_C float(kG3C)
+#define RELIEF_G3_R float(kG3R2C)
+alignas(64) constexpr float kG3X[16] = {RELIEF_G3_C, RELIEF_G3_C, RELIEF_G3_C, RELIEF_G3_C,
+                                        RELIEF_G3_C, RELIEF_G3_C, RELIEF_G3_C, RELIEF_G3_C,
+                                        RELIEF_G3_C, RELIEF_G3_C, RELIEF_G3_C, RELIEF_G3_C,
+                                        RELIEF_G3_C, RELIEF_G3_C, RELIEF_G3_C, RELIEF_G3_C};
+alignas(64) constexpr float kG3Y[16] = {RELIEF_G3_C, RELIEF_G3_C, -RELIEF_G3_C, -RELIEF_G3_C,
+                                        RELIEF_G3_R, -RELIEF_G3_R, 0.0f, 0.0f,
+                                        RELIEF_G3_C, RELIEF_G3_C, -RELIEF_G3_C, -RELIEF_G3_C,
+                                        RELIEF_G3_R, -RELIEF_G3_R, 0.0f, 0.0f};
+alignas(64) constexpr float kG3Z[16] = {RELIEF_G3_C, -RELIEF_G3_C, RELIEF_G3_C, -RELIEF_G3_C,
+                                        0.0f, 0.0f, RELIEF_G3_R, -RELIEF_G3_R,
+                                        RELIEF_G3_C, -RELIEF_G3_C, RELIEF_G3_C, -RELIEF_G3_C,
+                                        0.0f, 0.0f, RELIEF_G3_R, -RELIEF_G3_R};
+#undef RELIEF_G3_C
+#undef RELIEF_G3_R
+constexpr float kG3Xc = kG3X[0];  // every representative's G_x (the kernels multiply by it)
+constexpr bool g3_tables_ok() {
+  for (int k = 0; k < 16; ++k)
+    if (kG3X[k] != kG3Xc || kG3Y[k] != kG3Y[k & 7] || kG3Z[k] != kG3Z[k & 7]) return false;
+  return true;
+}
+static_assert(g3_tables_ok());
 
 // Simplex: skew (double), unskew (float), kernel radius², scale (see noise3.hpp).
 constexpr double kS3Skew = 1.0 / 3.0;
 constexpr float kS3Unskew = float(1.0 / 6.0);
 constexpr float kS3Unskew2 = 2.0f * kS3Unskew;  // exact
 constexpr float kS3R2 = 0.5f;
-constexpr float kS3Scale = 81.4f;
+constexpr float kS3Scale = 81.2f;
 
 // One octave: lattice frequencies (cells per metre), seeded offsets (cells), amplitude, hash key.
 struct Noise3Octave {
@@ -61,7 +78,8 @@ struct Noise3Row {
   double v, w, vw;
   // Gradient: yz[c] = (Y·P_y) ⊕ (Z·P_z ⊕ key) for the four (y, z) corners c = b + 2·e (b: lower /
   // upper y, e: lower / upper z); ay[c], az[c] the offsets from them; fades sy, sz; and per corner
-  // the 16 values t[c][k] = G_y[k]·ay[c] + G_z[k]·az[c] (float), the row-constant half of G·d.
+  // the values t[c][k] = G_y[k]·ay[c] + G_z[k]·az[c] (float), the row-constant half of G[k]·d
+  // (k = 0..7; entries 8..15 repeat them, as the gradient tables do).
   std::uint32_t yz[4];
   float ay[4], az[4];
   float sy, sz;
@@ -84,7 +102,7 @@ struct Noise3Args {
 void noise3_row_simd(const Noise3Args& a, const Noise3Row* rows, std::int64_t i0, double dx, int n, float* out);
 
 // Gradient's x-only terms for x = double(i0 + i)·dx, i in [0, npad), npad a multiple of 16: per
-// octave k, 4 arrays (X·Pₓ as uint32; the fraction fx, fx − 1, fade(fx) as float bits), entry i of
+// octave k, 4 arrays (X·Pₓ as uint32; G_x·fx, G_x·(fx − 1) and fade(fx) as float bits), entry i of
 // array f at cols[(k·kG3ColumnArrays + f)·stride + i]; stride a multiple of 16, cols 64-byte aligned.
 constexpr int kG3ColumnArrays = 4;
 void noise3_columns_simd(const Noise3Args& a, std::int64_t i0, double dx, int npad, std::uint32_t* cols, int stride);

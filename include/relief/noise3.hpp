@@ -28,14 +28,21 @@
 //             and contributes G·d = G_x·d_x + (G_y·d_y + G_z·d_z) (that association, in float),
 //             d the offset from the corner. The eight contributions are blended with the quintic
 //             fade 6t⁵ − 15t⁴ + 10t³: first along x, then y, then z (lerp(t, a, b) = a + t·(b − a)).
-//             The 16 gradients: Perlin 2002's 12 cube-edge directions (±1, ±1, 0), (±1, 0, ±1),
-//             (0, ±1, ±1) and the 4 vertices of a regular tetrahedron (1, 1, 1), (1, −1, −1),
-//             (−1, 1, −1), (−1, −1, 1), all scaled to one length L = 1.3247. The set has mean 0
-//             and isotropic second moments (Σ G·Gᵀ ∝ I), so the derivative variance is the same
-//             along x, y and z; L makes the variance equal to the 2D Gradient basis's
-//             (σ ≈ 0.253: Var = (L²/3)·∫ Σ w²|d|² = (1.375/2)·∫₂ Σ w²|d|², tests/test_noise3.cpp).
-//             Bound: |n| < 1.05, the largest only where all eight corners draw their best
-//             gradient (probability 16⁻⁸ per cell); results are clamped to [−1, 1].
+//             The 16 gradients, all of length L = 1.3247: the 8 corners of a cube, (±1, ±1, ±1)·L/√3,
+//             and of the same cube turned 45° about the x axis, (±1, ±√2, 0)·L/√3 and
+//             (±1, 0, ±√2)·L/√3, indexed so that G[k + 8] = −G[k] (evaluated as −(G[k]·d)). The set
+//             has isotropic second moments (Σ G·Gᵀ ∝ I: the derivative variance is the same along
+//             x, y and z), vanishing odd moments, and is unchanged by turns of 45° about x (y and z
+//             alike). Every gradient has |G_x| = L/√3, which the row kernel exploits (one G_x·d_x
+//             per sample, one table lookup per corner); x thereby differs from y and z in the
+//             fourth moments of the gradients (the x derivative's distribution is a little less
+//             heavy-tailed), not in variance. (Perlin 2002's 12 cube edges plus 4 tetrahedral
+//             directions are isotropic too, but cost two more permutes and a blend per corner:
+//             2.8× the 2D Gradient's time instead of about 2×.)
+//             L makes the variance equal to the 2D Gradient basis's (σ ≈ 0.253:
+//             Var = (L²/3)·∫ Σ w²|d|² = (1.375/2)·∫₂ Σ w²|d|², tests/test_noise3.cpp).
+//             Bound: |n| < 1.15, beyond 1 only where nearly all eight corners draw their best
+//             gradient (probability ~16⁻⁸ per cell); results are clamped to [−1, 1].
 //             No dyadic lattice: every octave splits its own position in double (each octave
 //             has its own offsets), at any lacunarity.
 //   Simplex   3D simplex noise (Gustavson's skewed cubic lattice): the position is skewed
@@ -45,9 +52,10 @@
 //             coordinate of d₀, the two largest, (1,1,1); ties go to x before y before z),
 //             each contributing max(0, ½ − |d|²)⁴·(G·d) with d its offset in input space and G
 //             from the same 16 gradients and hash as Gradient (G·d = (G_x·d_x + G_y·d_y) +
-//             G_z·d_z here), summed in vertex order and scaled by 81.4. r² = ½ keeps the
-//             kernel inside the simplex: continuous everywhere. The sup over positions and
-//             gradient draws of the unscaled sum is 0.0122767 (numerically), so |n| ≤ 0.9994.
+//             G_z·d_z here, negated for k ≥ 8), summed in vertex order and scaled by 81.2. r² = ½
+//             keeps the kernel inside the simplex: continuous everywhere. The sup over positions
+//             and gradient draws of the unscaled sum is 0.0123052 (numerically, on the diagonal
+//             at 0.288·(1, 1, 1) of the skewed cell), so |n| ≤ 0.9993.
 //             σ ≈ 0.39 at one octave.
 //
 // Fractals, with aₖ = persistenceᵏ and the sum in float: fBm Σ aₖ·nₖ / Σ aₖ; billow
