@@ -162,8 +162,10 @@ void noise3_row_terms(const Noise3Octave& o, NoiseBasis basis, double y_m, doubl
   r.az[0] = sz.f, r.az[1] = sz.f, r.az[2] = fz1, r.az[3] = fz1;
   r.sy = fade(sy.f);
   r.sz = fade(sz.f);
-  for (int c = 0; c < 4; ++c)
-    for (int k = 0; k < 16; ++k) r.t[c][k] = kG3Y[k] * r.ay[c] + kG3Z[k] * r.az[c];
+  for (int c = 0; c < 4; ++c) {
+    for (int k = 0; k < 8; ++k) r.t[c][k] = kG3Y[k] * r.ay[c] + kG3Z[k] * r.az[c];
+    std::memcpy(&r.t[c][8], &r.t[c][0], 8 * sizeof(float));  // entries 8..15 repeat 0..7
+  }
 }
 
 }  // namespace detail
@@ -264,8 +266,8 @@ void Noise3::rows(const double* y_m, const double* z_m, int nrows, std::int64_t 
   std::unique_ptr<std::uint32_t, void (*)(std::uint32_t*)> cols(
       static_cast<std::uint32_t*>(::operator new(entries * sizeof(std::uint32_t), kAlign)),
       [](std::uint32_t* p) { ::operator delete(p, std::align_val_t{64}); });
-  // Every row's (y, z) terms once (about 330 bytes per row and octave).
-  std::vector<detail::Noise3Row> rt(std::size_t(nrows) * std::size_t(a.count));
+  // Every row's (y, z) terms once (384 bytes per row and octave; not zero-filled).
+  const std::unique_ptr<detail::Noise3Row[]> rt(new detail::Noise3Row[std::size_t(nrows) * std::size_t(a.count)]);
   for (int r = 0; r < nrows; ++r)
     for (int k = 0; k < a.count; ++k)
       detail::noise3_row_terms(a.octaves[k], a.basis, y_m[r], z_m[r], rt[std::size_t(r) * std::size_t(a.count) + std::size_t(k)]);
@@ -274,7 +276,7 @@ void Noise3::rows(const double* y_m, const double* z_m, int nrows, std::int64_t 
     const int npad = (m + 15) / 16 * 16;
     detail::noise3_columns_simd(a, i0 + c0, dx_m, npad, cols.get(), width);
     for (int r = 0; r < nrows; ++r)
-      detail::noise3_row_columns_simd(a, rt.data() + std::size_t(r) * std::size_t(a.count), cols.get(), width, m,
+      detail::noise3_row_columns_simd(a, rt.get() + std::size_t(r) * std::size_t(a.count), cols.get(), width, m,
                                       out + r * stride + c0);
   }
 }

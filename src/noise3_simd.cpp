@@ -59,7 +59,8 @@ using VF = hn::Vec<DF>;
 using VU32 = hn::Vec<DU32>;
 using MF = hn::Mask<DF>;
 
-enum { kFbm = 0, kRidged = 1, kBillow = 2 };
+// kNone: one octave of amplitude 1 with 1/Σa = 1: the reference's (0 + 1·n)·1 is n + 0 (−0 → +0).
+enum { kFbm = 0, kRidged = 1, kBillow = 2, kNone = 3 };
 
 // ---- shared helpers (as noise_simd.cpp's) -------------------------------------------------------
 
@@ -137,7 +138,9 @@ template <int kFr>
 HWY_INLINE void Finish(VF acc, float inv, int start, int NF, int n, float* HWY_RESTRICT out) {
   const DF df;
   const VF one = hn::Set(df, 1.0f), mone = hn::Set(df, -1.0f);
-  VF v = kFr == kRidged ? hn::Sub(hn::Mul(acc, hn::Set(df, inv + inv)), one) : hn::Mul(acc, hn::Set(df, inv));
+  VF v = kFr == kRidged ? hn::Sub(hn::Mul(acc, hn::Set(df, inv + inv)), one)
+         : kFr == kNone ? acc
+                        : hn::Mul(acc, hn::Set(df, inv));
   v = hn::IfThenElse(v > mone, v, mone);
   v = hn::IfThenElse(v < one, v, one);
   if (start + NF <= n) {
@@ -222,7 +225,10 @@ HWY_NOINLINE void RowGradient3(const Noise3Args& a, const Noise3Row* rows, std::
         xt = XLoad(cols + std::size_t(k) * kG3ColumnArrays * S + std::size_t(start), S);
       else
         xt = XSplit(x, a.octaves[k]);
-      acc = Fold<kFr>(acc, hn::Set(df, a.octaves[k].amp), Gradient3(xt, rows[k]));
+      if constexpr (kFr == kNone)
+        acc = hn::Add(Gradient3(xt, rows[k]), acc);
+      else
+        acc = Fold<kFr>(acc, hn::Set(df, a.octaves[k].amp), Gradient3(xt, rows[k]));
     }
     Finish<kFr>(acc, a.inv, start, NF, n, out);
   }
@@ -316,24 +322,33 @@ HWY_NOINLINE void RowSimplex3(const Noise3Args& a, const Noise3Row* rows, std::i
     VD x[kHalves];
     Positions(i0 + start, dx, x);
     VF acc = hn::Zero(df);
-    for (int k = 0; k < a.count; ++k)
-      acc = Fold<kFr>(acc, hn::Set(df, a.octaves[k].amp), Simplex3(x, a.octaves[k], rows[k]));
+    for (int k = 0; k < a.count; ++k) {
+      if constexpr (kFr == kNone)
+        acc = hn::Add(Simplex3(x, a.octaves[k], rows[k]), acc);
+      else
+        acc = Fold<kFr>(acc, hn::Set(df, a.octaves[k].amp), Simplex3(x, a.octaves[k], rows[k]));
+    }
     Finish<kFr>(acc, a.inv, start, NF, n, out);
   }
 }
 
-int FractalKind(Fractal f) { return f == Fractal::Ridged ? kRidged : f == Fractal::Billow ? kBillow : kFbm; }
+// Fractal::None has one octave (Noise3's constructor), amplitude 1 and 1/Σa = 1.
+int FractalKind(Fractal f) {
+  return f == Fractal::None ? kNone : f == Fractal::Ridged ? kRidged : f == Fractal::Billow ? kBillow : kFbm;
+}
 
 }  // namespace
 
 void Row3Kernel(const Noise3Args& a, const Noise3Row* rows, std::int64_t i0, double dx, int n, float* out) {
   const int fr = FractalKind(a.fractal);
   if (a.basis == NoiseBasis::Gradient) {
-    if (fr == kRidged) RowGradient3<kRidged, false>(a, rows, i0, dx, nullptr, 0, n, out);
+    if (fr == kNone) RowGradient3<kNone, false>(a, rows, i0, dx, nullptr, 0, n, out);
+    else if (fr == kRidged) RowGradient3<kRidged, false>(a, rows, i0, dx, nullptr, 0, n, out);
     else if (fr == kBillow) RowGradient3<kBillow, false>(a, rows, i0, dx, nullptr, 0, n, out);
     else RowGradient3<kFbm, false>(a, rows, i0, dx, nullptr, 0, n, out);
   } else {
-    if (fr == kRidged) RowSimplex3<kRidged>(a, rows, i0, dx, n, out);
+    if (fr == kNone) RowSimplex3<kNone>(a, rows, i0, dx, n, out);
+    else if (fr == kRidged) RowSimplex3<kRidged>(a, rows, i0, dx, n, out);
     else if (fr == kBillow) RowSimplex3<kBillow>(a, rows, i0, dx, n, out);
     else RowSimplex3<kFbm>(a, rows, i0, dx, n, out);
   }
@@ -346,7 +361,8 @@ void Columns3Kernel(const Noise3Args& a, std::int64_t i0, double dx, int npad, s
 void RowColumns3Kernel(const Noise3Args& a, const Noise3Row* rows, const std::uint32_t* cols, int stride, int n,
                        float* out) {
   const int fr = FractalKind(a.fractal);
-  if (fr == kRidged) RowGradient3<kRidged, true>(a, rows, 0, 0.0, cols, stride, n, out);
+  if (fr == kNone) RowGradient3<kNone, true>(a, rows, 0, 0.0, cols, stride, n, out);
+  else if (fr == kRidged) RowGradient3<kRidged, true>(a, rows, 0, 0.0, cols, stride, n, out);
   else if (fr == kBillow) RowGradient3<kBillow, true>(a, rows, 0, 0.0, cols, stride, n, out);
   else RowGradient3<kFbm, true>(a, rows, 0, 0.0, cols, stride, n, out);
 }

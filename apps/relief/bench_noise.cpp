@@ -5,6 +5,7 @@
 
 #include "bench_common.hpp"
 #include "relief/noise.hpp"
+#include "relief/noise3.hpp"
 
 namespace relief::cli {
 
@@ -69,6 +70,45 @@ void print_noise_ratios(const std::vector<NoiseCase>& cases, json& all, std::siz
   std::fflush(stdout);
 }
 
+// 3D noise (Noise3) against the 2D case of the same basis and fractal: issue 17's target is ≤ 2.5×
+// the 2D cost per sample, both measured in the same run over the same number of samples.
+struct Noise3Case {
+  std::string name;
+  NoiseBasis basis;
+  Fractal fractal;
+  int octaves;
+  std::string peer2d;  // the 2D case's name
+};
+constexpr double kNoise3Target = 2.5;
+
+// Prints each 3D case's wall and CPU time per sample as a ratio to its 2D case's and whether the
+// target is met, and records them ("noise2d_ratio", "noise2d_cpu_ratio", "noise2d_target",
+// "target_met"). entries[first3 + i] is cases3[i]'s entry; the 2D entries are in [first2, first3).
+void print_noise3_ratios(const std::vector<Noise3Case>& cases3, json& all, std::size_t first2, std::size_t first3) {
+  std::printf("3D noise per-sample cost ratio to 2D with the same basis and fractal (same run, %d thread(s)):\n",
+              all[first3]["threads"].get<int>());
+  std::printf("  %-22s %8s %8s %8s\n", "case", "wall", "cpu", "target");
+  for (std::size_t i = 0; i < cases3.size(); ++i) {
+    json& e = all[first3 + i];
+    const json* g = nullptr;
+    for (std::size_t j = first2; j < first3; ++j)
+      if (all[j]["name"] == cases3[i].peer2d) g = &all[j];
+    if (!g) continue;
+    auto per_sample = [](const json& x, const char* field) {
+      return x[field].get<double>() / (x["size"][0].get<double>() * x["size"][1].get<double>());
+    };
+    const double r = per_sample(e, "median_ms") / per_sample(*g, "median_ms");
+    const double rc = per_sample(e, "cpu_median_ms") / per_sample(*g, "cpu_median_ms");
+    e["noise2d_case"] = cases3[i].peer2d;
+    e["noise2d_ratio"] = r;
+    e["noise2d_cpu_ratio"] = rc;
+    e["noise2d_target"] = kNoise3Target;
+    e["target_met"] = r <= kNoise3Target;
+    std::printf("  %-22s %7.2fx %7.2fx %7.2fx%s\n", cases3[i].name.c_str(), r, rc, kNoise3Target,
+                r <= kNoise3Target ? "" : "  MISSED");
+  }
+  std::fflush(stdout);
+}
 
 }  // namespace
 
@@ -174,6 +214,41 @@ void bench_noise(const BenchSettings& s, json& entries) {
       entries.push_back(e);
     }
     print_noise_ratios(cases, entries, first);
+
+    // 3D: the same number of samples, n rows of n along x at (y, z) = (j mod 64, j / 64) metres
+    // (64 samples per first-octave cycle on every axis), in blocks of 16 rows (Noise3::rows).
+    const std::vector<Noise3Case> cases3 = {
+        {"gradient 3d", NoiseBasis::Gradient, Fractal::None, 1, "gradient"},
+        {"gradient 3d fbm 6", NoiseBasis::Gradient, Fractal::Fbm, 6, "gradient fbm 6"},
+        {"simplex 3d", NoiseBasis::Simplex, Fractal::None, 1, "simplex"},
+        {"simplex 3d fbm 6", NoiseBasis::Simplex, Fractal::Fbm, 6, "simplex fbm 6"},
+    };
+    const std::size_t first3 = entries.size();
+    for (const Noise3Case& c : cases3) {
+      NoiseSettings ns;
+      ns.basis = c.basis;
+      ns.fractal = c.fractal;
+      ns.octaves = c.octaves;
+      ns.frequency = 1.0 / 64.0;
+      ns.seed = 1;
+      const Noise3 noise(ns);
+      Sample t = time_runs(s.runs, [&] {
+        arena.execute([&] {
+          parallel_rows((n + 15) / 16, [&](int b) {
+            const int j0 = b * 16, m = std::min(16, n - j0);
+            double y[16], z[16];
+            for (int r = 0; r < m; ++r) y[r] = double((j0 + r) % 64), z[r] = double((j0 + r) / 64);
+            noise.rows(y, z, m, 0, 1.0, n, buf.data() + std::size_t(j0) * n, n);
+          }, 1);
+        });
+      });
+      json e = timing_entry(c.name, n, n, threads, t);
+      e["simd_target"] = noise_simd_target();
+      e["peak_memory_bytes"] = peak_rss_bytes();
+      print_row(e);
+      entries.push_back(e);
+    }
+    print_noise3_ratios(cases3, entries, first, first3);
   }
 }
 
