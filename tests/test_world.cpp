@@ -15,6 +15,7 @@
 #include <thread>
 
 #include "relief/error.hpp"
+#include "relief/hydrology.hpp"
 #include "relief/pipeline.hpp"
 #include "relief/world.hpp"
 #include "support.hpp"
@@ -470,4 +471,131 @@ TEST(WorldCli, ResumeAfterSigkillGivesTheSameBytes) {
       EXPECT_EQ(e.path().filename().string().find(".tmp-"), std::string::npos) << e.path();  // no temporaries left
   }
   EXPECT_GE(resumed_partial, 2);  // the kills landed mid-build (256 tiles take far longer than the polls)
+}
+
+// ---- phase 2: depression filling that tiles can reproduce -----------------------------------------
+
+namespace {
+
+// A 9×3 grid: a flat trough (0) between two equal spills (1.0) on the left and right borders, high
+// walls (5.0) above and below.
+std::vector<float> trough() {
+  std::vector<float> z(9 * 3, 5.0f);
+  for (int j = 0; j < 3; ++j) z[std::size_t(j) * 9] = z[std::size_t(j) * 9 + 8] = 1.0f;
+  for (int i = 1; i < 8; ++i) z[9 + std::size_t(i)] = 0.0f;
+  return z;
+}
+
+// The island preset's heights at n² (seed 2), with a flat-floored basin cut into it so that one
+// depression spans many tiles.
+std::vector<float> basin_world(int n) {
+  Recipe r = recipe_of(preset_doc("island"), 2);
+  r.world.nx = r.world.nz = n;
+  std::vector<float> z = run(r).terrain.get("height").data;
+  for (int j = n / 4; j < 3 * n / 4; ++j)
+    for (int i = n / 5; i < 4 * n / 5; ++i) z[std::size_t(j) * n + i] = 0.45f;  // above the sea (0.4): a lake bed
+  return z;
+}
+
+std::vector<float> tiled_fill(const std::vector<float>& z, int nx, int nz, int tile, float sea, float eps, TiledFillStats* stats = nullptr) {
+  const WorldGrid g = world_grid(nx, nz, tile);
+  std::vector<float> out(z.size(), std::numeric_limits<float>::quiet_NaN());
+  auto load = [&](std::int64_t X, std::int64_t Z) {
+    const WorldGrid::Window w = g.window(X, Z);
+    std::vector<float> t(std::size_t(w.nx) * w.nz);
+    for (int j = 0; j < w.nz; ++j)
+      for (int i = 0; i < w.nx; ++i) t[std::size_t(j) * w.nx + i] = z[std::size_t(w.iz0 + j) * nx + std::size_t(w.ix0 + i)];
+    return t;
+  };
+  auto store = [&](std::int64_t X, std::int64_t Z, std::vector<float> f) {
+    const WorldGrid::Window w = g.window(X, Z);
+    for (int j = 0; j < w.nz; ++j)
+      for (int i = 0; i < w.nx; ++i) out[std::size_t(w.iz0 + j) * nx + std::size_t(w.ix0 + i)] = f[std::size_t(j) * w.nx + i];
+  };
+  const TiledFillStats st = fill_least_fixpoint_tiled(g, sea, eps, load, store);
+  if (stats) *stats = st;
+  return out;
+}
+
+}  // namespace
+
+// What blocks an exact tiled `fill` stage today: hydrology.cpp's Priority-Flood+ε raises the whole
+// trough from whichever equal spill it pops first, so its far end sits 7ε above the spill although
+// the other spill is one step away. The least fixpoint is symmetric.
+TEST(WorldFill, HydrologyFillDependsOnTheProcessingOrder) {
+  const float eps = 0.01f;
+  std::vector<float> a = trough(), b = trough();
+  hydro::fill_depressions<float>(a.data(), 9, 3, 0.0f, eps);
+  fill_least_fixpoint(b.data(), 9, 3, 0.0f, eps);
+  EXPECT_NE(a[9 + 1], a[9 + 7]) << "fill_depressions became symmetric: check whether it is now order-independent";
+  EXPECT_FLOAT_EQ(std::max(a[9 + 1], a[9 + 7]), 1.0f + 7 * eps);
+  EXPECT_EQ(b[9 + 1], b[9 + 7]);
+  EXPECT_EQ(b[9 + 1], 1.0f + eps);
+  EXPECT_EQ(b[9 + 4], (1.0f + eps + eps) + eps + eps);  // 4 steps from either spill, rounded step by step
+  EXPECT_FALSE(relief::test::same_bits(a, b));
+}
+
+TEST(WorldFill, LeastFixpointDrainsEverySample) {
+  const int n = 129;
+  const std::vector<float> z = basin_world(n);
+  for (float eps : {0.0f, 1e-5f}) {
+    std::vector<float> f = z;
+    fill_least_fixpoint(f.data(), n, n, 0.4f, eps);
+    for (int j = 1; j < n - 1; ++j)
+      for (int i = 1; i < n - 1; ++i) {
+        const std::size_t c = std::size_t(j) * n + i;
+        ASSERT_GE(f[c], z[c]);
+        if (z[c] < 0.4f) continue;
+        bool lower = false;
+        for (int dj = -1; dj <= 1; ++dj)
+          for (int di = -1; di <= 1; ++di) lower = lower || f[std::size_t(j + dj) * n + i + di] < f[c];
+        ASSERT_TRUE(lower) << "sample " << i << "," << j << " does not drain";
+        if (f[c] > z[c]) {  // raised: by at least eps above the neighbour it drains to
+          float lowest = f[c];
+          for (int dj = -1; dj <= 1; ++dj)
+            for (int di = -1; di <= 1; ++di) lowest = std::min(lowest, f[std::size_t(j + dj) * n + i + di]);
+          ASSERT_GE(double(f[c]) - double(lowest), double(eps) * 0.999) << i << "," << j;
+        }
+      }
+    // The basin's floor was raised (it is a closed depression), and hydrology's fill agrees on the
+    // filled set (which samples rise), if not on every bit of the flats.
+    EXPECT_GT(f[std::size_t(n / 2) * n + n / 2], 0.45f);
+  }
+}
+
+TEST(WorldFill, TiledLeastFixpointEqualsTheWholeMapBitForBit) {
+  const int n = 257;
+  const std::vector<float> z = basin_world(n);
+  for (float eps : {0.0f, 2e-6f}) {
+    std::vector<float> ref = z;
+    fill_least_fixpoint(ref.data(), n, n, 0.4f, eps);
+    for (int tile : {17, 33, 65, 129, 257}) {
+      SCOPED_TRACE("tile " + std::to_string(tile) + " eps " + std::to_string(eps));
+      TiledFillStats st;
+      const std::vector<float> got = tiled_fill(z, n, n, tile, 0.4f, eps, &st);
+      EXPECT_TRUE(relief::test::same_bits(ref, got));
+      if (tile < 257) EXPECT_GT(st.rounds, 1);  // the basin spans tiles: borders had to be exchanged
+      if (tile < 257) {
+        // Peer: each tile filled alone (its border as outlets) is not the world's fill.
+        const WorldGrid g = world_grid(n, n, tile);
+        std::vector<float> naive(z.size());
+        for (std::int64_t Z = 0; Z < g.tiles_z; ++Z)
+          for (std::int64_t X = 0; X < g.tiles_x; ++X) {
+            const WorldGrid::Window w = g.window(X, Z);
+            std::vector<float> t(std::size_t(w.nx) * w.nz);
+            for (int j = 0; j < w.nz; ++j)
+              for (int i = 0; i < w.nx; ++i) t[std::size_t(j) * w.nx + i] = z[std::size_t(w.iz0 + j) * n + std::size_t(w.ix0 + i)];
+            fill_least_fixpoint(t.data(), w.nx, w.nz, 0.4f, eps);
+            for (int j = 0; j < w.nz; ++j)
+              for (int i = 0; i < w.nx; ++i) naive[std::size_t(w.iz0 + j) * n + std::size_t(w.ix0 + i)] = t[std::size_t(j) * w.nx + i];
+          }
+        EXPECT_FALSE(relief::test::same_bits(ref, naive));
+      }
+    }
+  }
+  // A non-square world whose last tiles are clipped.
+  const std::vector<float> zs(z.begin(), z.begin() + std::ptrdiff_t(257) * 200);
+  std::vector<float> ref = zs;
+  fill_least_fixpoint(ref.data(), 257, 200, 0.4f, 1e-6f);
+  EXPECT_TRUE(relief::test::same_bits(ref, tiled_fill(zs, 257, 200, 65, 0.4f, 1e-6f)));
 }

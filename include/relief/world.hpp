@@ -198,4 +198,32 @@ Terrain read_world_window(const std::string& dir, std::int64_t ix0, std::int64_t
 // run's frame at that size, bit for bit).
 Frame world_frame(const Recipe& r, std::int64_t nx, std::int64_t nz);
 
+// ---- depression filling a tiled world can reproduce (phase 2, not yet a world stage) ----------
+// The "fill" stage (src/hydrology.cpp, Priority-Flood+ε with a FIFO pit queue) gives values that
+// depend on its global processing order (which spill reaches a flat first), so no tiled build can
+// reproduce its bits. These functions define the filled surface as a least fixpoint instead (see
+// src/world_fill.cpp): F = z at outlets (the grid's border, or z < sea); elsewhere
+// F(c) = min over the 8 neighbours n of g(F(n), z(c)), with g(L, z) = z when z > L, else
+// max(next float above L, L + epsilon). Same contract as fill_depressions otherwise: values only
+// rise, cells that drain downhill are unchanged, every non-outlet cell ends strictly above a
+// neighbour through which it drains to an outlet, filled flats rise by ≥ epsilon per step. The
+// result does not depend on any processing order, so:
+//
+// fill_least_fixpoint: the whole grid in memory (nx·nz floats, raised in place).
+void fill_least_fixpoint(float* z, int nx, int nz, float sea, float epsilon);
+// fill_least_fixpoint_tiled: the same surface over a world grid's tiles, bit for bit, holding one
+// tile and the samples on tile borders (about 2·(nx·tiles_z + nz·tiles_x) floats) at a time. Each
+// round solves every tile whose border values changed, seeded with the border values known so
+// far, and exchanges the new border values; it stops when no border value changes. `load(X, Z)`
+// returns tile (X, Z)'s heights (window.nx × window.nz, as WorldGrid::window); `store(X, Z, f)`
+// receives its filled heights after each solve of it (the last call per tile is final).
+using TileLoad = std::function<std::vector<float>(std::int64_t X, std::int64_t Z)>;
+using TileStore = std::function<void(std::int64_t X, std::int64_t Z, std::vector<float> filled)>;
+struct TiledFillStats {
+  int rounds = 0;               // passes over the dirty tiles (the last one changes nothing)
+  std::int64_t tile_solves = 0;  // tile solves in all
+};
+TiledFillStats fill_least_fixpoint_tiled(const WorldGrid& grid, float sea, float epsilon, const TileLoad& load,
+                                         const TileStore& store);
+
 }  // namespace relief
