@@ -7,6 +7,7 @@
 //   * against references: OpenVDB volumeToMesh (same density, sign flipped), the analytic sphere and plane;
 //   * determinism (twice, 1 and 2 threads), orientation (triangles face the air), errors.
 #include <gtest/gtest.h>
+#include <hwy/targets.h>
 #include <openvdb/openvdb.h>
 #include <openvdb/tools/VolumeToMesh.h>
 #include <tbb/global_control.h>
@@ -512,6 +513,27 @@ TEST(VolumeMesh, DeterministicForAnyThreadCount) {
     EXPECT_TRUE(same(a, t)) << threads << " threads";
   }
   EXPECT_GT(a.indices.size(), 10000u);
+}
+
+// The kernels are compiled per Highway target: every target this CPU runs gives the same bytes (the
+// sign bits are exact comparisons, the rest scalar code without FMA contraction). nx = 131 = 2·64 + 3:
+// full words and a tail.
+TEST(VolumeMesh, EveryHighwayTargetGivesTheSameBytes) {
+  DensityBlock b = make_block(131, 40, 37, -70, 2, 9, 1.0, caves);
+  const VolumeMesh want = mesh_density(b);
+  std::size_t targets = 0;
+  for (std::int64_t target : hwy::SupportedAndGeneratedTargets()) {
+    hwy::SetSupportedTargetsForTest(target);
+    const VolumeMesh got = mesh_density(b);
+    hwy::SetSupportedTargetsForTest(0);
+    ++targets;
+    EXPECT_EQ(got.indices, want.indices) << hwy::TargetName(target);
+    ASSERT_EQ(got.positions.size(), want.positions.size()) << hwy::TargetName(target);
+    EXPECT_EQ(std::memcmp(got.positions.data(), want.positions.data(), want.positions.size() * 4), 0);
+    EXPECT_EQ(std::memcmp(got.normals.data(), want.normals.data(), want.normals.size() * 4), 0);
+  }
+  EXPECT_GE(targets, 2u);
+  EXPECT_GT(want.indices.size(), 10000u);
 }
 
 void expect_error(const DensityBlock& b, int apron, const std::string& field) {

@@ -11,6 +11,10 @@
 
 namespace relief::cli {
 
+// bench_volume.cpp: meshing against OpenVDB volumeToMesh (declared here: bench_common.hpp lists the
+// older groups).
+void bench_volume(const BenchSettings& s, json& entries);
+
 namespace {
 // The case groups in the order they run; `--cases` picks among them.
 struct Group {
@@ -19,7 +23,8 @@ struct Group {
 };
 const Group kGroups[] = {{"noise", bench_noise},     {"stages", bench_stages},   {"regenerate", bench_regenerate},
                          {"presets", bench_presets}, {"tilemap", bench_tilemap}, {"erosion", bench_erosion},
-                         {"islands", bench_islands}, {"export", bench_export},   {"dem", bench_dem}};
+                         {"islands", bench_islands}, {"export", bench_export},   {"dem", bench_dem},
+                         {"volume", bench_volume}};
 }  // namespace
 
 bool is_bench_group(const std::string& name) {

@@ -12,6 +12,7 @@ struct BenchSettings {
   std::vector<int> preset_sizes = {1025, 4097};
   int erosion_size = 1024;            // hydraulic, thermal and stream-power cases: size² samples
   int flood_size = 4096;              // Priority-Flood + D8 + accumulation case: size² samples
+  int volume_size = 256;              // volume cases: a size³ density block (meshing against OpenVDB)
   std::vector<std::string> cases;     // see bench_group_list(); empty = all
   std::string json_path;
 };
