@@ -79,7 +79,7 @@ void send_json(httplib::Response& res, int status, const json& body) {
 // The 405 for a method an API path does not serve: {the Allow value (POST or GET), the message}.
 std::optional<std::pair<std::string, std::string>> api_method_error(const std::string& method, const std::string& path) {
   const bool post = path == "/api/generate" || path == "/api/steps" || path == "/api/export" || path == "/api/resolve" ||
-                    path == "/api/save" || path == "/api/upload";
+                    path == "/api/save" || path == "/api/upload" || path == "/api/volume";
   const bool get = path == "/api/presets" || path == "/api/params" || path == "/api/stats" || path.starts_with("/api/presets/");
   const char* allow = post ? "POST" : get ? "GET" : nullptr;
   if (!allow || method == allow || (get && method == "HEAD")) return std::nullopt;
@@ -292,6 +292,21 @@ std::uint64_t request_estimate(Endpoint e, const StudioRequest& r) {
   }
 }
 
+// /api/volume: the run (meshes estimated), the writer's chunk meshes held by the glTF builder, the
+// GLB it assembles and the response's copy of it. A volume's surface has a few triangles per
+// sample of the frame on the top surface, plus the cave walls and cliffs: 600 bytes a sample is
+// about three times what the sea-cliff preset's caves.glb weighs.
+std::uint64_t volume_estimate(const StudioRequest& r) {
+  const std::uint64_t n = std::uint64_t(r.frame.nx) * std::uint64_t(r.frame.nz);
+  return estimate_memory_bytes(r.recipe, true) + n * 600;
+}
+
+// Volume requests run in a lane of their own per client (the session "ID#volume"): they supersede
+// only the client's older volume requests, and its generate, steps and export requests do not stop
+// them (nor they those). The page fetches the volume of the terrain it shows and drops the request
+// (closing the connection, which stops it here) when that terrain changes.
+constexpr std::string_view kVolumeLane = "#volume";
+
 // ---- zip ----------------------------------------------------------------------------------------
 
 // A failure of the server's own (not the request's): a 500 with a clear message, never a 4xx.
@@ -383,7 +398,8 @@ class Studio {
     r.keep_alive.assign(keep.begin(), keep.end());
     return r;
   }
-  std::shared_ptr<Session> session_of(const httplib::Request& req);
+  // The client's session (X-Relief-Client), or of its `lane` (kVolumeLane); null without the header.
+  std::shared_ptr<Session> session_of(const httplib::Request& req, std::string_view lane = {});
   Generated generate(const Recipe& r, const Frame& f, RunControl& ctl, bool all_snapshots) {
     RunOptions opt;
     opt.threads = s_.threads;
@@ -392,13 +408,16 @@ class Studio {
     if (long_fused_chain(r)) opt.fuse = false;
     return run_cached(cache_, r, f, std::move(opt), all_snapshots);
   }
+  // Runs `work` admitted with `estimate` bytes (request_estimate, volume_estimate) in the client's
+  // session or `lane`.
   template <class F>
-  void with_run(const httplib::Request& req, Endpoint e, const Request& r, F&& work);
+  void with_run(const httplib::Request& req, std::uint64_t estimate, const Request& r, F&& work, std::string_view lane = {});
   json stats();
 
   void api_generate(const httplib::Request& req, httplib::Response& res);
   void api_steps(const httplib::Request& req, httplib::Response& res);
   void api_export(const httplib::Request& req, httplib::Response& res);
+  void api_volume(const httplib::Request& req, httplib::Response& res);
   void api_upload(const httplib::Request& req, httplib::Response& res);
   void api_save(const httplib::Request& req, httplib::Response& res);
 
@@ -415,10 +434,11 @@ class Studio {
   std::atomic<std::uint64_t> upload_serial_{0};
 };
 
-std::shared_ptr<Session> Studio::session_of(const httplib::Request& req) {
+std::shared_ptr<Session> Studio::session_of(const httplib::Request& req, std::string_view lane) {
   if (!req.has_header("X-Relief-Client")) return nullptr;
-  const std::string id = req.get_header_value("X-Relief-Client");
+  std::string id = req.get_header_value("X-Relief-Client");
   if (!valid_client_id(id)) throw ApiError{400, "X-Relief-Client", "expected 1..64 characters [A-Za-z0-9_-]"};
+  id += lane;  // '#' is not in a client id: a lane never names another client's session
   std::lock_guard lk(sessions_m_);
   auto& s = sessions_[id];
   if (!s) {
@@ -435,9 +455,9 @@ std::shared_ptr<Session> Studio::session_of(const httplib::Request& req) {
 // Serialises per client, supersedes older requests, admits by memory estimate, bounds concurrent
 // runs, stops work on the limits of studio.hpp, maps errors.
 template <class F>
-void Studio::with_run(const httplib::Request& req, Endpoint e, const Request& r, F&& work) {
+void Studio::with_run(const httplib::Request& req, std::uint64_t estimate, const Request& r, F&& work, std::string_view lane) {
   const auto t0 = Clock::now();
-  std::shared_ptr<Session> session = session_of(req);
+  std::shared_ptr<Session> session = session_of(req, lane);
   std::uint64_t gen = session ? ++session->latest : 0;
   RunControl ctl(session, gen, t0 + std::chrono::seconds(s_.time_budget_s), client_socket(req), stopping_);
   // Throws the answer for a request stopped by ctl (by type: a LimitError must not be sliced).
@@ -466,7 +486,6 @@ void Studio::with_run(const httplib::Request& req, Endpoint e, const Request& r,
       if (ctl.cancelled()) stopped();
   }
   if (ctl.cancelled()) stopped();
-  const std::uint64_t estimate = request_estimate(e, r);
   if (!admission_.try_admit(estimate)) {
     ++refused_busy_;
     const auto [running, used] = admission_.state();
@@ -520,7 +539,7 @@ void Studio::api_generate(const httplib::Request& req, httplib::Response& res) {
   Request r = parse_request(req, Endpoint::Generate);
   const std::vector<std::string>& want = r.layers;
   const bool all = r.all_layers;
-  with_run(req, Endpoint::Generate, r, [&](RunControl& ctl) {
+  with_run(req, request_estimate(Endpoint::Generate, r), r, [&](RunControl& ctl) {
     Generated g = generate(r.recipe, r.frame, ctl, false);
     const Terrain& t = *g.terrain;
     const auto te = Clock::now();
@@ -541,6 +560,7 @@ void Studio::api_generate(const httplib::Request& req, httplib::Response& res) {
       if (all || std::find(want.begin(), want.end(), name) != want.end()) layers[name] = encode_layer(w, t, name);
     }
     h["available"] = avail;
+    h["volume"] = t.volume != nullptr;  // POST /api/volume meshes it
     h["layers"] = layers;
     h["points"] = encode_points(w, t);
     h["generate_ms"] = g.run_ms;
@@ -552,7 +572,7 @@ void Studio::api_generate(const httplib::Request& req, httplib::Response& res) {
 
 void Studio::api_steps(const httplib::Request& req, httplib::Response& res) {
   Request r = parse_request(req, Endpoint::Steps);
-  with_run(req, Endpoint::Steps, r, [&](RunControl& ctl) {
+  with_run(req, request_estimate(Endpoint::Steps, r), r, [&](RunControl& ctl) {
     Generated g = generate(r.recipe, r.frame, ctl, true);
     FrameWriter w;
     json h;
@@ -591,7 +611,7 @@ void Studio::api_export(const httplib::Request& req, httplib::Response& res) {
   const WriterDef* writer = r.writer;
   const std::string fmt = writer->name;
   const std::string& file = r.file;
-  with_run(req, Endpoint::Export, r, [&](RunControl& ctl) {
+  with_run(req, request_estimate(Endpoint::Export, r), r, [&](RunControl& ctl) {
     Generated g = generate(r.recipe, r.frame, ctl, false);
     // The writing policy is relief::generate's, as on the command line: the format and the writers
     // it implies (the OBJ's MTL names albedo.png, so the archive holds it), engine legality, the
@@ -630,6 +650,44 @@ void Studio::api_export(const httplib::Request& req, httplib::Response& res) {
     for (auto& [n2, b2] : files) names.push_back(n2);
     res.set_header("X-Relief-Files", names.dump());
   });
+}
+
+void Studio::api_volume(const httplib::Request& req, httplib::Response& res) {
+  const auto t0 = Clock::now();
+  Request r = parse_request(req, Endpoint::Generate);  // the body of /api/generate; sizes up to max_preview
+  with_run(
+      req, volume_estimate(r), r,
+      [&](RunControl& ctl) {
+        Generated g = generate(r.recipe, r.frame, ctl, false);
+        const auto tw = Clock::now();
+        // The writing policy is relief::generate's, as for /api/export: the caves writer on the
+        // cached terrain. A terrain without a volume is its refusal ("caves needs a volume, …"),
+        // named after the recipe's stages, which is what lacks it.
+        relief::GenerateSettings gs;
+        gs.recipe = r.recipe;
+        gs.formats = "caves";
+        gs.formats_path = "stages";
+        gs.threads = s_.threads;
+        gs.cancelled = [&ctl] { return ctl.cancelled(); };
+        gs.progress = [&ctl](std::string_view, double) { ctl.check(); };  // between chunks too
+        gs.terrain = g.terrain.get();
+        for (const json& t : g.timings)
+          gs.timings.push_back({t.value("stage", std::string()), t.value("label", std::string()), t.value("ms", 0.0), false});
+        MemoryOutput mem;
+        relief::generate(std::move(gs), mem);
+        const auto it = mem.files.find("caves.glb");
+        if (it == mem.files.end()) throw internal_error("the caves writer wrote no caves.glb");
+        const std::string stem = r.recipe.name + "-" + std::to_string(*r.recipe.seed) + "-" + std::to_string(r.frame.nx);
+        res.set_header("Content-Disposition", content_disposition(stem + "-caves.glb"));
+        res.set_header("X-Relief-Seed", std::to_string(*r.recipe.seed));
+        res.set_header("X-Relief-Timings", json{{"generate_ms", g.run_ms},
+                                                {"first_stage", g.first_stage},
+                                                {"mesh_ms", ms_since(tw)},
+                                                {"server_ms", ms_since(t0)}}
+                                               .dump());
+        res.set_content(it->second, "model/gltf-binary");
+      },
+      kVolumeLane);
 }
 
 std::string mib(std::uint64_t bytes) { return std::to_string(bytes >> 20) + " MiB"; }
@@ -823,6 +881,7 @@ void Studio::routes(httplib::Server& svr) {
   svr.Post("/api/generate", guard([this](const httplib::Request& req, httplib::Response& res) { api_generate(req, res); }));
   svr.Post("/api/steps", guard([this](const httplib::Request& req, httplib::Response& res) { api_steps(req, res); }));
   svr.Post("/api/export", guard([this](const httplib::Request& req, httplib::Response& res) { api_export(req, res); }));
+  svr.Post("/api/volume", guard([this](const httplib::Request& req, httplib::Response& res) { api_volume(req, res); }));
   svr.Post("/api/upload", guard([this](const httplib::Request& req, httplib::Response& res) { api_upload(req, res); }));
   svr.Post("/api/save", guard([this](const httplib::Request& req, httplib::Response& res) { api_save(req, res); }));
   // Any other method on an API path is a 405 naming the one that works: answered before routing

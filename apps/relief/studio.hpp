@@ -10,6 +10,15 @@
 //                                           per-stage timings
 //   POST /api/steps     {recipe}    binary frame with every stage's height and colour
 //   POST /api/export    {recipe, format, file?}   one file, or a zip of the format's files
+//   POST /api/volume    {recipe, layers?}   the recipe's volume (caves, overhangs, arches) as
+//                                   caves.glb (model/gltf-binary: one node per chunk, vertex colours,
+//                                   metres, y up, sea surface at y = 0), by relief::generate's caves
+//                                   writer on the cached terrain; header X-Relief-Timings
+//                                   {generate_ms, first_stage, mesh_ms, server_ms}. A recipe without a
+//                                   volume stage is a 400 naming `stages`. /api/generate's header says
+//                                   whether its terrain has a volume ("volume": true). Volume requests
+//                                   run in a lane of their own per client: they supersede only that
+//                                   client's older volume requests.
 //   POST /api/upload?name=NAME   the raw bytes of an image (PNG 8/16-bit, OpenEXR, Relief's .r16,
 //                                GeoTIFF); needs X-Relief-Client. {name, path: "upload:NAME", width,
 //                                height, format, bytes, session_bytes, limits}. An image stage's
@@ -23,7 +32,7 @@
 // newer request of the same client (header X-Relief-Client) superseded this one. An internal
 // failure (not the request's fault) is a 500 with {"error": "internal error: …"}.
 //
-// What the studio bounds (StudioSettings; `relief studio --help`). Generate, steps and export:
+// What the studio bounds (StudioSettings; `relief studio --help`). Generate, steps, export and volume:
 //   * stages: a recipe of more than max_stages stages is a 400 naming `stages` (every endpoint);
 //   * time: a request still running time_budget_s seconds after it started is stopped and answered
 //     503 {"limit": "time_budget"} (no Retry-After: the same request would run as long again);

@@ -73,6 +73,20 @@ export async function generate(recipe, { layers, signal } = {}) {
   return decodeFrame(await res.arrayBuffer());
 }
 
+// The recipe's volume (caves, overhangs, arches) as caves.glb bytes: {buffer, timings: {generate_ms,
+// first_stage, mesh_ms, server_ms}}. Throws ApiError (400 naming "stages" when the recipe has no
+// volume stage; 409 when a newer volume request of this page replaced it).
+export async function volume(recipe, { signal } = {}) {
+  const res = await postJson('api/volume', { recipe }, { signal });
+  let timings = {};
+  try {
+    timings = JSON.parse(res.headers.get('X-Relief-Timings') || '{}');
+  } catch (_) {
+    timings = {};
+  }
+  return { buffer: await res.arrayBuffer(), timings };
+}
+
 export async function steps(recipe, { signal } = {}) {
   const res = await postJson('api/steps', { recipe }, { signal });
   return decodeFrame(await res.arrayBuffer());

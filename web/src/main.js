@@ -10,6 +10,7 @@ import { generator, adopt, randomSeed, selectPresetOption } from './generator.js
 import { playback, playStages } from './playback.js';
 import { walk, exitWalk, walkTick, groundDisplay, maxSlope } from './walkmode.js';
 import { buildExportMenu, loadRecipeText } from './export.js';
+import { volume, volumeTick, buildVolumeGui } from './volume.js';
 
 // The menu of the 3D view's display settings (page.js).
 const viewGui = new GUI({ container: $('box3d'), title: 'View', width: 230 });
@@ -30,6 +31,7 @@ viewGui.add(viewSettings, 'props').name('props & points').onChange((v) => {
 });
 viewGui.add(viewSettings, 'dragPreview', ['auto', 'full', 'half']).name('while dragging')
   .domElement.title = 'auto: half resolution while dragging when a full update takes longer than ' + DRAG_BUDGET_MS + ' ms on the server';
+buildVolumeGui(viewGui);  // shown when the terrain has a volume
 viewGui.close();
 
 // ---------------------------------------------------------------------------------- toolbar
@@ -82,6 +84,7 @@ function loop(t) {
   last = t;
   if (view3d.controls.enabled) view3d.controls.update();
   walkTick(dt);
+  volumeTick();
   if (view3d.dirty && state.view === '3d') view3d.render();
   while (afterRender.length) afterRender.shift()();
   requestAnimationFrame(loop);
@@ -132,6 +135,7 @@ window.studio = {
   viewSettings,
   playback,
   walk,
+  volume,  // the volume's status, counts and cut plane (volume.js); volume.clipping(): the renderer's planes
   get idle() {
     return generator.idle;
   },

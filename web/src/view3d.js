@@ -1,10 +1,14 @@
 // The 3D view: the terrain as a lit, textured height mesh in metres (x east, y up, z south,
 // centred on the window), a translucent sea plane at y = 0, props as instanced meshes, feature
-// points as pins, and walk mode's walker, path and eye-height camera.
+// points as pins, and walk mode's walker, path and eye-height camera. A recipe with a volume
+// (caves, overhangs, arches) shows its mesh instead of the height mesh, with a cut plane to look
+// inside (volume.js fetches it).
 import * as THREE from 'three';
 import { OrbitControls } from 'three/addons/controls/OrbitControls.js';
 
 const SKY = new THREE.Color(0xbfd6ea);
+// The colour of rock cut open by the cut plane (sRGB), drawn flat on the cap.
+export const CUT_COLOR = 0x5b4636;
 
 // Display sizes of prop types in metres at scale 1 (a convention of the viewer; exports carry
 // the placements, not these shapes). Matched by words in the type name, else a tree.
@@ -46,7 +50,8 @@ export function elevationTint(heights, sea) {
 export class View3D {
   constructor(container) {
     this.container = container;
-    const renderer = new THREE.WebGLRenderer({ antialias: true, logarithmicDepthBuffer: true });
+    // A stencil buffer for the cap of the volume's cut plane.
+    const renderer = new THREE.WebGLRenderer({ antialias: true, logarithmicDepthBuffer: true, stencil: true });
     renderer.setPixelRatio(Math.min(window.devicePixelRatio || 1, 2));
     renderer.domElement.id = 'view3d';
     container.appendChild(renderer.domElement);
@@ -89,6 +94,43 @@ export class View3D {
     scene.add(this.props);
     this.pins = new THREE.Group();
     scene.add(this.pins);
+
+    // The volume: caves.glb's chunks merged into one geometry (metres, y up, sea surface at 0),
+    // lit in its vertex colours. The cut plane clips it (and the height mesh, the sea and its
+    // floor); the volume is a closed solid, so the cut is capped where the plane lies inside it,
+    // found with the stencil buffer: along each pixel's ray, the clipped solid's back faces count
+    // up and its front faces down (no depth test), so a non-zero count marks rock cut open by the
+    // plane; the cap (a quad in the plane, depth-tested like anything else, so that the sea behind
+    // it or rock in front of it hides or shows correctly) is drawn only there.
+    renderer.localClippingEnabled = true;
+    this.cut = { enabled: false, axis: 'z', at: 0.5 };
+    this.cutPlane = new THREE.Plane(new THREE.Vector3(0, 0, -1), 0);
+    this.volume = new THREE.Group();
+    this.volume.name = 'volume';
+    this.volume.visible = false;
+    scene.add(this.volume);
+    this.volumeFront = new THREE.MeshLambertMaterial({ vertexColors: true });
+    const counting = (side, op) =>
+      new THREE.MeshBasicMaterial({
+        side, colorWrite: false, depthWrite: false, depthTest: false, stencilWrite: true,
+        stencilFunc: THREE.AlwaysStencilFunc, stencilFail: op, stencilZFail: op, stencilZPass: op,
+      });
+    this.volumeCount = [counting(THREE.BackSide, THREE.IncrementWrapStencilOp), counting(THREE.FrontSide, THREE.DecrementWrapStencilOp)];
+    this.cap = new THREE.Mesh(
+      new THREE.PlaneGeometry(1, 1),
+      new THREE.MeshBasicMaterial({
+        color: CUT_COLOR, fog: false, side: THREE.DoubleSide, stencilWrite: true, stencilRef: 0,
+        stencilFunc: THREE.NotEqualStencilFunc, stencilFail: THREE.ReplaceStencilOp, stencilZFail: THREE.ReplaceStencilOp,
+        stencilZPass: THREE.ReplaceStencilOp,
+      }),
+    );
+    this.cap.name = 'volume:cap';
+    this.cap.renderOrder = 3;  // after the counting passes (renderOrder 2), before the sea (transparent)
+    this.cap.visible = false;
+    this.cap.onAfterRender = (r) => r.clearStencil();
+    scene.add(this.cap);
+    this.volumeMeshes = null;  // {front, counts: [back, front]}
+    this.volumeFrame = null;   // the frame the volume was made on
 
     // Walk mode: a person-sized capsule (1.8 m), a beacon to find it from afar, the path.
     this.walker = new THREE.Group();
@@ -141,6 +183,7 @@ export class View3D {
     this.frame = frame;
     this.heights = heights;
     if (sizeChanged) this.buildGeometry(nx, nz);
+    this.terrain.visible = !this.volume.visible;
     this.updateHeights();
     if (!rgb) rgb = elevationTint(heights, frame.sea_level);
     this.setTexture(nx, nz, rgb);
@@ -150,12 +193,15 @@ export class View3D {
       this.terrainMaterial = lit ? new THREE.MeshLambertMaterial({ map: this.texture }) : new THREE.MeshBasicMaterial({ map: this.texture });
       this.terrain.material = this.terrainMaterial;
       this.materialKind = mat;
+      this.applyCut();
     } else if (this.terrainMaterial.map !== this.texture) {
       this.terrainMaterial.map = this.texture;
       this.terrainMaterial.needsUpdate = true;
     }
     const span = Math.max(frame.width_m, frame.depth_m);
     this.sea.scale.set(span * 60, 1, span * 60);
+    this.placeVolume();
+    this.applyCut();
     this.floor.scale.set(span * 60, 1, span * 60);
     this.floor.position.y = (0 - frame.sea_level) * frame.height_m * this.vscale - 0.5;
     this.scene.fog.near = span * 1.5;
@@ -250,6 +296,8 @@ export class View3D {
       this.updateHeights();
       this.floor.position.y = (0 - this.frame.sea_level) * this.frame.height_m * this.vscale - 0.5;
       if (this.lastPoints) this.setPoints(this.lastPoints);
+      this.placeVolume();
+      this.applyCut();
     }
     this.dirty = true;
   }
@@ -304,6 +352,98 @@ export class View3D {
       (isProp ? this.props : this.pins).add(mesh);
     }
     this.dirty = true;
+  }
+
+  // ------------------------------------------------------------------------------ volume
+  // geometry: a BufferGeometry (position, normal, color; indexed) in the volume's coordinates:
+  // metres, x and z from the world's origin, y above the sea surface. frame: the frame it was made
+  // on (the server's). Replaces the volume shown before (whose geometry is disposed).
+  setVolume(geometry, frame) {
+    this.clearVolume();
+    const front = new THREE.Mesh(geometry, this.volumeFront);
+    front.name = 'volume';
+    const counts = this.volumeCount.map((m) => {
+      const c = new THREE.Mesh(geometry, m);
+      c.name = 'volume:stencil';
+      c.renderOrder = 2;
+      c.frustumCulled = false;  // counted along every ray, also where the solid is off screen
+      return c;
+    });
+    this.volume.add(front, ...counts);
+    this.volumeMeshes = { front, counts };
+    this.volumeFrame = frame;
+    this.placeVolume();
+    this.applyCut();
+    this.dirty = true;
+  }
+
+  clearVolume() {
+    if (this.volumeMeshes) {
+      this.volume.remove(this.volumeMeshes.front, ...this.volumeMeshes.counts);
+      this.volumeMeshes.front.geometry.dispose();
+      this.volumeMeshes = null;
+      this.volumeFrame = null;
+    }
+    this.showVolume(false);
+  }
+
+  // Shows the volume instead of the height mesh (true), or the height mesh (false).
+  showVolume(on) {
+    const v = !!on && !!this.volumeMeshes;
+    if (this.volume.visible === v) return;
+    this.volume.visible = v;
+    if (this.terrain) this.terrain.visible = !v;
+    this.applyCut();
+    this.dirty = true;
+  }
+
+  // The volume's coordinates to the display's: centred on the window like the height mesh, the
+  // heights exaggerated by the relief scale (points are placed the same way).
+  placeVolume() {
+    const f = this.volumeFrame;
+    if (!f) return;
+    this.volume.position.set(-(f.x0_m || 0) - f.width_m / 2, 0, -(f.z0_m || 0) - f.depth_m / 2);
+    this.volume.scale.set(1, this.vscale, 1);
+    this.volume.updateMatrixWorld(true);
+  }
+
+  // cut: {enabled, axis: 'x' | 'z', at: 0..1 across the world along the axis}. Everything beyond
+  // the plane (the side towards the start camera, +x or +z) is clipped away: the volume, the
+  // height mesh, the sea and the sea floor; the volume's cut rock is capped in CUT_COLOR.
+  setCut(cut) {
+    this.cut = { ...this.cut, ...cut };
+    this.applyCut();
+    this.dirty = true;
+  }
+
+  applyCut() {
+    const { enabled, axis, at } = this.cut;
+    const f = this.frame || this.volumeFrame;
+    if (f) {
+      const extent = axis === 'x' ? f.width_m : f.depth_m;
+      this.cutPlane.normal.set(axis === 'x' ? -1 : 0, 0, axis === 'x' ? 0 : -1);
+      this.cutPlane.constant = (Math.min(1, Math.max(0, at)) - 0.5) * extent;  // keeps axis ≤ constant
+    }
+    const planes = enabled ? [this.cutPlane] : [];
+    for (const m of [this.volumeFront, ...this.volumeCount, this.terrainMaterial, this.sea.material, this.floor.material]) m.clippingPlanes = planes;
+    if (this.volumeMeshes) for (const c of this.volumeMeshes.counts) c.visible = enabled;
+    // The cap: a square in the plane, larger than the world's cross-section (the stencil trims it).
+    this.cap.visible = enabled && this.volume.visible;
+    if (f) {
+      const span = 4 * Math.max(f.width_m, f.depth_m, f.height_m * this.vscale);
+      this.cap.scale.set(span, span, 1);
+      this.cutPlane.coplanarPoint(this.cap.position);
+      this.cap.lookAt(this.cap.position.clone().add(this.cutPlane.normal));
+      this.cap.updateMatrixWorld();
+    }
+  }
+
+  // What the renderer clips with now (tests): {local, planes: [{normal: [x, y, z], constant}]}.
+  clipping() {
+    return {
+      local: this.renderer.localClippingEnabled,
+      planes: (this.volumeFront.clippingPlanes || []).map((p) => ({ normal: p.normal.toArray(), constant: p.constant })),
+    };
   }
 
   // Sample coordinates under the pointer, or null.
