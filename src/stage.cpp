@@ -52,6 +52,7 @@ const std::vector<StageDef>& stage_registry() {
       stages::props(),    stages::climate(),  stages::image(),
       stages::mask(),     stages::mix(),
       stages::masked(stages::amplify(), "height", "layer"),
+      stages::volume(),   stages::overhangs(), stages::caves(),
   };
   return all;
 }

@@ -27,6 +27,9 @@ StageDef climate();      // stage_climate.cpp: moisture/temperature → Whittake
 StageDef image();        // stage_image.cpp: a raster the user brings into a layer (pointwise)
 StageDef mask();         // stage_mask.cpp: 0..1 masks from elevation, slope, curvature, flow, coast distance, biome ids
 StageDef mix();          // stage_mask.cpp: two layers combined through a mask
+StageDef volume();       // stage_volume.cpp: the density band (voxel size, chunks, closed walls)
+StageDef overhangs();    // stage_volume.cpp: 3D warp of steep ground into the volume
+StageDef caves();        // stage_volume.cpp: cheese, spaghetti and noodle caves carved into the volume
 StageDef amplify();      // stage_amplify.cpp: slope-following fractal detail on a coarse input
 
 // stage_masked.cpp: `d` with the optional `mask` parameter (a 0..1 layer scaling the stage's effect

@@ -16,6 +16,9 @@ std::vector<WriterDef> export_writers();
 // Engine heightmap files for o.engine (one per tile), <engine>_height.json and <engine>_import.txt.
 void write_engine_files(const Terrain& t, const ExportOptions& o, Output& out, const OptionPath& path_of = {});
 
+// writer_volume.cpp: caves.glb, caves.obj, caves.vdb (the volume stages' density band).
+std::vector<WriterDef> volume_writers();
+
 // writer_water.cpp: rivers.json and lakes.json.
 std::vector<WriterDef> water_writers();
 

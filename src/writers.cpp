@@ -509,6 +509,7 @@ std::vector<WriterDef> make_registry() {
   w.push_back(writers::tilemap());
   for (WriterDef& d : export_writers()) w.push_back(std::move(d));
   w.push_back(detail::geotiff_writer());
+  for (WriterDef& d : volume_writers()) w.push_back(std::move(d));
   return w;
 }
 
