@@ -25,7 +25,6 @@
 #include <algorithm>
 #include <cstring>
 #include <limits>
-#include <queue>
 
 #include "relief/error.hpp"
 #include "relief/world.hpp"
@@ -56,36 +55,98 @@ constexpr int kDi[8] = {1, 1, 0, -1, -1, -1, 0, 1};
 constexpr int kDj[8] = {0, 1, 1, 1, 0, -1, -1, -1};
 constexpr float kInf = std::numeric_limits<float>::infinity();
 
+// Monotone radix heap (Ahuja, Mehlhorn, Orlin, Tarjan 1990) on 32-bit order keys: every pushed key
+// is ≥ the last popped one (Dijkstra's offers only rise), so a key lives in the bucket of the
+// highest bit in which it differs from the last popped key, and a pop redistributes one bucket.
+class MonotoneHeap {
+ public:
+  bool empty() const { return size_ == 0; }
+  void push(std::uint32_t key, std::uint32_t cell) {
+    buckets_[bucket(key)].push_back({key, cell});
+    ++size_;
+  }
+  std::pair<std::uint32_t, std::uint32_t> pop() {
+    if (buckets_[0].empty()) {
+      int b = 1;
+      while (buckets_[b].empty()) ++b;
+      std::uint32_t lo = buckets_[b][0].first;
+      for (const auto& e : buckets_[b]) lo = std::min(lo, e.first);
+      last_ = lo;
+      for (const auto& e : buckets_[b]) buckets_[bucket(e.first)].push_back(e);
+      buckets_[b].clear();
+    }
+    const auto e = buckets_[0].back();
+    buckets_[0].pop_back();
+    --size_;
+    return e;
+  }
+
+ private:
+  int bucket(std::uint32_t key) const {
+    const std::uint32_t x = key ^ last_;
+    return x == 0 ? 0 : 32 - __builtin_clz(x);
+  }
+  std::vector<std::pair<std::uint32_t, std::uint32_t>> buckets_[33];
+  std::uint32_t last_ = 0;
+  std::size_t size_ = 0;
+};
+
 // Dijkstra on one grid: `f` holds the seeds (finite: a value some path gives; +inf: unknown) and
 // becomes the least fixpoint of the equation above restricted to paths inside the grid, with
 // `outlet` cells fixed at z. Values are order-independent; the heap's tie order does not matter.
+// Zhou, Sun, Fu 2016's observation holds here too: an offer z(m) (a cell above the level that
+// reaches it) is the least value m can have at all, so m is final at once and its own uphill
+// neighbours are settled by a depth-first walk, without the heap.
 void solve(const float* z, float* f, int nx, int nz, const std::vector<std::uint8_t>& outlet, float eps) {
   const std::size_t n = std::size_t(nx) * std::size_t(nz);
-  using Entry = std::pair<std::uint32_t, std::uint32_t>;  // (key, cell)
-  std::priority_queue<Entry, std::vector<Entry>, std::greater<>> open;
-  for (std::size_t c = 0; c < n; ++c) {
-    if (outlet[c]) f[c] = z[c];
-    if (f[c] < kInf) open.push({key_of(f[c]), std::uint32_t(c)});
-  }
+  MonotoneHeap open;
+  // Seeds: outlets that border a non-outlet cell (the others offer nothing), and known values.
+  for (int j = 0; j < nz; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const std::size_t c = std::size_t(j) * std::size_t(nx) + std::size_t(i);
+      if (outlet[c]) {
+        f[c] = z[c];
+        bool borders_land = false;
+        for (int d = 0; d < 8 && !borders_land; ++d) {
+          const int a = i + kDi[d], b = j + kDj[d];
+          borders_land = a >= 0 && b >= 0 && a < nx && b < nz && !outlet[std::size_t(b) * std::size_t(nx) + std::size_t(a)];
+        }
+        if (!borders_land) continue;
+      }
+      if (f[c] < kInf) open.push(key_of(f[c]), std::uint32_t(c));
+    }
   std::vector<std::uint8_t> closed(n, 0);
-  while (!open.empty()) {
-    const auto [k, c] = open.top();
-    open.pop();
-    if (closed[c] || k != key_of(f[c])) continue;  // stale entry
-    closed[c] = 1;
+  std::vector<std::uint32_t> trail;
+  // Offers from the final cell c (level l) to its open neighbours; uphill ones close at once.
+  auto relax = [&](std::uint32_t c) {
     const float l = f[c];
     const float up = step(l, eps);
     const int i = int(c % std::uint32_t(nx)), j = int(c / std::uint32_t(nx));
+    const bool interior = i > 0 && j > 0 && i < nx - 1 && j < nz - 1;
     for (int d = 0; d < 8; ++d) {
       const int a = i + kDi[d], b = j + kDj[d];
-      if (a < 0 || b < 0 || a >= nx || b >= nz) continue;
+      if (!interior && (a < 0 || b < 0 || a >= nx || b >= nz)) continue;
       const std::size_t m = std::size_t(b) * std::size_t(nx) + std::size_t(a);
       if (closed[m] || outlet[m]) continue;
-      const float offer = z[m] > l ? z[m] : up;
-      if (offer < f[m]) {
-        f[m] = offer;
-        open.push({key_of(offer), std::uint32_t(m)});
+      if (z[m] > l) {
+        f[m] = z[m];
+        closed[m] = 1;
+        trail.push_back(std::uint32_t(m));
+      } else if (up < f[m]) {
+        f[m] = up;
+        open.push(key_of(up), std::uint32_t(m));
       }
+    }
+  };
+  while (!open.empty()) {
+    const auto [k, c] = open.pop();
+    if (closed[c] || k != key_of(f[c])) continue;  // stale entry
+    closed[c] = 1;
+    relax(c);
+    while (!trail.empty()) {
+      const std::uint32_t q = trail.back();
+      trail.pop_back();
+      relax(q);
     }
   }
 }
