@@ -52,12 +52,21 @@ inline std::uint32_t low32(double integral) {
   return std::uint32_t(bits);
 }
 
+// floor(u), bit for bit (±0, integers beyond 2⁵², ±inf and NaN are their own floor), without the
+// libm call std::floor is on baseline x86-64 (no roundsd before SSE4.1): the per-row terms of
+// short rows (volume chunks) spend most of their time here otherwise.
+inline double floor_exact(double u) {
+  if (!(std::fabs(u) < 4503599627370496.0) || u == 0.0) return u;
+  const double t = double(std::int64_t(u));  // truncation, exact below 2⁵²
+  return t > u ? t - 1.0 : t;
+}
+
 struct Split {
   std::uint32_t i;  // floor(u) modulo 2³²
   float f;          // u − floor(u), rounded to float
 };
 inline Split split(double u) {
-  const double fl = std::floor(u);
+  const double fl = floor_exact(u);
   return {low32(fl), float(u - fl)};
 }
 
@@ -162,8 +171,14 @@ void noise3_row_terms(const Noise3Octave& o, NoiseBasis basis, double y_m, doubl
   r.az[0] = sz.f, r.az[1] = sz.f, r.az[2] = fz1, r.az[3] = fz1;
   r.sy = fade(sy.f);
   r.sz = fade(sz.f);
+  // t[c][k] = G_y[k]·ay[c] + G_z[k]·az[c], each product computed once (ay and az take two values).
+  float py[2][8], pz[2][8];
+  for (int k = 0; k < 8; ++k) {
+    py[0][k] = kG3Y[k] * sy.f, py[1][k] = kG3Y[k] * fy1;
+    pz[0][k] = kG3Z[k] * sz.f, pz[1][k] = kG3Z[k] * fz1;
+  }
   for (int c = 0; c < 4; ++c) {
-    for (int k = 0; k < 8; ++k) r.t[c][k] = kG3Y[k] * r.ay[c] + kG3Z[k] * r.az[c];
+    for (int k = 0; k < 8; ++k) r.t[c][k] = py[c & 1][k] + pz[c >> 1][k];
     std::memcpy(&r.t[c][8], &r.t[c][0], 8 * sizeof(float));  // entries 8..15 repeat 0..7
   }
 }
