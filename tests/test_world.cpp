@@ -599,3 +599,69 @@ TEST(WorldFill, TiledLeastFixpointEqualsTheWholeMapBitForBit) {
   fill_least_fixpoint(ref.data(), 257, 200, 0.4f, 1e-6f);
   EXPECT_TRUE(relief::test::same_bits(ref, tiled_fill(zs, 257, 200, 65, 0.4f, 1e-6f)));
 }
+
+// ---- progress and interrupts ----------------------------------------------------------------------
+
+TEST(WorldProgress, CountsTilesAndStagesAndEndsAtOne) {
+  const Recipe r = recipe_of(preset_doc("island"));
+  TempDir d("world-progress");
+  for (int pass = 0; pass < 2; ++pass) {  // a build, then a resume that skips every tile
+    std::vector<WorldProgress> seen;
+    std::vector<std::string> stages;
+    WorldSettings s = settings(r, 257, 257, 129, d / "w", 1);
+    s.progress = [&](const WorldProgress& p) {
+      seen.push_back(p);
+      if (!p.stage_name.empty()) stages.emplace_back(p.stage_name);
+    };
+    build_world(s);
+    ASSERT_FALSE(seen.empty());
+    for (std::size_t k = 1; k < seen.size(); ++k) {
+      EXPECT_GE(seen[k].fraction, seen[k - 1].fraction);
+      EXPECT_GE(seen[k].tiles_done, seen[k - 1].tiles_done);
+    }
+    EXPECT_EQ(seen.back().tiles_done, 4);
+    EXPECT_EQ(seen.back().tiles_total, 4);
+    EXPECT_DOUBLE_EQ(seen.back().fraction, 1.0);
+    if (pass == 0) {
+      EXPECT_EQ(seen.back().tiles_skipped, 0);
+      EXPECT_NE(std::find(stages.begin(), stages.end(), "hillshade"), stages.end());  // stages are named
+      EXPECT_GE(seen.back().seconds_left, 0.0);
+    } else {
+      EXPECT_EQ(seen.back().tiles_skipped, 4);
+    }
+  }
+}
+
+TEST(WorldCli, SigintKeepsTheFinishedTilesAndTheRerunResumes) {
+  TempDir ref("world-int-ref"), d("world-int");
+  const auto full = relief::test::relief_cli("world island --size 513 --tile 33 --seed 8 -q -j 1 -o " + (ref / "w"));
+  ASSERT_EQ(full.code, 0) << full.out;
+  const fs::path out = d.path / "w", err = d.path / "stderr.txt";
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    ::freopen(err.c_str(), "w", stderr);
+    ::freopen("/dev/null", "w", stdout);
+    const std::string o = out.string();
+    ::execl(RELIEF_BINARY, RELIEF_BINARY, "world", "island", "--size", "513", "--tile", "33", "--seed", "8", "-j", "1", "-o", o.c_str(),
+            (char*)nullptr);
+    ::_exit(127);
+  }
+  const auto t0 = std::chrono::steady_clock::now();
+  while (count_tiles(out) < 30 && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(60))
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+  ::kill(pid, SIGINT);
+  int st = 0;
+  ::waitpid(pid, &st, 0);
+  if (WIFEXITED(st) && WEXITSTATUS(st) == 0) GTEST_SKIP() << "the build finished before the interrupt";
+  ASSERT_TRUE(WIFEXITED(st));
+  EXPECT_EQ(WEXITSTATUS(st), 130);
+  EXPECT_NE(relief::test::slurp(err).find("finished tiles are kept"), std::string::npos) << relief::test::slurp(err);
+  const std::size_t kept = count_tiles(out);
+  EXPECT_GE(kept, 30u);
+  const auto again = relief::test::relief_cli("world island --size 513 --tile 33 --seed 8 -j 1 -o " + out.string());
+  ASSERT_EQ(again.code, 0) << again.out;
+  EXPECT_NE(again.out.find(std::to_string(kept) + " resumed"), std::string::npos) << again.out;
+  fs::remove(err);
+  expect_same_store(ref.path / "w", out);
+}
