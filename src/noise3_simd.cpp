@@ -91,13 +91,22 @@ HWY_INLINE VF Fade(VF t) {
 }
 HWY_INLINE VF Lerp(VF t, VF a, VF b) { return hn::Add(a, hn::Mul(t, hn::Sub(b, a))); }
 
-// Sample positions x = double(i0 + start + i)·dx, as kHalves double vectors.
-HWY_INLINE void Positions(std::int64_t first, double dx, VD (&x)[kHalves]) {
+// Sample positions x = double(first + i)·dx, i in [0, kHalves·Lanes), as kHalves double vectors.
+// small: every index of the row is below 2⁵² in magnitude; then double(first) + i is double(first + i)
+// exactly and the int64 → double conversion (emulated on AVX2) is done once, not per vector.
+HWY_INLINE void Positions(std::int64_t first, double dx, bool small, VD (&x)[kHalves]) {
   const DD d;
   const DI di;
   const int N = int(hn::Lanes(d));
-  for (int h = 0; h < kHalves; ++h)
-    x[h] = hn::Mul(hn::ConvertTo(d, hn::Add(hn::Iota(di, 0), hn::Set(di, first + std::int64_t(h) * N))), hn::Set(d, dx));
+  for (int h = 0; h < kHalves; ++h) {
+    const VD idx = small ? hn::Add(hn::Set(d, double(first)), hn::Iota(d, double(h * N)))
+                         : hn::ConvertTo(d, hn::Add(hn::Iota(di, 0), hn::Set(di, first + std::int64_t(h) * N)));
+    x[h] = hn::Mul(idx, hn::Set(d, dx));
+  }
+}
+HWY_INLINE bool SmallIndices(std::int64_t i0, int n) {
+  constexpr std::int64_t kLimit = std::int64_t(1) << 52;
+  return i0 > -kLimit && i0 < kLimit - std::int64_t(n) - 64;
 }
 
 // ---- gradient table lookups --------------------------------------------------------------------------
@@ -215,9 +224,10 @@ HWY_NOINLINE void RowGradient3(const Noise3Args& a, const Noise3Row* rows, std::
   const DF df;
   const int NF = kHalves * int(hn::Lanes(d));
   const std::size_t S = std::size_t(stride);
+  const bool small = SmallIndices(i0, n);
   for (int start = 0; start < n; start += NF) {
     VD x[kHalves];
-    if constexpr (!kCols) Positions(i0 + start, dx, x);
+    if constexpr (!kCols) Positions(i0 + start, dx, small, x);
     VF acc = hn::Zero(df);
     for (int k = 0; k < a.count; ++k) {
       XTerms xt;
@@ -241,9 +251,10 @@ HWY_NOINLINE void ColumnsGradient3(const Noise3Args& a, std::int64_t i0, double 
   const DU32 du32;
   const int NF = kHalves * int(hn::Lanes(d));
   const std::size_t S = std::size_t(stride);
+  const bool small = SmallIndices(i0, npad);
   for (int start = 0; start < npad; start += NF) {
     VD x[kHalves];
-    Positions(i0 + start, dx, x);
+    Positions(i0 + start, dx, small, x);
     for (int k = 0; k < a.count; ++k) {
       const XTerms t = XSplit(x, a.octaves[k]);
       std::uint32_t* c = cols + std::size_t(k) * kG3ColumnArrays * S + std::size_t(start);
@@ -318,9 +329,10 @@ HWY_NOINLINE void RowSimplex3(const Noise3Args& a, const Noise3Row* rows, std::i
   const DD d;
   const DF df;
   const int NF = kHalves * int(hn::Lanes(d));
+  const bool small = SmallIndices(i0, n);
   for (int start = 0; start < n; start += NF) {
     VD x[kHalves];
-    Positions(i0 + start, dx, x);
+    Positions(i0 + start, dx, small, x);
     VF acc = hn::Zero(df);
     for (int k = 0; k < a.count; ++k) {
       if constexpr (kFr == kNone)

@@ -60,11 +60,13 @@ struct RowCase {
   int n;
 };
 // Odd lengths (1, 3, 17: shorter than a vector; 301: tails), negative and huge offsets, a
-// non-dyadic spacing, coordinates a million and a billion metres out.
+// non-dyadic spacing, coordinates a million and a billion metres out, sample indices beyond 2⁵².
 const RowCase kRows[] = {{0.0, 0.0, 0, 1.0, 1},           {3.25, -1.5, -7, 0.731, 3},
                          {-41.5, 12.0, 12, 2.5, 17},      {777.7, -333.3, -37, 9.775, 301},
                          {1e6 + 0.3, -2e6, 1000000000, 1.0, 64}, {-2.5e7, 3e7, -123456789, 3.3, 33},
-                         {0.5, 0.25, 0, 1e-3, 40}};
+                         {0.5, 0.25, 0, 1e-3, 40},
+                         // indices beyond 2⁵² (the kernels' exact int64 → double path)
+                         {2.0, 3.0, std::int64_t(1) << 60, 1e-12, 19}, {-5.0, 9.0, -(std::int64_t(1) << 53) - 5, 1e-6, 21}};
 
 // row() (current target) and rows() against row_reference, bit for bit; the number of differing rows.
 int mismatches(const Noise3& n, const std::string& what) {
