@@ -35,6 +35,21 @@ let controller = null;
 let folder = null;
 const loader = new GLTFLoader();
 
+// Copies `count` vectors of a 3-component attribute into out[3·v0 …] (plain float arrays at once;
+// interleaved, normalised or 4-component ones one by one); `fill` in every component without one.
+function copyVec3(out, v0, count, a, fill) {
+  if (!a) {
+    out.fill(fill, 3 * v0, 3 * (v0 + count));
+  } else if (!a.isInterleavedBufferAttribute && !a.normalized && a.itemSize === 3 && a.array instanceof Float32Array) {
+    out.set(a.array.subarray(0, count * 3), 3 * v0);
+  } else {
+    for (let k = 0; k < count; k++) {
+      const o = 3 * (v0 + k);
+      out[o] = a.getX(k), out[o + 1] = a.getY(k), out[o + 2] = a.getZ(k);
+    }
+  }
+}
+
 // caves.glb → one indexed BufferGeometry (position, normal, color) in the volume's coordinates,
 // and its counts. Each chunk is a glTF node of its own; their seam vertices coincide but are kept
 // apart (as in the file), which does not show.
@@ -58,15 +73,15 @@ export async function decodeVolume(buffer) {
   let v0 = 0, q = 0;
   for (const g of parts) {
     const p = g.attributes.position, n = g.attributes.normal, c = g.attributes.color;
-    for (let k = 0; k < p.count; k++) {
-      const o = 3 * (v0 + k);
-      pos[o] = p.getX(k), pos[o + 1] = p.getY(k), pos[o + 2] = p.getZ(k);
-      if (n) nor[o] = n.getX(k), nor[o + 1] = n.getY(k), nor[o + 2] = n.getZ(k);
-      if (c) col[o] = c.getX(k), col[o + 1] = c.getY(k), col[o + 2] = c.getZ(k);
-      else col[o] = col[o + 1] = col[o + 2] = 0.6;
+    copyVec3(pos, v0, p.count, p, 0);
+    copyVec3(nor, v0, p.count, n, 0);
+    copyVec3(col, v0, p.count, c, 0.6);
+    if (g.index) {
+      const a = g.index.array;
+      for (let k = 0; k < a.length; k++) idx[q++] = v0 + a[k];
+    } else {
+      for (let k = 0; k < p.count; k++) idx[q++] = v0 + k;
     }
-    if (g.index) for (let k = 0; k < g.index.count; k++) idx[q++] = v0 + g.index.getX(k);
-    else for (let k = 0; k < p.count; k++) idx[q++] = v0 + k;
     v0 += p.count;
   }
   const geometry = new THREE.BufferGeometry();

@@ -4,6 +4,8 @@
 import { test, before, after } from 'node:test';
 import assert from 'node:assert/strict';
 import fs from 'node:fs';
+import os from 'node:os';
+import path from 'node:path';
 import { startStudio, launchBrowser, waitIdle, greyPng } from './harness.mjs';
 
 let server, browser;
@@ -407,5 +409,76 @@ print(json.dumps({'names': sorted(z.namelist()), 'path': json.loads(z.read('reci
   assert.deepEqual(listing, { names: ['flat.png', 'recipe.json'], path: 'flat.png', png: [0x89, 0x50, 0x4e, 0x47] });
   // The only console errors are the browser's notes of the run refused before a file was chosen.
   assert.ok(errors.every((e) => /status of 400/.test(e)), errors.join('\n'));
+  await page.close();
+});
+
+// The share of sampled pixels within `tol` of an sRGB colour.
+function colourShare(p, rgb, tol = 4) {
+  let hits = 0;
+  for (let k = 0; k < p.pixels.length; k += 3)
+    if (Math.abs(p.pixels[k] - rgb[0]) <= tol && Math.abs(p.pixels[k + 1] - rgb[1]) <= tol && Math.abs(p.pixels[k + 2] - rgb[2]) <= tol) hits++;
+  return hits / (p.pixels.length / 3);
+}
+
+test('a recipe with a volume shows its caves mesh, and the cut plane opens it', async (t) => {
+  const { page, errors } = await open('?preset=sea-cliff&size=129&seed=7');
+  await page.waitForFunction(() => ['shown', 'empty', 'error'].includes(window.studio.volume.status), null, { timeout: 120000, polling: 100 });
+  const v = await page.evaluate(() => {
+    const s = window.studio, x = s.volume;
+    return { status: x.status, error: x.error, triangles: x.triangles, chunks: x.chunks, shown: s.view3d.volume.visible, terrain: s.view3d.terrain.visible, recipe: s.state.result.header.recipe };
+  });
+  assert.equal(v.status, 'shown', v.error || v.status);
+  assert.ok(v.shown && !v.terrain, 'the volume is shown instead of the height mesh');
+  // The page shows every triangle and chunk of the server's caves.glb for the terrain it shows.
+  const res = await fetch(server.url + '/api/volume', { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify({ recipe: v.recipe }) });
+  assert.equal(res.status, 200);
+  const glb = Buffer.from(await res.arrayBuffer());
+  const json = JSON.parse(glb.subarray(20, 20 + glb.readUInt32LE(12)).toString('utf8'));
+  const chunkNodes = json.nodes.filter((n) => /^caves_x/.test(n.name || ''));
+  const triangles = chunkNodes.reduce((s, n) => s + json.meshes[n.mesh].primitives.reduce((q, p) => q + json.accessors[p.indices].count / 3, 0), 0);
+  assert.ok(triangles > 0);
+  assert.deepEqual([v.triangles, v.chunks], [triangles, chunkNodes.length]);
+
+  // The cut plane, through the View menu's Volume folder: off at first, then on (across z, at the
+  // middle): the renderer clips with one plane facing -z through the centre, and the cut rock
+  // (drawn flat in the cut colour) comes into view.
+  const cutRgb = [0x5b, 0x46, 0x36];
+  const before = await pixels(page);
+  assert.deepEqual(await page.evaluate(() => window.studio.volume.clipping().planes), []);
+  await page.click('#view-gui > .lil-title');
+  await page.click('[data-volume="cut plane"] input');
+  const clip = await page.evaluate(() => window.studio.volume.clipping());
+  assert.equal(clip.local, true, 'renderer.localClippingEnabled');
+  assert.equal(clip.planes.length, 1);
+  assert.deepEqual(clip.planes[0].normal, [0, 0, -1]);
+  assert.ok(Math.abs(clip.planes[0].constant) < 1e-6, `constant ${clip.planes[0].constant}`);
+  const cut = await pixels(page);
+  assert.ok(meanAbsDiff(before, cut) > 2, `the picture changed by ${meanAbsDiff(before, cut)}`);
+  const shareBefore = colourShare(before, cutRgb), shareCut = colourShare(cut, cutRgb);
+  assert.ok(shareBefore < 0.002 && shareCut > 0.01, `cut-colour pixels: ${shareBefore} before, ${shareCut} after`);
+  // Along x at a quarter: the plane moves with the controls.
+  await page.selectOption('[data-volume="cut axis"] select', 'x');
+  const slider = page.locator('[data-volume="cut at"] .lil-slider');
+  const box = await slider.boundingBox();
+  await page.mouse.click(box.x + box.width * 0.25, box.y + box.height / 2);
+  const moved = await page.evaluate(() => ({ cut: window.studio.volume.cut, clip: window.studio.volume.clipping(), width: window.studio.state.result.header.frame.width_m }));
+  assert.equal(moved.cut.axis, 'x');
+  assert.deepEqual(moved.clip.planes[0].normal, [-1, 0, 0]);
+  assert.ok(Math.abs(moved.clip.planes[0].constant - (moved.cut.at - 0.5) * moved.width) < 1e-6);
+  assert.ok(Math.abs(moved.cut.at - 0.25) < 0.05, `cut at ${moved.cut.at}`);
+  const shot = path.join(process.env.RELIEF_SHOTS_DIR || os.tmpdir(), 'studio-volume-cut.png');
+  await page.screenshot({ path: shot });
+  t.diagnostic(`screenshot: ${shot}`);
+  // Off again: no plane.
+  await page.click('[data-volume="cut plane"] input');
+  assert.deepEqual(await page.evaluate(() => window.studio.volume.clipping().planes), []);
+  // A recipe without a volume: the height mesh again, and the Volume folder goes away.
+  const gens = await page.evaluate(() => window.studio.state.generations);
+  await page.selectOption('#preset', 'island');
+  await waitIdle(page, gens + 1);
+  await page.waitForFunction(() => window.studio.volume.status === 'none');
+  assert.deepEqual(await page.evaluate(() => [window.studio.view3d.volume.visible, window.studio.view3d.terrain.visible]), [false, true]);
+  assert.equal(await page.isVisible('#volume-gui'), false);
+  assert.deepEqual(errors, []);
   await page.close();
 });

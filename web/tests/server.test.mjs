@@ -522,3 +522,103 @@ print(json.dumps(sorted(z.namelist())))
   assert.equal(plain.status, 200);
   fs.rmSync(dir, { recursive: true, force: true });
 });
+
+// ---- volumes (issue 21): POST /api/volume gives the caves writer's caves.glb for the terrain the
+// page shows (the cached one); a recipe without a volume is refused naming its stages.
+
+// The chunks of a GLB: {json, bin} after checking its container (glTF 2.0 binary: 12-byte header,
+// a JSON chunk, then a BIN chunk).
+function parseGlb(buf) {
+  assert.equal(buf.subarray(0, 4).toString('latin1'), 'glTF', 'magic');
+  assert.equal(buf.readUInt32LE(4), 2, 'version');
+  assert.equal(buf.readUInt32LE(8), buf.length, 'length');
+  const jsonLength = buf.readUInt32LE(12);
+  assert.equal(buf.readUInt32LE(16), 0x4e4f534a, 'the first chunk is JSON');
+  const json = JSON.parse(buf.subarray(20, 20 + jsonLength).toString('utf8'));
+  let bin = Buffer.alloc(0);
+  if (20 + jsonLength < buf.length) {
+    const at = 20 + jsonLength;
+    assert.equal(buf.readUInt32LE(at + 4), 0x004e4942, 'the second chunk is BIN');
+    bin = buf.subarray(at + 8, at + 8 + buf.readUInt32LE(at));
+  }
+  return { json, bin };
+}
+
+// The chunk nodes of caves.glb and their triangles (indices / 3; every primitive is TRIANGLES).
+function volumeCounts({ json }) {
+  const chunks = (json.nodes || []).filter((n) => /^caves_x-?\d+_y-?\d+_z-?\d+$/.test(n.name || ''));
+  let triangles = 0;
+  for (const n of chunks)
+    for (const p of json.meshes[n.mesh].primitives) {
+      assert.equal(p.mode ?? 4, 4);
+      triangles += json.accessors[p.indices].count / 3;
+    }
+  return { chunks, triangles };
+}
+
+test('volume: caves.glb of the cached terrain, one node per chunk, the bytes of `relief generate`', async () => {
+  const r = await preset('sea-cliff', 129, 7);
+  const gen = decodeFrame(await (await post('/api/generate', { recipe: r })).arrayBuffer());
+  assert.equal(gen.header.volume, true, 'the generate header says the terrain has a volume');
+  const res = await post('/api/volume', { recipe: r });
+  assert.equal(res.status, 200, await res.clone().text());
+  assert.equal(res.headers.get('content-type'), 'model/gltf-binary');
+  const timings = JSON.parse(res.headers.get('x-relief-timings'));
+  assert.equal(timings.first_stage, r.stages.length, 'the stages came from the cache (generate ran them)');
+  const bytes = Buffer.from(await res.arrayBuffer());
+  const glb = parseGlb(bytes);
+  const { chunks, triangles } = volumeCounts(glb);
+  assert.ok(chunks.length > 0, 'chunk nodes caves_x*_y*_z*');
+  assert.ok(triangles > 0, 'the volume has a surface');
+  assert.deepEqual(glb.json.nodes.find((n) => n.name === 'caves').children.sort((a, b) => a - b),
+    chunks.map((n) => glb.json.nodes.indexOf(n)).sort((a, b) => a - b), 'the root node holds every chunk');
+  // Every chunk's vertices lie in the world's box (metres, one voxel of air beyond each side) and
+  // carry normals and colours.
+  const voxel = r.world.width_m / 128;
+  for (const n of chunks)
+    for (const p of glb.json.meshes[n.mesh].primitives) {
+      assert.ok(p.attributes.NORMAL !== undefined && p.attributes.COLOR_0 !== undefined, n.name);
+      const a = glb.json.accessors[p.attributes.POSITION];
+      assert.ok(a.min[0] >= -voxel - 1e-3 && a.max[0] <= r.world.width_m + voxel + 1e-3, `${n.name} x ${a.min[0]}..${a.max[0]}`);
+      assert.ok(a.min[2] >= -voxel - 1e-3 && a.max[2] <= r.world.width_m + voxel + 1e-3, `${n.name} z ${a.min[2]}..${a.max[2]}`);
+    }
+  const validator = await import('gltf-validator');
+  const report = await validator.default.validateBytes(new Uint8Array(bytes));
+  assert.equal(report.issues.numErrors, 0, JSON.stringify(report.issues.messages.slice(0, 5)));
+  // The same bytes as the command line's caves.glb of the same recipe and seed, and again from
+  // the cache.
+  const dir = fs.mkdtempSync(path.join(os.tmpdir(), 'relief-volume-'));
+  fs.writeFileSync(path.join(dir, 'recipe.json'), JSON.stringify(r));
+  execFileSync(RELIEF, ['generate', path.join(dir, 'recipe.json'), '--formats', 'caves', '-o', path.join(dir, 'cli')]);
+  assert.ok(bytes.equals(fs.readFileSync(path.join(dir, 'cli', 'caves.glb'))), 'the CLI writes the same caves.glb');
+  fs.rmSync(dir, { recursive: true, force: true });
+  const again = Buffer.from(await (await post('/api/volume', { recipe: r })).arrayBuffer());
+  assert.ok(again.equals(bytes));
+});
+
+test('volume: a recipe without a volume is a 400 naming stages; bad bodies and methods are refused', async () => {
+  const island = await preset('island', 65, 3);
+  const gen = decodeFrame(await (await post('/api/generate', { recipe: island })).arrayBuffer());
+  assert.equal(gen.header.volume, false);
+  await expectError(await post('/api/volume', { recipe: island }), 400, { path: 'stages', match: /caves needs a volume, overhangs or caves stage/ });
+  await expectError(await post('/api/volume', { recipe: island, format: 'caves' }), 400, { path: 'format', match: /unknown request field/ });
+  const big = await preset('sea-cliff', 129, 7);
+  big.world.size = 2049;
+  await expectError(await post('/api/volume', { recipe: big }), 400, { path: 'world.size' });
+  await expectError(await post('/api/volume', '{"recipe": '), 400);
+  const get = await fetch(server.url + '/api/volume');
+  await expectError(get, 405, { match: /use POST/ });
+  assert.equal(get.headers.get('allow'), 'POST');
+  await goodGenerate();
+});
+
+test('volume: its requests run beside the same client\'s generate requests (their own lane)', async () => {
+  const headers = { 'X-Relief-Client': 'volume-lane' };
+  const r = await preset('sea-cliff', 257, 8);
+  // Started together: a generate of the same client does not supersede the volume, nor the
+  // volume the generate.
+  const [vol, gen] = await Promise.all([post('/api/volume', { recipe: r }, headers), post('/api/generate', { recipe: await preset('island', 129, 8) }, headers)]);
+  assert.equal(vol.status, 200, await vol.clone().text());
+  assert.equal(gen.status, 200, await gen.clone().text());
+  assert.ok(volumeCounts(parseGlb(Buffer.from(await vol.arrayBuffer()))).triangles > 0);
+});
