@@ -515,6 +515,30 @@ TEST(VolumeMesh, DeterministicForAnyThreadCount) {
   EXPECT_GT(a.indices.size(), 10000u);
 }
 
+std::uint64_t fnv1a_bytes(const void* data, std::size_t n, std::uint64_t h = 0xcbf29ce484222325ull) {
+  const auto* p = static_cast<const unsigned char*>(data);
+  for (std::size_t q = 0; q < n; ++q) h = (h ^ p[q]) * 0x100000001b3ull;
+  return h;
+}
+
+// A golden hash of positions, normals and indices for the hashed random field (integer arithmetic
+// only, so the density is the same everywhere; the mesh then uses IEEE division and square root, no
+// libm): any change to the table, the vertex order or the arithmetic shows here.
+TEST(VolumeMesh, GoldenHash) {
+  DensityBlock b = make_block(45, 38, 41, -17, 4, 1000, 0.5, random_field);
+  for (int threads : {1, 2, 3}) {
+    tbb::task_arena arena(threads);
+    VolumeMesh m;
+    arena.execute([&] { m = mesh_density(b, 1); });
+    std::uint64_t h = fnv1a_bytes(m.positions.data(), m.positions.size() * 4);
+    h = fnv1a_bytes(m.normals.data(), m.normals.size() * 4, h);
+    h = fnv1a_bytes(m.indices.data(), m.indices.size() * 4, h);
+    EXPECT_EQ(m.positions.size() / 3, 88453u) << "vertices";
+    EXPECT_EQ(m.indices.size() / 3, 179307u) << "triangles";
+    EXPECT_EQ(h, 0x4caadf3c52c1ec9eull) << std::hex << h;
+  }
+}
+
 // The kernels are compiled per Highway target: every target this CPU runs gives the same bytes (the
 // sign bits are exact comparisons, the rest scalar code without FMA contraction). nx = 131 = 2·64 + 3:
 // full words and a tail.
