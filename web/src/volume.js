@@ -191,9 +191,9 @@ export function volumeTick() {
       return;
     }
     if (folder) folder.show();
-    // Fetched once the generator has settled (no drag in progress) and no playback runs, so a
-    // slider drag costs no volume meshing on the way.
-    if (volume.show && generator.idle && !playback.running) load(r);
+    // Fetched once the generator has settled (no drag in progress), no playback runs and the 3D
+    // view is the one shown, so a slider drag or a 2D view costs no volume meshing.
+    if (volume.show && generator.idle && !playback.running && state.view === '3d') load(r);
     else if (controller) controller.abort(), (volume.status = 'stale'), setInfo('');
   }
   update();
