@@ -420,6 +420,17 @@ function colourShare(p, rgb, tol = 4) {
   return hits / (p.pixels.length / 3);
 }
 
+// The chunk nodes and triangles of the caves.glb the server gives for `recipe`.
+async function serverVolume(recipe) {
+  const res = await fetch(server.url + '/api/volume', { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify({ recipe }) });
+  assert.equal(res.status, 200);
+  const glb = Buffer.from(await res.arrayBuffer());
+  const json = JSON.parse(glb.subarray(20, 20 + glb.readUInt32LE(12)).toString('utf8'));
+  const chunkNodes = json.nodes.filter((n) => /^caves_x/.test(n.name || ''));
+  const triangles = chunkNodes.reduce((s, n) => s + json.meshes[n.mesh].primitives.reduce((q, p) => q + json.accessors[p.indices].count / 3, 0), 0);
+  return { triangles, chunks: chunkNodes.length };
+}
+
 test('a recipe with a volume shows its caves mesh, and the cut plane opens it', async (t) => {
   const { page, errors } = await open('?preset=sea-cliff&size=129&seed=7');
   await page.waitForFunction(() => ['shown', 'empty', 'error'].includes(window.studio.volume.status), null, { timeout: 120000, polling: 100 });
@@ -430,14 +441,9 @@ test('a recipe with a volume shows its caves mesh, and the cut plane opens it', 
   assert.equal(v.status, 'shown', v.error || v.status);
   assert.ok(v.shown && !v.terrain, 'the volume is shown instead of the height mesh');
   // The page shows every triangle and chunk of the server's caves.glb for the terrain it shows.
-  const res = await fetch(server.url + '/api/volume', { method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify({ recipe: v.recipe }) });
-  assert.equal(res.status, 200);
-  const glb = Buffer.from(await res.arrayBuffer());
-  const json = JSON.parse(glb.subarray(20, 20 + glb.readUInt32LE(12)).toString('utf8'));
-  const chunkNodes = json.nodes.filter((n) => /^caves_x/.test(n.name || ''));
-  const triangles = chunkNodes.reduce((s, n) => s + json.meshes[n.mesh].primitives.reduce((q, p) => q + json.accessors[p.indices].count / 3, 0), 0);
-  assert.ok(triangles > 0);
-  assert.deepEqual([v.triangles, v.chunks], [triangles, chunkNodes.length]);
+  const expected = await serverVolume(v.recipe);
+  assert.ok(expected.triangles > 0);
+  assert.deepEqual([v.triangles, v.chunks], [expected.triangles, expected.chunks]);
 
   // The cut plane, through the View menu's Volume folder: off at first, then on (across z, at the
   // middle): the renderer clips with one plane facing -z through the centre, and the cut rock
@@ -472,6 +478,15 @@ test('a recipe with a volume shows its caves mesh, and the cut plane opens it', 
   // Off again: no plane.
   await page.click('[data-volume="cut plane"] input');
   assert.deepEqual(await page.evaluate(() => window.studio.volume.clipping().planes), []);
+  // Another seed: a new terrain, and then its own volume.
+  const loads = await page.evaluate(() => window.studio.volume.loads);
+  await page.fill('#seed', '8');
+  await page.press('#seed', 'Tab');
+  await page.waitForFunction((n) => window.studio.volume.loads > n && window.studio.volume.status === 'shown', loads, { timeout: 120000, polling: 100 });
+  const v8 = await page.evaluate(() => ({ triangles: window.studio.volume.triangles, chunks: window.studio.volume.chunks, recipe: window.studio.state.result.header.recipe }));
+  assert.equal(v8.recipe.seed, 8);
+  assert.deepEqual([v8.triangles, v8.chunks], Object.values(await serverVolume(v8.recipe)));
+  assert.notEqual(v8.triangles, v.triangles);
   // A recipe without a volume: the height mesh again, and the Volume folder goes away.
   const gens = await page.evaluate(() => window.studio.state.generations);
   await page.selectOption('#preset', 'island');
