@@ -202,6 +202,32 @@ TEST(Noise3, AtEqualsRowAndNothingIsWrittenForEmptyRows) {
   }
 }
 
+// The fractal formulas at one octave (octave 0 is the same noise n₀ in every mode): fBm n₀, billow
+// 2|n₀| − 1, ridged 2·(1 − |n₀|)² − 1.
+TEST(Noise3, FractalFormulasAtOneOctave) {
+  for (NoiseBasis b : kBases3) {
+    NoiseSettings s = settings3(b, Fractal::None, 21);
+    std::vector<float> n0(97), fbm(97), billow(97), ridged(97);
+    Noise3(s).row(5.5, -2.25, -40, 0.83, 97, n0.data());
+    s.octaves = 1;
+    s.fractal = Fractal::Fbm;
+    Noise3(s).row(5.5, -2.25, -40, 0.83, 97, fbm.data());
+    s.fractal = Fractal::Billow;
+    Noise3(s).row(5.5, -2.25, -40, 0.83, 97, billow.data());
+    s.fractal = Fractal::Ridged;
+    Noise3(s).row(5.5, -2.25, -40, 0.83, 97, ridged.data());
+    double spread = 0;
+    for (std::size_t i = 0; i < 97; ++i) {
+      const double v = n0[i];
+      spread = std::max(spread, std::fabs(v));
+      EXPECT_EQ(fbm[i], n0[i]) << bname(b) << " " << i;
+      EXPECT_NEAR(billow[i], 2 * std::fabs(v) - 1, 1e-6) << bname(b) << " " << i;
+      EXPECT_NEAR(ridged[i], 2 * (1 - std::fabs(v)) * (1 - std::fabs(v)) - 1, 1e-6) << bname(b) << " " << i;
+    }
+    EXPECT_GT(spread, 0.2) << bname(b);
+  }
+}
+
 // A window of a row equals the same samples of a longer row (positions come from the index).
 TEST(Noise3, WindowsOfARowAgree) {
   for (NoiseBasis b : kBases3) {
