@@ -667,6 +667,10 @@ void Studio::api_volume(const httplib::Request& req, httplib::Response& res) {
         gs.recipe = r.recipe;
         gs.formats = "caves";
         gs.formats_path = "stages";
+        // The recipe's writer options, without its engine (whose writer the plan would add, and
+        // whose size rules would refuse a preview size): only caves.glb is wanted here.
+        gs.options = r.recipe.export_settings ? r.recipe.export_settings->options : ExportOptions{};
+        gs.options->engine = Engine::None;
         gs.threads = s_.threads;
         gs.cancelled = [&ctl] { return ctl.cancelled(); };
         gs.progress = [&ctl](std::string_view, double) { ctl.check(); };  // between chunks too

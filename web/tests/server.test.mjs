@@ -594,6 +594,11 @@ test('volume: caves.glb of the cached terrain, one node per chunk, the bytes of 
   fs.rmSync(dir, { recursive: true, force: true });
   const again = Buffer.from(await (await post('/api/volume', { recipe: r })).arrayBuffer());
   assert.ok(again.equals(bytes));
+  // The recipe's engine is not the volume's business: no engine writer runs, no engine size rule
+  // refuses the preview size.
+  const engine = await post('/api/volume', { recipe: { ...r, world: { ...r.world, size: 100 }, export: { engine: 'unity' } } });
+  assert.equal(engine.status, 200, await engine.clone().text());
+  assert.ok(volumeCounts(parseGlb(Buffer.from(await engine.arrayBuffer()))).triangles > 0);
 });
 
 test('volume: a recipe without a volume is a 400 naming stages; bad bodies and methods are refused', async () => {
