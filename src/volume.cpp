@@ -444,6 +444,10 @@ VolumeGrid volume_grid(const Terrain& t, const VolumeSpec& spec) {
   g.chunks_x = int((g.ni - 1 + g.chunk - 1) / g.chunk);
   g.chunks_z = int((g.nk - 1 + g.chunk - 1) / g.chunk);
   g.chunks_y = int((g.nj - 1 + g.chunk - 1) / g.chunk);
+  const ColumnBounds b = column_bounds(t, spec, g);
+  for (int cy = 0; cy < g.chunks_y; ++cy)
+    for (int cz = 0; cz < g.chunks_z; ++cz)
+      for (int cx = 0; cx < g.chunks_x; ++cx) g.surface_chunks += classify(spec, g, b, t, cx, cy, cz) == ChunkKind::Surface;
   return g;
 }
 

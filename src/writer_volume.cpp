@@ -20,6 +20,7 @@
 
 #include "gltf_builder.hpp"
 #include "relief/error.hpp"
+#include "relief/generate.hpp"
 #include "relief/output.hpp"
 #include "relief/volume.hpp"
 #include "writer_defs.hpp"
@@ -39,6 +40,16 @@ void progress(const WriteContext& ctx, const char* what, double f) {
 
 void write_glb(const Terrain& t, const WriteContext& ctx, Output& out) {
   const VolumeSpec& spec = need_volume(t, "caves");
+  // The GLB is built whole in memory: refuse up front what would not fit (relief/generate.hpp's
+  // memory policy), naming the parameter that sets the voxel count.
+  const VolumeGrid vg = volume_grid(t, spec);
+  const double need = vg.mesh_bytes_estimate(), budget = double(memory_budget_bytes());
+  if (need > budget)
+    throw Error("volume.voxel_m", "caves.glb at " + std::to_string(vg.voxel_m) + " m voxels needs about " +
+                                      std::to_string(std::int64_t(need / (1 << 20))) + " MiB (" + std::to_string(vg.surface_chunks) +
+                                      " surface chunks), more than the memory budget of " +
+                                      std::to_string(std::int64_t(budget / (1 << 20))) +
+                                      " MiB: expected a larger voxel_m (or the caves_obj writer, which streams)");
   detail::GltfBuilder g;
   const int material = g.material("rock", -1);
   std::vector<int> nodes;

@@ -214,7 +214,7 @@ TEST(HostileCli, EveryFlagErrorHasOneFormNamingTheFlag) {
   expect_cli_error("generate --bogus" + o, "generate: unknown flag \"--bogus\" (see relief generate --help)");
   expect_cli_error("generate --godot-format r16" + o,
                    "--godot-format: applies to the godot engine: choose engine godot, or leave the format at exr");
-  expect_cli_error("", "expected a command: generate, presets, explain, bench or studio (see relief --help)");
+  expect_cli_error("", "expected a command: generate, world, presets, explain, bench or studio (see relief --help)");
   expect_cli_error("studio --port 80x", "--port: expected an integer in 0..65535, got \"80x\"");
   expect_cli_error("bench --runs 0", "--runs: expected an integer in 1..1000, got \"0\"");
   EXPECT_FALSE(fs::exists(d.path / "out"));

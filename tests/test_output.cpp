@@ -355,7 +355,7 @@ TEST(Writers, RegistryOrderAndFiles) {
   for (auto& w : r) {
     names.push_back(w.name);
     const std::set<std::string> defaults = {"heightmap", "color", "albedo", "obj", "rivers",
-                                            "lakes", "biomes", "features", "props", "report"};
+                                            "lakes", "biomes", "features", "props", "report", "caves"};
     EXPECT_EQ(w.in_default_set, defaults.count(w.name) == 1) << w.name;  // the rest need options or a stage
     EXPECT_FALSE(w.files.empty()) << w.name;
     EXPECT_FALSE(w.description.empty()) << w.name;
@@ -363,7 +363,7 @@ TEST(Writers, RegistryOrderAndFiles) {
   }
   EXPECT_EQ(names, (std::vector<std::string>{"heightmap", "color", "albedo", "obj", "rivers", "lakes", "biomes", "features",
                                              "props", "report", "tilemap", "glb", "fbx", "stl", "engine", "normalmap", "splat",
-                                             "hillshade", "geotiff"}));
+                                             "hillshade", "geotiff", "caves", "caves_obj", "vdb"}));
   EXPECT_EQ(find_writer("obj"), &r[3]);
   EXPECT_EQ(find_writer("png"), nullptr);
 }
@@ -379,6 +379,8 @@ TEST(Writers, EachWriterWritesExactlyItsDeclaredFiles) {
   t.biomes.push_back({"ocean", 0.1f, 0.2f, 0.6f});
   t.points.push_back({"prop", "tree", 1, 2, 3, 45, 1});
   t.points.push_back({"volcano", "volcano", 4, 5, 6, 0, 1});
+  // The volume writers mesh what the volume stages leave.
+  find_stage("volume")->parse({{"stage", "volume"}, {"chunk", 8}}, "stages[1]")->apply(t, {});
   for (auto& w : writer_registry()) {
     // Export writers' files depend on options: see test_export.cpp.
     if (!w.in_default_set && w.name != "tilemap") continue;

@@ -422,3 +422,20 @@ TEST(VolumeWriters, ErrorsNameTheField) {
     EXPECT_NE(std::string(e.what()).find("volume"), std::string::npos) << e.what();
   }
 }
+
+// The bytes of the mesh of a fixed spec: a change of the density's definition, the 3D noise or the
+// mesher shows here (and must be named in the change that makes it).
+TEST(Volume, GoldenHash) {
+  Terrain t = cliff_terrain();
+  VolumeSpec s = caves_spec();
+  s.overhangs = overhang_spec().overhangs;
+  std::vector<float> all;
+  std::uint64_t tris = 0;
+  mesh_volume(t, s, 3, [&](VolumeChunkMesh&& c) {
+    all.insert(all.end(), c.mesh.positions.begin(), c.mesh.positions.end());
+    all.insert(all.end(), c.mesh.normals.begin(), c.mesh.normals.end());
+    tris += c.mesh.triangle_count();
+  });
+  EXPECT_EQ(tris, 50252u);
+  EXPECT_EQ(fnv1a(all), 0xf2ec4c59182046d8ull);
+}

@@ -104,8 +104,11 @@ struct VolumeGrid {
   std::int64_t ni = 0, nj = 0, nk = 0;     // samples on each axis
   int chunks_x = 0, chunks_y = 0, chunks_z = 0;
   double y_bottom_m = 0, y_top_m = 0;      // the band's box (closed volumes' walls)
-  // The voxel extent as bytes if it were dense, for the size check.
-  double dense_samples() const { return double(ni) * double(nj) * double(nk); }
+  std::int64_t surface_chunks = 0;          // chunks that will be evaluated (classified Surface)
+  // Estimated bytes of the whole mesh held at once (the GLB writer): surface chunks × chunk² cells ×
+  // 2 triangles × (36 bytes of vertex data per triangle, half a vertex each, plus 12 of indices),
+  // twice (the model and the encoded file). Caves add surface: the estimate is a floor.
+  double mesh_bytes_estimate() const { return double(surface_chunks) * chunk * chunk * 2.0 * (18.0 + 12.0) * 2.0; }
 };
 
 // The grid the spec covers on this terrain (needs the "height" layer). Throws relief::Error
