@@ -196,14 +196,17 @@ bool VertexLayer(const Work& wk, int j) {
   return ok;
 }
 
-// 4. The triangles of cell layer j (between sample layers j and j + 1), appended to out.
+// 4. The triangles of cell layer j (between sample layers j and j + 1) into out, a buffer whose size is
+// the caller's guess (grown as needed); out ends with exactly the layer's indices.
 void TriangleLayer(const Work& wk, int j, std::vector<std::uint32_t>& out) {
   const int W = wk.W;
   const mc::CaseTable& table = mc::kCases;
-  const std::uint32_t f0 = wk.layer_first[j], f1 = wk.layer_first[j + 1];
+  const std::uint32_t first[2] = {wk.layer_first[j], wk.layer_first[j + 1]};
+  std::size_t at = 0;
   for (int k = wk.klo; k < wk.khi; ++k) {
-    const u64 *s00 = &wk.sign[wk.row(j, k)], *s10 = &wk.sign[wk.row(j + 1, k)];
-    const u64 *s01 = &wk.sign[wk.row(j, k + 1)], *s11 = &wk.sign[wk.row(j + 1, k + 1)];
+    // Rows (j + dy, k + dz) as r[dy][dz].
+    const std::size_t r[2][2] = {{wk.row(j, k), wk.row(j, k + 1)}, {wk.row(j + 1, k), wk.row(j + 1, k + 1)}};
+    const u64 *s00 = &wk.sign[r[0][0]], *s10 = &wk.sign[r[1][0]], *s01 = &wk.sign[r[0][1]], *s11 = &wk.sign[r[1][1]];
     for (int w = 0; w + 1 < W; ++w) {
       const u64 any = s00[w] | s10[w] | s01[w] | s11[w];
       const u64 any_next = s00[w + 1] | s10[w + 1] | s01[w + 1] | s11[w + 1];
@@ -220,20 +223,20 @@ void TriangleLayer(const Work& wk, int j, std::vector<std::uint32_t>& out) {
           std::uint32_t id;
           switch (e >> 2) {
             case 0: {  // x edge at (dy, dz) = (lo, hi)
-              const std::size_t rr = wk.row(j + lo, k + hi) + (i >> 6);
-              id = (lo ? f1 : f0) + wk.bx[rr] + std::uint32_t(rank_below(wk.xc[rr], i & 63));
+              const std::size_t rr = r[lo][hi] + (i >> 6);
+              id = first[lo] + wk.bx[rr] + std::uint32_t(rank_below(wk.xc[rr], i & 63));
               break;
             }
             case 1: {  // y edge at (dx, dz) = (lo, hi)
               const int ii = i + lo;
-              const std::size_t rr = wk.row(j, k + hi) + (ii >> 6);
-              id = f0 + wk.by[rr] + std::uint32_t(rank_below(wk.yc[rr], ii & 63));
+              const std::size_t rr = r[0][hi] + (ii >> 6);
+              id = first[0] + wk.by[rr] + std::uint32_t(rank_below(wk.yc[rr], ii & 63));
               break;
             }
             default: {  // z edge at (dx, dy) = (lo, hi)
               const int ii = i + lo;
-              const std::size_t rr = wk.row(j + hi, k) + (ii >> 6);
-              id = (hi ? f1 : f0) + wk.bz[rr] + std::uint32_t(rank_below(wk.zc[rr], ii & 63));
+              const std::size_t rr = r[hi][0] + (ii >> 6);
+              id = first[hi] + wk.bz[rr] + std::uint32_t(rank_below(wk.zc[rr], ii & 63));
               break;
             }
           }
@@ -241,13 +244,14 @@ void TriangleLayer(const Work& wk, int j, std::vector<std::uint32_t>& out) {
         }
         const std::uint8_t* te = table.edges[cfg];
         const int n = 3 * table.count[cfg];
-        const std::size_t at = out.size();
-        out.resize(at + n);
+        if (at + 3 * mc::kMaxTriangles > out.size()) out.resize(std::max(2 * out.size(), at + 3 * mc::kMaxTriangles));
         std::uint32_t* o = out.data() + at;
         for (int t = 0; t < n; ++t) o[t] = vert[te[t]];
+        at += std::size_t(n);
       }
     }
   }
+  out.resize(at);
 }
 
 }  // namespace HWY_NAMESPACE
@@ -337,7 +341,7 @@ VolumeMesh mesh_density(const DensityBlock& b, int apron) {
   // vertex: each layer's list starts with room for that.
   std::vector<std::vector<std::uint32_t>> tris(static_cast<std::size_t>(ny));
   each_layer(wk.jlo, wk.jhi, [&](int j) {
-    tris[j].reserve(6 * std::size_t(wk.layer_count[j]) + 96);
+    tris[j].resize(6 * std::size_t(wk.layer_count[j]) + 96);
     HWY_DYNAMIC_DISPATCH(TriangleLayer)(wk, j, tris[j]);
   });
   std::size_t n_idx = 0;
