@@ -59,6 +59,17 @@ fs::path existing_ancestor(fs::path p) {
 
 // Old world files in `dir` that --force removes: world.json, overview.png, report.json and the
 // tile files named as build_world names them (nothing else).
+// An intermediate phase's folder: its tile files and marker, then the folder if empty.
+void remove_phase_folder(const fs::path& folder) {
+  std::error_code ec;
+  const std::regex tile_name(R"(x\d{4,}_z\d{4,}\.rtile)");
+  if (fs::is_directory(folder, ec))
+    for (const auto& e : fs::directory_iterator(folder, ec))
+      if (e.is_regular_file(ec) && (std::regex_match(e.path().filename().string(), tile_name) || e.path().filename() == "complete"))
+        fs::remove(e.path(), ec);
+  fs::remove(folder, ec);  // only when empty
+}
+
 void remove_old_world(const fs::path& dir) {
   std::error_code ec;
   for (const char* f : {"world.json", "overview.png", "report.json"}) fs::remove(dir / f, ec);
@@ -66,6 +77,9 @@ void remove_old_world(const fs::path& dir) {
   if (fs::is_directory(dir / "tiles", ec))
     for (const auto& e : fs::directory_iterator(dir / "tiles", ec))
       if (e.is_regular_file(ec) && std::regex_match(e.path().filename().string(), tile_name)) fs::remove(e.path(), ec);
+  const std::regex phase_name(R"(phase-\d+)");
+  for (const auto& e : fs::directory_iterator(dir, ec))
+    if (e.is_directory(ec) && std::regex_match(e.path().filename().string(), phase_name)) remove_phase_folder(e.path());
 }
 
 // overview.png: height coloured by a hypsometric ramp (sea below sea_level), hillshaded by Lambert
@@ -138,9 +152,21 @@ WorldReport build_world(WorldSettings s) {
   // 1. Stages: every one must have a world algorithm (for now: be local).
   int halo = 0;
   json stages = json::array();
+  std::vector<std::size_t> globals;  // global stages run by a world algorithm
   for (std::size_t i = 0; i < r.stages.size(); ++i) {
     const RecipeStage& st = r.stages[i];
     const Reach re = st.stage->reach(frame);
+    if (re.locality == Locality::Global && s.algorithms.count(st.def->name)) {
+      if (i == 0) throw Error("stages[0]", "'" + st.def->name + "' runs over stored tiles, so the recipe must start with a local stage");
+      globals.push_back(i);
+      stages.push_back({{"index", i},
+                        {"stage", st.def->name},
+                        {"label", st.label},
+                        {"locality", "global"},
+                        {"halo", 0},
+                        {"world", "world algorithm"}});
+      continue;
+    }
     if (re.locality == Locality::Global)
       throw Error("stages[" + std::to_string(i) + "]",
                   "'" + st.def->name + "' has no world support yet: it needs the whole map (" +
@@ -207,8 +233,14 @@ WorldReport build_world(WorldSettings s) {
   {
     RunOptions probe;
     probe.threads = 1;
-    probe.window = frame.window(0, 0, int(std::min<std::int64_t>(grid.nx, 5)), int(std::min<std::int64_t>(grid.nz, 5)));
-    const RunResult res = run(r, probe);
+    Recipe small = r;
+    if (globals.empty()) {
+      probe.window = frame.window(0, 0, int(std::min<std::int64_t>(grid.nx, 5)), int(std::min<std::int64_t>(grid.nz, 5)));
+    } else {  // global stages run on a small whole map
+      small.world.nx = int(std::min<std::int64_t>(grid.nx, 33));
+      small.world.nz = int(std::min<std::int64_t>(grid.nz, 33));
+    }
+    const RunResult res = run(small, probe);
     for (auto& [name, l] : res.terrain.layers) rep.layers.emplace_back(name, l.channels);
   }
   std::uint64_t channels = 0;
@@ -226,6 +258,7 @@ WorldReport build_world(WorldSettings s) {
         need += std::uint64_t(cols * rows) * (compressBound(uLong(raw)) + 1024);
       }
     need += std::uint64_t(grid.count()) * 64 + std::uint64_t(kWorldOverviewMax) * kWorldOverviewMax * 3;
+    need *= std::uint64_t(1 + 2 * globals.size());  // one store per phase until the build completes
     rep.estimated_bytes = need;
     std::uint64_t present = 0;
     if (fs::is_directory(dir / "tiles", ec))
@@ -302,10 +335,33 @@ WorldReport build_world(WorldSettings s) {
   remove_dead_temporaries((dir / "tiles").string());
   write_or_throw(dir / "world.json", manifest.dump(2) + "\n", s.out_path);
 
-  // 7. The tiles.
-  const std::int64_t total = grid.count();
-  std::vector<std::uint32_t> crcs(std::size_t(total), 0);
-  std::vector<std::uint64_t> sizes(std::size_t(total), 0);
+  // 7. The phases: local stages tile by tile, global stages by their world algorithms.
+  struct Phase {
+    bool global = false;
+    std::size_t first = 0, end = 0;  // stages [first, end) (a global phase: one stage)
+    fs::path folder;                 // where its tiles go
+    std::string id;                  // the world_id its tile headers carry
+  };
+  std::vector<Phase> phases;
+  {
+    std::size_t first = 0;
+    for (std::size_t g : globals) {
+      if (g > first) phases.push_back({false, first, g, {}, {}});
+      phases.push_back({true, g, g + 1, {}, {}});
+      first = g + 1;
+    }
+    if (first < r.stages.size() || phases.empty()) phases.push_back({false, first, r.stages.size(), {}, {}});
+    for (std::size_t k = 0; k < phases.size(); ++k) {
+      const bool last = k + 1 == phases.size();
+      phases[k].folder = last ? dir / "tiles" : dir / ("phase-" + std::to_string(k));
+      phases[k].id = last ? rep.world_id : rep.world_id + "-p" + std::to_string(k);
+    }
+  }
+  std::int64_t local_phases = 0;
+  for (const Phase& ph : phases) local_phases += ph.global ? 0 : 1;
+  const std::int64_t total = grid.count() * local_phases;
+  std::vector<std::uint32_t> crcs(std::size_t(grid.count()), 0);
+  std::vector<std::uint64_t> sizes(std::size_t(grid.count()), 0);
   std::vector<float> overview(std::size_t(ow) * std::size_t(oh), 0.0f);
   std::vector<double> stage_ms(r.stages.size(), 0.0);
   std::vector<bool> fused(r.stages.size(), false);
@@ -350,77 +406,217 @@ WorldReport build_world(WorldSettings s) {
       }
     }
   };
+  auto tile_file = [](const Phase& ph, std::int64_t X, std::int64_t Z) {
+    return ph.folder / fs::path(world_tile_path(X, Z)).filename();
+  };
+  // A valid tile of phase `ph` at (X, Z): its bytes (empty when missing, damaged or foreign).
+  auto existing = [&](const Phase& ph, std::int64_t X, std::int64_t Z, WorldTile* out) -> std::string {
+    const fs::path path = tile_file(ph, X, Z);
+    std::error_code e2;
+    if (!fs::exists(path, e2)) return {};
+    bool ok = false;
+    std::string bytes = detail::read_file_bytes(path.string(), ok);
+    if (!ok) return {};
+    try {
+      WorldTile t = decode_world_tile(bytes, path.string());
+      const WorldGrid::Window w = grid.window(X, Z);
+      if (t.world_id != ph.id || t.X != X || t.Z != Z || t.window.ix0 != w.ix0 || t.window.iz0 != w.iz0 || t.window.nx != w.nx ||
+          t.window.nz != w.nz)
+        return {};
+      if (out) *out = std::move(t);
+      return bytes;
+    } catch (const Error&) {
+      return {};
+    }
+  };
+  auto load_tile = [&](const Phase& ph, std::int64_t X, std::int64_t Z) {
+    WorldTile t;
+    if (existing(ph, X, Z, &t).empty())
+      throw Error(s.out_path, "tile " + tile_file(ph, X, Z).string() + " is missing or damaged; run the build again");
+    return t;
+  };
+  auto store_tile = [&](const Phase& ph, WorldTile t) {
+    t.world_id = ph.id;
+    const std::string bytes = detail::encode_tile(t);
+    write_or_throw(tile_file(ph, t.X, t.Z), bytes, s.out_path);
+    return bytes;
+  };
+  // The layers of the window [ix0, ix0+nx) × [iz0, iz0+nz) from phase `ph`'s tiles.
+  auto read_region = [&](const Phase& ph, std::int64_t ix0, std::int64_t iz0, int nx, int nz) {
+    Terrain t;
+    t.frame = frame.window(ix0, iz0, nx, nz);
+    const std::int64_t sz = grid.tile - 1;
+    for (std::int64_t Z = std::min(iz0 / sz, grid.tiles_z - 1); Z <= std::min((iz0 + nz - 1) / sz, grid.tiles_z - 1); ++Z)
+      for (std::int64_t X = std::min(ix0 / sz, grid.tiles_x - 1); X <= std::min((ix0 + nx - 1) / sz, grid.tiles_x - 1); ++X) {
+        const WorldTile tile = load_tile(ph, X, Z);
+        const WorldGrid::Window& w = tile.window;
+        const std::int64_t a0 = std::max(ix0, w.ix0), a1 = std::min(ix0 + nx, w.ix0 + w.nx);
+        const std::int64_t b0 = std::max(iz0, w.iz0), b1 = std::min(iz0 + nz, w.iz0 + w.nz);
+        for (auto& [name, src] : tile.layers) {
+          Layer& dst = t.layer(name, src.channels);
+          const std::size_t c = std::size_t(src.channels);
+          for (std::int64_t z = b0; z < b1; ++z)
+            std::copy_n(src.data.data() + (std::size_t(z - w.iz0) * std::size_t(w.nx) + std::size_t(a0 - w.ix0)) * c,
+                        std::size_t(a1 - a0) * c, dst.data.data() + (std::size_t(z - iz0) * std::size_t(nx) + std::size_t(a0 - ix0)) * c);
+        }
+      }
+    return t;
+  };
+  // A stage that stands in for a global stage already applied to the stored tiles: pointwise, so
+  // that run() accepts windows; it never runs (the run resumes after it).
+  struct Placeholder final : Stage {
+    void apply(Terrain&, const Context&) const override { throw Error("world", "a placeholder stage ran"); }
+    json params() const override { return json::object(); }
+  };
+  auto placeholder = std::make_shared<const Placeholder>();
   const int run_threads = at_once > 1 ? 1 : threads;
-  auto do_tile = [&](std::int64_t k) {
-    if (cancelled()) throw Cancelled();
-    const std::int64_t X = k % grid.tiles_x, Z = k / grid.tiles_x;
-    const WorldGrid::Window w = grid.window(X, Z);
-    const fs::path path = dir / world_tile_path(X, Z);
-    // A finished tile of this world: verified and skipped.
-    if (have_old && fs::exists(path, ec)) {
-      bool ok = false;
-      const std::string bytes = detail::read_file_bytes(path.string(), ok);
-      if (ok) {
-        try {
-          const WorldTile t = decode_world_tile(bytes, path.string());
-          if (t.world_id == rep.world_id && t.X == X && t.Z == Z && t.window.ix0 == w.ix0 && t.window.iz0 == w.iz0 &&
-              t.window.nx == w.nx && t.window.nz == w.nz) {
+  bool final_done_in_memory = false;
+  for (std::size_t pk = 0; pk < phases.size(); ++pk) {
+    const Phase& ph = phases[pk];
+    const bool last = pk + 1 == phases.size();
+    std::error_code e2;
+    if (!last && fs::exists(ph.folder / "complete", e2)) {  // done before (resumed)
+      if (!ph.global) {
+        std::lock_guard<std::mutex> lock(m);
+        done += grid.count();
+        skipped += grid.count();
+      }
+      continue;
+    }
+    fs::create_directories(ph.folder, e2);
+    if (e2) throw Error(s.out_path, "cannot create " + quote(ph.folder.string()) + ": " + e2.message());
+    remove_dead_temporaries(ph.folder.string());
+    if (ph.global) {
+      const RecipeStage& st = r.stages[ph.first];
+      const Phase& in = phases[pk - 1];
+      WorldStageIO io;
+      io.grid = grid;
+      io.world = frame;
+      io.load = [&](std::int64_t X, std::int64_t Z) { return load_tile(in, X, Z); };
+      io.store = [&](std::int64_t X, std::int64_t Z, WorldTile t) {
+        t.X = X;
+        t.Z = Z;
+        t.window = grid.window(X, Z);
+        store_tile(ph, std::move(t));
+      };
+      io.cancelled = s.cancelled;
+      {
+        std::lock_guard<std::mutex> lock(m);
+        report(st.def->name, int(ph.first), 0.0);
+      }
+      const auto t0 = Clock::now();
+      s.algorithms.at(st.def->name)(io, st, int(ph.first));
+      stage_ms[ph.first] += ms_since(t0);
+      if (!last) write_or_throw(ph.folder / "complete", "", s.out_path);
+      continue;
+    }
+    // A local phase: stages [first, end), resumed from the previous phase's tiles when first > 0.
+    Recipe rp = r;
+    rp.stages.resize(ph.end);
+    for (std::size_t g : globals)
+      if (g < ph.end) rp.stages[g].stage = placeholder;
+    std::int64_t phalo = 0;
+    for (const RecipeStage& st : rp.stages) {
+      const Reach re = st.stage->reach(frame);
+      if (re.locality == Locality::Neighbourhood) phalo += std::max(0, re.halo);
+    }
+    const Phase* in = pk > 0 ? &phases[pk - 1] : nullptr;
+    auto do_tile = [&](std::int64_t k) {
+      if (cancelled()) throw Cancelled();
+      const std::int64_t X = k % grid.tiles_x, Z = k / grid.tiles_x;
+      const WorldGrid::Window w = grid.window(X, Z);
+      // A finished tile of this world and phase: verified and skipped.
+      {
+        WorldTile t;
+        const std::string bytes = existing(ph, X, Z, last ? &t : nullptr);
+        if (!bytes.empty()) {
+          if (last) {
             take_overview(t);
             crcs[std::size_t(k)] = detail::crc32_of(bytes);
             sizes[std::size_t(k)] = bytes.size();
-            std::lock_guard<std::mutex> lock(m);
-            ++done;
-            ++skipped;
-            report("", 0, 0.0);
-            return;
           }
-        } catch (const Error&) {
-          // damaged or foreign: rebuilt below
+          std::lock_guard<std::mutex> lock(m);
+          ++done;
+          ++skipped;
+          report("", 0, 0.0);
+          return;
         }
       }
-    }
-    RunOptions opt;
-    opt.threads = run_threads;
-    opt.window = frame.window(w.ix0, w.iz0, w.nx, w.nz);
-    opt.cancelled = s.cancelled;
-    opt.progress = [&](std::string_view name, double f) {
-      std::lock_guard<std::mutex> lock(m);
-      const int stage = std::min(int(r.stages.size()) - 1, int(f * double(r.stages.size())));
-      report(name == "done" ? std::string_view() : name, std::max(0, stage), at_once > 1 ? 0.0 : f);
-    };
-    RunResult res = run(r, opt);
-    WorldTile t;
-    t.X = X;
-    t.Z = Z;
-    t.world_id = rep.world_id;
-    t.window = w;
-    t.layers = std::move(res.terrain.layers);
-    res.terrain = Terrain();
-    const std::string bytes = detail::encode_tile(t);
-    write_or_throw(path, bytes, s.out_path);
-    take_overview(t);
-    crcs[std::size_t(k)] = detail::crc32_of(bytes);
-    sizes[std::size_t(k)] = bytes.size();
-    {
-      std::lock_guard<std::mutex> lock(m);
-      for (std::size_t i = 0; i < res.timings.size() && i < stage_ms.size(); ++i) {
-        stage_ms[i] += res.timings[i].ms;
-        fused[i] = fused[i] || res.timings[i].fused;
+      RunOptions opt;
+      opt.threads = run_threads;
+      opt.window = frame.window(w.ix0, w.iz0, w.nx, w.nz);
+      opt.cancelled = s.cancelled;
+      opt.progress = [&](std::string_view name, double f) {
+        std::lock_guard<std::mutex> lock(m);
+        const int stage = std::min(int(rp.stages.size()) - 1, int(f * double(rp.stages.size())));
+        report(name == "done" ? std::string_view() : name, std::max(0, stage), at_once > 1 ? 0.0 : f);
+      };
+      Terrain snapshot;
+      if (in) {
+        // The grown window run() computes on (pipeline.cpp's work frame: each side grows by the
+        // halo while inside the world), read from the previous phase's tiles.
+        auto grow = [&](std::int64_t lo, int n, std::int64_t world_n, std::int64_t& out_lo, int& out_n) {
+          std::int64_t a = lo, b = lo + n - 1;
+          if (phalo > 0 && a > 0) a = std::max<std::int64_t>(0, a - phalo);
+          if (phalo > 0 && b < world_n - 1) b = std::min<std::int64_t>(world_n - 1, b + phalo);
+          out_lo = a;
+          out_n = int(b - a + 1);
+        };
+        std::int64_t gx0, gz0;
+        int gnx, gnz;
+        grow(w.ix0, w.nx, grid.nx, gx0, gnx);
+        grow(w.iz0, w.nz, grid.nz, gz0, gnz);
+        const bool whole = w.ix0 == 0 && w.iz0 == 0 && w.nx == grid.nx && w.nz == grid.nz;
+        snapshot = whole ? read_region(*in, 0, 0, w.nx, w.nz) : read_region(*in, gx0, gz0, gnx, gnz);
+        opt.resume = Resume{&snapshot, int(ph.first)};
       }
-      ++done;
-      ++built;
-      built_units += 1.0;
-      report("", 0, 0.0);
+      RunResult res = run(rp, opt);
+      snapshot = Terrain();
+      WorldTile t;
+      t.X = X;
+      t.Z = Z;
+      t.window = w;
+      t.layers = std::move(res.terrain.layers);
+      res.terrain = Terrain();
+      if (last) take_overview(t);
+      const std::string bytes = store_tile(ph, std::move(t));
+      if (last) {
+        crcs[std::size_t(k)] = detail::crc32_of(bytes);
+        sizes[std::size_t(k)] = bytes.size();
+      }
+      {
+        std::lock_guard<std::mutex> lock(m);
+        for (std::size_t i = 0; i < res.timings.size() && ph.first + i < stage_ms.size(); ++i) {
+          stage_ms[ph.first + i] += res.timings[i].ms;
+          fused[ph.first + i] = fused[ph.first + i] || res.timings[i].fused;
+        }
+        ++done;
+        ++built;
+        built_units += 1.0;
+        report("", 0, 0.0);
+      }
+      if (s.after_tile) s.after_tile(X, Z);
+    };
+    if (at_once > 1) {
+      tbb::task_arena arena(at_once);
+      arena.execute([&] {
+        tbb::parallel_for(std::int64_t(0), grid.count(), [&](std::int64_t k) { do_tile(k); }, tbb::simple_partitioner());
+      });
+    } else {
+      for (std::int64_t k = 0; k < grid.count(); ++k) do_tile(k);
     }
-    if (s.after_tile) s.after_tile(X, Z);
-  };
-  if (at_once > 1) {
-    tbb::task_arena arena(at_once);
-    arena.execute([&] {
-      tbb::parallel_for(std::int64_t(0), total, [&](std::int64_t k) { do_tile(k); }, tbb::simple_partitioner());
-    });
-  } else {
-    for (std::int64_t k = 0; k < total; ++k) do_tile(k);
+    if (last) final_done_in_memory = true;
+    else write_or_throw(ph.folder / "complete", "", s.out_path);
+  }
+  if (!final_done_in_memory) {  // the last phase was a world algorithm: checksums and overview from its tiles
+    for (std::int64_t k = 0; k < grid.count(); ++k) {
+      WorldTile t;
+      const std::string bytes = existing(phases.back(), k % grid.tiles_x, k / grid.tiles_x, &t);
+      if (bytes.empty()) throw Error(s.out_path, "the world algorithm of the last stage left tile " + std::to_string(k) + " missing");
+      take_overview(t);
+      crcs[std::size_t(k)] = detail::crc32_of(bytes);
+      sizes[std::size_t(k)] = bytes.size();
+    }
   }
   rep.tiles_built = built;
   rep.tiles_skipped = skipped;
@@ -444,7 +640,7 @@ WorldReport build_world(WorldSettings s) {
       {"seed", rep.seed},
       {"size", {grid.nx, grid.nz}},
       {"tile", grid.tile},
-      {"tiles", {{"total", total}, {"built", built}, {"skipped", skipped}, {"at_once", at_once}}},
+      {"tiles", {{"total", grid.count()}, {"phases", phases.size()}, {"built", built}, {"skipped", skipped}, {"at_once", at_once}}},
       {"performance",
        {{"threads", threads},
         {"stages", st},
@@ -455,7 +651,7 @@ WorldReport build_world(WorldSettings s) {
       {"estimated_store_bytes", rep.estimated_bytes}};
   write_or_throw(dir / "report.json", report_doc.dump(2) + "\n", s.out_path);
   json tiles = json::array();
-  for (std::int64_t k = 0; k < total; ++k) {
+  for (std::int64_t k = 0; k < grid.count(); ++k) {
     const std::int64_t X = k % grid.tiles_x, Z = k / grid.tiles_x;
     const WorldGrid::Window w = grid.window(X, Z);
     tiles.push_back({{"tile", {X, Z}},
@@ -466,6 +662,7 @@ WorldReport build_world(WorldSettings s) {
   manifest["status"] = "complete";
   manifest["tiles"] = std::move(tiles);
   write_or_throw(dir / "world.json", manifest.dump(1) + "\n", s.out_path);
+  for (std::size_t k = 0; k + 1 < phases.size(); ++k) remove_phase_folder(phases[k].folder);
   return rep;
 }
 

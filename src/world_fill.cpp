@@ -247,3 +247,26 @@ TiledFillStats fill_least_fixpoint_tiled(const WorldGrid& g, float sea, float ep
 }
 
 }  // namespace relief
+
+namespace relief {
+
+WorldStageAlgorithm world_fill_least_fixpoint() {
+  return [](const WorldStageIO& io, const RecipeStage& st, int) {
+    const json p = st.stage->params();
+    // As the fill stage converts its parameter (src/stage_erosion.cpp).
+    const float eps = float(p.value("epsilon_m", 0.0) / io.world.height_m);
+    const float sea = float(io.world.sea_level);
+    const TileLoad load = [&](std::int64_t X, std::int64_t Z) {
+      if (io.cancelled && io.cancelled()) throw Cancelled();
+      return io.load(X, Z).layers.at("height").data;
+    };
+    const TileStore store = [&](std::int64_t X, std::int64_t Z, std::vector<float> f) {
+      WorldTile t = io.load(X, Z);  // every other layer as the stages before left it
+      t.layers.at("height").data = std::move(f);
+      io.store(X, Z, std::move(t));
+    };
+    fill_least_fixpoint_tiled(io.grid, sea, eps, load, store);
+  };
+}
+
+}  // namespace relief

@@ -456,13 +456,17 @@ TEST(WorldCli, ResumeAfterSigkillGivesTheSameBytes) {
       ::_exit(127);
     }
     const auto t0 = std::chrono::steady_clock::now();
-    while (std::chrono::steady_clock::now() - t0 < std::chrono::seconds(60)) {
+    int st = 0;
+    bool exited = false;
+    while (std::chrono::steady_clock::now() - t0 < std::chrono::seconds(60) && !exited) {
       if (fs::exists(out / "world.json") && count_tiles(out) >= kill_at) break;
       std::this_thread::sleep_for(std::chrono::microseconds(200));
+      exited = ::waitpid(pid, &st, WNOHANG) == pid;
     }
-    ::kill(pid, SIGKILL);
-    int st = 0;
-    ::waitpid(pid, &st, 0);
+    if (!exited) {
+      ::kill(pid, SIGKILL);
+      ::waitpid(pid, &st, 0);
+    }
     if (WIFSIGNALED(st) && fs::exists(out / "world.json") && read_world_manifest(out.string())["status"] == "building") ++resumed_partial;
     const auto again = relief::test::relief_cli(args + " -o " + out.string());
     ASSERT_EQ(again.code, 0) << again.out;
@@ -648,11 +652,16 @@ TEST(WorldCli, SigintKeepsTheFinishedTilesAndTheRerunResumes) {
     ::_exit(127);
   }
   const auto t0 = std::chrono::steady_clock::now();
-  while (count_tiles(out) < 30 && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(60))
-    std::this_thread::sleep_for(std::chrono::microseconds(200));
-  ::kill(pid, SIGINT);
   int st = 0;
-  ::waitpid(pid, &st, 0);
+  bool exited = false;  // e.g. the binary could not be run
+  while (count_tiles(out) < 30 && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(60) && !exited) {
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+    exited = ::waitpid(pid, &st, WNOHANG) == pid;
+  }
+  if (!exited) {
+    ::kill(pid, SIGINT);
+    ::waitpid(pid, &st, 0);
+  }
   if (WIFEXITED(st) && WEXITSTATUS(st) == 0) GTEST_SKIP() << "the build finished before the interrupt";
   ASSERT_TRUE(WIFEXITED(st));
   EXPECT_EQ(WEXITSTATUS(st), 130);
@@ -664,4 +673,100 @@ TEST(WorldCli, SigintKeepsTheFinishedTilesAndTheRerunResumes) {
   EXPECT_NE(again.out.find(std::to_string(kept) + " resumed"), std::string::npos) << again.out;
   fs::remove(err);
   expect_same_store(ref.path / "w", out);
+}
+
+// ---- phases: a global stage run by a world algorithm ------------------------------------------------
+
+namespace {
+
+// island + fill (+ colour and hillshade after it, when `after`).
+json fill_doc(bool after) {
+  json doc = load_preset("island");
+  json stages = json::array({doc["stages"][0], doc["stages"][1], doc["stages"][2], json{{"stage", "fill"}, {"epsilon_m", 0.01}}});
+  if (after) {
+    stages.push_back(doc["stages"][3]);
+    stages.push_back(doc["stages"][4]);
+  }
+  doc["stages"] = stages;
+  return doc;
+}
+
+// The whole-map reference of a recipe whose stage `g` is "fill": stages before it, then
+// fill_least_fixpoint on the height, then the stages after it (resumed).
+Terrain whole_map_with_fixpoint_fill(Recipe r, int nx, int nz, int g) {
+  r.world.nx = nx;
+  r.world.nz = nz;
+  Recipe before = r;
+  before.stages.resize(std::size_t(g));
+  Terrain t = run(before).terrain;
+  Layer& h = t.get("height");
+  fill_least_fixpoint(h.data.data(), nx, nz, float(r.world.sea_level), float(0.01 / r.world.height_m));
+  if (std::size_t(g) + 1 == r.stages.size()) return t;
+  RunOptions opt;
+  opt.resume = Resume{&t, g + 1};
+  return run(r, opt).terrain;
+}
+
+WorldSettings with_fill(WorldSettings s) {
+  s.algorithms["fill"] = world_fill_least_fixpoint();
+  return s;
+}
+
+}  // namespace
+
+TEST(WorldPhases, AWorldAlgorithmBetweenLocalPhasesIsExact) {
+  const Recipe r = recipe_of(fill_doc(true), 4);
+  const Terrain whole = whole_map_with_fixpoint_fill(r, 257, 257, 3);
+  Recipe unfilled = r;
+  unfilled.stages.resize(3);
+  ASSERT_FALSE(relief::test::same_bits(whole.get("height").data, whole_map(unfilled, 257, 257).get("height").data));  // it filled
+  for (int tile : {33, 129}) {
+    SCOPED_TRACE("tile " + std::to_string(tile));
+    TempDir d("world-phases");
+    const WorldReport rep = build_world(with_fill(settings(r, 257, 257, tile, d / "w")));
+    expect_same_layers(whole, read_world_window(d / "w", 0, 0, 257, 257));
+    EXPECT_TRUE(verify_world(d / "w").empty());
+    EXPECT_FALSE(fs::exists(d.path / "w" / "phase-0"));  // intermediate phases removed at the end
+    EXPECT_EQ(read_world_manifest(d / "w")["stages"][3]["world"], "world algorithm");
+    EXPECT_EQ(rep.tiles_built, 2 * rep.grid.count());  // two local phases
+  }
+}
+
+TEST(WorldPhases, AWorldAlgorithmAsTheLastStageIsExact) {
+  const Recipe r = recipe_of(fill_doc(false), 6);
+  const Terrain whole = whole_map_with_fixpoint_fill(r, 200, 257, 3);
+  TempDir d("world-phase-last");
+  build_world(with_fill(settings(r, 200, 257, 65, d / "w")));
+  expect_same_layers(whole, read_world_window(d / "w", 0, 0, 200, 257));
+  EXPECT_TRUE(verify_world(d / "w").empty());
+}
+
+TEST(WorldPhases, ACancelledPhasedBuildResumesToTheSameBytes) {
+  const Recipe r = recipe_of(fill_doc(true), 4);
+  TempDir ref("world-ph-ref"), part("world-ph-part");
+  build_world(with_fill(settings(r, 257, 257, 65, ref / "w")));
+  for (int stop : {5, 20, 28}) {  // in the first local phase, and in the second (16 tiles each)
+    SCOPED_TRACE("cancelled after " + std::to_string(stop) + " tiles");
+    WorldSettings s = with_fill(settings(r, 257, 257, 65, part / "w", 1));
+    int n = 0;
+    s.after_tile = [&](std::int64_t, std::int64_t) {
+      if (++n == stop) throw Cancelled();
+    };
+    EXPECT_THROW(build_world(s), Cancelled);
+    if (stop > 16) EXPECT_TRUE(fs::exists(part.path / "w" / "phase-0" / "complete"));
+    build_world(with_fill(settings(r, 257, 257, 65, part / "w")));
+    expect_same_store(ref.path / "w", part.path / "w");
+    fs::remove_all(part.path / "w");
+  }
+}
+
+TEST(WorldPhases, WithoutAnAlgorithmTheStageIsStillRefused) {
+  const Recipe r = recipe_of(fill_doc(true), 4);
+  TempDir d("world-ph-refuse");
+  try {
+    build_world(settings(r, 257, 257, 65, d / "w"));
+    ADD_FAILURE() << "fill accepted without a world algorithm";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.path(), "stages[3]");
+  }
 }

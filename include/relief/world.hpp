@@ -74,6 +74,17 @@
 // depend on it. Peak memory is about (tiles at once) × (one grown tile's run) + the overview
 // (≤ 2048² floats) + 8 bytes per tile.
 //
+// Phases (experimental, for global stages that have a world algorithm: WorldSettings::algorithms).
+// The recipe is cut at each such stage: a phase of local stages [a, g) builds every tile as above;
+// the global stage g then runs its algorithm over the stored tiles (WorldStageIO); the next local
+// phase [g+1, b) computes each tile by run() resumed at stage g+1 (RunOptions::resume) from a
+// snapshot of the grown window read from the previous phase's tiles, the global stages before it
+// standing in as pointwise placeholders that never run (stage indices, hence seeds, unchanged). So
+// every phase is exact when its inputs are. Phases other than the last write into
+// `phase-K/` folders (same tile format, world_id + "-pK" in the header, a `complete` marker when
+// done, skipped on resume); they are removed once the build is complete. Disk: the estimate counts
+// one full store per phase.
+//
 // Not stored (yet): points (no local stage makes them today), rivers, lakes, the tilemap, volumes.
 #include <cstdint>
 #include <functional>
@@ -125,6 +136,32 @@ struct WorldProgress {
   double seconds_left = -1;        // estimate from the tiles built so far (−1 before the first)
 };
 
+struct WorldTile {
+  std::int64_t X = 0, Z = 0;
+  std::string world_id;
+  WorldGrid::Window window;
+  std::map<std::string, Layer> layers;  // each window.nx × window.nz samples × channels
+};
+
+// ---- world algorithms for global stages (experimental; see "Phases" above) -------------------
+// What a world algorithm sees: the tile grid and world frame, the state after the stages before it
+// (load: every layer of tile (X, Z)) and where its result goes (store: tile (X, Z) with every layer,
+// its own changes applied; the last store of a tile is final). Called from one thread.
+struct WorldStageIO {
+  WorldGrid grid;
+  Frame world;  // the whole world's frame
+  std::function<WorldTile(std::int64_t X, std::int64_t Z)> load;
+  std::function<void(std::int64_t X, std::int64_t Z, WorldTile tile)> store;
+  std::function<bool()> cancelled;
+};
+// Runs one global stage (`stage`, at `index` in the recipe) over the whole stored world.
+using WorldStageAlgorithm = std::function<void(const WorldStageIO& io, const RecipeStage& stage, int index)>;
+// A world algorithm for the "fill" stage: fill_least_fixpoint_tiled (below) of the height layer
+// with the stage's epsilon_m. Exact against a whole-map run whose fill is fill_least_fixpoint —
+// not yet against the "fill" stage itself, whose hydrology.cpp algorithm is order-dependent (see
+// the end of this file); so build_world only uses it when a caller registers it.
+WorldStageAlgorithm world_fill_least_fixpoint();
+
 struct WorldSettings {
   Recipe recipe;  // parsed and validated; world.size is replaced by nx × nz
   std::int64_t nx = 0, nz = 0;  // world samples per axis (0: the recipe's world.size)
@@ -145,6 +182,9 @@ struct WorldSettings {
   // Free bytes assumed for the disk check (0: ask the file system of out_dir's nearest existing
   // folder). Tests set it to exercise the refusal.
   std::uint64_t disk_free_bytes = 0;
+  // World algorithms by stage name: a global stage named here runs as a phase of its own over the
+  // stored world instead of being refused (see "Phases" at the top of this file).
+  std::map<std::string, WorldStageAlgorithm> algorithms;
   // Called after each tile is written, with its (X, Z) (tests kill or cancel builds part way).
   std::function<void(std::int64_t X, std::int64_t Z)> after_tile;
 };
@@ -173,12 +213,6 @@ struct WorldReport {
 WorldReport build_world(WorldSettings settings);
 
 // ---- reading the store ----------------------------------------------------------------------
-struct WorldTile {
-  std::int64_t X = 0, Z = 0;
-  std::string world_id;
-  WorldGrid::Window window;
-  std::map<std::string, Layer> layers;  // each window.nx × window.nz samples × channels
-};
 // Decodes one tile file (bytes as read). Throws Error("tile", …) naming `origin` for a bad magic,
 // header, size, zlib stream or CRC-32.
 WorldTile decode_world_tile(std::string_view bytes, const std::string& origin = "tile");
