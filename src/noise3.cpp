@@ -39,10 +39,6 @@
 namespace relief {
 namespace {
 
-// Stream tags for hash64(seed, tag, index), distinct from the 2D Noise's.
-constexpr std::uint64_t kTag3Key = 0x6b65793344ull;        // "key3D": per-octave hash key
-constexpr std::uint64_t kTag3Offset = 0x6f66667333ull;     // "offs3": per-octave lattice offsets
-
 // The low 32 bits of the int64 an integer-valued double |v| ≤ 2⁵¹ holds (beyond: some fixed
 // value; NaN: some value), read from the mantissa of v + 1.5·2⁵², as the kernels do.
 inline std::uint32_t low32(double integral) {
@@ -208,11 +204,11 @@ Noise3::Noise3(const NoiseSettings& s) : s_(s) {
     o.freq_y = f;
     o.freq_z = f * s.scale_z;
     const std::uint64_t ki = std::uint64_t(k);
-    o.offset_x = 256.0 * unit_double(hash64(s.seed, kTag3Offset, 3 * ki));
-    o.offset_y = 256.0 * unit_double(hash64(s.seed, kTag3Offset, 3 * ki + 1));
-    o.offset_z = 256.0 * unit_double(hash64(s.seed, kTag3Offset, 3 * ki + 2));
+    o.offset_x = 256.0 * unit_double(hash64(s.seed, detail::kTag3Offset, 3 * ki));
+    o.offset_y = 256.0 * unit_double(hash64(s.seed, detail::kTag3Offset, 3 * ki + 1));
+    o.offset_z = 256.0 * unit_double(hash64(s.seed, detail::kTag3Offset, 3 * ki + 2));
     o.amp = float(amp);
-    const std::uint64_t key = hash64(s.seed, kTag3Key, ki);
+    const std::uint64_t key = hash64(s.seed, detail::kTag3Key, ki);
     o.key = std::uint32_t(key ^ (key >> 32));
     st->octaves.push_back(o);
     amp_sum += amp;

@@ -62,6 +62,11 @@ constexpr float kS3Unskew2 = 2.0f * kS3Unskew;  // exact
 constexpr float kS3R2 = 0.5f;
 constexpr float kS3Scale = 81.2f;
 
+// Octave k's seeding (Noise3's constructor): offsets oₓ, o_y, o_z = 256·unit_double(hash64(seed,
+// kTag3Offset, 3k + 0, 1, 2)) cells; key = h ⊕ (h >> 32) (low 32 bits), h = hash64(seed, kTag3Key, k).
+constexpr std::uint64_t kTag3Key = 0x6b65793344ull;     // "key3D"
+constexpr std::uint64_t kTag3Offset = 0x6f66667333ull;  // "offs3"
+
 // One octave: lattice frequencies (cells per metre), seeded offsets (cells), amplitude, hash key.
 struct Noise3Octave {
   double freq_x = 0.0, freq_y = 0.0, freq_z = 0.0;

@@ -336,6 +336,91 @@ TEST(Noise3, BadSettingsNameTheField) {
   EXPECT_EQ(field_of(s), "(no error)");
 }
 
+NoiseSettings single3(NoiseBasis b, std::uint64_t seed, double frequency);
+
+// ---- the definitions, evaluated independently ------------------------------------------------------
+
+// Octave 0 of seed `seed` at frequency f, evaluated from noise3.hpp's definitions in double (all 8
+// corners; for simplex every lattice vertex within the kernel's radius, not only the simplex's
+// four), against Noise3::at: equal to float precision.
+struct Octave0 {
+  double ox, oy, oz;
+  std::uint32_t key;
+  explicit Octave0(std::uint64_t seed) {
+    ox = 256.0 * unit_double(hash64(seed, detail::kTag3Offset, 0));
+    oy = 256.0 * unit_double(hash64(seed, detail::kTag3Offset, 1));
+    oz = 256.0 * unit_double(hash64(seed, detail::kTag3Offset, 2));
+    const std::uint64_t h = hash64(seed, detail::kTag3Key, 0);
+    key = std::uint32_t(h ^ (h >> 32));
+  }
+  // G[k]·d for lattice point (X, Y, Z).
+  double dot(std::int64_t X, std::int64_t Y, std::int64_t Z, double dx, double dy, double dz) const {
+    const std::uint32_t h = ((std::uint32_t(X) * detail::kG3Px) ^ (std::uint32_t(Y) * detail::kG3Py) ^
+                             ((std::uint32_t(Z) * detail::kG3Pz) ^ key)) *
+                            detail::kG3M;
+    const std::uint32_t k = h >> 28;
+    const double sgn = k >= 8 ? -1.0 : 1.0;
+    return sgn * (double(detail::kG3X[k & 7]) * dx + double(detail::kG3Y[k & 7]) * dy + double(detail::kG3Z[k & 7]) * dz);
+  }
+};
+double fade_d(double t) { return t * t * t * (t * (t * 6 - 15) + 10); }
+
+double gradient_by_definition(const Octave0& o, double u, double v, double w) {
+  const double X = std::floor(u), Y = std::floor(v), Z = std::floor(w);
+  const double p[3] = {u - X, v - Y, w - Z};
+  double sum = 0;
+  for (int c = 0; c < 8; ++c) {
+    const int a = c & 1, b = (c >> 1) & 1, e = c >> 2;
+    const double wgt = (a ? fade_d(p[0]) : 1 - fade_d(p[0])) * (b ? fade_d(p[1]) : 1 - fade_d(p[1])) *
+                       (e ? fade_d(p[2]) : 1 - fade_d(p[2]));
+    sum += wgt * o.dot(std::int64_t(X) + a, std::int64_t(Y) + b, std::int64_t(Z) + e, p[0] - a, p[1] - b, p[2] - e);
+  }
+  return sum;
+}
+
+double simplex_by_definition(const Octave0& o, double u, double v, double w) {
+  const double s = (u + v + w) / 3.0;
+  const double I = std::floor(u + s), J = std::floor(v + s), K = std::floor(w + s);
+  const double xi = u + s - I, yi = v + s - J, zi = w + s - K;
+  const double t = (xi + yi + zi) / 6.0;
+  double sum = 0;
+  for (int a = -1; a <= 2; ++a)
+    for (int b = -1; b <= 2; ++b)
+      for (int c = -1; c <= 2; ++c) {
+        const double back = (a + b + c) / 6.0;
+        const double d[3] = {xi - t - a + back, yi - t - b + back, zi - t - c + back};
+        const double att = 0.5 - (d[0] * d[0] + d[1] * d[1] + d[2] * d[2]);
+        if (att <= 0) continue;
+        sum += std::pow(att, 4) *
+               o.dot(std::int64_t(I) + a, std::int64_t(J) + b, std::int64_t(K) + c, d[0], d[1], d[2]);
+      }
+  return sum * double(detail::kS3Scale);
+}
+
+TEST(Noise3, MatchesItsDefinitionEvaluatedIndependently) {
+  for (NoiseBasis b : kBases3) {
+    const std::uint64_t seed = 31;
+    NoiseSettings s = single3(b, seed, 1.0 / 7.0);
+    s.scale_x = 1.5;
+    s.scale_z = 0.75;
+    const Noise3 n(s);
+    const Octave0 o(seed);
+    double worst = 0, spread = 0;
+    for (std::uint64_t i = 0; i < 20000; ++i) {
+      const double x = -300 + 600 * unit_double(hash64(0x31, i)), y = -300 + 600 * unit_double(hash64(0x32, i)),
+                   z = -300 + 600 * unit_double(hash64(0x33, i));
+      const double u = x * (s.frequency * 1.5) + o.ox, v = y * s.frequency + o.oy, w = z * (s.frequency * 0.75) + o.oz;
+      const double ref = b == NoiseBasis::Gradient ? gradient_by_definition(o, u, v, w) : simplex_by_definition(o, u, v, w);
+      worst = std::max(worst, std::fabs(double(n.at(x, y, z)) - ref));
+      spread = std::max(spread, std::fabs(ref));
+    }
+    std::printf("%s: largest difference to the definition in double %.3g (values up to %.3f)\n", bname(b).c_str(), worst,
+                spread);
+    EXPECT_LT(worst, 2e-5) << bname(b);
+    EXPECT_GT(spread, 0.5) << bname(b);
+  }
+}
+
 // ---- the gradient set -------------------------------------------------------------------------------
 
 // The documented set: 16 gradients G[k] (k ≥ 8: −G[k − 8]) of length L, pairwise distinct, mean 0,
