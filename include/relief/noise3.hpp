@@ -3,8 +3,8 @@
 // along x with the same structure, SIMD dispatch and bit-identity rules as the 2D Noise.
 //
 // Sources (implementation in src/noise3.cpp, src/noise3_simd.cpp):
-//   * Ken Perlin, "Improving Noise", SIGGRAPH 2002: gradient noise with quintic fade and a fixed
-//     set of gradients along the directions from a cube's centre to its edges.
+//   * Ken Perlin, "Improving Noise", SIGGRAPH 2002: gradient noise with quintic fade and a small
+//     fixed set of gradients instead of random ones (his 12 cube edges; here 16 cube corners).
 //   * Ken Perlin, "Noise hardware", SIGGRAPH 2001 course notes, and Stefan Gustavson, "Simplex
 //     noise demystified" (2005): 3D simplex noise on the skewed cubic lattice (skew (x+y+z)/3,
 //     unskew (x+y+z)/6), the simplex picked by ranking the cell coordinates, radial kernels.
@@ -93,7 +93,9 @@ class Noise3 {
   // Row r (0 ≤ r < nrows) at (y_m[r], z_m[r]) goes to out + r·stride: the same bits as
   // row(y_m[r], z_m[r], i0, dx_m, n, out + r·stride). For Gradient the x-only terms are computed
   // once per strip of columns (kept within ~32 KiB) and reused by every row; for Simplex it is
-  // plain rows.
+  // plain rows. The way to fill a volume chunk (all its rows in one call): on AVX2, gradient costs
+  // ~1.9 ns per sample and octave in long rows, ~3.3 ns in 32-sample rows (each row and octave
+  // has ~20 ns of (y, z) terms); simplex ~5 ns either way. Allocates (row terms and columns).
   void rows(const double* y_m, const double* z_m, int nrows, std::int64_t i0, double dx_m, int n, float* out,
             std::ptrdiff_t stride) const;
   // Same bits as row(), by the plain scalar reference (no SIMD, no dispatch).
