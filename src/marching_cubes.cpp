@@ -23,6 +23,7 @@
 // become one instruction on targets that have it. Every target computes the same bits: the sign test is
 // exact, the rest is the same scalar code (integer operations, and double arithmetic without FMA
 // contraction: hwy_kernels.hpp turns contraction off).
+
 // The shared part below is compiled once; foreach_target re-includes this file per target.
 #ifndef RELIEF_MARCHING_CUBES_SHARED
 #define RELIEF_MARCHING_CUBES_SHARED
