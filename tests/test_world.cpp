@@ -770,3 +770,16 @@ TEST(WorldPhases, WithoutAnAlgorithmTheStageIsStillRefused) {
     EXPECT_EQ(e.path(), "stages[3]");
   }
 }
+
+// A world wider than one map may be (kMaxSize samples): the frame and the tiles still follow the
+// whole-map run of the same recipe at that size (which run() computes when asked directly).
+TEST(WorldExact, AWorldWiderThanOneMapEqualsTheWholeRun) {
+  const Recipe r = recipe_of(preset_doc("hills"), 7);
+  const int nx = kMaxSize + 2048, nz = 33;
+  const Terrain whole = whole_map(r, nx, nz);
+  TempDir d("world-wide");
+  const WorldReport rep = build_world(settings(r, nx, nz, 2049, d / "w"));
+  EXPECT_EQ(rep.grid.tiles_x, 17);
+  EXPECT_EQ(read_world_manifest(d / "w")["frame"]["size"][0], nx);
+  expect_same_layers(whole, read_world_window(d / "w", 0, 0, nx, nz));
+}

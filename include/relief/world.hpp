@@ -21,7 +21,10 @@
 //            same sample of one whole-map run of the recipe at the world's size, for any tile size
 //            and thread count (tests/test_world.cpp checks it against run()).
 //   refused  global stages (fill, flow, erosion, biomes, climate, props, …): build_world throws
-//            Error("stages[i]", …) before any work, saying the stage has no world support yet.
+//            Error("stages[i]", …) before any work, saying the stage has no world support yet —
+//            unless WorldSettings::algorithms gives the stage a world algorithm (see "Phases";
+//            none is registered by default: the one written so far, world_fill_least_fixpoint,
+//            is exact against fill_least_fixpoint, not against the fill stage's own algorithm).
 //
 // Tile store (the output folder; every file written atomically: temporary file, fsync, rename):
 //   world.json          the manifest (below), written before the first tile ("status": "building")
