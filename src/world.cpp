@@ -12,6 +12,7 @@
 #include <chrono>
 #include <cmath>
 #include <filesystem>
+#include <memory>
 #include <mutex>
 #include <regex>
 
@@ -323,7 +324,7 @@ WorldReport build_world(WorldSettings s) {
                         "column are clipped to the world when size-1 is not a multiple of tile-1"},
         {"path", "tiles/x{X:04}_z{Z:04}.rtile"}}},
       {"layers", json::array()},
-      {"tile_format", {{"magic", "RLFTILE1"}, {"version", 1}, {"encoding", "float32le-rowdelta-shuffle-zlib"}, {"checksum", "crc32 trailer"}}},
+      {"tile_format", {{"magic", "RLFTILE1"}, {"version", 1}, {"encoding", "float32le-rowdelta-shuffle-planes"}, {"checksum", "crc32 trailer"}}},
       {"halo", halo},
       {"stages", stages},
       {"overview", {{"file", "overview.png"}, {"step", step}, {"size", {ow, oh}}}},
@@ -435,10 +436,17 @@ WorldReport build_world(WorldSettings s) {
       throw Error(s.out_path, "tile " + tile_file(ph, X, Z).string() + " is missing or damaged; run the build again");
     return t;
   };
+  std::vector<std::unique_ptr<FileOutput>> outputs(phases.size());  // made when a phase starts
   auto store_tile = [&](const Phase& ph, WorldTile t) {
     t.world_id = ph.id;
     const std::string bytes = detail::encode_tile(t);
-    write_or_throw(tile_file(ph, t.X, t.Z), bytes, s.out_path);
+    // Atomic (temporary file, rename) but not flushed: a tile that a power cut leaves empty or
+    // damaged fails its CRC-32 on the next run and is rebuilt, so resuming stays exact.
+    try {
+      outputs.at(std::size_t(&ph - phases.data()))->put(tile_file(ph, t.X, t.Z).filename().string(), bytes);
+    } catch (const Error& e) {
+      throw Error(s.out_path, e.message());
+    }
     return bytes;
   };
   // The layers of the window [ix0, ix0+nx) × [iz0, iz0+nz) from phase `ph`'s tiles.
@@ -485,7 +493,11 @@ WorldReport build_world(WorldSettings s) {
     }
     fs::create_directories(ph.folder, e2);
     if (e2) throw Error(s.out_path, "cannot create " + quote(ph.folder.string()) + ": " + e2.message());
-    remove_dead_temporaries(ph.folder.string());
+    try {  // (removes temporary files that killed runs left in the folder)
+      outputs[pk] = std::make_unique<FileOutput>(ph.folder.string(), FileOutput::Mode::Immediate, FileOutput::Sync::Atomic);
+    } catch (const Error& e) {
+      throw Error(s.out_path, e.message());
+    }
     if (ph.global) {
       const RecipeStage& st = r.stages[ph.first];
       const Phase& in = phases[pk - 1];

@@ -1,5 +1,6 @@
 // The world tile store (relief/world.hpp): the tile grid, the tile file format (float32,
 // byte-shuffled, zlib, CRC-32 trailer), the manifest reader, verification and window reads.
+#include <tbb/parallel_for.h>
 #include <zlib.h>
 
 #include <algorithm>
@@ -28,6 +29,31 @@ std::uint32_t get_u32(const unsigned char* p) {
 void put_u32(std::string& s, std::uint32_t v) {
   for (int k = 0; k < 4; ++k) s.push_back(char((v >> (8 * k)) & 0xFF));
 }
+// zlib (RFC 1950) of `n` bytes with the RLE strategy at level 1, fed in pieces of at most 1 GiB
+// (zlib counts in 32 bits).
+std::string zlib_rle(const char* src, std::size_t n) {
+  z_stream zs{};
+  if (deflateInit2(&zs, 1, Z_DEFLATED, 15, 8, Z_RLE) != Z_OK) throw Error("output", "zlib could not start compressing a tile");
+  std::string z(deflateBound(&zs, uLong(n)), '\0');
+  std::size_t in_at = 0, out_at = 0;
+  int zr = Z_OK;
+  while (zr == Z_OK) {
+    const std::size_t in_n = std::min<std::size_t>(n - in_at, std::size_t(1) << 30);
+    const std::size_t out_n = std::min<std::size_t>(z.size() - out_at, std::size_t(1) << 30);
+    zs.next_in = reinterpret_cast<Bytef*>(const_cast<char*>(src) + in_at);
+    zs.avail_in = uInt(in_n);
+    zs.next_out = reinterpret_cast<Bytef*>(z.data() + out_at);
+    zs.avail_out = uInt(out_n);
+    zr = deflate(&zs, in_at + in_n == n ? Z_FINISH : Z_NO_FLUSH);
+    in_at += in_n - zs.avail_in;
+    out_at += out_n - zs.avail_out;
+  }
+  deflateEnd(&zs);
+  if (zr != Z_STREAM_END) throw Error("output", "zlib could not compress a tile");
+  z.resize(out_at);
+  return z;
+}
+
 }  // namespace
 
 namespace detail {
@@ -87,43 +113,50 @@ std::string encode_tile(const WorldTile& t) {
     at += 4 * m;
   }
   d = {};
-  z_stream zs{};
-  if (deflateInit2(&zs, 1, Z_DEFLATED, 15, 8, Z_RLE) != Z_OK) throw Error("output", "zlib could not start compressing a tile");
-  std::string z(deflateBound(&zs, uLong(raw)), '\0');
-  // Fed in pieces of at most 1 GiB (zlib counts in 32 bits).
-  std::size_t in_at = 0, out_at = 0;
-  int zr = Z_OK;
-  while (zr == Z_OK) {
-    const std::size_t in_n = std::min<std::size_t>(raw - in_at, std::size_t(1) << 30);
-    const std::size_t out_n = std::min<std::size_t>(z.size() - out_at, std::size_t(1) << 30);
-    zs.next_in = reinterpret_cast<Bytef*>(shuffled.data() + in_at);
-    zs.avail_in = uInt(in_n);
-    zs.next_out = reinterpret_cast<Bytef*>(z.data() + out_at);
-    zs.avail_out = uInt(out_n);
-    zr = deflate(&zs, in_at + in_n == raw ? Z_FINISH : Z_NO_FLUSH);
-    in_at += in_n - zs.avail_in;
-    out_at += out_n - zs.avail_out;
+  // Each byte plane on its own (see relief/world.hpp), concurrently: stored when a zlib pass over
+  // its first 64 KiB saves less than 10 % (the noisy low bytes), else zlib RLE.
+  std::vector<std::pair<std::size_t, std::size_t>> planes;  // (offset, size) in `shuffled`
+  for (auto& [name, l] : t.layers)
+    for (std::size_t b = 0; b < 4; ++b) planes.push_back({0, l.data.size()});
+  for (std::size_t k = 0, off = 0; k < planes.size(); ++k) {
+    planes[k].first = off;
+    off += planes[k].second;
   }
-  const std::size_t zlen = zs.total_out;
-  deflateEnd(&zs);
-  if (zr != Z_STREAM_END) throw Error("output", "zlib could not compress a tile");
-  z.resize(zlen);
-  shuffled = std::string();
+  std::vector<std::string> packed(planes.size());
+  std::vector<std::uint8_t> method(planes.size(), 0);
+  tbb::parallel_for(std::size_t(0), planes.size(), [&](std::size_t k) {
+    const char* src = shuffled.data() + planes[k].first;
+    const std::size_t m = planes[k].second;
+    const std::size_t probe = std::min<std::size_t>(m, 65536);
+    if (probe == 0 || zlib_rle(src, probe).size() * 10 > probe * 9) return;  // stored
+    std::string z = zlib_rle(src, m);
+    if (z.size() >= m) return;
+    packed[k] = std::move(z);
+    method[k] = 1;
+  });
+  std::size_t payload = 0;
+  for (std::size_t k = 0; k < planes.size(); ++k) payload += 9 + (method[k] ? packed[k].size() : planes[k].second);
   const json header = {{"format", 1},
                        {"world_id", t.world_id},
                        {"tile", {t.X, t.Z}},
                        {"window", {t.window.ix0, t.window.iz0, t.window.nx, t.window.nz}},
                        {"layers", layers},
-                       {"encoding", "float32le-rowdelta-shuffle-zlib"},
+                       {"encoding", "float32le-rowdelta-shuffle-planes"},
                        {"raw_bytes", raw},
-                       {"zlib_bytes", z.size()}};
+                       {"payload_bytes", payload}};
   const std::string h = header.dump();
   std::string out;
-  out.reserve(8 + 4 + h.size() + z.size() + 4);
+  out.reserve(8 + 4 + h.size() + payload + 4);
   out.append(kMagic, 8);
   put_u32(out, std::uint32_t(h.size()));
   out += h;
-  out += z;
+  for (std::size_t k = 0; k < planes.size(); ++k) {
+    out.push_back(char(method[k]));
+    const std::uint64_t len = method[k] ? packed[k].size() : planes[k].second;
+    for (int q = 0; q < 8; ++q) out.push_back(char((len >> (8 * q)) & 0xFF));
+    if (method[k]) out += packed[k];
+    else out.append(shuffled.data() + planes[k].first, planes[k].second);
+  }
   put_u32(out, crc32_of(out));
   return out;
 }
@@ -202,12 +235,37 @@ WorldTile decode_world_tile(std::string_view bytes, const std::string& origin) {
       raw += n * std::size_t(c) * 4;
     }
     if (h.at("raw_bytes").get<std::uint64_t>() != raw) throw bad("raw_bytes does not match the layers");
-    const std::uint64_t zlen = h.at("zlib_bytes").get<std::uint64_t>();
-    if (12 + std::uint64_t(hlen) + zlen + 4 != bytes.size()) throw bad("zlib_bytes does not match the file size");
+    if (h.value("encoding", "") != "float32le-rowdelta-shuffle-planes") throw bad("unknown encoding");
+    const std::uint64_t plen = h.at("payload_bytes").get<std::uint64_t>();
+    if (12 + std::uint64_t(hlen) + plen + 4 != bytes.size()) throw bad("payload_bytes does not match the file size");
+    // The byte planes: method (0 stored, 1 zlib), u64 length, bytes.
     std::string shuffled(raw, '\0');
-    uLongf out_len = uLongf(raw);
-    if (uncompress(reinterpret_cast<Bytef*>(shuffled.data()), &out_len, u + 12 + hlen, uLong(zlen)) != Z_OK || out_len != raw)
-      throw bad("zlib stream does not decode to raw_bytes");
+    std::size_t pos = 12 + hlen, out_at = 0;
+    const std::size_t end = 12 + hlen + plen;
+    for (const json& l : h.at("layers")) {
+      const std::size_t m = n * std::size_t(l.at("channels").get<int>());
+      for (int b = 0; b < 4; ++b) {
+        if (pos + 9 > end) throw bad("byte planes end early");
+        const unsigned char method = u[pos];
+        std::uint64_t len = 0;
+        for (int q = 0; q < 8; ++q) len |= std::uint64_t(u[pos + 1 + q]) << (8 * q);
+        pos += 9;
+        if (len > end - pos) throw bad("a byte plane runs past the payload");
+        if (method == 0) {
+          if (len != m) throw bad("a stored byte plane has the wrong size");
+          std::memcpy(shuffled.data() + out_at, u + pos, m);
+        } else if (method == 1) {
+          uLongf got = uLongf(m);
+          if (uncompress(reinterpret_cast<Bytef*>(shuffled.data() + out_at), &got, u + pos, uLong(len)) != Z_OK || got != m)
+            throw bad("a zlib byte plane does not decode to its size");
+        } else {
+          throw bad("unknown byte-plane method");
+        }
+        pos += len;
+        out_at += m;
+      }
+    }
+    if (pos != end) throw bad("bytes left after the byte planes");
     std::size_t at = 0;
     for (const json& l : h.at("layers")) {
       Layer layer;

@@ -26,7 +26,10 @@
 //            none is registered by default: the one written so far, world_fill_least_fixpoint,
 //            is exact against fill_least_fixpoint, not against the fill stage's own algorithm).
 //
-// Tile store (the output folder; every file written atomically: temporary file, fsync, rename):
+// Tile store (the output folder; every file written atomically: temporary file, rename; world.json,
+// overview.png and report.json are flushed (fsync) first, tiles are not — a tile that a power cut
+// leaves empty or damaged fails its CRC-32 on the next run and is rebuilt, and skipping the flush
+// halves a build's wall time on this machine's disk):
 //   world.json          the manifest (below), written before the first tile ("status": "building")
 //                       and again at the end ("status": "complete", with every tile's checksum);
 //   tiles/x{X}_z{Z}.rtile   one file per tile (X, Z zero-padded to 4+ digits), format below;
@@ -41,17 +44,20 @@
 //   bytes 8..11    u32 H: length of the header
 //   H bytes        header, JSON (UTF-8): {"format": 1, "world_id": "<16 hex>", "tile": [X, Z],
 //                  "window": [ix0, iz0, nx, nz], "layers": [{"name": …, "channels": c}, …],
-//                  "encoding": "float32le-rowdelta-shuffle-zlib", "raw_bytes": R, "zlib_bytes": Z}
-//   Z bytes        zlib stream (RFC 1950) of R bytes: the layers in the header's order (layer names
-//                  in ascending byte order), each coded from its float32 values (row-major, x
-//                  fastest, channels interleaved: the Layer layout of relief/terrain.hpp) as
+//                  "encoding": "float32le-rowdelta-shuffle-planes", "raw_bytes": R, "payload_bytes": P}
+//   P bytes        the layers in the header's order (layer names in ascending byte order), each
+//                  coded from its float32 values (row-major, x fastest, channels interleaved: the
+//                  Layer layout of relief/terrain.hpp) as
 //                    1. row delta: each value's 32 bits as an unsigned integer, minus (mod 2^32)
 //                       those of the value `channels` places before it in the same row (the same
 //                       channel of the sample to its left); the first sample of each row as is;
-//                    2. byte shuffle: for a layer of n values, the n least-significant bytes of
-//                       the deltas first, then the n second bytes, the third, the most significant;
-//                  (lossless; smooth fields and flat colour bands leave long runs of equal bytes:
-//                  about half the raw size, written with zlib's RLE strategy at ~130 MB/s).
+//                    2. four byte planes of n bytes each (n values): the least-significant bytes
+//                       of the deltas, then the second, third and most-significant bytes;
+//                  each plane written as: u8 method (0 = stored, 1 = zlib stream, RFC 1950), u64
+//                  length L, L bytes. Lossless. The writer stores a plane when zlib saves < 10 %
+//                  on its first 64 KiB (the noisy low bytes of smooth fields), else compresses it
+//                  with zlib's RLE strategy at level 1; the planes are coded concurrently. About
+//                  half the raw size for heights and colours.
 //   4 bytes        u32 CRC-32 (zlib's crc32, ISO-HDLC) of every byte before it.
 // world.json lists each tile's CRC-32 of the whole file (trailer included) and its size.
 //
