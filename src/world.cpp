@@ -287,7 +287,7 @@ WorldReport build_world(WorldSettings s) {
     grown.world.nz = int(std::min<std::int64_t>(grid.nz, grid.tile + 2 * std::int64_t(halo)));
     const std::uint64_t raw = std::uint64_t(grid.tile) * std::uint64_t(grid.tile) * channels * 4;
     const std::uint64_t per_tile = estimate_memory_bytes(grown, false) + 2 * raw + compressBound(uLong(raw));
-    const int step = int((grid.nx - 1 + kWorldOverviewMax - 2) / (kWorldOverviewMax - 1));
+    const int step = int((std::max(grid.nx, grid.nz) - 1 + kWorldOverviewMax - 2) / (kWorldOverviewMax - 1));
     const std::uint64_t overview = std::uint64_t((grid.nx - 1) / std::max(1, step) + 1) * std::uint64_t((grid.nz - 1) / std::max(1, step) + 1) * 7;
     rep.tile_memory_bytes = std::uint64_t(at_once) * per_tile + overview + std::uint64_t(grid.count()) * 16;
     const std::uint64_t budget = s.memory_budget_bytes ? s.memory_budget_bytes : memory_budget_bytes();

@@ -136,7 +136,7 @@ WorldGrid world_grid(std::int64_t nx, std::int64_t nz, std::int64_t tile, const 
 std::string world_tile_path(std::int64_t X, std::int64_t Z);
 
 struct WorldProgress {
-  std::int64_t tiles_total = 0;
+  std::int64_t tiles_total = 0;    // tiles × local phases (one phase unless world algorithms run)
   std::int64_t tiles_done = 0;     // finished so far, skipped ones included
   std::int64_t tiles_skipped = 0;  // found finished in the folder (resumed)
   int stage = 0, stages = 0;       // the stage a tile is running now (0-based) and the recipe's count
@@ -194,7 +194,8 @@ struct WorldSettings {
   // World algorithms by stage name: a global stage named here runs as a phase of its own over the
   // stored world instead of being refused (see "Phases" at the top of this file).
   std::map<std::string, WorldStageAlgorithm> algorithms;
-  // Called after each tile is written, with its (X, Z) (tests kill or cancel builds part way).
+  // Called after each tile is written, with its (X, Z) (tests kill or cancel builds part way); from
+  // several threads at once when tiles are built concurrently.
   std::function<void(std::int64_t X, std::int64_t Z)> after_tile;
 };
 
