@@ -1,6 +1,7 @@
 // The world tile store (relief/world.hpp): the tile grid, the tile file format (float32,
 // byte-shuffled, zlib, CRC-32 trailer), the manifest reader, verification and window reads.
 #include <tbb/parallel_for.h>
+#include <tbb/task_arena.h>
 #include <zlib.h>
 
 #include <algorithm>
@@ -124,7 +125,9 @@ std::string encode_tile(const WorldTile& t) {
   }
   std::vector<std::string> packed(planes.size());
   std::vector<std::uint8_t> method(planes.size(), 0);
-  tbb::parallel_for(std::size_t(0), planes.size(), [&](std::size_t k) {
+  // Isolated: a thread waiting here must not pick up another tile of build_world's tile loop
+  // (that would hold two tiles' buffers on one thread and let memory grow past the estimate).
+  tbb::this_task_arena::isolate([&] { tbb::parallel_for(std::size_t(0), planes.size(), [&](std::size_t k) {
     const char* src = shuffled.data() + planes[k].first;
     const std::size_t m = planes[k].second;
     const std::size_t probe = std::min<std::size_t>(m, 65536);
@@ -133,7 +136,7 @@ std::string encode_tile(const WorldTile& t) {
     if (z.size() >= m) return;
     packed[k] = std::move(z);
     method[k] = 1;
-  });
+  }); });
   std::size_t payload = 0;
   for (std::size_t k = 0; k < planes.size(); ++k) payload += 9 + (method[k] ? packed[k].size() : planes[k].second);
   const json header = {{"format", 1},
