@@ -10,6 +10,11 @@
 //     depressions in raster digital elevation models", Computers & Geosciences 90, 2016 — cells
 //     reached uphill of the flood front keep their elevation and are traversed at once; only cells
 //     bordering lower unvisited cells enter the priority queue.
+//   * H. Wei, G. Zhou, S. Fu, "Efficient Priority-Flood depression filling in raster digital
+//     elevation models", International Journal of Digital Earth 12(4), 2019 (online 2018) — a cell
+//     met on the slope traversal enters the priority queue only when one of its lower unvisited
+//     neighbours has no lower visited neighbour of its own (no "spill path"); otherwise that
+//     neighbour is reached earlier through the lower cell and the queue entry would be wasted.
 //   * R. K. Ahuja, K. Mehlhorn, J. Orlin, R. Tarjan, "Faster algorithms for the shortest path
 //     problem", J. ACM 37(2), 1990 — the radix heap: Priority-Flood pops non-decreasing levels, so
 //     a monotone integer queue keyed on the order-preserving bits of the float replaces the binary
@@ -68,18 +73,43 @@ class RadixHeap {
   };
   bool empty() const { return size_ == 0; }
   void push(K key, std::uint32_t value) {
-    buckets_[bucket(key)].push_back({key, value});
+    const int b = bucket(key);
+    buckets_[b].push_back({key, value});
     ++size_;
+    if (b != 0 && b <= hint_bucket_) {  // keep the hint the smallest entry of the lowest bucket
+      if (b < hint_bucket_) hint_bucket_ = 0;
+      else if (key < hint_.key) hint_ = {key, value};
+    }
   }
-  // The entry that pop() will return next, when it is already known (else nullptr): for prefetching.
-  const Entry* peek_ready() const { return buckets_[0].empty() ? nullptr : &buckets_[0].back(); }
-  Entry pop() {
-    if (buckets_[0].empty()) {
+  // The entry that pop() will return next unless a smaller key is pushed first (nullptr when
+  // empty): for prefetching. When bucket 0 is empty it finds the smallest entry of the lowest
+  // non-empty bucket, which push() keeps up to date and the next pop() reuses instead of scanning.
+  const Entry* peek() {
+    if (!buckets_[0].empty()) return &buckets_[0].back();
+    if (size_ == 0) return nullptr;
+    if (hint_bucket_ == 0) {
       int b = 1;
       while (buckets_[b].empty()) ++b;
-      K lo = buckets_[b][0].key;
-      for (const Entry& e : buckets_[b]) lo = e.key < lo ? e.key : lo;
+      const std::vector<Entry>& v = buckets_[b];
+      std::size_t at = 0;
+      for (std::size_t x = 1; x < v.size(); ++x) at = v[x].key < v[at].key ? x : at;
+      hint_bucket_ = b;
+      hint_ = v[at];
+    }
+    return &hint_;
+  }
+  Entry pop() {
+    if (buckets_[0].empty()) {
+      int b = hint_bucket_;
+      K lo = hint_.key;
+      if (b == 0) {
+        b = 1;
+        while (buckets_[b].empty()) ++b;
+        lo = buckets_[b][0].key;
+        for (const Entry& e : buckets_[b]) lo = e.key < lo ? e.key : lo;
+      }
       last_ = lo;
+      hint_bucket_ = 0;
       for (const Entry& e : buckets_[b]) buckets_[bucket(e.key)].push_back(e);
       buckets_[b].clear();
     }
@@ -99,6 +129,8 @@ class RadixHeap {
   std::vector<Entry> buckets_[kBuckets];
   K last_ = 0;
   std::size_t size_ = 0;
+  int hint_bucket_ = 0;  // 0: no hint
+  Entry hint_{};
 };
 
 }  // namespace
@@ -110,32 +142,62 @@ void fill_depressions(T* z, int nx, int nz, T sea, T epsilon) {
   using K = decltype(order_key(T()));
   std::vector<std::uint8_t> closed(n, 0);
   RadixHeap<K> open;
-  std::vector<std::uint32_t> trail;
+  std::vector<std::uint32_t> trail, candidates;
   std::size_t pit_head = 0;
   std::ptrdiff_t off[8];
   for (int k = 0; k < 8; ++k) off[k] = std::ptrdiff_t(kDj[k]) * nx + kDi[k];
 
-  // Outlets are closed from the start; those bordering other cells seed the flood.
-  for (int j = 0; j < nz; ++j)
-    for (int i = 0; i < nx; ++i) {
-      const std::size_t c = std::size_t(j) * nx + i;
-      closed[c] = on_border(i, j, nx, nz) || z[c] < sea;
+  // Outlets (the border, and cells below the sea) are closed from the start; those bordering
+  // other cells seed the flood, in row-major order.
+  for (int j = 0; j < nz; ++j) {
+    std::uint8_t* row = closed.data() + std::size_t(j) * nx;
+    if (j == 0 || j == nz - 1) {
+      std::memset(row, 1, std::size_t(nx));
+      continue;
     }
-  for (int j = 0; j < nz; ++j)
+    const T* zj = z + std::size_t(j) * nx;
+    for (int i = 0; i < nx; ++i) row[i] = zj[i] < sea;
+    row[0] = row[nx - 1] = 1;
+  }
+  for (int j = 0; j < nz; ++j) {
+    const bool edge_row = j == 0 || j == nz - 1;
     for (int i = 0; i < nx; ++i) {
       const std::size_t c = std::size_t(j) * nx + i;
       if (!closed[c]) continue;
       bool borders_land = false;
-      for (int k = 0; k < 8 && !borders_land; ++k) {
-        const int a = i + kDi[k], b = j + kDj[k];
-        if (a >= 0 && b >= 0 && a < nx && b < nz) borders_land = !closed[std::size_t(b) * nx + a];
+      if (!edge_row && i > 0 && i + 1 < nx) {
+        for (int k = 0; k < 8; ++k) borders_land |= !closed[std::size_t(std::ptrdiff_t(c) + off[k])];
+      } else {
+        for (int k = 0; k < 8 && !borders_land; ++k) {
+          const int a = i + kDi[k], b = j + kDj[k];
+          if (a >= 0 && b >= 0 && a < nx && b < nz) borders_land = !closed[std::size_t(b) * nx + a];
+        }
       }
       if (borders_land) open.push(order_key(z[c]), std::uint32_t(c));
     }
+  }
 
   // Zhou's slope traversal from a freshly reached cell m whose level is final (z[m] unchanged):
-  // cells uphill of it are final too; a cell enters the queue only when it borders a lower or
-  // equal unvisited cell. Non-outlet cells are interior, so their neighbours are in bounds.
+  // cells uphill of it are final too. A cell q that borders a lower or equal unvisited cell is a
+  // candidate for the queue (Zhou pushes them all); after the traversal, when more cells are
+  // visited, q is pushed only if some unvisited neighbour r has no visited neighbour below z[q]
+  // (Wei's test). Skipping the others leaves every bit of the result unchanged: a visited cell s
+  // with z[s] < z[q] is still to be expanded (from the queue at key z[s] < z[q], or from the pit
+  // queue, which drains before the next pop), so it closes r before q's entry would pop, and that
+  // pop would find every neighbour closed and do nothing. The radix heap pops equal keys last-in
+  // first-out whatever else it holds, so the remaining entries pop in the same order. (At 4096²,
+  // 71% of the cells of the mountains preset are candidates and 87% of those are dropped; on the
+  // bench's island 95% and 97%.) Non-outlet cells are interior, so their neighbours are
+  // in bounds.
+  // Whether the 8 neighbours of interior cell q are closed: three 4-byte loads of the rows (the
+  // fourth byte of each stays inside the grid: q + nx + 2 ≤ n − 1 for q interior and nx ≥ 3).
+  auto all_neighbours_closed = [&](std::size_t q) {
+    std::uint32_t up, mid, down;
+    std::memcpy(&up, closed.data() + q - nx - 1, 4);
+    std::memcpy(&mid, closed.data() + q - 1, 4);
+    std::memcpy(&down, closed.data() + q + nx - 1, 4);
+    return ((up & down & 0x010101u) & (mid | 0x000100u)) == 0x010101u;
+  };
   auto traverse = [&](std::uint32_t m) {
     trail.push_back(m);
     while (!trail.empty()) {
@@ -153,8 +215,25 @@ void fill_depressions(T* z, int nx, int nz, T sea, T epsilon) {
           boundary = true;
         }
       }
-      if (boundary) open.push(order_key(zq), q);
+      if (boundary) candidates.push_back(q);
     }
+    for (const std::uint32_t q : candidates) {  // in the order Zhou's traversal would push them
+      if (all_neighbours_closed(q)) continue;  // the common case, three loads
+      const T zq = z[q];
+      bool needed = false;
+      for (int k = 0; k < 8 && !needed; ++k) {
+        const std::size_t r = std::size_t(std::ptrdiff_t(q) + off[k]);
+        if (closed[r]) continue;  // unvisited, so z[r] <= zq and r is interior
+        bool spill = false;
+        for (int k2 = 0; k2 < 8 && !spill; ++k2) {
+          const std::size_t s = std::size_t(std::ptrdiff_t(r) + off[k2]);
+          spill = closed[s] && z[s] < zq;
+        }
+        needed = !spill;
+      }
+      if (needed) open.push(order_key(zq), q);
+    }
+    candidates.clear();
   };
 
   // Pit queue entries carry their level, so that popping does not reload it.
@@ -177,7 +256,7 @@ void fill_depressions(T* z, int nx, int nz, T sea, T epsilon) {
       const auto top = open.pop();
       c = top.value;
       lc = from_key(top.key);
-      if (const auto* next_top = open.peek_ready()) {  // its rows will be needed soon
+      if (const auto* next_top = open.peek()) {  // its rows will be needed soon
         const std::size_t q = next_top->value;
         __builtin_prefetch(z + q - (q >= std::size_t(nx) ? nx : 0));
         __builtin_prefetch(z + q + (q + nx < n ? nx : 0));
