@@ -255,6 +255,11 @@ Generated generate_keep(GenerateSettings s, Output& out) {
     std::lock_guard<std::mutex> lock(progress_mutex);
     progress(what, 0.7 + 0.25 * f);
   };
+  if (s.cancelled)
+    wc.cancelled = [&] {
+      std::lock_guard<std::mutex> lock(progress_mutex);
+      return s.cancelled();
+    };
   // Writers run in parallel, one task each (the OBJ's rows spread over the threads as well). Each
   // writes its files straight into the output as soon as they are encoded, so writing overlaps
   // encoding; the commit below makes them visible only when every writer has succeeded. The bytes

@@ -50,8 +50,9 @@ Table<VolumeParams> volume_table() {
   }};
 }
 
-void volume_apply(Terrain& t, const VolumeParams& p, const Context&) {
+void volume_apply(Terrain& t, const VolumeParams& p, const Context& ctx) {
   VolumeSpec s = current(t);
+  s.path = "stages[" + std::to_string(ctx.stage_index) + "]";
   s.voxel_m = p.voxel_m;
   s.chunk = p.chunk;
   s.base_m = p.base_m;

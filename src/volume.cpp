@@ -23,6 +23,7 @@
 
 #include "relief/error.hpp"
 #include "relief/noise3.hpp"
+#include "relief/pipeline.hpp"
 
 namespace relief {
 namespace {
@@ -412,12 +413,13 @@ VolumeGrid volume_grid(const Terrain& t, const VolumeSpec& spec) {
   const Frame& f = t.frame;
   const Layer& h = t.get("height");
   if (h.channels != 1) throw Error("height", "the volume needs a one-channel height layer");
+  const std::string at = spec.path.empty() ? std::string("volume") : spec.path;
   if (spec.chunk < 8 || spec.chunk > 128)
-    throw Error("volume.chunk", "expected 8..128 cells per chunk edge, got " + std::to_string(spec.chunk));
+    throw Error(at + ".chunk", "expected 8..128 cells per chunk edge, got " + std::to_string(spec.chunk));
   VolumeGrid g;
   g.voxel_m = voxel_of(t, spec);
   if (!(g.voxel_m > 0) || !std::isfinite(g.voxel_m))
-    throw Error("volume.voxel_m", "expected a positive voxel size in metres, got " + std::to_string(g.voxel_m));
+    throw Error(at + ".voxel_m", "expected a positive voxel size in metres, got " + std::to_string(g.voxel_m));
   g.chunk = spec.chunk;
   double lo, hi;
   height_bounds(t, -1e300, 1e300, -1e300, 1e300, lo, hi);
@@ -431,7 +433,7 @@ VolumeGrid volume_grid(const Terrain& t, const VolumeSpec& spec) {
   const double ny_d = std::ceil(g.y_top_m / v) + 1 - (std::floor(g.y_bottom_m / v) - 1) + 1;
   const double chunks = std::ceil((cells_x + 2) / g.chunk) * std::ceil((cells_z + 2) / g.chunk) * std::ceil((ny_d - 1) / g.chunk);
   if (!(chunks <= double(spec.max_chunks)))
-    throw Error("volume.voxel_m", "a band of " + std::to_string(std::int64_t(cells_x)) + " x " + std::to_string(std::int64_t(ny_d)) + " x " +
+    throw Error(at + ".voxel_m", "a band of " + std::to_string(std::int64_t(cells_x)) + " x " + std::to_string(std::int64_t(ny_d)) + " x " +
                                       std::to_string(std::int64_t(cells_z)) + " voxels of " + std::to_string(v) +
                                       " m needs more than " + std::to_string(spec.max_chunks) +
                                       " chunks: expected a larger voxel_m or a thinner band");
@@ -469,7 +471,8 @@ namespace {
 template <class R>
 VolumeStats for_chunks(const Terrain& t, const VolumeSpec& spec, const VolumeGrid& g, const Prepared& p,
                        const std::function<R(int, int, int, double&, double&)>& work,
-                       const std::function<void(R&&, VolumeStats&)>& emit, const std::function<void(double)>& progress) {
+                       const std::function<void(R&&, VolumeStats&)>& emit, const std::function<void(double)>& progress,
+                       const std::function<bool()>& cancelled) {
   const ColumnBounds bounds = column_bounds(t, spec, g);
   (void)p;
   VolumeStats st;
@@ -488,6 +491,7 @@ VolumeStats for_chunks(const Terrain& t, const VolumeSpec& spec, const VolumeGri
   std::vector<R> out;
   std::vector<double> eval_s, mesh_s;
   for (std::size_t start = 0; start < todo.size(); start += batch) {
+    if (cancelled && cancelled()) throw Cancelled();
     const std::size_t m = std::min(batch, todo.size() - start);
     out.assign(m, R{});
     eval_s.assign(m, 0.0);
@@ -515,7 +519,7 @@ double seconds_since(std::chrono::steady_clock::time_point t0) {
 
 VolumeStats evaluate_volume(const Terrain& t, const VolumeSpec& spec, std::uint64_t seed,
                             const std::function<void(int cx, int cy, int cz, const DensityBlock&)>& sink,
-                            const std::function<void(double)>& progress) {
+                            const std::function<void(double)>& progress, const std::function<bool()>& cancelled) {
   const VolumeGrid g = volume_grid(t, spec);
   const Prepared p = prepare(t, spec, g, seed);
   struct R {
@@ -530,11 +534,12 @@ VolumeStats evaluate_volume(const Terrain& t, const VolumeSpec& spec, std::uint6
         es = seconds_since(t0);
         return r;
       },
-      [&](R&& r, VolumeStats&) { sink(r.cx, r.cy, r.cz, r.b); }, progress);
+      [&](R&& r, VolumeStats&) { sink(r.cx, r.cy, r.cz, r.b); }, progress, cancelled);
 }
 
 VolumeStats mesh_volume(const Terrain& t, const VolumeSpec& spec, std::uint64_t seed,
-                        const std::function<void(VolumeChunkMesh&&)>& sink, const std::function<void(double)>& progress) {
+                        const std::function<void(VolumeChunkMesh&&)>& sink, const std::function<void(double)>& progress,
+                        const std::function<bool()>& cancelled) {
   const VolumeGrid g = volume_grid(t, spec);
   const Prepared p = prepare(t, spec, g, seed);
   const Layer* albedo = t.has("albedo") && t.get("albedo").channels == 3 ? &t.get("albedo")
@@ -581,7 +586,7 @@ VolumeStats mesh_volume(const Terrain& t, const VolumeSpec& spec, std::uint64_t 
         st.vertices += std::int64_t(r.mesh.vertex_count());
         sink(std::move(r));
       },
-      progress);
+      progress, cancelled);
 }
 
 }  // namespace relief

@@ -45,7 +45,7 @@ void write_glb(const Terrain& t, const WriteContext& ctx, Output& out) {
   const VolumeGrid vg = volume_grid(t, spec);
   const double need = vg.mesh_bytes_estimate(), budget = double(memory_budget_bytes());
   if (need > budget)
-    throw Error("volume.voxel_m", "caves.glb at " + std::to_string(vg.voxel_m) + " m voxels needs about " +
+    throw Error((spec.path.empty() ? std::string("volume") : spec.path) + ".voxel_m", "caves.glb at " + std::to_string(vg.voxel_m) + " m voxels needs about " +
                                       std::to_string(std::int64_t(need / (1 << 20))) + " MiB (" + std::to_string(vg.surface_chunks) +
                                       " surface chunks), more than the memory budget of " +
                                       std::to_string(std::int64_t(budget / (1 << 20))) +
@@ -62,7 +62,7 @@ void write_glb(const Terrain& t, const WriteContext& ctx, Output& out) {
         n.mesh = g.mesh(name, c.mesh, material, false);
         nodes.push_back(g.node(std::move(n)));
       },
-      [&](double f) { progress(ctx, "caves", 0.95 * f); });
+      [&](double f) { progress(ctx, "caves", 0.95 * f); }, ctx.cancelled);
   tinygltf::Node root;
   root.name = "caves";
   root.children = nodes;
@@ -139,7 +139,7 @@ void write_obj(const Terrain& t, const WriteContext& ctx, Output& out) {
         base += nv;
         stream->write(buf);
       },
-      [&](double f) { progress(ctx, "caves_obj", f); });
+      [&](double f) { progress(ctx, "caves_obj", f); }, ctx.cancelled);
   stream->close();
 }
 
@@ -167,7 +167,7 @@ void write_vdb(const Terrain& t, const WriteContext& ctx, Output& out) {
               acc.setValue(openvdb::Coord(int(b.ix0 + i), int(b.iy0 + j), int(b.iz0 + k)), -d);
             }
       },
-      [&](double f) { progress(ctx, "vdb", 0.9 * f); });
+      [&](double f) { progress(ctx, "vdb", 0.9 * f); }, ctx.cancelled);
   openvdb::tools::signedFloodFill(grid->tree());
   grid->pruneGrid();
   std::ostringstream os(std::ios_base::binary);

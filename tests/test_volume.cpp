@@ -439,3 +439,32 @@ TEST(Volume, GoldenHash) {
   EXPECT_EQ(tris, 50252u);
   EXPECT_EQ(fnv1a(all), 0xf2ec4c59182046d8ull);
 }
+
+TEST(VolumeWriters, CancelledWhileMeshingStopsTheRun) {
+  json doc = cave_recipe();
+  doc["stages"][3]["chunk"] = 8;  // several batches of chunks: the writer asks between them
+  GenerateSettings s;
+  s.recipe = parse_recipe(doc);
+  s.formats = "caves";
+  s.threads = 1;
+  bool meshing = false;
+  int asked_while_meshing = 0;
+  s.progress = [&](std::string_view what, double) { meshing = meshing || what == "caves"; };
+  s.cancelled = [&] {
+    if (meshing) ++asked_while_meshing;
+    return meshing;
+  };
+  MemoryOutput out;
+  EXPECT_THROW(generate(s, out), Cancelled);
+  EXPECT_GE(asked_while_meshing, 1);
+  EXPECT_EQ(out.files.count("caves.glb"), 0u);
+}
+
+// From the command line: a band too fine for the machine is refused before any work, exit 2,
+// naming the volume stage's parameter; a volume writer without a volume names what it needs.
+TEST(VolumeCli, BadBandsExitWithCode2NamingTheField) {
+  expect_cli_error("generate sea-cliff --size 129 --set 'stages[5].voxel_m=0.01' --formats caves -o /tmp/relief_volume_cli_bad",
+                   "stages[5].voxel_m");
+  EXPECT_FALSE(std::filesystem::exists("/tmp/relief_volume_cli_bad"));
+  expect_cli_error("generate island --size 65 --formats caves -o /tmp/relief_volume_cli_bad", "volume");
+}

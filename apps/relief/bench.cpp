@@ -14,6 +14,7 @@ namespace relief::cli {
 // bench_volume.cpp: meshing against OpenVDB volumeToMesh (declared here: bench_common.hpp lists the
 // older groups).
 void bench_volume(const BenchSettings& s, json& entries);
+void bench_world(const BenchSettings& s, json& entries);  // bench_world.cpp: whole map against tiles
 
 namespace {
 // The case groups in the order they run; `--cases` picks among them.
@@ -24,7 +25,7 @@ struct Group {
 const Group kGroups[] = {{"noise", bench_noise},     {"stages", bench_stages},   {"regenerate", bench_regenerate},
                          {"presets", bench_presets}, {"tilemap", bench_tilemap}, {"erosion", bench_erosion},
                          {"islands", bench_islands}, {"export", bench_export},   {"dem", bench_dem},
-                         {"volume", bench_volume}};
+                         {"volume", bench_volume}, {"world", bench_world}};
 }  // namespace
 
 bool is_bench_group(const std::string& name) {

@@ -78,6 +78,9 @@ struct CaveSpec {
 };
 
 struct VolumeSpec {
+  // The recipe path of the "volume" stage that set the band ("stages[5]"); empty when the band has
+  // its defaults. Errors about the band name `<path>.voxel_m` (or `volume.voxel_m` when empty).
+  std::string path;
   double voxel_m = 0.0;  // 0: the frame's sample spacing
   int chunk = 32;        // cells per chunk edge
   double base_m = 20.0;  // rock kept below the lowest surface (closed volumes' base)
@@ -112,8 +115,8 @@ struct VolumeGrid {
 };
 
 // The grid the spec covers on this terrain (needs the "height" layer). Throws relief::Error
-// naming `volume.voxel_m` / `volume.chunk` when the band would need more than max_chunks chunks
-// (estimated before anything is evaluated).
+// naming `<path>.voxel_m` / `<path>.chunk` (path: VolumeSpec::path, else "volume") when the band
+// would need more than max_chunks chunks (estimated before anything is evaluated).
 VolumeGrid volume_grid(const Terrain& t, const VolumeSpec& spec);
 
 // How a chunk was classified before evaluating it.
@@ -137,15 +140,16 @@ ChunkKind classify_chunk(const Terrain& t, const VolumeSpec& spec, const VolumeG
 // Evaluates and meshes every Surface chunk (in parallel over the caller's oneTBB arena), calling
 // `sink` once per chunk with a mesh, in chunk order (y, then z, then x) from the calling thread:
 // the bytes of what the sink sees are the same for any thread count. `progress` (may be empty)
-// gets the fraction of chunks done.
+// gets the fraction of chunks done; `cancelled` (may be empty) is asked between batches of chunks,
+// and true stops the call with relief::Cancelled.
 VolumeStats mesh_volume(const Terrain& t, const VolumeSpec& spec, std::uint64_t seed,
                         const std::function<void(VolumeChunkMesh&&)>& sink,
-                        const std::function<void(double)>& progress = {});
+                        const std::function<void(double)>& progress = {}, const std::function<bool()>& cancelled = {});
 
 // Evaluates every Surface chunk (in parallel) and calls `sink` with each chunk's density block (the
 // chunk's samples plus the 1-sample apron), in chunk order, from the calling thread (the .vdb writer).
 VolumeStats evaluate_volume(const Terrain& t, const VolumeSpec& spec, std::uint64_t seed,
                             const std::function<void(int cx, int cy, int cz, const DensityBlock&)>& sink,
-                            const std::function<void(double)>& progress = {});
+                            const std::function<void(double)>& progress = {}, const std::function<bool()>& cancelled = {});
 
 }  // namespace relief

@@ -24,6 +24,10 @@ struct WriteContext {
   json recipe;  // resolved recipe (for report.json)
   json report;  // timings etc. (for report.json)
   std::function<void(std::string_view what, double fraction)> progress;
+  // May be empty. Long writers (the volume's) call it between pieces of work and stop with
+  // relief::Cancelled (pipeline.hpp) when it returns true; callable from any writer's thread
+  // (relief::generate serialises it and forwards GenerateSettings::cancelled).
+  std::function<bool()> cancelled;
 };
 
 struct WriterDef {
