@@ -178,7 +178,7 @@ inline double perlin_core(const std::uint8_t* p, const Axis& ax, const PerlinRow
   return lerp(r.sy, lerp(sx, g00, g10), lerp(sx, g01, g11));
 }
 
-// ---- lattice hashing (Value, Simplex, Cellular) ---------------------------------------------------
+// ---- lattice hashing (Simplex, Cellular) ---------------------------------------------------
 
 // mix64(key + X·Px + Z·Pz). The linear part is injective for |ΔX|, |ΔZ| far beyond any terrain
 // (odd 64-bit multipliers), mix64 is a bijective finaliser, and the z part is hoisted per row.
@@ -187,25 +187,6 @@ constexpr std::uint64_t kPz = detail::kLatticePz;
 inline std::uint64_t row_key(std::uint64_t key, std::int64_t z) { return key + std::uint64_t(z) * kPz; }
 inline std::uint64_t lattice_hash(std::uint64_t rowkey, std::int64_t x) {
   return mix64(rowkey + std::uint64_t(x) * kPx);
-}
-// Top 53 bits of h as a double in [−1, 1) (exact: a 53-bit integer times 2⁻⁵², minus one).
-inline double signed_unit(std::uint64_t h) { return double(h >> 11) * (1.0 / 4503599627370496.0) - 1.0; }
-
-// ---- value noise ----------------------------------------------------------------------------------
-
-struct ValueRow {
-  std::uint64_t k0, k1;  // row keys of lattice rows z0, z1
-  double sy;
-};
-template <class Oct>
-inline ValueRow value_row(const Oct& o, const Axis& az) {
-  return {row_key(o.key, az.i0), row_key(o.key, az.i1), fade(az.f)};
-}
-inline double value_core(const Axis& ax, const ValueRow& r) {
-  const double v00 = signed_unit(lattice_hash(r.k0, ax.i0)), v10 = signed_unit(lattice_hash(r.k0, ax.i1));
-  const double v01 = signed_unit(lattice_hash(r.k1, ax.i0)), v11 = signed_unit(lattice_hash(r.k1, ax.i1));
-  const double sx = fade(ax.f);
-  return lerp(r.sy, lerp(sx, v00, v10), lerp(sx, v01, v11));
 }
 
 // ---- OpenSimplex2S-style 2D simplex ---------------------------------------------------------------
@@ -400,6 +381,21 @@ inline float gradient_axis_scaled(const GRow& r, const GAxis& a, float s) {
   const float sx = gfade(a.f);
   return glerp(r.sy, glerp(sx, g00, g10), glerp(sx, g01, g11));
 }
+// Value basis (float, on the Gradient basis's lattice split and rows): the lattice value of corner
+// (X, Z) is the top 24 bits of h = (X·Pₓ ⊕ Z·P_z ⊕ key)·M read as a signed integer v in [−2²³, 2²³)
+// (exact in float); the corners are blended by the quintic fade and the result scaled by
+// c = 2⁻²³ (a value in [−1, 1)), or by s·2⁻²³ for ridged (the octave's value is then s·n, as
+// Gradient's ridged_scale).
+inline float vcorner(std::uint32_t xp, std::uint32_t zp) {
+  return float(std::int32_t((xp ^ zp) * detail::kGradM) >> 8);
+}
+inline float value_axis(const GRow& r, const GAxis& a, float c) {
+  const std::uint32_t xp0 = a.i0 * detail::kGradPx, xp1 = a.i1 * detail::kGradPx;
+  const float v00 = vcorner(xp0, r.zp0), v10 = vcorner(xp1, r.zp0);
+  const float v01 = vcorner(xp0, r.zp1), v11 = vcorner(xp1, r.zp1);
+  const float sx = gfade(a.f);
+  return glerp(r.sy, glerp(sx, v00, v10), glerp(sx, v01, v11)) * c;
+}
 inline float gradient_core(const detail::NoiseOctave& o, const GRow& r, double u) {
   return gradient_axis(r, gaxis(u, o.period_x, o.inv_period_x));
 }
@@ -418,7 +414,7 @@ inline float gradient_core(const detail::NoiseOctave& o, const GRow& r, double u
 // (With one octave there is nothing to step: octave 0 is the same in both paths, so count ≥ 2
 // only picks the kernel.)
 inline bool dyadic(const NoiseSettings& s, std::size_t count) {
-  return s.basis == NoiseBasis::Gradient && count >= 2 && s.lacunarity == 2.0 && s.period_x_m == 0.0 &&
+  return (s.basis == NoiseBasis::Gradient || s.basis == NoiseBasis::Value) && count >= 2 && s.lacunarity == 2.0 && s.period_x_m == 0.0 &&
          s.period_z_m == 0.0;
 }
 struct DyAxis {
@@ -470,21 +466,12 @@ void octave_chunk(NoiseBasis basis, CellularReturn ret, double jitter, const Oct
       }
       break;
     }
-    case NoiseBasis::Value: {
-      if constexpr (kUniformZ) {
-        const ValueRow r = value_row(o, axis(vz(0), o.period_z));
-        for (int i = 0; i < m; ++i) out[i] = value_core(axis(ux(i), o.period_x), r);
-      } else {
-        for (int i = 0; i < m; ++i)
-          out[i] = value_core(axis(ux(i), o.period_x), value_row(o, axis(vz(i), o.period_z)));
-      }
-      break;
-    }
     case NoiseBasis::Simplex: {
       for (int i = 0; i < m; ++i) out[i] = simplex_core(o.key, ux(i), vz(i));
       break;
     }
-    case NoiseBasis::Gradient: break;  // float pipeline: Noise::run_gradient
+    case NoiseBasis::Gradient:
+    case NoiseBasis::Value: break;  // float pipeline: Noise::run_gradient
     case NoiseBasis::Cellular: {
       if constexpr (kUniformZ) {
         const CellRow r = cell_row(o, vz(0));
@@ -725,6 +712,7 @@ void Noise::run_gradient(double z_m, XAt x_at, int n, float* out) const {
   float acc[kChunk];
   DyAxis dx[kChunk], dz[kChunk];  // per-sample dyadic lattice state (x; z when warped)
   const bool warp = s_.warp_m > 0.0;
+  const bool value = s_.basis == NoiseBasis::Value;  // the Value basis on the same lattice
   const float inv = float(state_->inv_amp_sum);
   for (int start = 0; start < n; start += kChunk) {
     const int m = std::min(kChunk, n - start);
@@ -733,8 +721,11 @@ void Noise::run_gradient(double z_m, XAt x_at, int n, float* out) const {
       const detail::NoiseOctave &w0 = state_->warp[0], &w1 = state_->warp[1];
       const GRow r1 = grow(w1, z_m * w1.freq_z + w1.offset_z), r0 = grow(w0, z_m * w0.freq_z + w0.offset_z);
       for (int i = 0; i < m; ++i) {
-        const float n1 = gradient_core(w1, r1, xs[i] * w1.freq_x + w1.offset_x);
-        const float n0 = gradient_core(w0, r0, xs[i] * w0.freq_x + w0.offset_x);
+        const double u1 = xs[i] * w1.freq_x + w1.offset_x, u0 = xs[i] * w0.freq_x + w0.offset_x;
+        const float n1 = value ? value_axis(r1, gaxis(u1, w1.period_x, w1.inv_period_x), detail::kValueScale)
+                               : gradient_core(w1, r1, u1);
+        const float n0 = value ? value_axis(r0, gaxis(u0, w0.period_x, w0.inv_period_x), detail::kValueScale)
+                               : gradient_core(w0, r0, u0);
         zs[i] = z_m + s_.warp_m * double(n1);
         xs[i] = xs[i] + s_.warp_m * double(n0);
       }
@@ -749,8 +740,10 @@ void Noise::run_gradient(double z_m, XAt x_at, int n, float* out) const {
       const detail::NoiseOctave& o = state_->octaves[k];
       const float a = float(o.amp);
       const float sc = o.ridge_scale;  // ridged: √a folded into the corner offsets
-      auto scaled = [&](const GRow& r) { return ridged ? scale_row(r, sc) : r; };
+      auto scaled = [&](const GRow& r) { return ridged && !value ? scale_row(r, sc) : r; };
+      const float vc = ridged ? sc * detail::kValueScale : detail::kValueScale;
       auto eval = [&](const GRow& r, const GAxis& ax) {
+        if (value) return value_axis(r, ax, vc);
         return ridged ? gradient_axis_scaled(r, ax, sc) : gradient_axis(r, ax);
       };
       GRow row;
@@ -790,7 +783,7 @@ void Noise::run_gradient(double z_m, XAt x_at, int n, float* out) const {
 }
 
 void Noise::row_reference(double z_m, std::int64_t i0, double dx_m, int n, float* out) const {
-  if (s_.basis == NoiseBasis::Gradient)
+  if (s_.basis == NoiseBasis::Gradient || s_.basis == NoiseBasis::Value)
     run_gradient(z_m, [=](int i) { return double(i0 + i) * dx_m; }, n, out);
   else
     run(z_m, [=](int i) { return double(i0 + i) * dx_m; }, n, out);

@@ -14,7 +14,7 @@
 // keys) is computed once per octave into `rows[]`; then each vector of samples runs through all
 // octaves (and both warp noises) with the accumulator in a register: octaves are fused.
 //
-//   Perlin, Simplex, Value, Cellular  in double, Lanes(double) samples per step; 64-bit hashing
+//   Perlin, Simplex, Cellular         in double, Lanes(double) samples per step; 64-bit hashing
 //                                     with 64-bit multiplies. On AVX-512 Perlin's 256-byte table
 //                                     sits in four registers (16-bit permutes, PermLookup) and
 //                                     both gradient tables in registers (vpermt2pd); elsewhere
@@ -28,6 +28,9 @@
 //                                     fixed-point state with 8 integer/float operations per
 //                                     vector. Fractal::None has its own loop (no octave loop,
 //                                     no amplitude or 1/Σa multiplies, which are by 1).
+//   Value                             the Gradient kernel's lattice, rows and column terms, with
+//                                     a hashed 24-bit lattice value per corner (ValCorner)
+//                                     instead of a gradient dot product.
 //
 // Exactness. Every kernel performs the same IEEE operations in the same order as the scalar
 // reference (Noise::row_reference in noise.cpp): no FMA, no reassociation, no approximate
@@ -275,45 +278,6 @@ struct Perlin {
     const VD g01 = grad(h01, fx, fy1), g11 = grad(h11, fx1, fy1);
     const VD sx = Fade(fx);
     return Lerp(r.sy, Lerp(sx, g00, g10), Lerp(sx, g01, g11));
-  }
-};
-
-// ---- Value ------------------------------------------------------------------------------------------
-
-struct ValueRow {
-  VU k0, k1;  // row keys of lattice rows z0, z1
-  VD sy;
-};
-HWY_INLINE VD SignedUnit(VU h) {
-  const DD d;
-  return hn::Sub(hn::Mul(U64ToDouble(hn::ShiftRight<11>(h)), hn::Set(d, 1.0 / 4503599627370496.0)), hn::Set(d, 1.0));
-}
-template <bool kPZ>
-HWY_INLINE ValueRow ValueMakeRow(const NoiseOctave& o, VD v) {
-  const DU du;
-  const VAxis az = Axis<kPZ>(v, o.period_z, o.inv_period_z);
-  const VU key = hn::Set(du, o.key), pz = hn::Set(du, kLatticePz);
-  return {hn::Add(key, hn::Mul(hn::BitCast(du, az.i0), pz)), hn::Add(key, hn::Mul(hn::BitCast(du, az.i1), pz)),
-          Fade(az.f)};
-}
-template <bool kPX, bool kPZ>
-struct Value {
-  using Row = ValueRow;
-  static HWY_INLINE Row RowHoisted(const NoiseOctave& o, VD v) {
-    return o.period_z ? ValueMakeRow<true>(o, v) : ValueMakeRow<false>(o, v);
-  }
-  static HWY_INLINE Row MakeRow(const NoiseOctave& o, VD v) { return ValueMakeRow<kPZ>(o, v); }
-  static HWY_INLINE VD Eval(const NoiseOctave& o, const Row& r, VD u) {
-    const DU du;
-    const VAxis ax = Axis<kPX>(u, o.period_x, o.inv_period_x);
-    const VU px = hn::Set(du, kLatticePx);
-    // Without a period i1 = i0 + 1, so i1·Pₓ = i0·Pₓ + Pₓ (modulo 2⁶⁴): one multiply fewer.
-    const VU x0 = hn::Mul(hn::BitCast(du, ax.i0), px);
-    const VU x1 = kPX ? hn::Mul(hn::BitCast(du, ax.i1), px) : hn::Add(x0, px);
-    const VD v00 = SignedUnit(Mix64(hn::Add(r.k0, x0))), v10 = SignedUnit(Mix64(hn::Add(r.k0, x1)));
-    const VD v01 = SignedUnit(Mix64(hn::Add(r.k1, x0))), v11 = SignedUnit(Mix64(hn::Add(r.k1, x1)));
-    const VD sx = Fade(ax.f);
-    return Lerp(r.sy, Lerp(sx, v00, v10), Lerp(sx, v01, v11));
   }
 };
 
@@ -755,6 +719,43 @@ HWY_INLINE VF GradEval(const NoiseOctave& o, const GradRow& r, const VD (&u)[kHa
   return GradEvalAxis<kPX, kScaled>(r, GAxis<kPX>(u, o.period_x, o.inv_period_x), s);
 }
 
+// Value basis (noise.cpp, value_axis): corner values are the top 24 bits of the same hash as
+// GradCorner's, as signed integers (exact in float), blended, then scaled by c (2⁻²³, ridged
+// s·2⁻²³). The row's fy, fy1 are not used (nor scaled).
+HWY_INLINE VF ValCorner(VU32 xp, VU32 zp) {
+  const DF df;
+  const DU32 du32;
+  const DI32 di32;
+  const VU32 h = hn::Mul(hn::Xor(xp, zp), hn::Set(du32, kGradM));
+  return hn::ConvertTo(df, hn::ShiftRight<8>(hn::BitCast(di32, h)));
+}
+template <bool kPX>
+HWY_INLINE VF ValEvalAxis(const GradRow& r, const GAxisV& ax, VF c) {
+  const DU32 du32;
+  const VU32 px = hn::Set(du32, kGradPx);
+  const VU32 xp0 = hn::Mul(ax.i0, px);
+  const VU32 xp1 = kPX ? hn::Mul(ax.i1, px) : hn::Add(xp0, px);
+  const VF v00 = ValCorner(xp0, r.zp0), v10 = ValCorner(xp1, r.zp0);
+  const VF v01 = ValCorner(xp0, r.zp1), v11 = ValCorner(xp1, r.zp1);
+  const VF sx = Fade(ax.f);
+  return hn::Mul(Lerp(r.sy, Lerp(sx, v00, v10), Lerp(sx, v01, v11)), c);
+}
+// Gradient (s: ridged scale) or Value (c: its scale) on the same lattice.
+template <bool kVal, bool kPX, bool kScaled>
+HWY_INLINE VF BasisEvalAxis(const GradRow& r, const GAxisV& ax, VF s, VF c) {
+  if constexpr (kVal) {
+    (void)s;
+    return ValEvalAxis<kPX>(r, ax, c);
+  } else {
+    (void)c;
+    return GradEvalAxis<kPX, kScaled>(r, ax, s);
+  }
+}
+template <bool kVal, bool kPX, bool kScaled>
+HWY_INLINE VF BasisEval(const NoiseOctave& o, const GradRow& r, const VD (&u)[kHalves], VF s, VF c) {
+  return BasisEvalAxis<kVal, kPX, kScaled>(r, GAxis<kPX>(u, o.period_x, o.inv_period_x), s, c);
+}
+
 // The dyadic lattice (noise.cpp, dy_start / dy_step): octave 0 split in double, later octaves
 // carried in 32.32 fixed point by exact doubling, u_k = 2ᵏ·u₀ + ½.
 struct DyState {
@@ -829,7 +830,7 @@ HWY_INLINE void StoreGradient(VF acc, VF inv, int start, int NF, int n, float* H
 
 // kDy: the dyadic lattice (then kPX = kPZ = false): octave 0 is split in double, the later ones
 // step the fixed-point state (x per sample; z once per row, or per sample when warped).
-template <int kFr, bool kWarp, bool kPX, bool kPZ, bool kDy>
+template <int kFr, bool kWarp, bool kPX, bool kPZ, bool kDy, bool kVal>
 HWY_NOINLINE void RowGradient(const NoiseKernelArgs& a, double z, std::int64_t i0, double dx, int n, float* out) {
   static_assert(!kDy || (!kPX && !kPZ), "the dyadic lattice has no period");
   const DD d;
@@ -839,7 +840,10 @@ HWY_NOINLINE void RowGradient(const NoiseKernelArgs& a, double z, std::int64_t i
   constexpr bool kSc = kFr == kRidged;  // √amplitude in the corner offsets (ridged_scale)
   float amp[kMaxOctaves];
   for (int k = 0; k < a.count; ++k) amp[k] = kSc ? a.octaves[k].ridge_scale : float(a.octaves[k].amp);
-  auto scaled = [&](const GradRow& g, int k) { return kSc ? ScaleRow(g, hn::Set(df, amp[k])) : g; };
+  auto scaled = [&](const GradRow& g, int k) { return kSc && !kVal ? ScaleRow(g, hn::Set(df, amp[k])) : g; };
+  float vc[kMaxOctaves];  // Value: the octave's scale (value_axis in noise.cpp)
+  for (int k = 0; k < a.count; ++k) vc[k] = kSc ? amp[k] * kValueScale : kValueScale;
+  const VF zero = hn::Zero(df), vc1 = hn::Set(df, kValueScale);
   GradRow rows[kMaxOctaves];
   GradRow wrows[2];
   const VD vz = hn::Set(d, z);
@@ -874,8 +878,8 @@ HWY_NOINLINE void RowGradient(const NoiseKernelArgs& a, double z, std::int64_t i
       VD u1[kHalves], u0[kHalves], n1d[kHalves], n0d[kHalves];
       lattice(w1.freq_x, w1.offset_x, x, u1);
       lattice(w0.freq_x, w0.offset_x, x, u0);
-      SplitPromote(GradEval<kPX>(w1, wrows[1], u1), n1d);
-      SplitPromote(GradEval<kPX>(w0, wrows[0], u0), n0d);
+      SplitPromote(BasisEval<kVal, kPX, false>(w1, wrows[1], u1, zero, vc1), n1d);
+      SplitPromote(BasisEval<kVal, kPX, false>(w0, wrows[0], u0, zero, vc1), n0d);
       for (int h = 0; h < kHalves; ++h) {
         zl[h] = hn::Add(vz, hn::Mul(wm, n1d[h]));
         x[h] = hn::Add(x[h], hn::Mul(wm, n0d[h]));
@@ -891,9 +895,9 @@ HWY_NOINLINE void RowGradient(const NoiseKernelArgs& a, double z, std::int64_t i
       if constexpr (kWarp) {
         VD v[kHalves];
         lattice(o.freq_z, o.offset_z, zl, v);
-        nb = GradEval<kPX>(o, GradMakeRow<kPZ>(o, v), u);
+        nb = BasisEval<kVal, kPX, false>(o, GradMakeRow<kPZ>(o, v), u, zero, vc1);
       } else {
-        nb = GradEval<kPX>(o, rows[0], u);
+        nb = BasisEval<kVal, kPX, false>(o, rows[0], u, zero, vc1);
       }
       acc = hn::Add(nb, hn::Zero(df));
     } else if constexpr (kDy) {
@@ -910,15 +914,15 @@ HWY_NOINLINE void RowGradient(const NoiseKernelArgs& a, double z, std::int64_t i
       } else {
         r0 = rows[0];
       }
-      acc = FoldF<kFr>(acc, hn::Set(df, amp[0]), GradEvalAxis<false, kSc>(r0, ax0, hn::Set(df, amp[0])));
+      acc = FoldF<kFr>(acc, hn::Set(df, amp[0]), BasisEvalAxis<kVal, false, kSc>(r0, ax0, hn::Set(df, amp[0]), hn::Set(df, vc[0])));
       for (int k = 1; k < a.count; ++k) {
         const GAxisV ax = DyStep(sx);
         const VF ak = hn::Set(df, amp[k]);
         VF nb;
         if constexpr (kWarp)
-          nb = GradEvalAxis<false, kSc>(scaled(GradRowFromAxis(a.octaves[k], DyStep(sz)), k), ax, ak);
+          nb = BasisEvalAxis<kVal, false, kSc>(scaled(GradRowFromAxis(a.octaves[k], DyStep(sz)), k), ax, ak, hn::Set(df, vc[k]));
         else
-          nb = GradEvalAxis<false, kSc>(rows[k], ax, ak);
+          nb = BasisEvalAxis<kVal, false, kSc>(rows[k], ax, ak, hn::Set(df, vc[k]));
         acc = FoldF<kFr>(acc, ak, nb);
       }
     } else {
@@ -931,9 +935,9 @@ HWY_NOINLINE void RowGradient(const NoiseKernelArgs& a, double z, std::int64_t i
         if constexpr (kWarp) {
           VD v[kHalves];
           lattice(o.freq_z, o.offset_z, zl, v);
-          nb = GradEval<kPX, kSc>(o, scaled(GradMakeRow<kPZ>(o, v), k), u, ak);
+          nb = BasisEval<kVal, kPX, kSc>(o, scaled(GradMakeRow<kPZ>(o, v), k), u, ak, hn::Set(df, vc[k]));
         } else {
-          nb = GradEval<kPX, kSc>(o, rows[k], u, ak);
+          nb = BasisEval<kVal, kPX, kSc>(o, rows[k], u, ak, hn::Set(df, vc[k]));
         }
         acc = FoldF<kFr>(acc, ak, nb);
       }
@@ -1000,7 +1004,7 @@ HWY_NOINLINE void ColumnsGradient(const NoiseKernelArgs& a, std::int64_t i0, dou
 }
 
 // RowGradient without warp, its per-sample x work replaced by loads of the columns' terms.
-template <int kFr>
+template <int kFr, bool kVal>
 HWY_NOINLINE void RowGradientColumns(const NoiseKernelArgs& a, double z, const std::uint32_t* cols, int stride, int n,
                                      float* out) {
   const DD d;
@@ -1011,7 +1015,9 @@ HWY_NOINLINE void RowGradientColumns(const NoiseKernelArgs& a, double z, const s
   constexpr bool kSc = kFr == kRidged;  // √amplitude in the corner offsets (ridged_scale)
   float amp[kMaxOctaves];
   for (int k = 0; k < a.count; ++k) amp[k] = kSc ? a.octaves[k].ridge_scale : float(a.octaves[k].amp);
-  auto scaled = [&](const GradRow& g, int k) { return kSc ? ScaleRow(g, hn::Set(df, amp[k])) : g; };
+  auto scaled = [&](const GradRow& g, int k) { return kSc && !kVal ? ScaleRow(g, hn::Set(df, amp[k])) : g; };
+  float vc[kMaxOctaves];  // Value: the octave's scale (value_axis in noise.cpp)
+  for (int k = 0; k < a.count; ++k) vc[k] = kSc ? amp[k] * kValueScale : kValueScale;
   GradRow rows[kMaxOctaves];
   const VD vz = hn::Set(d, z);
   auto lattice_v = [&](const NoiseOctave& o) {
@@ -1033,6 +1039,13 @@ HWY_NOINLINE void RowGradientColumns(const NoiseKernelArgs& a, double z, const s
     const VU32 xp0 = hn::Load(du32, c), xp1 = hn::Load(du32, c + S);
     const VF fx = hn::BitCast(df, hn::Load(du32, c + 2 * S)), fx1 = hn::BitCast(df, hn::Load(du32, c + 3 * S));
     const VF sx = hn::BitCast(df, hn::Load(du32, c + 4 * S));
+    if constexpr (kVal) {
+      (void)fx;
+      (void)fx1;
+      const VF v00 = ValCorner(xp0, r.zp0), v10 = ValCorner(xp1, r.zp0);
+      const VF v01 = ValCorner(xp0, r.zp1), v11 = ValCorner(xp1, r.zp1);
+      return hn::Mul(Lerp(r.sy, Lerp(sx, v00, v10), Lerp(sx, v01, v11)), hn::Set(df, vc[k]));
+    }
     const VF g00 = GradCorner(xp0, r.zp0, fx, r.fy);
     const VF g10 = GradCorner(xp1, r.zp0, fx1, r.fy);
     const VF g01 = GradCorner(xp0, r.zp1, fx, r.fy1);
@@ -1090,13 +1103,21 @@ template <int kFr>
 Fn PickSimplex(bool warp) {
   return warp ? &RowDouble<Simplex<false, false>, kFr, true> : &RowDouble<Simplex<false, false>, kFr, false>;
 }
-template <int kFr>
+template <int kFr, bool kV>
 Fn PickGradient(bool warp, bool px, bool pz, bool dyadic) {
   if constexpr (kFr != kNone)  // one octave has nothing to step
-    if (dyadic) return warp ? &RowGradient<kFr, true, false, false, true> : &RowGradient<kFr, false, false, false, true>;
-  if (!warp) return px ? &RowGradient<kFr, false, true, false, false> : &RowGradient<kFr, false, false, false, false>;
-  if (px) return pz ? &RowGradient<kFr, true, true, true, false> : &RowGradient<kFr, true, true, false, false>;
-  return pz ? &RowGradient<kFr, true, false, true, false> : &RowGradient<kFr, true, false, false, false>;
+    if (dyadic)
+      return warp ? &RowGradient<kFr, true, false, false, true, kV> : &RowGradient<kFr, false, false, false, true, kV>;
+  if (!warp) return px ? &RowGradient<kFr, false, true, false, false, kV> : &RowGradient<kFr, false, false, false, false, kV>;
+  if (px) return pz ? &RowGradient<kFr, true, true, true, false, kV> : &RowGradient<kFr, true, true, false, false, kV>;
+  return pz ? &RowGradient<kFr, true, false, true, false, kV> : &RowGradient<kFr, true, false, false, false, kV>;
+}
+template <bool kV>
+Fn PickGradientFractal(const NoiseKernelArgs& a, int fr, bool px, bool pz) {
+  return a.fractal == Fractal::None ? PickGradient<kNone, kV>(a.warp, px, pz, false)
+         : fr == kRidged            ? PickGradient<kRidged, kV>(a.warp, px, pz, a.dyadic)
+         : fr == kBillow            ? PickGradient<kBillow, kV>(a.warp, px, pz, a.dyadic)
+                                    : PickGradient<kFbm, kV>(a.warp, px, pz, a.dyadic);
 }
 
 }  // namespace
@@ -1109,13 +1130,21 @@ void ColumnTerms(const NoiseKernelArgs& a, std::int64_t i0, double dx, int npad,
     ColumnsGradient<false>(a, i0, dx, npad, cols, stride);
 }
 
-void RowFromColumns(const NoiseKernelArgs& a, double z, const std::uint32_t* cols, int stride, int n, float* out) {
+template <bool kV>
+void RowFromColumnsB(const NoiseKernelArgs& a, double z, const std::uint32_t* cols, int stride, int n, float* out) {
   switch (a.fractal) {
-    case Fractal::None: RowGradientColumns<kNone>(a, z, cols, stride, n, out); break;
-    case Fractal::Ridged: RowGradientColumns<kRidged>(a, z, cols, stride, n, out); break;
-    case Fractal::Billow: RowGradientColumns<kBillow>(a, z, cols, stride, n, out); break;
-    default: RowGradientColumns<kFbm>(a, z, cols, stride, n, out); break;
+    case Fractal::None: RowGradientColumns<kNone, kV>(a, z, cols, stride, n, out); break;
+    case Fractal::Ridged: RowGradientColumns<kRidged, kV>(a, z, cols, stride, n, out); break;
+    case Fractal::Billow: RowGradientColumns<kBillow, kV>(a, z, cols, stride, n, out); break;
+    default: RowGradientColumns<kFbm, kV>(a, z, cols, stride, n, out); break;
   }
+}
+
+void RowFromColumns(const NoiseKernelArgs& a, double z, const std::uint32_t* cols, int stride, int n, float* out) {
+  if (a.basis == NoiseBasis::Value)
+    RowFromColumnsB<true>(a, z, cols, stride, n, out);
+  else
+    RowFromColumnsB<false>(a, z, cols, stride, n, out);
 }
 
 void NoiseRow(const NoiseKernelArgs& a, double z, std::int64_t i0, double dx, int n, float* out) {
@@ -1125,7 +1154,7 @@ void NoiseRow(const NoiseKernelArgs& a, double z, std::int64_t i0, double dx, in
   Fn fn = nullptr;
   switch (a.basis) {
     case NoiseBasis::Perlin: fn = PickDouble<Perlin>(fr, a.warp, px, pz); break;
-    case NoiseBasis::Value: fn = PickDouble<Value>(fr, a.warp, px, pz); break;
+    case NoiseBasis::Value: fn = PickGradientFractal<true>(a, fr, px, pz); break;
     case NoiseBasis::Simplex:
       fn = fr == kRidged ? PickSimplex<kRidged>(a.warp) : fr == kBillow ? PickSimplex<kBillow>(a.warp) : PickSimplex<kFbm>(a.warp);
       break;
@@ -1137,12 +1166,7 @@ void NoiseRow(const NoiseKernelArgs& a, double z, std::int64_t i0, double dx, in
         case CellularReturn::CellValue: fn = PickDouble<CellularR<3>::B>(fr, a.warp, px, pz); break;
       }
       break;
-    case NoiseBasis::Gradient:
-      fn = a.fractal == Fractal::None ? PickGradient<kNone>(a.warp, px, pz, false)
-           : fr == kRidged ? PickGradient<kRidged>(a.warp, px, pz, a.dyadic)
-           : fr == kBillow ? PickGradient<kBillow>(a.warp, px, pz, a.dyadic)
-                           : PickGradient<kFbm>(a.warp, px, pz, a.dyadic);
-      break;
+    case NoiseBasis::Gradient: fn = PickGradientFractal<false>(a, fr, px, pz); break;
   }
   fn(a, z, i0, dx, n, out);
 }

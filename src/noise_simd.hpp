@@ -75,6 +75,10 @@ constexpr std::uint32_t kDyadicOne = 0x3FC00000u;
 // NoiseOctave::ridge_scale (computed once per Noise).
 inline float ridged_scale(double amp) { return float(std::sqrt(amp)); }
 
+// Value basis (noise.cpp, value_axis): lattice values are 24-bit signed integers, scaled by 2⁻²³
+// (ridged: by ridge_scale·2⁻²³, exact) after the blend.
+constexpr float kValueScale = 0x1p-23f;
+
 // Shared with noise.cpp, which defines the tables from its constexpr generators.
 constexpr std::uint64_t kLatticePx = 0x9E3779B97F4A7C15ull;  // Value / Simplex / Cellular hashing
 constexpr std::uint64_t kLatticePz = 0xC2B2AE3D27D4EB4Full;
@@ -94,7 +98,7 @@ struct NoiseKernelArgs {
   double jitter = 1.0;
   bool periodic = false;  // any octave has period_x or period_z ≠ 0
   bool warp = false;
-  bool dyadic = false;    // Gradient, ≥ 2 octaves, lacunarity 2, no period: the dyadic lattice
+  bool dyadic = false;    // Gradient or Value, ≥ 2 octaves, lacunarity 2, no period: the dyadic lattice
   double warp_m = 0.0;
   double inv_amp_sum = 1.0;
   const NoiseOctave* octaves = nullptr;  // count entries, 1..16
@@ -113,7 +117,7 @@ void noise_row_simd(const NoiseKernelArgs& a, double z_m, std::int64_t i0, doubl
 // Target-independent (natural lane order, exact values).
 constexpr int kColumnArrays = 5;
 inline bool noise_columns_supported(const NoiseKernelArgs& a) {
-  return a.basis == NoiseBasis::Gradient && !a.warp;
+  return (a.basis == NoiseBasis::Gradient || a.basis == NoiseBasis::Value) && !a.warp;
 }
 // Fills the arrays for x = double(i0 + i)·dx, i in [0, npad) (npad a multiple of 16).
 void noise_columns_simd(const NoiseKernelArgs& a, std::int64_t i0, double dx, int npad, std::uint32_t* cols,

@@ -1,7 +1,7 @@
 // Tests for the block API of Noise (Noise::columns, Noise::row(z, columns), Noise::rows): the x-only
 // terms computed once per window of columns and reused for every row must give exactly the values
 // of the per-row path, bit for bit, on every forced Highway target; settings without x-only terms
-// (other bases, domain warp) fall back to the per-row kernel.
+// (other bases, domain warp) fall back to the per-row kernel. Gradient and Value have such terms.
 #include <gtest/gtest.h>
 
 #include <cstdint>
@@ -82,27 +82,31 @@ NoiseSettings gradient(Fractal fr, int octaves, double lacunarity) {
 }
 
 // The core property: every fractal, dyadic (lacunarity 2) and not, 1 to 16 octaves, periodic in x
-// and z, z only or x only, on every compiled target.
-TEST(NoiseRows, GradientBlockBitIdenticalToRowOnEveryTarget) {
+// and z, z only or x only, on every compiled target. Value shares Gradient's lattice and column
+// terms: both bases.
+TEST(NoiseRows, GradientAndValueBlockBitIdenticalToRowOnEveryTarget) {
   const Fractal fractals[] = {Fractal::None, Fractal::Fbm, Fractal::Ridged, Fractal::Billow};
   for (const auto& t : detail::noise_simd_targets()) {
     ForceTarget f(t.bits);
-    int configs = 0;
-    for (Fractal fr : fractals)
-      for (double lac : {2.0, 2.1})
-        for (int octaves : {1, 6, 16})
-          for (int period = 0; period < 4; ++period) {  // none, x and z, z only, x only
-            NoiseSettings s = gradient(fr, octaves, lac);
-            if (period == 1 || period == 3) s.period_x_m = 700.0;
-            if (period == 1 || period == 2) s.period_z_m = 450.0;
-            const std::string what = t.name + " fractal " + std::to_string(int(fr)) + " lacunarity " +
-                                     std::to_string(lac) + " octaves " + std::to_string(octaves) + " period " +
-                                     std::to_string(period);
-            EXPECT_TRUE(Noise(s).columns(0, 1.0, 10).precomputed()) << what;
-            EXPECT_EQ(mismatches(s, what), 0) << what;
-            ++configs;
-          }
-    EXPECT_EQ(configs, 4 * 2 * 3 * 4);
+    for (NoiseBasis b : {NoiseBasis::Gradient, NoiseBasis::Value}) {
+      int configs = 0;
+      for (Fractal fr : fractals)
+        for (double lac : {2.0, 2.1})
+          for (int octaves : {1, 6, 16})
+            for (int period = 0; period < 4; ++period) {  // none, x and z, z only, x only
+              NoiseSettings s = gradient(fr, octaves, lac);
+              s.basis = b;
+              if (period == 1 || period == 3) s.period_x_m = 700.0;
+              if (period == 1 || period == 2) s.period_z_m = 450.0;
+              const std::string what = t.name + " basis " + std::to_string(int(b)) + " fractal " +
+                                       std::to_string(int(fr)) + " lacunarity " + std::to_string(lac) + " octaves " +
+                                       std::to_string(octaves) + " period " + std::to_string(period);
+              EXPECT_TRUE(Noise(s).columns(0, 1.0, 10).precomputed()) << what;
+              EXPECT_EQ(mismatches(s, what), 0) << what;
+              ++configs;
+            }
+      EXPECT_EQ(configs, 4 * 2 * 3 * 4);
+    }
   }
 }
 
@@ -123,7 +127,8 @@ TEST(NoiseRows, WarpAndOtherBasesFallBackToRows) {
         EXPECT_FALSE(Noise(s).columns(0, 1.0, 10).precomputed()) << what;
         EXPECT_EQ(mismatches(s, what + " warp"), 0) << what;
         s.warp_m = 0.0;
-        EXPECT_EQ(Noise(s).columns(0, 1.0, 10).precomputed(), b == NoiseBasis::Gradient) << what;
+        EXPECT_EQ(Noise(s).columns(0, 1.0, 10).precomputed(), b == NoiseBasis::Gradient || b == NoiseBasis::Value)
+            << what;
         EXPECT_EQ(mismatches(s, what), 0) << what;
       }
   }
