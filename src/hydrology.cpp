@@ -29,6 +29,7 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <memory>
 
 
 namespace relief::hydro {
@@ -140,7 +141,11 @@ void fill_depressions(T* z, int nx, int nz, T sea, T epsilon) {
   const std::size_t n = std::size_t(nx) * std::size_t(nz);
   if (n == 0) return;
   using K = decltype(order_key(T()));
-  std::vector<std::uint8_t> closed(n, 0);
+  // bool, not a byte type: stores to it cannot alias the other state, which stays in registers.
+  // Three spare entries after the grid for all_neighbours_closed's 4-byte loads.
+  const std::unique_ptr<bool[]> closed_cells(new bool[n + 3]);  // every entry is set below
+  bool* const closed = closed_cells.get();
+  closed[n] = closed[n + 1] = closed[n + 2] = true;
   RadixHeap<K> open;
   std::vector<std::uint32_t> trail, candidates;
   std::size_t pit_head = 0;
@@ -150,7 +155,7 @@ void fill_depressions(T* z, int nx, int nz, T sea, T epsilon) {
   // Outlets (the border, and cells below the sea) are closed from the start; those bordering
   // other cells seed the flood, in row-major order.
   for (int j = 0; j < nz; ++j) {
-    std::uint8_t* row = closed.data() + std::size_t(j) * nx;
+    bool* row = closed + std::size_t(j) * nx;
     if (j == 0 || j == nz - 1) {
       std::memset(row, 1, std::size_t(nx));
       continue;
@@ -190,12 +195,12 @@ void fill_depressions(T* z, int nx, int nz, T sea, T epsilon) {
   // bench's island 95% and 97%.) Non-outlet cells are interior, so their neighbours are
   // in bounds.
   // Whether the 8 neighbours of interior cell q are closed: three 4-byte loads of the rows (the
-  // fourth byte of each stays inside the grid: q + nx + 2 ≤ n − 1 for q interior and nx ≥ 3).
+  // fourth byte of the last row's load may be the first spare entry after the grid).
   auto all_neighbours_closed = [&](std::size_t q) {
     std::uint32_t up, mid, down;
-    std::memcpy(&up, closed.data() + q - nx - 1, 4);
-    std::memcpy(&mid, closed.data() + q - 1, 4);
-    std::memcpy(&down, closed.data() + q + nx - 1, 4);
+    std::memcpy(&up, closed + q - nx - 1, 4);
+    std::memcpy(&mid, closed + q - 1, 4);
+    std::memcpy(&down, closed + q + nx - 1, 4);
     return ((up & down & 0x010101u) & (mid | 0x000100u)) == 0x010101u;
   };
   auto traverse = [&](std::uint32_t m) {
@@ -209,7 +214,7 @@ void fill_depressions(T* z, int nx, int nz, T sea, T epsilon) {
         const std::size_t r = std::size_t(std::ptrdiff_t(q) + off[k]);
         if (closed[r]) continue;
         if (z[r] > zq) {
-          closed[r] = 1;
+          closed[r] = true;
           trail.push_back(std::uint32_t(r));
         } else {
           boundary = true;
@@ -245,6 +250,8 @@ void fill_depressions(T* z, int nx, int nz, T sea, T epsilon) {
   for (;;) {
     std::uint32_t c;
     T lc;
+    bool interior = true;  // cells from the pit queue are not outlets: interior
+    int i = 0, j = 0;
     if (pit_head < pits.size()) {
       c = pits[pit_head].cell;
       lc = pits[pit_head].level;
@@ -256,20 +263,21 @@ void fill_depressions(T* z, int nx, int nz, T sea, T epsilon) {
       const auto top = open.pop();
       c = top.value;
       lc = from_key(top.key);
+      i = int(c % std::uint32_t(nx));
+      j = int(c / std::uint32_t(nx));
+      interior = !on_border(i, j, nx, nz);
       if (const auto* next_top = open.peek()) {  // its rows will be needed soon
         const std::size_t q = next_top->value;
         __builtin_prefetch(z + q - (q >= std::size_t(nx) ? nx : 0));
         __builtin_prefetch(z + q + (q + nx < n ? nx : 0));
-        __builtin_prefetch(closed.data() + q - (q >= std::size_t(nx) ? nx : 0));
-        __builtin_prefetch(closed.data() + q + (q + nx < n ? nx : 0));
+        __builtin_prefetch(closed + q - (q >= std::size_t(nx) ? nx : 0));
+        __builtin_prefetch(closed + q + (q + nx < n ? nx : 0));
       }
     }
     // Level of a cell filled from c: max(lc + ε, the next float above lc).
     T next = from_key(K(order_key(lc) + 1));
     if (!(next > lc)) next = from_key(K(order_key(lc) + 2));  // −0 → +0 is not a step
     if (lc + epsilon > next) next = lc + epsilon;
-    const int i = int(c % std::uint32_t(nx)), j = int(c / std::uint32_t(nx));
-    const bool interior = !on_border(i, j, nx, nz);
     for (int k = 0; k < 8; ++k) {
       std::size_t m;
       if (interior) {
@@ -280,7 +288,7 @@ void fill_depressions(T* z, int nx, int nz, T sea, T epsilon) {
         m = std::size_t(b) * nx + a;
       }
       if (closed[m]) continue;
-      closed[m] = 1;
+      closed[m] = true;
       if (z[m] < next) {  // inside a depression (or a flat): raise just above the cell it drains to
         z[m] = next;
         pits.push_back({next, std::uint32_t(m)});
