@@ -1,4 +1,5 @@
-// The fast erosion and water kernels against plain reference implementations: the fused SIMD
+// The fast erosion and water kernels against plain reference implementations: Priority-Flood+ε
+// against the plain Zhou traversal that queues every boundary cell, the fused SIMD
 // thermal step against the two-pass Jacobi step, D8 direction codes and donor masks against the
 // scalar rule, and the basin-parallel stream-power solver against the sequential Braun–Willett
 // stack solver. Each must agree bit for bit, for every Highway target and thread count.
@@ -10,7 +11,11 @@
 #include <cmath>
 #include <cstdint>
 #include <cstring>
+#include <deque>
 #include <functional>
+#include <map>
+#include <tuple>
+#include <type_traits>
 #include <vector>
 
 #include "relief/erosion.hpp"
@@ -51,6 +56,91 @@ std::vector<float> rough(int nx, int nz, std::uint64_t seed) {
 using test::same_bits;
 
 // ---- references ------------------------------------------------------------------------------
+
+// Priority-Flood+ε written plainly, as hydrology.hpp states it before its shortcuts: Barnes et
+// al.'s Algorithm 3 (plain FIFO pit queue) with Zhou et al.'s slope traversal (depth first) that
+// queues every traversed cell bordering a lower or equal unvisited cell, and a priority queue that
+// pops the smallest key, equal keys last-in first-out (a map of stacks keyed on the order-preserving
+// bits of the value, as the radix heap orders them). fill_depressions drops queue entries that
+// could only pop as no-ops (Wei et al. 2018's test) and must give these bits exactly.
+template <class T>
+auto order_bits(T v) {
+  using U = std::conditional_t<sizeof(T) == 4, std::uint32_t, std::uint64_t>;
+  constexpr U sign = U(1) << (sizeof(T) * 8 - 1);
+  U u;
+  std::memcpy(&u, &v, sizeof u);
+  return (u & sign) ? U(~u) : U(u | sign);
+}
+template <class T, class U>
+T from_order_bits(U k) {
+  constexpr U sign = U(1) << (sizeof(T) * 8 - 1);
+  const U u = (k & sign) ? U(k & ~sign) : U(~k);
+  T v;
+  std::memcpy(&v, &u, sizeof v);
+  return v;
+}
+template <class T>
+void fill_reference(std::vector<T>& z, int nx, int nz, T sea, T epsilon) {
+  using U = decltype(order_bits(T()));
+  const std::size_t n = z.size();
+  std::vector<char> closed(n, 0);
+  auto in_grid = [&](int i, int j) { return i >= 0 && j >= 0 && i < nx && j < nz; };
+  for (int j = 0; j < nz; ++j)
+    for (int i = 0; i < nx; ++i) closed[std::size_t(j) * nx + i] = hydro::on_border(i, j, nx, nz) || z[std::size_t(j) * nx + i] < sea;
+  std::map<U, std::vector<std::uint32_t>> open;
+  for (int j = 0; j < nz; ++j)
+    for (int i = 0; i < nx; ++i) {
+      const std::size_t c = std::size_t(j) * nx + i;
+      bool land = false;
+      for (int k = 0; k < 8; ++k)
+        land |= in_grid(i + hydro::kDi[k], j + hydro::kDj[k]) && !closed[std::size_t(j + hydro::kDj[k]) * nx + i + hydro::kDi[k]];
+      if (closed[c] && land) open[order_bits(z[c])].push_back(std::uint32_t(c));
+    }
+  std::vector<std::uint32_t> trail;
+  auto traverse = [&](std::uint32_t m) {
+    trail.push_back(m);
+    while (!trail.empty()) {
+      const std::uint32_t q = trail.back();
+      trail.pop_back();
+      const int i = int(q % std::uint32_t(nx)), j = int(q / std::uint32_t(nx));
+      bool boundary = false;
+      for (int k = 0; k < 8; ++k) {
+        const std::size_t r = std::size_t(j + hydro::kDj[k]) * nx + i + hydro::kDi[k];
+        if (closed[r]) continue;
+        if (z[r] > z[q]) closed[r] = 1, trail.push_back(std::uint32_t(r));
+        else boundary = true;
+      }
+      if (boundary) open[order_bits(z[q])].push_back(q);
+    }
+  };
+  std::deque<std::pair<T, std::uint32_t>> pits;
+  while (!pits.empty() || !open.empty()) {
+    T lc;
+    std::uint32_t c;
+    if (!pits.empty()) {
+      std::tie(lc, c) = pits.front();
+      pits.pop_front();
+    } else {
+      auto lowest = open.begin();
+      lc = from_order_bits<T>(lowest->first);
+      c = lowest->second.back();
+      lowest->second.pop_back();
+      if (lowest->second.empty()) open.erase(lowest);
+    }
+    T next = from_order_bits<T>(U(order_bits(lc) + 1));
+    if (!(next > lc)) next = from_order_bits<T>(U(order_bits(lc) + 2));  // −0 → +0 is not a step
+    if (lc + epsilon > next) next = lc + epsilon;
+    const int i = int(c % std::uint32_t(nx)), j = int(c / std::uint32_t(nx));
+    for (int k = 0; k < 8; ++k) {
+      if (!in_grid(i + hydro::kDi[k], j + hydro::kDj[k])) continue;
+      const std::size_t m = std::size_t(j + hydro::kDj[k]) * nx + i + hydro::kDi[k];
+      if (closed[m]) continue;
+      closed[m] = 1;
+      if (z[m] < next) z[m] = next, pits.push_back({next, std::uint32_t(m)});
+      else traverse(std::uint32_t(m));
+    }
+  }
+}
 
 // The two-pass Jacobi thermal step, written plainly (the rule of erosion.hpp).
 std::vector<float> thermal_reference(const std::vector<float>& e, const Frame& f, double talus_deg, double rate) {
@@ -172,6 +262,41 @@ void for_each_target(const std::function<void(const char*)>& fn) {
 }
 
 }  // namespace
+
+// =================================================================================== fill
+
+TEST(FillKernel, SameBitsAsThePlainZhouTraversalThatQueuesEveryBoundaryCell) {
+  // Rough grids full of ties and flats (1×1 up to 41×37, with and without sea, ε = 0 and ε > 0),
+  // float and double, then fBm islands: the skipped queue entries never change a bit.
+  int changed = 0;
+  for (std::uint64_t seed = 0; seed < 400; ++seed) {
+    const int nx = 1 + int(hash64(seed, 1, 7) % 41), nz = 1 + int(hash64(seed, 2, 7) % 37);
+    std::vector<float> z = rough(nx, nz, seed);
+    const float sea = seed % 3 == 0 ? -1.0f : float(hash64(seed, 3, 7) % 8) / 32.0f;
+    const float eps = seed % 2 ? 0.0f : 1.0f / 512;
+    std::vector<float> a = z, b = z;
+    fill_reference(a, nx, nz, sea, eps);
+    hydro::fill_depressions<float>(b.data(), nx, nz, sea, eps);
+    ASSERT_TRUE(same_bits(a, b)) << "seed " << seed << " " << nx << "x" << nz;
+    changed += !same_bits(a, z);
+    std::vector<double> zd(z.begin(), z.end()), ad = zd, bd = zd;
+    fill_reference<double>(ad, nx, nz, double(sea), double(eps));
+    hydro::fill_depressions<double>(bd.data(), nx, nz, double(sea), double(eps));
+    ASSERT_EQ(std::memcmp(ad.data(), bd.data(), ad.size() * sizeof(double)), 0) << "double, seed " << seed;
+  }
+  EXPECT_GT(changed, 200) << "most rough grids have depressions to fill";
+  for (std::uint64_t seed : {1, 2}) {
+    Frame f;
+    const std::vector<float> z = island(257, seed, f);
+    for (float eps : {0.0f, 1e-5f}) {
+      std::vector<float> a = z, b = z;
+      fill_reference(a, f.nx, f.nz, float(f.sea_level), eps);
+      hydro::fill_depressions<float>(b.data(), f.nx, f.nz, float(f.sea_level), eps);
+      EXPECT_TRUE(same_bits(a, b)) << "island seed " << seed << " eps " << eps;
+      EXPECT_FALSE(same_bits(a, z));
+    }
+  }
+}
 
 // =================================================================================== thermal
 
