@@ -1,7 +1,7 @@
 // SIMD row kernels for every noise basis, with Google Highway and run-time dispatch.
 //
 // Sources:
-//   * The algorithms are those of noise.cpp (Perlin 2002, OpenSimplex2S, Worley 1996, Musgrave's
+//   * The algorithms are those of noise.cpp (Perlin 2002, classic 2D simplex, Worley 1996, Musgrave's
 //     fractals, Quilez's domain warp); see the top of that file.
 //   * Arithmetic lattice hashing in place of permutation tables, as FastNoise2 (Jordan Peck) and
 //     FastNoise Lite do: hash = (X·Pₓ ⊕ Z·P_z ⊕ seed)·M, gradient picked from its top bits.
@@ -14,12 +14,11 @@
 // keys) is computed once per octave into `rows[]`; then each vector of samples runs through all
 // octaves (and both warp noises) with the accumulator in a register: octaves are fused.
 //
-//   Perlin, Simplex, Cellular         in double, Lanes(double) samples per step; 64-bit hashing
+//   Perlin, Cellular                  in double, Lanes(double) samples per step; 64-bit hashing
 //                                     with 64-bit multiplies. On AVX-512 Perlin's 256-byte table
 //                                     sits in four registers (16-bit permutes, PermLookup) and
-//                                     both gradient tables in registers (vpermt2pd); elsewhere
-//                                     they are gathers (int32 table). Simplex evaluates only the
-//                                     at most four vertices inside its kernel (Simplex::Eval).
+//                                     its gradient table in registers (vpermt2pd); elsewhere
+//                                     they are gathers (int32 table).
 //   Gradient                          lattice split in double, then float: 2·Lanes(double)
 //                                     samples per step (16 on AVX-512); the gradient components
 //                                     come from an in-register permute (vpermps), no gathers.
@@ -31,6 +30,9 @@
 //   Value                             the Gradient kernel's lattice, rows and column terms, with
 //                                     a hashed 24-bit lattice value per corner (ValCorner)
 //                                     instead of a gradient dot product.
+//   Simplex                           skew and split in double, then float with Gradient's hash
+//                                     and gradient set: three vertices, the middle one chosen
+//                                     per lane by a select (RowSimplex).
 //
 // Exactness. Every kernel performs the same IEEE operations in the same order as the scalar
 // reference (Noise::row_reference in noise.cpp): no FMA, no reassociation, no approximate
@@ -278,128 +280,6 @@ struct Perlin {
     const VD g01 = grad(h01, fx, fy1), g11 = grad(h11, fx1, fy1);
     const VD sx = Fade(fx);
     return Lerp(r.sy, Lerp(sx, g00, g10), Lerp(sx, g01, g11));
-  }
-};
-
-// ---- Simplex (OpenSimplex2S-style) -------------------------------------------------------------------
-
-struct SimplexRow {
-  VD v;
-};
-template <bool kPX, bool kPZ>
-struct Simplex {
-  using Row = SimplexRow;
-  static HWY_INLINE Row RowHoisted(const NoiseOctave&, VD v) { return {v}; }
-  static HWY_INLINE Row MakeRow(const NoiseOctave&, VD v) { return {v}; }
-  // Gradient component k of the 24-entry table: in-register permutes on AVX-512 (three vectors
-  // of 8 doubles), gathers elsewhere.
-  static HWY_INLINE VD GradLookup(const double* table, VI g) {
-    const DD d;
-#if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX3
-    // vpermt2pd reads index bits 0..3, vpermpd bits 0..2; entries 16..23 come from the third.
-    (void)d;
-    const __m512d t0 = _mm512_loadu_pd(table), t1 = _mm512_loadu_pd(table + 8), t2 = _mm512_loadu_pd(table + 16);
-    const __m512d lo = _mm512_permutex2var_pd(t0, g.raw, t1), hi = _mm512_permutexvar_pd(g.raw, t2);
-    return VD{_mm512_mask_blend_pd(_mm512_cmpgt_epi64_mask(g.raw, _mm512_set1_epi64(15)), lo, hi)};
-#else
-    return hn::GatherIndex(d, table, g);
-#endif
-  }
-  // A vertex's offset from the sample (dx, dy) and its unclamped attenuation r² − |d|².
-  struct Geo {
-    VD dx, dy, att;
-  };
-  template <int a, int b>
-  static HWY_INLINE Geo VertexGeo(VD dx0, VD dy0) {
-    const DD d;
-    constexpr double back = double(a + b) * kSimplexUnskew;
-    Geo g;
-    g.dx = hn::Add(hn::Sub(dx0, hn::Set(d, double(a))), hn::Set(d, back));
-    g.dy = hn::Add(hn::Sub(dy0, hn::Set(d, double(b))), hn::Set(d, back));
-    g.att = hn::Sub(hn::Sub(hn::Set(d, kSimplexR2), hn::Mul(g.dx, g.dx)), hn::Mul(g.dy, g.dy));
-    return g;
-  }
-  // (i + a)·Pₓ + (j + b)·P_z = i·Pₓ + j·P_z + (a·Pₓ + b·P_z) modulo 2⁶⁴.
-  template <int a, int b>
-  static constexpr std::uint64_t VertexKey() {
-    return std::uint64_t(std::int64_t(a)) * kLatticePx + std::uint64_t(std::int64_t(b)) * kLatticePz;
-  }
-  // One vertex's term att⁴·(g·d), g picked by mix64(base + vertex key): as noise.cpp.
-  static HWY_INLINE VD Term(VU hin, const Geo& v) {
-    const DD d;
-    const DI di;
-    const VD att = hn::IfThenElse(v.att > hn::Zero(d), v.att, hn::Zero(d));
-    const VU h = Mix64(hin);
-    // ((h >> 32)·24) >> 32 without a 64-bit multiply: (x << 4) + (x << 3) is exact for x < 2³².
-    const VU hx = hn::ShiftRight<32>(h);
-    const VI g = hn::BitCast(di, hn::ShiftRight<32>(hn::Add(hn::ShiftLeft<4>(hx), hn::ShiftLeft<3>(hx))));
-    const VD att2 = hn::Mul(att, att);
-    const VD dot = hn::Add(hn::Mul(GradLookup(kSimplexGradX, g), v.dx), hn::Mul(GradLookup(kSimplexGradY, g), v.dy));
-    return hn::Mul(hn::Mul(att2, att2), dot);
-  }
-  static HWY_INLINE Geo Pick(hn::Mask<DD> m, const Geo& a, const Geo& b) {
-    return {hn::IfThenElse(m, a.dx, b.dx), hn::IfThenElse(m, a.dy, b.dy), hn::IfThenElse(m, a.att, b.att)};
-  }
-  // Of the eight candidate vertices (noise.cpp's kSimplexVerts, in that order: (0,0), (1,0), (0,1),
-  // (1,1), (−1,0), (0,−1), (2,1), (1,2)), at most four have a positive attenuation: (0,0), (1,1),
-  // one or both of (1,0), (0,1), and, when only one of those, at most one of the last four. Terms of
-  // vertices with att ≤ 0 are ±0 and adding ±0 to the sum (never −0) changes nothing, so summing
-  // the four slots (0,0), first of (1,0)/(0,1), second of them or (1,1), (1,1) or the outer vertex,
-  // in that order, gives the reference's bits. Lanes that do not fit the pattern (rounding at the
-  // kernel's edge, non-finite input) make the whole vector take the eight-vertex sum.
-  static HWY_INLINE VD Eval(const NoiseOctave& o, const Row& r, VD u) {
-    const DD d;
-    const DU du;
-    const VD s = hn::Mul(hn::Add(u, r.v), hn::Set(d, kSimplexSkew));
-    const VD xs = hn::Add(u, s), ys = hn::Add(r.v, s);
-    const VD fi = FloorClamped(xs), fj = FloorClamped(ys);
-    const VI i = ToInt(fi), j = ToInt(fj);
-    const VD xi = hn::Sub(xs, fi), yi = hn::Sub(ys, fj);
-    const VD t = hn::Mul(hn::Add(xi, yi), hn::Set(d, kSimplexUnskew));
-    const VD dx0 = hn::Sub(xi, t), dy0 = hn::Sub(yi, t);
-    const VU key = hn::Set(du, o.key);
-    const Geo g0 = VertexGeo<0, 0>(dx0, dy0), g1 = VertexGeo<1, 0>(dx0, dy0), g2 = VertexGeo<0, 1>(dx0, dy0),
-              g3 = VertexGeo<1, 1>(dx0, dy0), g4 = VertexGeo<-1, 0>(dx0, dy0), g5 = VertexGeo<0, -1>(dx0, dy0),
-              g6 = VertexGeo<2, 1>(dx0, dy0), g7 = VertexGeo<1, 2>(dx0, dy0);
-    const VD z = hn::Zero(d);
-    const auto m1 = g1.att > z, m2 = g2.att > z, m4 = g4.att > z, m5 = g5.att > z, m6 = g6.att > z, m7 = g7.att > z;
-    const auto both = hn::And(m1, m2);
-    const auto outer = hn::Or(hn::Or(m4, m5), hn::Or(m6, m7));
-    const auto two_outer = hn::Or(hn::Or(hn::And(m4, hn::Or(m5, hn::Or(m6, m7))), hn::And(m5, hn::Or(m6, m7))), hn::And(m6, m7));
-    const auto bad = hn::Or(hn::Or(hn::And(both, outer), two_outer), hn::IsNaN(hn::Add(dx0, dy0)));
-    const VU base = hn::Add(hn::Add(key, hn::Mul(hn::BitCast(du, j), hn::Set(du, kLatticePz))),
-                            hn::Mul(hn::BitCast(du, i), hn::Set(du, kLatticePx)));
-    auto k = [&](std::uint64_t c) { return hn::Set(du, c); };
-    if (HWY_UNLIKELY(!hn::AllFalse(d, bad))) {
-      // The same vertex order as noise.cpp's kSimplexVerts, summed left to right from 0.
-      VD sum = hn::Add(z, Term(hn::Add(base, k(VertexKey<0, 0>())), g0));
-      sum = hn::Add(sum, Term(hn::Add(base, k(VertexKey<1, 0>())), g1));
-      sum = hn::Add(sum, Term(hn::Add(base, k(VertexKey<0, 1>())), g2));
-      sum = hn::Add(sum, Term(hn::Add(base, k(VertexKey<1, 1>())), g3));
-      sum = hn::Add(sum, Term(hn::Add(base, k(VertexKey<-1, 0>())), g4));
-      sum = hn::Add(sum, Term(hn::Add(base, k(VertexKey<0, -1>())), g5));
-      sum = hn::Add(sum, Term(hn::Add(base, k(VertexKey<2, 1>())), g6));
-      sum = hn::Add(sum, Term(hn::Add(base, k(VertexKey<1, 2>())), g7));
-      return hn::Mul(sum, hn::Set(d, kSimplexScale));
-    }
-    const auto mu1 = hn::RebindMask(du, m1), mub = hn::RebindMask(du, both);
-    const auto mu4 = hn::RebindMask(du, m4), mu5 = hn::RebindMask(du, m5), mu6 = hn::RebindMask(du, m6);
-    // Slot 1: (1,0) if it counts, else (0,1). Slot 2: (0,1) when both count, else (1,1).
-    const Geo s1 = Pick(m1, g1, g2), s2 = Pick(both, g2, g3);
-    const VU k1 = hn::IfThenElse(mu1, k(VertexKey<1, 0>()), k(VertexKey<0, 1>()));
-    const VU k2 = hn::IfThenElse(mub, k(VertexKey<0, 1>()), k(VertexKey<1, 1>()));
-    // Slot 3: (1,1) when both count, else the outer vertex that counts (or (1,2), then att ≤ 0).
-    const Geo ge = Pick(m4, g4, Pick(m5, g5, Pick(m6, g6, g7)));
-    const VU ke = hn::IfThenElse(mu4, k(VertexKey<-1, 0>()),
-                                 hn::IfThenElse(mu5, k(VertexKey<0, -1>()),
-                                                hn::IfThenElse(mu6, k(VertexKey<2, 1>()), k(VertexKey<1, 2>()))));
-    const Geo s3 = Pick(both, g3, ge);
-    const VU k3 = hn::IfThenElse(mub, k(VertexKey<1, 1>()), ke);
-    VD sum = hn::Add(z, Term(hn::Add(base, k(VertexKey<0, 0>())), g0));
-    sum = hn::Add(sum, Term(hn::Add(base, k1), s1));
-    sum = hn::Add(sum, Term(hn::Add(base, k2), s2));
-    sum = hn::Add(sum, Term(hn::Add(base, k3), s3));
-    return hn::Mul(sum, hn::Set(d, kSimplexScale));
   }
 };
 
@@ -946,6 +826,108 @@ HWY_NOINLINE void RowGradient(const NoiseKernelArgs& a, double z, std::int64_t i
   }
 }
 
+// ---- Simplex (float after the split, noise.cpp's simplex_split / simplex_cell) -----------------------
+
+// One octave of simplex noise at lattice positions (u, v) (kHalves double vectors each), scaled
+// by c.
+HWY_INLINE VF SimplexCell(std::uint32_t key32, const VD (&u)[kHalves], const VD (&v)[kHalves], VF c) {
+  const DD d;
+  const DF df;
+  const DU32 du32;
+  const VD skew = hn::Set(d, kSimplexSkew);
+  VD fx[kHalves], fy[kHalves], rx[kHalves], ry[kHalves];
+  for (int h = 0; h < kHalves; ++h) {
+    const VD s = hn::Mul(hn::Add(u[h], v[h]), skew);
+    const VD xs = hn::Add(u[h], s), ys = hn::Add(v[h], s);
+    fx[h] = hn::Floor(xs);
+    fy[h] = hn::Floor(ys);
+    rx[h] = hn::Sub(xs, fx[h]);
+    ry[h] = hn::Sub(ys, fy[h]);
+  }
+  const VF xi = JoinDemote(rx), yi = JoinDemote(ry);
+  const VU32 i = JoinLow32(fx), j = JoinLow32(fy);
+  const VU32 px = hn::Set(du32, kGradPx), pz = hn::Set(du32, kGradPz), key = hn::Set(du32, key32);
+  const VU32 xp0 = hn::Mul(i, px), xp1 = hn::Add(xp0, px);
+  const VU32 jp = hn::Mul(j, pz);
+  const VU32 zp0 = hn::Xor(jp, key), zp1 = hn::Xor(hn::Add(jp, pz), key);
+  const VF g2 = hn::Set(df, kSimplexG2f), g2m1 = hn::Set(df, kSimplexG2m1f), k2 = hn::Set(df, kSimplex2G2m1f);
+  const VF t = hn::Mul(hn::Add(xi, yi), g2);
+  const VF x0 = hn::Sub(xi, t), y0 = hn::Sub(yi, t);
+  const auto m = hn::Gt(xi, yi);
+  const auto mu = hn::RebindMask(du32, m);
+  const VF x1 = hn::Add(x0, hn::IfThenElse(m, g2m1, g2)), y1 = hn::Add(y0, hn::IfThenElse(m, g2, g2m1));
+  const VF x2 = hn::Add(x0, k2), y2 = hn::Add(y0, k2);
+  const VF half = hn::Set(df, 0.5f), zero = hn::Zero(df);
+  auto term = [&](VU32 xp, VU32 zp, VF x, VF y) {
+    VF a = hn::Sub(hn::Sub(half, hn::Mul(x, x)), hn::Mul(y, y));
+    a = hn::IfThenElse(hn::Gt(a, zero), a, zero);
+    const VF a2 = hn::Mul(a, a);
+    return hn::Mul(hn::Mul(a2, a2), GradCorner(xp, zp, x, y));
+  };
+  VF sum = term(xp0, zp0, x0, y0);
+  sum = hn::Add(sum, term(hn::IfThenElse(mu, xp1, xp0), hn::IfThenElse(mu, zp0, zp1), x1, y1));
+  sum = hn::Add(sum, term(xp1, zp1, x2, y2));
+  return hn::Mul(sum, c);
+}
+
+// Fractal::None is evaluated as fBm of one octave (amplitude 1, 1/Σa = 1: the same bits).
+template <int kFr, bool kWarp>
+HWY_NOINLINE void RowSimplex(const NoiseKernelArgs& a, double z, std::int64_t i0, double dx, int n, float* out) {
+  const DD d;
+  const DI di;
+  const DF df;
+  const int N = int(hn::Lanes(d)), NF = kHalves * N;
+  constexpr bool kR = kFr == kRidged;
+  const float scale = float(kSimplexScale);
+  float amp[kMaxOctaves], cs[kMaxOctaves];
+  VD vrow[kMaxOctaves];
+  for (int k = 0; k < a.count; ++k) {
+    const NoiseOctave& o = a.octaves[k];
+    amp[k] = kR ? o.ridge_scale : float(o.amp);
+    cs[k] = kR ? scale * o.ridge_scale : scale;
+    vrow[k] = hn::Set(d, z * o.freq_z + o.offset_z);
+  }
+  const VD vz = hn::Set(d, z), vdx = hn::Set(d, dx), wm = hn::Set(d, a.warp_m);
+  const VF inv = hn::Set(df, float(a.inv_amp_sum)), vscale = hn::Set(df, scale);
+  const VI iota = hn::Iota(di, 0);
+  auto lat = [&](const VD (&p)[kHalves], double f, double off, VD (&o_)[kHalves]) {
+    for (int h = 0; h < kHalves; ++h) o_[h] = hn::Add(hn::Mul(p[h], hn::Set(d, f)), hn::Set(d, off));
+  };
+  for (int start = 0; start < n; start += NF) {
+    VD x[kHalves], zl[kHalves];
+    for (int h = 0; h < kHalves; ++h) {
+      x[h] = hn::Mul(hn::ConvertTo(d, hn::Add(iota, hn::Set(di, i0 + start + h * N))), vdx);
+      zl[h] = vz;
+    }
+    if constexpr (kWarp) {
+      const NoiseOctave &w0 = a.warp_octaves[0], &w1 = a.warp_octaves[1];
+      VD u1[kHalves], v1[kHalves], u0[kHalves], v0[kHalves], n1d[kHalves], n0d[kHalves];
+      lat(x, w1.freq_x, w1.offset_x, u1);
+      lat(zl, w1.freq_z, w1.offset_z, v1);
+      lat(x, w0.freq_x, w0.offset_x, u0);
+      lat(zl, w0.freq_z, w0.offset_z, v0);
+      SplitPromote(SimplexCell(w1.key32, u1, v1, vscale), n1d);
+      SplitPromote(SimplexCell(w0.key32, u0, v0, vscale), n0d);
+      for (int h = 0; h < kHalves; ++h) {
+        zl[h] = hn::Add(vz, hn::Mul(wm, n1d[h]));
+        x[h] = hn::Add(x[h], hn::Mul(wm, n0d[h]));
+      }
+    }
+    VF acc = hn::Zero(df);
+    for (int k = 0; k < a.count; ++k) {
+      const NoiseOctave& o = a.octaves[k];
+      VD u[kHalves], v[kHalves];
+      lat(x, o.freq_x, o.offset_x, u);
+      if constexpr (kWarp)
+        lat(zl, o.freq_z, o.offset_z, v);
+      else
+        for (int h = 0; h < kHalves; ++h) v[h] = vrow[k];
+      acc = FoldF<kFr>(acc, hn::Set(df, amp[k]), SimplexCell(o.key32, u, v, hn::Set(df, cs[k])));
+    }
+    StoreGradient<kFr>(acc, inv, start, NF, n, out);
+  }
+}
+
 // ---- Gradient from per-column terms (Noise::columns / rows: no warp) -------------------------------
 
 // Fills the x-only terms, the values GradEvalAxis derives from each octave's x axis (GAxis, or
@@ -1101,9 +1083,8 @@ Fn PickDouble(int fr, bool warp, bool px, bool pz) {
 }
 template <int kFr>
 Fn PickSimplex(bool warp) {
-  return warp ? &RowDouble<Simplex<false, false>, kFr, true> : &RowDouble<Simplex<false, false>, kFr, false>;
-}
-template <int kFr, bool kV>
+  return warp ? &RowSimplex<kFr, true> : &RowSimplex<kFr, false>;
+}template <int kFr, bool kV>
 Fn PickGradient(bool warp, bool px, bool pz, bool dyadic) {
   if constexpr (kFr != kNone)  // one octave has nothing to step
     if (dyadic)

@@ -80,15 +80,22 @@ inline float ridged_scale(double amp) { return float(std::sqrt(amp)); }
 constexpr float kValueScale = 0x1p-23f;
 
 // Shared with noise.cpp, which defines the tables from its constexpr generators.
-constexpr std::uint64_t kLatticePx = 0x9E3779B97F4A7C15ull;  // Value / Simplex / Cellular hashing
+constexpr std::uint64_t kLatticePx = 0x9E3779B97F4A7C15ull;  // Cellular hashing
 constexpr std::uint64_t kLatticePz = 0xC2B2AE3D27D4EB4Full;
 constexpr double kSimplexSkew = 0.36602540378443864676;    // (√3 − 1)/2: input → lattice space
 constexpr double kSimplexUnskew = 0.21132486540518711775;  // (3 − √3)/6: lattice → input space
-constexpr double kSimplexR2 = 2.0 / 3.0;                   // kernel radius² = lattice edge length²
-constexpr double kSimplexScale = 18.24;                    // see noise.cpp
+// Simplex (noise.cpp, simplex_cell): G, G − 1 and 2G − 1 in float; the sum's scale (below
+// 1/sup = 85.3144… of the three vertices' kernel sum with Gradient's gradient set, chosen to give
+// the standard deviation of the OpenSimplex2S definition it replaced); the lattice scale √3/2
+// applied to each octave's frequency and offset (the kernel radius √½ of the lattice becomes √⅔
+// cycles of the frequency, OpenSimplex2S's).
+constexpr float kSimplexG2f = float(kSimplexUnskew);
+constexpr float kSimplexG2m1f = kSimplexG2f - 1.0f;
+constexpr float kSimplex2G2m1f = float(2.0 * kSimplexUnskew - 1.0);
+constexpr double kSimplexScale = 65.5;
+constexpr double kSimplexLattice = 0.86602540378443864676;  // √3/2
 constexpr double kCell2m21 = 1.0 / 2097152.0;              // 2⁻²¹
 extern const double kPerlinGradX[16], kPerlinGradY[16];    // grad3(h, x, y, 0) = X[h]·x + Y[h]·y
-extern const double kSimplexGradX[24], kSimplexGradY[24];  // 24 unit gradients
 
 // Everything a row kernel needs, gathered by Noise::row once per call.
 struct NoiseKernelArgs {

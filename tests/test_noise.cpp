@@ -547,8 +547,10 @@ TEST(Determinism, GoldenHashes) {
   // bits under FMA contraction (a SIMD port must state its tolerance instead). Gradient's changed
   // with its dyadic lattice (lacunarity 2: octave k ≥ 1 at 2ᵏ·u₀ + ½, exact fixed-point stepping).
   // Value's changed when it moved onto Gradient's lattice (float after the split, 32-bit hash, the
-  // dyadic lattice; before: 61294467917285867).
-  const std::uint64_t golden[] = {14078382463606979733ull, 8073379351779952972ull, 17699549929353863398ull,
+  // dyadic lattice; before: 61294467917285867). Simplex's when it became classic 2D simplex in
+  // float after the split with Gradient's hash and gradients (before: OpenSimplex2S-style in
+  // double with mix64, 8073379351779952972).
+  const std::uint64_t golden[] = {14078382463606979733ull, 17386216502324077835ull, 17699549929353863398ull,
                                   8949554707693066234ull, 14297808085583764422ull};
   int k = 0;
   for (NoiseBasis b : kAllBases) {
