@@ -4,9 +4,9 @@
 //   * Ken Perlin, "Improving Noise", SIGGRAPH 2002, and his Java reference ImprovedNoise
 //     (https://mrl.cs.nyu.edu/~perlin/noise/): quintic fade, 12 gradient directions picked by
 //     the low 4 bits of a permutation hash, published permutation table.
-//   * K. Spencer, OpenSimplex2 (2022), 2D "S" variant: vertices of the skewed triangular lattice
-//     contribute max(0, r² − |d|²)⁴ · (g·d) with r² = 2/3 (the lattice's edge length squared), so
-//     the kernel is wider and smoother than classic simplex noise (r² = 1/2).
+//   * Ken Perlin, simplex noise (2001), as explained by Stefan Gustavson, "Simplex noise
+//     demystified" (2005): skewed triangular lattice, three vertices per point, kernel
+//     max(0, ½ − |d|²)⁴ (simplex_cell).
 //   * Steven Worley, "A Cellular Texture Basis Function", SIGGRAPH 1996: F1, F2, cell identity.
 //   * F. K. Musgrave, in Ebert et al., "Texturing and Modeling: A Procedural Approach", ch. 16:
 //     fBm, ridged multifractal, billow. Normalised by the analytic amplitude sum Σ aₖ.

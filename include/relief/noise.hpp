@@ -5,8 +5,8 @@
 //   * Ken Perlin, "Improving Noise", SIGGRAPH 2002 (improved gradient noise, quintic fade).
 //     With Perlin's published permutation, perlin_reference(x, y, z) reproduces his Java
 //     ImprovedNoise.noise exactly (double precision).
-//   * OpenSimplex2 (K. Spencer, 2022), 2D "S" variant: simplex-lattice gradient noise without
-//     Perlin's patent-era skew artefacts.
+//   * Simplex noise (Ken Perlin, 2001), as explained by Stefan Gustavson, "Simplex noise
+//     demystified" (2005): gradient noise on the skewed triangular lattice, three vertices per point.
 //   * Steven Worley, "A Cellular Texture Basis Function", SIGGRAPH 1996 (F1, F2, cell id).
 //   * Gradient: our arithmetic-hash gradient noise (Perlin's construction, with the permutation
 //     table replaced by an integer hash of the lattice coordinates as in FastNoise2 and
@@ -64,7 +64,7 @@ class Noise;
 // The terms of a window of columns that depend only on x (per octave: the lattice cells' hash
 // terms i0·Pₓ and i1·Pₓ, the fraction fx, fx − 1 and its fade), computed once by Noise::columns()
 // and reused for every row: Noise::row(z_m, columns, out) then only does the per-row work. Only the
-// Gradient basis without domain warp has such terms (warp moves x per row); for every other
+// Gradient and Value bases without domain warp have such terms (warp moves x per row); for every other
 // setting the object just remembers the window and row() falls back to the plain row kernel. The
 // values are the same, bit for bit, either way. Memory: 20 bytes per column per octave.
 class NoiseColumns {
@@ -113,17 +113,25 @@ class NoiseColumns {
 //   Perlin    improved Perlin 2D (exactly perlin2 with the octave's table); one octave repeats
 //             every 256 of its own cells (the table's period), the per-octave tables and offsets
 //             keep the octaves of a sum from repeating together.
-//   Simplex   OpenSimplex2S-style: Σ over simplex-lattice vertices of max(0, 2/3 − |d|²)⁴ · (g·d),
-//             24 unit gradients, scaled by a bound on the supremum so that |n| ≤ 1.
-//   Value     hashed lattice values in [−1, 1), quintic interpolation.
+//   Simplex   classic 2D simplex: the position, in units of the lattice scale √3/2, is skewed and
+//             split into a cell in double, then in float Σ over the point's three simplex vertices
+//             of max(0, ½ − |d|²)⁴ · (g·d), g one of Gradient's 8 directions picked by Gradient's
+//             hash, times 65.5: |n| ≤ 0.768, with the standard deviation (0.417) and derivative
+//             variance of the OpenSimplex2S-style basis it replaced (whose look `hills` keeps).
+//             Cell indices modulo 2³² as Gradient's; no period.
+//   Value     hashed lattice values in [−1, 1) with quintic interpolation, on Gradient's lattice (the
+//             same split in double, float after it, the same period support and, at lacunarity 2
+//             without a period, the same dyadic lattice): the value of lattice point (X, Z) is the
+//             top 24 bits of hash32((X·Pₓ) ⊕ (Z·P_z ⊕ keyₖ)) as a signed integer times 2⁻²³.
 //   Cellular  Worley, one feature point per cell at its centre + jitter·U(−½, ½)², 3×3 search.
 //             F1 is exact after clamping to 1 cell. F2, F2−F1 and (only where F1 ≥ 1 cell)
 //             CellValue can differ from an exhaustive search in the rare cases where the point
 //             they need lies outside the 3×3 block.
-// Value, Simplex and Cellular hash lattice points with mix64(keyₖ + X·Pₓ + Z·P_z): no period.
+// Cellular hashes lattice points with mix64(keyₖ + X·Pₓ + Z·P_z).
 //
-// Precision: positions are doubles; Perlin, Simplex, Value and Cellular do the lattice work in
-// double and round the result to float once; Gradient works in float after the lattice split.
+// Precision: positions are doubles; Perlin and Cellular do the lattice work in double and round the
+// result to float once; Gradient, Value and Simplex work in float after the lattice split (Simplex
+// after its skew, in double).
 // Lattice coordinates are clamped to ±2⁵¹ cells. Coordinates must be finite (non-finite ones give
 // unspecified values, never UB). No FMA anywhere (see noise.cpp).
 //
