@@ -198,19 +198,24 @@ void expect_most_seeds(const std::string& preset, const std::string& promise,
 
 std::string fmt(const char* what, double v) { return std::string(what) + " " + std::to_string(v); }
 
+// "" when the land is one island (at least 90 % of it in one 4-connected body) off the map border.
+std::string one_island(const Terrain& t) {
+  const auto b = bodies(land_mask(t), t.frame.nx, t.frame.nz);
+  std::size_t total = 0, biggest = 0;
+  for (const Body& x : b) {
+    if (x.touches_border) return "land on the map border";
+    total += x.size, biggest = std::max(biggest, x.size);
+  }
+  if (total == 0 || biggest < 0.9 * total) return "not one island";
+  return "";
+}
+
 }  // namespace
 
 TEST(PresetPromises, IslandIsOneIslandRingedBySeaWithEveryBand) {
   expect_most_seeds("island", "a single island ringed by sea, sandy coasts, grass and forest, rocky highlands",
                     [](const Terrain& t) -> std::string {
-                      const auto land = land_mask(t);
-                      const auto b = bodies(land, t.frame.nx, t.frame.nz);
-                      std::size_t total = 0, biggest = 0;
-                      for (const Body& x : b) {
-                        if (x.touches_border) return "land on the map border";
-                        total += x.size, biggest = std::max(biggest, x.size);
-                      }
-                      if (total == 0 || biggest < 0.9 * total) return "not one island";
+                      if (const std::string why = one_island(t); !why.empty()) return why;
                       // The colour levels: sand (0.4, 0.415], grass to 0.5, forest to 0.6, rock above.
                       if (land_share(t, 0.4, 0.415) < 0.02) return fmt("sand", land_share(t, 0.4, 0.415));
                       if (land_share(t, 0.415, 0.5) < 0.05) return fmt("grass", land_share(t, 0.415, 0.5));
@@ -390,14 +395,8 @@ TEST(PresetPromises, SeaCliffHasCliffsOverhangsAndCavesWithEntrances) {
   for (std::uint64_t seed = 1; seed <= kSeeds; ++seed) {
     const Terrain t = run(test::preset_recipe("sea-cliff", 257, seed)).terrain;
     const std::string why = [&]() -> std::string {
+      if (const std::string why = one_island(t); !why.empty()) return why;
       const auto land = land_mask(t);
-      const auto b = bodies(land, t.frame.nx, t.frame.nz);
-      std::size_t total = 0, biggest = 0;
-      for (const Body& x : b) {
-        if (x.touches_border) return "land on the map border";
-        total += x.size, biggest = std::max(biggest, x.size);
-      }
-      if (total == 0 || biggest < 0.9 * total) return "not one island";
       // Cliffs: land samples next to the sea.
       const int nx = t.frame.nx, nz = t.frame.nz;
       std::size_t coast = 0, steep = 0;
