@@ -66,7 +66,7 @@ inline Table<NoiseFields> noise_fields_table() {
   return {{
       choice(&N::basis, "basis", noise_basis_names(),
              "Noise basis: gradient (Perlin-equivalent, hashed, fastest), improved Perlin (seeded permutation), "
-             "OpenSimplex2, value or cellular (Worley)"),
+             "classic simplex, value or cellular (Worley)"),
       choice(&N::fractal, "fractal", fractal_names(),
              "How octaves combine: none (one octave), fBm, ridged (sharp crests), billow (puffy)"),
       param(&N::octaves, "octaves", 1, kMaxOctaves, "", "Number of octaves summed"),
