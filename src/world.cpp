@@ -149,6 +149,8 @@ WorldReport build_world(WorldSettings s) {
   r.world.nx = int(grid.nx);
   r.world.nz = int(grid.nz);
   const Frame frame = r.world.frame();
+  // The library's own world algorithms (default_world_algorithms) unless the caller gave its own.
+  for (auto& [name, algo] : default_world_algorithms()) s.algorithms.emplace(name, algo);
 
   // 1. Stages: every one must have a world algorithm (for now: be local).
   int halo = 0;

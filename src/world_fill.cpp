@@ -270,3 +270,9 @@ WorldStageAlgorithm world_fill_least_fixpoint() {
 }
 
 }  // namespace relief
+
+namespace relief {
+
+std::map<std::string, WorldStageAlgorithm> default_world_algorithms() { return {}; }
+
+}  // namespace relief

@@ -170,6 +170,9 @@ using WorldStageAlgorithm = std::function<void(const WorldStageIO& io, const Rec
 // not yet against the "fill" stage itself, whose hydrology.cpp algorithm is order-dependent (see
 // the end of this file); so build_world only uses it when a caller registers it.
 WorldStageAlgorithm world_fill_least_fixpoint();
+// The world algorithms build_world uses for global stages that WorldSettings::algorithms does not
+// name: those that are exact against the stage's whole-map run (by stage name).
+std::map<std::string, WorldStageAlgorithm> default_world_algorithms();
 
 struct WorldSettings {
   Recipe recipe;  // parsed and validated; world.size is replaced by nx × nz
