@@ -201,10 +201,20 @@ WorldReport build_world(WorldSettings s) {
     j.erase("seed");
     return world_id_of(j, grid.tile);
   }();
+  // The old manifest is a file in the user's folder: read only fields of the expected types.
+  auto old_string = [&](const char* key) -> std::string {
+    const auto it = old.is_object() ? old.find(key) : old.end();
+    return it != old.end() && it->is_string() ? it->get<std::string>() : std::string();
+  };
+  auto old_field = [&](const char* key) -> json {
+    const auto it = old.is_object() ? old.find(key) : old.end();
+    return it != old.end() ? *it : json();
+  };
+  const bool old_is_world = old_string("format") == "relief-world";
   if (!r.seed) {
-    if (have_old && old.is_object() && old.value("recipe_id", "") == recipe_id && old.contains("seed") &&
-        old["seed"].is_number_unsigned()) {
-      r.seed = old["seed"].get<std::uint64_t>();
+    const json seed = old_field("seed");
+    if (have_old && old_is_world && old_string("recipe_id") == recipe_id && seed.is_number_unsigned()) {
+      r.seed = seed.get<std::uint64_t>();
       rep.seed_reused = true;
     } else {
       r.seed = random_seed();
@@ -215,15 +225,16 @@ WorldReport build_world(WorldSettings s) {
   rep.recipe = resolved;
   rep.world_id = world_id_of(resolved, grid.tile);
   if (have_old) {
-    const bool same = old.is_object() && old.value("format", "") == "relief-world" && old.value("world_id", "") == rep.world_id;
+    const bool same = old_is_world && old_string("world_id") == rep.world_id;
     if (!same && !s.force) {
       std::string what = "something that is not a Relief world manifest";
-      if (old.is_object() && old.value("format", "") == "relief-world") {
-        const json& fr = old.value("frame", json::object());
-        what = "another world (recipe " + quote(old.value("recipe", json::object()).value("name", "?")) +
-               (fr.contains("size") ? ", " + fr["size"].dump() : "") + ", tile " +
-               old.value("grid", json::object()).value("tile", json(0)).dump() +
-               (old.contains("seed") ? ", seed " + old["seed"].dump() : "") + ")";
+      if (old_is_world) {
+        const json rec = old_field("recipe"), fr = old_field("frame"), gr = old_field("grid"), seed = old_field("seed");
+        const json name = rec.is_object() && rec.contains("name") ? rec["name"] : json("?");
+        const json tile = gr.is_object() && gr.contains("tile") ? gr["tile"] : json(0);
+        what = "another world (recipe " + (name.is_string() ? quote(name.get<std::string>()) : name.dump()) +
+               (fr.is_object() && fr.contains("size") ? ", " + fr["size"].dump() : "") + ", tile " + tile.dump() +
+               (seed.is_null() ? "" : ", seed " + seed.dump()) + ")";
       }
       throw Error(s.out_path, "the folder " + quote(s.out_dir) + " holds " + what +
                                   ", not this one (its world.json differs in recipe, seed, size or tile); choose another folder, "

@@ -6,6 +6,7 @@
 
 #include <algorithm>
 #include <bit>
+#include <cmath>
 #include <cstdio>
 #include <cstring>
 #include <filesystem>
@@ -23,6 +24,7 @@ static_assert(std::endian::native == std::endian::little, "the tile store writes
 
 namespace {
 constexpr char kMagic[8] = {'R', 'L', 'F', 'T', 'I', 'L', 'E', '1'};
+constexpr std::uint64_t kZlibMaxRatio = 1032;
 
 std::uint32_t get_u32(const unsigned char* p) {
   return std::uint32_t(p[0]) | std::uint32_t(p[1]) << 8 | std::uint32_t(p[2]) << 16 | std::uint32_t(p[3]) << 24;
@@ -232,19 +234,39 @@ WorldTile decode_world_tile(std::string_view bytes, const std::string& origin) {
       throw bad("window size out of range");
     const std::size_t n = std::size_t(t.window.nx) * std::size_t(t.window.nz);
     std::size_t raw = 0;
+    if (!h.at("layers").is_array() || h.at("layers").size() > 256) throw bad("expected at most 256 layers");
     for (const json& l : h.at("layers")) {
       const int c = l.at("channels").get<int>();
       if (c < 1 || c > 16) throw bad("layer channel count out of range");
+      if (!l.at("name").is_string()) throw bad("a layer name is not a string");
       raw += n * std::size_t(c) * 4;
     }
     if (h.at("raw_bytes").get<std::uint64_t>() != raw) throw bad("raw_bytes does not match the layers");
     if (h.value("encoding", "") != "float32le-rowdelta-shuffle-planes") throw bad("unknown encoding");
     const std::uint64_t plen = h.at("payload_bytes").get<std::uint64_t>();
     if (12 + std::uint64_t(hlen) + plen + 4 != bytes.size()) throw bad("payload_bytes does not match the file size");
-    // The byte planes: method (0 stored, 1 zlib), u64 length, bytes.
+    // The byte planes: method (0 stored, 1 zlib), u64 length, bytes. First their framing, so that
+    // no header makes us allocate more than the planes can hold: a stored plane holds its length,
+    // a zlib stream at most kZlibMaxRatio bytes per byte (deflate's limit is 1032:1).
+    const std::size_t end = 12 + hlen + plen;
+    {
+      std::size_t pos = 12 + hlen;
+      for (const json& l : h.at("layers")) {
+        const std::uint64_t m = std::uint64_t(n) * std::uint64_t(l.at("channels").get<int>());
+        for (int b = 0; b < 4; ++b) {
+          if (pos + 9 > end) throw bad("byte planes end early");
+          std::uint64_t len = 0;
+          for (int q = 0; q < 8; ++q) len |= std::uint64_t(u[pos + 1 + q]) << (8 * q);
+          pos += 9;
+          if (len > end - pos) throw bad("a byte plane runs past the payload");
+          if (u[pos - 9] == 0 ? len != m : (u[pos - 9] != 1 || m > len * kZlibMaxRatio + 64))
+            throw bad("a byte plane's length does not fit its layer (" + std::to_string(m) + " bytes from " + std::to_string(len) + ")");
+          pos += len;
+        }
+      }
+    }
     std::string shuffled(raw, '\0');
     std::size_t pos = 12 + hlen, out_at = 0;
-    const std::size_t end = 12 + hlen + plen;
     for (const json& l : h.at("layers")) {
       const std::size_t m = n * std::size_t(l.at("channels").get<int>());
       for (int b = 0; b < 4; ++b) {
@@ -307,8 +329,44 @@ json read_world_manifest(const std::string& dir) {
   const std::string text = detail::read_file_bytes(path, ok);
   if (!ok) throw Error("output", "no world manifest '" + path + "'");
   json m = json::parse(text, nullptr, false);
-  if (!m.is_object() || m.value("format", "") != "relief-world" || !m.contains("world_id"))
+  const auto is = [&](const char* key, json::value_t t) { return m.is_object() && m.contains(key) && m[key].type() == t; };
+  if (!is("format", json::value_t::string) || m["format"] != "relief-world" || !is("world_id", json::value_t::string))
     throw Error("output", "'" + path + "' is not a Relief world manifest");
+  // The fields the readers below use, with their types and ranges (a damaged or hand-edited file is
+  // refused here, naming the field, rather than half-read).
+  auto bad = [&](const std::string& field, const std::string& want) {
+    return Error("output", "'" + path + "': " + field + ": expected " + want);
+  };
+  if (!is("frame", json::value_t::object)) throw bad("frame", "an object");
+  const json& fr = m["frame"];
+  if (!fr.contains("size") || !fr["size"].is_array() || fr["size"].size() != 2 || !fr["size"][0].is_number_integer() ||
+      !fr["size"][1].is_number_integer())
+    throw bad("frame.size", "[nx, nz], two integers");
+  for (const char* k : {"width_m", "depth_m", "spacing_m", "height_m", "sea_level"})
+    if (!fr.contains(k) || !fr[k].is_number() || !std::isfinite(fr[k].get<double>()))
+      throw bad(std::string("frame.") + k, "a finite number");
+  if (!is("grid", json::value_t::object) || !m["grid"].contains("tile") || !m["grid"]["tile"].is_number_integer())
+    throw bad("grid.tile", "an integer");
+  if (!is("layers", json::value_t::array) || m["layers"].size() > 256) throw bad("layers", "an array of at most 256 layers");
+  for (const json& l : m["layers"])
+    if (!l.is_object() || !l.contains("name") || !l["name"].is_string() || !l.contains("channels") ||
+        !l["channels"].is_number_integer() || l["channels"].get<std::int64_t>() < 1 || l["channels"].get<std::int64_t>() > 16)
+      throw bad("layers[]", "{\"name\": string, \"channels\": 1..16}");
+  if (m.contains("tiles")) {
+    if (!m["tiles"].is_array()) throw bad("tiles", "an array");
+    for (const json& t : m["tiles"])
+      if (!t.is_object() || !t.contains("tile") || !t["tile"].is_array() || t["tile"].size() != 2 || !t["tile"][0].is_number_integer() ||
+          !t["tile"][1].is_number_integer() || !t.contains("bytes") || !t["bytes"].is_number_unsigned() || !t.contains("crc32") ||
+          !t["crc32"].is_string())
+        throw bad("tiles[]", "{\"tile\": [X, Z], \"bytes\": size, \"crc32\": hex}");
+  }
+  // The grid itself (sizes, tile) checked as a build checks it.
+  try {
+    world_grid(fr["size"][0].get<std::int64_t>(), fr["size"][1].get<std::int64_t>(), m["grid"]["tile"].get<std::int64_t>(),
+               "frame.size", "grid.tile");
+  } catch (const Error& e) {
+    throw Error("output", "'" + path + "': " + e.what());
+  }
   return m;
 }
 
