@@ -1,0 +1,659 @@
+// The "flow" stage over a tiled world, exact against the whole-map run (relief/world_flow.hpp).
+//
+// Sources:
+//   Barnes 2017, "Parallel non-divergent flow accumulation for trillion cell digital elevation
+//     models on desktops or clusters" (local accumulation per tile, a perimeter graph solved
+//     globally, tiles then add their inflows);
+//   Barnes 2016, "Parallel Priority-Flood depression filling for trillion cell digital elevation
+//     models on desktops or clusters" (exchange tile perimeters until nothing changes: used here
+//     for the Strahler orders and the carving, which are monotone along the flow graph);
+//   Kahn 1962 (topological order of the perimeter graph); Strahler 1957; Leopold & Maddock 1953
+//     (river width and carving depth, as src/stage_erosion.cpp).
+//
+// The per-sample arithmetic below copies apply_flow's (src/stage_erosion.cpp) expression for
+// expression, so that every float comes out with the same bits; keep the two in step.
+#include "relief/world_flow.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <cstring>
+#include <limits>
+#include <unordered_map>
+
+#include "relief/error.hpp"
+#include "relief/hydrology.hpp"
+#include "writer_defs.hpp"
+
+namespace relief {
+namespace {
+
+constexpr double kSecondsPerYear = 365.25 * 24 * 3600;  // as src/stage_erosion.cpp
+constexpr std::uint32_t kNone = 0xFFFFFFFFu;
+
+// Heights within one sample of every inner tile border (the halo of a tile's D8 receivers).
+class Bands {
+ public:
+  explicit Bands(const WorldGrid& g)
+      : nx_(g.nx), nz_(g.nz), t1_(g.tile - 1), tx_(g.tiles_x), tz_(g.tiles_z),
+        v_(std::size_t(std::max<std::int64_t>(0, tx_ - 1) * 3 * nz_), std::numeric_limits<float>::quiet_NaN()),
+        h_(std::size_t(std::max<std::int64_t>(0, tz_ - 1) * 3 * nx_), std::numeric_limits<float>::quiet_NaN()) {}
+  bool has(std::int64_t ix, std::int64_t iz) {
+    bool any = false;
+    each(ix, iz, [&](float&) { any = true; });
+    return any;
+  }
+  void set(std::int64_t ix, std::int64_t iz, float v) {
+    each(ix, iz, [&](float& s) { s = v; });
+  }
+  float get(std::int64_t ix, std::int64_t iz) {
+    float r = std::numeric_limits<float>::quiet_NaN();
+    each(ix, iz, [&](float& s) { r = s; });
+    return r;
+  }
+
+ private:
+  template <class F>
+  void each(std::int64_t ix, std::int64_t iz, F f) {
+    const std::int64_t kx = (ix + 1) / t1_;
+    for (std::int64_t k = kx - 1; k <= kx + 1; ++k) {
+      const std::int64_t d = ix - k * t1_;
+      if (k < 1 || k > tx_ - 1 || d < -1 || d > 1) continue;
+      f(v_[std::size_t(((k - 1) * 3 + d + 1) * nz_ + iz)]);
+    }
+    const std::int64_t kz = (iz + 1) / t1_;
+    for (std::int64_t k = kz - 1; k <= kz + 1; ++k) {
+      const std::int64_t d = iz - k * t1_;
+      if (k < 1 || k > tz_ - 1 || d < -1 || d > 1) continue;
+      f(h_[std::size_t(((k - 1) * 3 + d + 1) * nx_ + ix)]);
+    }
+  }
+  std::int64_t nx_, nz_, t1_, tx_, tz_;
+  std::vector<float> v_, h_;
+};
+
+// The perimeter graph: one node per sample on the boundary of a tile's owned rectangle.
+struct Nodes {
+  std::unordered_map<std::int64_t, std::uint32_t> id;  // world sample index → node
+  std::vector<std::int64_t> cell, link_cell;
+  std::vector<std::uint32_t> link, tile, acc;
+  std::vector<float> z;
+  std::vector<std::uint8_t> cross;
+  std::vector<std::uint64_t> ext, inflow;  // inflow from other tiles: at this node (ext), through it
+  std::vector<std::uint8_t> channel, strahler, chd;
+  std::vector<float> carved;
+  std::vector<std::uint32_t> dstart, donors;  // cross donors of each node (CSR)
+  std::uint32_t at(std::int64_t c) const {
+    const auto it = id.find(c);
+    if (it == id.end()) throw Error("world", "flow: internal error, sample " + std::to_string(c) + " is not a perimeter node");
+    return it->second;
+  }
+};
+
+struct Ctx {
+  const WorldGrid& g;
+  const Frame& f;
+  const WorldFlowParams& p;
+  float sea;
+  double H, cell, cell2, runoff_m_s, threshold_cells;
+  std::int64_t t1;
+};
+
+// One tile's grown window, its receivers and its local flow order over the owned rectangle.
+struct Solve {
+  std::int64_t X = 0, Z = 0;
+  WorldGrid::Window w;
+  std::int64_t gx0 = 0, gz0 = 0;  // grown window's first sample (world)
+  int gnx = 0, gnz = 0;
+  int ox0 = 0, oz0 = 0, onx = 0, onz = 0;  // owned rectangle in grown coordinates
+  std::vector<float> zg;
+  std::vector<std::uint32_t> rec;                 // grown, hydro::d8_receivers
+  std::vector<std::uint32_t> rl, order, acc;      // owned: local receivers (self at exits), order, count
+  // finished (pass S and later)
+  std::vector<std::uint64_t> cnt;
+  std::vector<std::uint8_t> ch, str, chd, cross_chd;  // channel, Strahler, channel donors (of them in other tiles)
+  std::vector<float> ec;
+
+  std::size_t grown(int oi, int oj) const { return std::size_t(oj + oz0) * std::size_t(gnx) + std::size_t(oi + ox0); }
+  bool perim(std::uint32_t o) const {
+    const int oi = int(o % std::uint32_t(onx)), oj = int(o / std::uint32_t(onx));
+    return oi == 0 || oj == 0 || oi == onx - 1 || oj == onz - 1;
+  }
+};
+
+std::int64_t world_index(const Ctx& c, const Solve& s, std::uint32_t gi) {
+  const std::int64_t i = s.gx0 + std::int64_t(gi % std::uint32_t(s.gnx)), j = s.gz0 + std::int64_t(gi / std::uint32_t(s.gnx));
+  return j * c.g.nx + i;
+}
+
+// Owned index of grown index gi, or kNone when outside the owned rectangle.
+std::uint32_t owned_of(const Solve& s, std::uint32_t gi) {
+  const int i = int(gi % std::uint32_t(s.gnx)) - s.ox0, j = int(gi / std::uint32_t(s.gnx)) - s.oz0;
+  if (i < 0 || j < 0 || i >= s.onx || j >= s.onz) return kNone;
+  return std::uint32_t(j) * std::uint32_t(s.onx) + std::uint32_t(i);
+}
+
+Solve prepare(const Ctx& c, Bands& bands, const TileLoad& load, std::int64_t X, std::int64_t Z) {
+  Solve s;
+  s.X = X, s.Z = Z;
+  s.w = c.g.window(X, Z);
+  const std::vector<float> z = load(X, Z);
+  if (z.size() != std::size_t(s.w.nx) * std::size_t(s.w.nz))
+    throw Error("world", "flow: tile " + std::to_string(X) + "," + std::to_string(Z) + " has " + std::to_string(z.size()) +
+                             " heights, expected " + std::to_string(std::size_t(s.w.nx) * std::size_t(s.w.nz)));
+  s.gx0 = s.w.ix0 - (s.w.ix0 > 0 ? 1 : 0);
+  s.gz0 = s.w.iz0 - (s.w.iz0 > 0 ? 1 : 0);
+  const std::int64_t gx1 = s.w.ix0 + s.w.nx + (s.w.ix0 + s.w.nx < c.g.nx ? 1 : 0);
+  const std::int64_t gz1 = s.w.iz0 + s.w.nz + (s.w.iz0 + s.w.nz < c.g.nz ? 1 : 0);
+  s.gnx = int(gx1 - s.gx0), s.gnz = int(gz1 - s.gz0);
+  s.zg.resize(std::size_t(s.gnx) * std::size_t(s.gnz));
+  for (int j = 0; j < s.gnz; ++j)
+    for (int i = 0; i < s.gnx; ++i) {
+      const std::int64_t ix = s.gx0 + i, iz = s.gz0 + j;
+      const std::int64_t wi = ix - s.w.ix0, wj = iz - s.w.iz0;
+      float v;
+      if (wi >= 0 && wj >= 0 && wi < s.w.nx && wj < s.w.nz) v = z[std::size_t(wj) * std::size_t(s.w.nx) + std::size_t(wi)];
+      else v = bands.get(ix, iz);
+      s.zg[std::size_t(j) * std::size_t(s.gnx) + std::size_t(i)] = v;
+    }
+  const std::int64_t ox1 = X == c.g.tiles_x - 1 ? c.g.nx : s.w.ix0 + c.t1;
+  const std::int64_t oz1 = Z == c.g.tiles_z - 1 ? c.g.nz : s.w.iz0 + c.t1;
+  s.ox0 = int(s.w.ix0 - s.gx0), s.oz0 = int(s.w.iz0 - s.gz0);
+  s.onx = int(ox1 - s.w.ix0), s.onz = int(oz1 - s.w.iz0);
+  s.rec.resize(s.zg.size());
+  hydro::d8_receivers<float>(s.zg.data(), s.gnx, s.gnz, c.sea, s.rec.data());
+  const std::size_t on = std::size_t(s.onx) * std::size_t(s.onz);
+  s.rl.resize(on);
+  s.acc.resize(on);
+  for (int oj = 0; oj < s.onz; ++oj)
+    for (int oi = 0; oi < s.onx; ++oi) {
+      const std::uint32_t o = std::uint32_t(oj) * std::uint32_t(s.onx) + std::uint32_t(oi);
+      const std::uint32_t r = owned_of(s, s.rec[s.grown(oi, oj)]);
+      s.rl[o] = r == kNone ? o : r;
+    }
+  hydro::flow_order(s.rl.data(), on, s.order, s.acc.data());
+  return s;
+}
+
+// The whole map's hydro::already_drains condition on the owned samples: every sample that is not
+// an outlet (world border, or below the sea) has a strictly lower neighbour, so that apply_flow
+// fills nothing (a world of fewer than 3 samples along an axis always drains, as there).
+void check_drains(const Ctx& c, const Solve& s, const std::string& path) {
+  if (c.g.nx < 3 || c.g.nz < 3) return;
+  for (int oj = 0; oj < s.onz; ++oj)
+    for (int oi = 0; oi < s.onx; ++oi) {
+      const std::int64_t ix = s.w.ix0 + oi, iz = s.w.iz0 + oj;
+      if (ix == 0 || iz == 0 || ix == c.g.nx - 1 || iz == c.g.nz - 1) continue;
+      const int gi = oi + s.ox0, gj = oj + s.oz0;
+      float m = std::numeric_limits<float>::infinity();
+      for (int k = 0; k < 8; ++k) m = std::min(m, s.zg[std::size_t(gj + hydro::kDj[k]) * std::size_t(s.gnx) + std::size_t(gi + hydro::kDi[k])]);
+      const float zc = s.zg[std::size_t(gj) * std::size_t(s.gnx) + std::size_t(gi)];
+      if (!(zc < c.sea || m < zc))
+        throw Error(path, "the flow stage's world algorithm needs a height that already drains (a fill stage before "
+                          "it); sample (" +
+                              std::to_string(ix) + ", " + std::to_string(iz) + ") does not");
+    }
+}
+
+double discharge(const Ctx& c, std::uint64_t count) { return double(count) * c.cell2 * c.runoff_m_s; }
+double width(const Ctx& c, std::uint64_t count) {
+  return std::max(c.p.min_width_m, c.p.width_coeff * std::pow(discharge(c, count), c.p.width_exponent));
+}
+
+// Counts, channels, Strahler orders and carved heights of the owned samples, from the perimeter
+// graph as known now. Returns nothing; fills s.cnt, s.ch, s.str, s.ec.
+void finish(const Ctx& c, const Nodes& nd, Solve& s) {
+  const std::size_t on = s.rl.size();
+  std::vector<std::uint64_t> b(on, 0);
+  auto node_of = [&](std::uint32_t o) {
+    const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
+    return nd.at((s.w.iz0 + oj) * c.g.nx + s.w.ix0 + oi);
+  };
+  for (std::uint32_t o = 0; o < on; ++o)
+    if (s.perim(o)) b[o] = nd.ext[node_of(o)];
+  for (std::uint32_t o : s.order)
+    if (s.rl[o] != o) b[s.rl[o]] += b[o];
+  s.cnt.resize(on);
+  s.ch.assign(on, 0);
+  for (std::uint32_t o = 0; o < on; ++o) {
+    s.cnt[o] = std::uint64_t(s.acc[o]) + b[o];
+    const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
+    s.ch[o] = double(s.cnt[o]) >= c.threshold_cells && s.zg[s.grown(oi, oj)] >= c.sea;
+  }
+  // Strahler orders (donors first), with channel donors in other tiles as known so far.
+  s.str.assign(on, 0);
+  s.chd.assign(on, 0);
+  s.cross_chd.assign(on, 0);
+  std::vector<std::uint8_t> top(on, 0);
+  auto add = [&](std::uint32_t r, std::uint8_t sd) {
+    if (sd > s.str[r]) s.str[r] = sd, top[r] = 1;
+    else if (sd == s.str[r]) ++top[r];
+  };
+  for (std::uint32_t o = 0; o < on; ++o) {
+    if (!s.perim(o) || !s.ch[o]) continue;
+    const std::uint32_t p = node_of(o);
+    for (std::uint32_t k = nd.dstart[p]; k < nd.dstart[p + 1]; ++k) {
+      const std::uint32_t d = nd.donors[k];
+      if (!nd.channel[d]) continue;
+      ++s.chd[o], ++s.cross_chd[o];
+      add(o, nd.strahler[d]);
+    }
+  }
+  for (std::uint32_t o : s.order) {
+    if (!s.ch[o]) continue;
+    if (s.str[o] == 0) s.str[o] = 1;
+    else if (top[o] >= 2) ++s.str[o];
+    const std::uint32_t r = s.rl[o];
+    if (r == o || !s.ch[r]) continue;
+    ++s.chd[r];
+    add(r, s.str[o]);
+  }
+  // Carving, receivers first, with carved receivers in other tiles as known so far.
+  s.ec.resize(on);
+  for (std::uint32_t o = 0; o < on; ++o) {
+    const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
+    s.ec[o] = s.zg[s.grown(oi, oj)];
+  }
+  if (c.p.carve_depth_coeff > 0) {
+    for (std::size_t q = on; q-- > 0;) {
+      const std::uint32_t o = s.order[q];
+      const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
+      const std::size_t gi = s.grown(oi, oj);
+      const std::uint32_t rg = s.rec[gi];
+      if (!s.ch[o] || rg == gi) continue;
+      const double depth = c.p.carve_depth_coeff * std::pow(discharge(c, s.cnt[o]), 0.4);
+      const std::uint32_t ro = owned_of(s, rg);
+      const float below = ro != kNone ? s.ec[ro] : nd.carved[nd.at(world_index(c, s, rg))];
+      const float carved = std::max(float(double(s.ec[o]) - depth / c.H), std::nextafter(below, 2.0f));
+      s.ec[o] = std::min(s.ec[o], carved);
+    }
+  }
+}
+
+// A piece of a river inside one tile: from a start sample (a head or a confluence) or from the
+// sample where a river enters the tile, down to its end or to the sample (`next`, in another tile)
+// where it goes on.
+struct Piece {
+  std::vector<RiverVertex> vertices;
+  std::string end;
+  std::int64_t next = -1;
+  int order = 1;
+};
+
+void trace_pieces(const Ctx& c, const Nodes& nd, const Solve& s, std::unordered_map<std::int64_t, Piece>& pieces,
+                  std::vector<std::int64_t>& starts) {
+  const Frame& f = c.f;
+  // apply_flow's vertex(): position, surface height (no lakes here), discharge and width.
+  auto vertex = [&](std::int64_t ix, std::int64_t iz, float e, std::uint64_t count) {
+    RiverVertex v;
+    v.x_m = f.x_m(int(ix));
+    v.z_m = f.z_m(int(iz));
+    v.y_m = std::max(0.0, f.y_m(e));
+    v.discharge_m3s = discharge(c, count);
+    v.width_m = width(c, count);
+    return v;
+  };
+  const std::uint32_t on = std::uint32_t(s.rl.size());
+  for (std::uint32_t o0 = 0; o0 < on; ++o0) {
+    if (!s.ch[o0]) continue;
+    const bool start = s.chd[o0] != 1;
+    if (!start && s.cross_chd[o0] != 1) continue;  // inside a river traced from upstream in this tile
+    Piece pc;
+    pc.order = s.str[o0];
+    std::uint32_t o = o0;
+    for (;;) {
+      const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
+      pc.vertices.push_back(vertex(s.w.ix0 + oi, s.w.iz0 + oj, s.ec[o], s.cnt[o]));
+      const std::size_t gi = s.grown(oi, oj);
+      const std::uint32_t rg = s.rec[gi];
+      if (rg == gi) {
+        pc.end = "edge";
+        break;
+      }
+      const std::uint32_t ro = owned_of(s, rg);
+      const std::int64_t rw = world_index(c, s, rg);
+      const std::int64_t rx = rw % c.g.nx, rz = rw / c.g.nx;
+      bool r_channel;
+      std::uint8_t r_chd;
+      float r_e;
+      std::uint64_t r_count;
+      if (ro != kNone) {
+        r_channel = s.ch[ro], r_chd = s.chd[ro], r_e = s.ec[ro], r_count = s.cnt[ro];
+      } else {
+        const std::uint32_t k = nd.at(rw);
+        r_channel = nd.channel[k], r_chd = nd.chd[k], r_e = nd.carved[k], r_count = std::uint64_t(nd.acc[k]) + nd.inflow[k];
+      }
+      if (!r_channel) {  // only the sea ends a channel
+        RiverVertex mouth = vertex(rx, rz, r_e, r_count);
+        mouth.y_m = 0.0;
+        mouth.discharge_m3s = pc.vertices.back().discharge_m3s;
+        mouth.width_m = pc.vertices.back().width_m;
+        pc.vertices.push_back(mouth);
+        pc.end = "sea";
+        break;
+      }
+      if (r_chd >= 2) {
+        pc.vertices.push_back(vertex(rx, rz, r_e, r_count));
+        pc.end = "river";
+        break;
+      }
+      if (ro == kNone) {
+        pc.next = rw;
+        break;
+      }
+      o = ro;
+    }
+    const std::int64_t w0 = (s.w.iz0 + std::int64_t(o0 / std::uint32_t(s.onx))) * c.g.nx + s.w.ix0 + o0 % std::uint32_t(s.onx);
+    if (start) starts.push_back(w0);
+    pieces.emplace(w0, std::move(pc));
+  }
+}
+
+template <class F>
+void each_cover(const Ctx& c, std::int64_t i, std::int64_t j, std::uint64_t count, F f) {
+  // f(ix, iz, value, sea_test): apply_flow's water cover of one channel sample.
+  const double w = width(c, count);
+  if (w <= c.cell) {
+    f(i, j, float(w / c.cell), false);
+    return;
+  }
+  const double r_cells = 0.5 * w / c.cell;
+  const int R = int(std::ceil(r_cells + 0.5));
+  for (std::int64_t b = std::max<std::int64_t>(0, j - R); b <= std::min<std::int64_t>(c.g.nz - 1, j + R); ++b)
+    for (std::int64_t a = std::max<std::int64_t>(0, i - R); a <= std::min<std::int64_t>(c.g.nx - 1, i + R); ++a) {
+      const double cover = std::clamp(r_cells - std::hypot(double(a - i), double(b - j)) + 0.5, 0.0, 1.0);
+      f(a, b, float(cover), true);
+    }
+}
+
+}  // namespace
+
+WorldFlowParams world_flow_params(const json& j) {
+  WorldFlowParams p;
+  p.lakes = j.value("depressions", std::string("lakes")) == "lakes";
+  p.epsilon_m = j.value("epsilon_m", p.epsilon_m);
+  p.lake_min_depth_m = j.value("lake_min_depth_m", p.lake_min_depth_m);
+  p.lake_min_area_m2 = j.value("lake_min_area_m2", p.lake_min_area_m2);
+  p.river_area_km2 = j.value("river_area_km2", p.river_area_km2);
+  p.runoff_mm_per_year = j.value("runoff_mm_per_year", p.runoff_mm_per_year);
+  p.width_coeff = j.value("width_coeff", p.width_coeff);
+  p.width_exponent = j.value("width_exponent", p.width_exponent);
+  p.min_width_m = j.value("min_width_m", p.min_width_m);
+  p.carve_depth_coeff = j.value("carve_depth_coeff", p.carve_depth_coeff);
+  return p;
+}
+
+TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowParams& p, const TileLoad& load,
+                          const FlowTileStore& store, std::vector<River>* rivers, const std::function<bool()>& cancelled,
+                          const std::string& path) {
+  TiledFlowStats st;
+  st.tiles = g.count();
+  Ctx c{g, f, p, float(f.sea_level), f.height_m, f.cell_m(), 0, 0, 0, g.tile - 1};
+  c.cell2 = c.cell * c.cell;
+  c.runoff_m_s = p.runoff_mm_per_year * 1e-3 / kSecondsPerYear;
+  c.threshold_cells = p.river_area_km2 * 1e6 / c.cell2;
+  auto check = [&] {
+    if (cancelled && cancelled()) throw Cancelled();
+  };
+
+  // Pass 0: the bands of heights around inner tile borders.
+  Bands bands(g);
+  for (std::int64_t Z = 0; Z < g.tiles_z; ++Z)
+    for (std::int64_t X = 0; X < g.tiles_x; ++X) {
+      check();
+      const WorldGrid::Window w = g.window(X, Z);
+      const std::vector<float> z = load(X, Z);
+      if (z.size() != std::size_t(w.nx) * std::size_t(w.nz)) throw Error("world", "flow: a tile has the wrong size");
+      for (int j = 0; j < w.nz; ++j)
+        for (int i = 0; i < w.nx; ++i) {
+          if (j > 1 && j < w.nz - 2 && i > 1 && i < w.nx - 2) {
+            i = w.nx - 3;  // skip the inside of the row
+            continue;
+          }
+          if (bands.has(w.ix0 + i, w.iz0 + j)) bands.set(w.ix0 + i, w.iz0 + j, z[std::size_t(j) * std::size_t(w.nx) + std::size_t(i)]);
+        }
+    }
+
+  // Pass A: local accumulation and perimeter links.
+  Nodes nd;
+  for (std::int64_t Z = 0; Z < g.tiles_z; ++Z)
+    for (std::int64_t X = 0; X < g.tiles_x; ++X) {
+      check();
+      Solve s = prepare(c, bands, load, X, Z);
+      ++st.tile_solves;
+      check_drains(c, s, path);
+      const std::size_t on = s.rl.size();
+      std::vector<std::uint32_t> np(on, kNone);  // next perimeter sample downstream inside the tile
+      for (std::size_t q = on; q-- > 0;) {
+        const std::uint32_t o = s.order[q], r = s.rl[o];
+        if (r != o) np[o] = s.perim(r) ? r : np[r];
+      }
+      const std::uint32_t t = std::uint32_t(Z * g.tiles_x + X);
+      for (std::uint32_t o = 0; o < on; ++o) {
+        if (!s.perim(o)) continue;
+        const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
+        const std::size_t gi = s.grown(oi, oj);
+        const std::int64_t wc = (s.w.iz0 + oj) * g.nx + s.w.ix0 + oi;
+        nd.id.emplace(wc, std::uint32_t(nd.cell.size()));
+        nd.cell.push_back(wc);
+        nd.tile.push_back(t);
+        nd.acc.push_back(s.acc[o]);
+        nd.z.push_back(s.zg[gi]);
+        const std::uint32_t rg = s.rec[gi];
+        if (rg != gi && owned_of(s, rg) == kNone) {
+          nd.cross.push_back(1);
+          nd.link_cell.push_back(world_index(c, s, rg));
+        } else if (np[o] != kNone) {
+          nd.cross.push_back(0);
+          const int ri = int(np[o] % std::uint32_t(s.onx)), rj = int(np[o] / std::uint32_t(s.onx));
+          nd.link_cell.push_back((s.w.iz0 + rj) * g.nx + s.w.ix0 + ri);
+        } else {
+          nd.cross.push_back(0);
+          nd.link_cell.push_back(-1);
+        }
+      }
+    }
+
+  // Global solve over the perimeter graph (Kahn), 64-bit counts.
+  const std::size_t nn = nd.cell.size();
+  st.perimeter_nodes = std::int64_t(nn);
+  nd.link.resize(nn);
+  std::vector<std::uint32_t> indeg(nn, 0);
+  nd.dstart.assign(nn + 1, 0);
+  for (std::size_t k = 0; k < nn; ++k) {
+    nd.link[k] = nd.link_cell[k] < 0 ? kNone : nd.at(nd.link_cell[k]);
+    if (nd.link[k] == kNone) continue;
+    ++indeg[nd.link[k]];
+    if (nd.cross[k]) ++nd.dstart[nd.link[k] + 1], ++st.cross_links;
+  }
+  std::vector<std::int64_t>().swap(nd.link_cell);
+  for (std::size_t k = 0; k < nn; ++k) nd.dstart[k + 1] += nd.dstart[k];
+  nd.donors.resize(nd.dstart[nn]);
+  {
+    std::vector<std::uint32_t> fillp(nd.dstart.begin(), nd.dstart.end() - 1);
+    for (std::size_t k = 0; k < nn; ++k)
+      if (nd.cross[k] && nd.link[k] != kNone) nd.donors[fillp[nd.link[k]]++] = std::uint32_t(k);
+  }
+  nd.ext.assign(nn, 0);
+  nd.inflow.assign(nn, 0);
+  std::vector<std::uint32_t> queue;
+  queue.reserve(nn);
+  for (std::size_t k = 0; k < nn; ++k)
+    if (indeg[k] == 0) queue.push_back(std::uint32_t(k));
+  for (std::size_t qi = 0; qi < queue.size(); ++qi) {
+    const std::uint32_t k = queue[qi], l = nd.link[k];
+    if (l == kNone) continue;
+    const std::uint64_t out = nd.cross[k] ? std::uint64_t(nd.acc[k]) + nd.inflow[k] : nd.inflow[k];
+    nd.inflow[l] += out;
+    if (nd.cross[k]) nd.ext[l] += out;
+    if (--indeg[l] == 0) queue.push_back(l);
+  }
+  if (queue.size() != nn) throw Error("world", "flow: internal error, the perimeter graph has a cycle");
+  nd.channel.resize(nn);
+  for (std::size_t k = 0; k < nn; ++k)
+    nd.channel[k] = double(std::uint64_t(nd.acc[k]) + nd.inflow[k]) >= c.threshold_cells && nd.z[k] >= c.sea;
+  nd.strahler.assign(nn, 0);
+  nd.chd.assign(nn, 0);
+  nd.carved = nd.z;
+
+  // Pass S: Strahler orders downstream and carved heights upstream, until nothing changes.
+  const std::int64_t tiles = g.count();
+  std::vector<std::uint8_t> dirty(std::size_t(tiles), 1);
+  for (bool any = true; any;) {
+    any = false;
+    ++st.rounds;
+    std::vector<std::uint8_t> next(std::size_t(tiles), 0);
+    for (std::int64_t t = 0; t < tiles; ++t) {
+      if (!dirty[std::size_t(t)]) continue;
+      check();
+      Solve s = prepare(c, bands, load, t % g.tiles_x, t / g.tiles_x);
+      ++st.tile_solves;
+      finish(c, nd, s);
+      for (std::uint32_t o = 0; o < s.rl.size(); ++o) {
+        st.max_count = std::max(st.max_count, s.cnt[o]);
+        if (!s.perim(o)) continue;
+        const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
+        const std::uint32_t k = nd.at((s.w.iz0 + oj) * g.nx + s.w.ix0 + oi);
+        nd.chd[k] = s.chd[o];
+        if (nd.cross[k] && nd.strahler[k] != s.str[o]) {
+          nd.strahler[k] = s.str[o];
+          next[nd.tile[nd.link[k]]] = 1, any = true;
+        }
+        if (std::memcmp(&nd.carved[k], &s.ec[o], 4) != 0) {
+          nd.carved[k] = s.ec[o];
+          for (std::uint32_t q = nd.dstart[k]; q < nd.dstart[k + 1]; ++q) next[nd.tile[nd.donors[q]]] = 1, any = true;
+        }
+      }
+    }
+    dirty = std::move(next);
+  }
+
+  // Pass W: river cover that reaches beyond the owned rectangle of its channel sample.
+  std::unordered_map<std::int64_t, float> cover_sea, cover_any;  // sea-tested discs, point covers
+  auto strictly_inside = [](const Solve& s, std::int64_t ix, std::int64_t iz) {
+    return ix > s.w.ix0 && iz > s.w.iz0 && ix < s.w.ix0 + s.onx - 1 && iz < s.w.iz0 + s.onz - 1;
+  };
+  for (std::int64_t t = 0; t < tiles; ++t) {
+    check();
+    Solve s = prepare(c, bands, load, t % g.tiles_x, t / g.tiles_x);
+    ++st.tile_solves;
+    finish(c, nd, s);
+    for (std::uint32_t o = 0; o < s.rl.size(); ++o) {
+      if (!s.ch[o]) continue;
+      const std::int64_t i = s.w.ix0 + o % std::uint32_t(s.onx), j = s.w.iz0 + o / std::uint32_t(s.onx);
+      each_cover(c, i, j, s.cnt[o], [&](std::int64_t a, std::int64_t b, float v, bool sea_test) {
+        if (!(v > 0) || strictly_inside(s, a, b)) return;
+        float& slot = (sea_test ? cover_sea : cover_any).try_emplace(b * g.nx + a, 0.0f).first->second;
+        slot = std::max(slot, v);
+      });
+    }
+  }
+  st.cover_cells = cover_sea.size() + cover_any.size();
+
+  // Final pass: each tile's layers (and the river pieces).
+  std::unordered_map<std::int64_t, Piece> pieces;
+  std::vector<std::int64_t> starts;
+  for (std::int64_t t = 0; t < tiles; ++t) {
+    check();
+    const std::int64_t X = t % g.tiles_x, Z = t / g.tiles_x;
+    Solve s = prepare(c, bands, load, X, Z);
+    ++st.tile_solves;
+    finish(c, nd, s);
+    const WorldGrid::Window& w = s.w;
+    const std::size_t n = std::size_t(w.nx) * std::size_t(w.nz);
+    FlowTile out;
+    out.height.resize(n);
+    out.flow.resize(n);
+    out.water.assign(n, 0.0f);
+    for (int j = 0; j < w.nz; ++j)
+      for (int i = 0; i < w.nx; ++i) {
+        const std::size_t m = std::size_t(j) * std::size_t(w.nx) + std::size_t(i);
+        std::uint64_t count;
+        if (i < s.onx && j < s.onz) {
+          const std::size_t o = std::size_t(j) * std::size_t(s.onx) + std::size_t(i);
+          out.height[m] = s.ec[o];
+          count = s.cnt[o];
+        } else {
+          const std::uint32_t k = nd.at((w.iz0 + j) * g.nx + w.ix0 + i);
+          out.height[m] = nd.carved[k];
+          count = std::uint64_t(nd.acc[k]) + nd.inflow[k];
+        }
+        out.flow[m] = float(double(count) * c.cell2);
+      }
+    for (std::uint32_t o = 0; o < s.rl.size(); ++o) {
+      if (!s.ch[o]) continue;
+      const std::int64_t i = w.ix0 + o % std::uint32_t(s.onx), j = w.iz0 + o / std::uint32_t(s.onx);
+      each_cover(c, i, j, s.cnt[o], [&](std::int64_t a, std::int64_t b, float v, bool sea_test) {
+        if (a < w.ix0 || b < w.iz0 || a >= w.ix0 + w.nx || b >= w.iz0 + w.nz) return;
+        const std::size_t m = std::size_t(b - w.iz0) * std::size_t(w.nx) + std::size_t(a - w.ix0);
+        if (sea_test && out.height[m] < c.sea) return;
+        out.water[m] = std::max(out.water[m], v);
+      });
+    }
+    // Cover from channel samples of other tiles (discs may reach deep into this one).
+    for (int j = 0; j < w.nz && st.cover_cells > 0; ++j)
+      for (int i = 0; i < w.nx; ++i) {
+        const std::size_t m = std::size_t(j) * std::size_t(w.nx) + std::size_t(i);
+        const std::int64_t wc = (w.iz0 + j) * g.nx + w.ix0 + i;
+        if (auto it = cover_any.find(wc); it != cover_any.end()) out.water[m] = std::max(out.water[m], it->second);
+        if (auto it = cover_sea.find(wc); it != cover_sea.end() && !(out.height[m] < c.sea))
+          out.water[m] = std::max(out.water[m], it->second);
+      }
+    if (rivers) trace_pieces(c, nd, s, pieces, starts);
+    if (store) store(X, Z, std::move(out));
+  }
+  if (rivers) {
+    // Whole polylines: each start's piece, followed into the tiles it continues in; in the order
+    // of the start samples (row-major world index), as apply_flow's scan finds them.
+    std::sort(starts.begin(), starts.end());
+    rivers->clear();
+    for (const std::int64_t s0 : starts) {
+      River river;
+      std::int64_t at = s0;
+      for (;;) {
+        const auto it = pieces.find(at);
+        if (it == pieces.end()) throw Error("world", "flow: internal error, a river piece is missing");
+        Piece& pc = it->second;
+        if (at == s0) river.order = pc.order;
+        river.vertices.insert(river.vertices.end(), pc.vertices.begin(), pc.vertices.end());
+        if (pc.next < 0) {
+          river.end = pc.end;
+          break;
+        }
+        at = pc.next;
+      }
+      if (river.vertices.size() >= 2) rivers->push_back(std::move(river));
+    }
+    st.river_pieces = pieces.size();
+  }
+  return st;
+}
+
+WorldStageAlgorithm world_flow(WorldWaterSink water) {
+  return [water](const WorldStageIO& io, const RecipeStage& st, int index) {
+    const WorldFlowParams p = world_flow_params(st.stage->params());
+    const TileLoad load = [&](std::int64_t X, std::int64_t Z) { return io.load(X, Z).layers.at("height").data; };
+    const FlowTileStore store = [&](std::int64_t X, std::int64_t Z, FlowTile ft) {
+      WorldTile t = io.load(X, Z);
+      t.layers.at("height").data = std::move(ft.height);
+      t.layers["flow"] = Layer{1, std::move(ft.flow)};
+      t.layers["water"] = Layer{1, std::move(ft.water)};
+      io.store(X, Z, std::move(t));
+    };
+    std::vector<River> rivers;
+    flow_tiled(io.grid, io.world, p, load, store, water ? &rivers : nullptr, io.cancelled,
+               "stages[" + std::to_string(index) + "]");
+    if (water) water(io.world, std::move(rivers), {});
+  };
+}
+
+void write_world_water(const Frame& world, const std::vector<River>& rivers, const std::vector<Lake>& lakes, Output& out) {
+  Terrain t;
+  t.frame = world;
+  t.layers["flow"] = Layer{1, {}};  // the writers' sign of a flow stage; they read no samples
+  t.rivers = rivers;
+  t.lakes = lakes;
+  const WriteContext ctx;
+  for (const WriterDef& w : water_writers()) w.write(t, ctx, out);
+}
+
+}  // namespace relief
