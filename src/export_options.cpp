@@ -37,7 +37,7 @@ Table<O> make_table() {
   f.push_back(param(&O::stl_base_mm, "stl_base_mm", 0.5, 100, "mm", "stl: base thickness under the lowest point"));
   f.push_back(choice(&O::engine, "engine", kEngineNames,
                      "engine heightmap profile: legal size, format, orientation, sidecar and import settings"));
-  f.push_back(text(&O::split, "split", "engine: tiles along x and z, NxM (overlapping by one sample, named _x0_y0)"));
+  f.push_back(text(&O::split, "split", "engine: tiles along x and z, NxM, named _x0_y0 (unity, godot: neighbours share a border sample; unreal: edge to edge)"));
   f.push_back(choice(&O::godot_format, "godot_format", {{GodotFormat::Exr, "exr"}, {GodotFormat::R16, "r16"}},
                      "engine godot: 32-bit float EXR (metres) or r16"));
   f.push_back(param(&O::normal_bits, "normal_bits", 8, 16, "bits", "normalmap: 8 or 16 bits per channel"));
@@ -135,8 +135,9 @@ std::vector<int> engine_tile_sizes(Engine engine) {
 
 int engine_legal_size(Engine engine, int wanted, int tiles) {
   int best = 0;
+  const int ov = engine == Engine::Unreal ? 0 : 1;  // engine_tile_overlap (world_engine.hpp)
   for (int t : engine_tile_sizes(engine)) {
-    const int n = tiles * (t - 1) + 1;
+    const int n = tiles * (t - ov) + ov;
     if (best == 0 || std::abs(n - wanted) < std::abs(best - wanted) ||
         (std::abs(n - wanted) == std::abs(best - wanted) && n > best))
       best = n;
@@ -156,12 +157,15 @@ void check_engine_size(const ExportOptions& o, int nx, int nz, const OptionPath&
   const std::string path = option_path(path_of, "engine");
   if (sizes.empty()) throw Error(path, "the engine writer needs an engine: unity, unreal or godot");
   const int kx = o.split_x(), kz = o.split_z();
-  auto tile = [&](int n, int k) { return (n - 1) % k == 0 ? (n - 1) / k + 1 : 0; };
+  // Unity and Godot tiles share a border sample (n = k·(t − 1) + 1); Unreal's tiled import puts
+  // tiles edge to edge (n = k·t): see relief/world_engine.hpp.
+  const int ov = o.engine == Engine::Unreal ? 0 : 1;
+  auto tile = [&](int n, int k) { return n > ov && (n - ov) % k == 0 ? (n - ov) / k + ov : 0; };
   const int tx = tile(nx, kx), tz = tile(nz, kz);
   const bool ok = tx != 0 && tx == tz && std::find(sizes.begin(), sizes.end(), tx) != sizes.end();
   if (ok) return;
   std::string list;
-  for (int t : sizes) list += (list.empty() ? "" : ", ") + std::to_string(kx * (t - 1) + 1) + "x" + std::to_string(kz * (t - 1) + 1);
+  for (int t : sizes) list += (list.empty() ? "" : ", ") + std::to_string(kx * (t - ov) + ov) + "x" + std::to_string(kz * (t - ov) + ov);
   throw Error(path, to_string(o.engine) + " needs " + (kx * kz > 1 ? "tiles of a legal square size; with split " + o.split + " that is " : "one of ") +
                         list + "; got " + std::to_string(nx) + "x" + std::to_string(nz) + " (use " + size_path + ")");
 }

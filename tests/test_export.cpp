@@ -901,7 +901,7 @@ TEST(Engine, LegalSizes) {
   EXPECT_EQ(engine_legal_size(Engine::Unity, 1000, 1), 1025);
   EXPECT_EQ(engine_legal_size(Engine::Unity, 5000, 1), 4097);
   EXPECT_EQ(engine_legal_size(Engine::Unreal, 1025, 1), 1009);
-  EXPECT_EQ(engine_legal_size(Engine::Unreal, 2017, 4), 2017);  // 4 tiles of 505
+  EXPECT_EQ(engine_legal_size(Engine::Unreal, 2017, 4), 2020);  // 4 tiles of 505, edge to edge (no shared sample)
   EXPECT_EQ(engine_legal_size(Engine::Unity, 1025, 4), 1025);   // 4 tiles of 257
   EXPECT_EQ(engine_legal_size(Engine::Godot, 600, 1), 513);
   ExportOptions o;
@@ -923,8 +923,12 @@ TEST(Engine, LegalSizes) {
     EXPECT_NE(std::string(e.what()).find("(use --size)"), std::string::npos);
   }
   o.split = "2x2";
-  EXPECT_NO_THROW(check_engine_size(o, 1009, 1009));  // tiles of 505
-  EXPECT_THROW(check_engine_size(o, 1009, 505), Error);
+  EXPECT_NO_THROW(check_engine_size(o, 1010, 1010));  // tiles of 505, edge to edge
+  EXPECT_THROW(check_engine_size(o, 1009, 1009), Error);  // the overlapping layout is not Unreal's
+  EXPECT_THROW(check_engine_size(o, 1010, 505), Error);
+  o.engine = Engine::Unity;  // Unity (and Godot) tiles share their border sample
+  EXPECT_NO_THROW(check_engine_size(o, 513, 513));  // tiles of 257
+  EXPECT_THROW(check_engine_size(o, 514, 514), Error);
 }
 
 namespace {
@@ -1043,7 +1047,43 @@ TEST(Engine, SplitTilesOverlapByOneSampleAndJoinWithoutSeams) {
   for (int r = 0; r < 33; ++r) EXPECT_EQ(sample(0, 0, 32, r), sample(1, 0, 0, r));
   const json s = json::parse(out.files.at("unity_height.json"));
   EXPECT_EQ(s["tiles"].size(), 4u);
+  EXPECT_EQ(s["overlap_samples"], 1);
   EXPECT_DOUBLE_EQ(s["tiles"][1]["x0_m"].get<double>(), 128.0);
+  // The terrain group: Unity +z is our -z, so tile y0 is the top neighbour of tile y1.
+  EXPECT_EQ(s["tiles"][2]["neighbors"]["top"], "unity_height_x0_y0.raw");
+  EXPECT_EQ(s["tiles"][2]["neighbors"]["right"], "unity_height_x1_y1.raw");
+  EXPECT_TRUE(s["tiles"][2]["neighbors"]["bottom"].is_null());
+  EXPECT_TRUE(s["tiles"][2]["neighbors"]["left"].is_null());
+  EXPECT_DOUBLE_EQ(s["tiles"][2]["unity_position"][2].get<double>(), -256.0);  // Unity z of our z-max edge
+}
+
+// Unreal's tiled import copies tile (X, Y) to X·width, Y·height with no shared row, so Unreal tiles
+// abut: 2×2 tiles of 127 hold a 254² map, each sample exactly once.
+TEST(Engine, UnrealSplitTilesAbutWithoutSharedSamples) {
+  Terrain t = terrain(254, 254, 4.0);
+  auto& h = t.get("height").data;
+  for (std::size_t k = 0; k < h.size(); ++k) h[k] = float(k % 254 + 7 * (k / 254)) / 2200.0f;
+  const MemoryOutput out = engine_files(t, "unreal", "2x2");
+  std::vector<test::Png> tiles;
+  for (int ty = 0; ty < 2; ++ty)
+    for (int tx = 0; tx < 2; ++tx) {
+      const std::string n = "unreal_height_x" + std::to_string(tx) + "_y" + std::to_string(ty) + ".png";
+      ASSERT_EQ(out.files.count(n), 1u) << n;
+      tiles.push_back(decode_png(out.files.at(n)));
+      ASSERT_EQ(tiles.back().ihdr.width, 127u);
+    }
+  // Unreal's placement: tile (X, Y) at (127·X, 127·Y).
+  for (int j = 0; j < 254; ++j)
+    for (int i = 0; i < 254; ++i) {
+      const test::Png& p = tiles[std::size_t(j / 127) * 2 + std::size_t(i / 127)];
+      ASSERT_EQ(u16_at(p, std::size_t(j % 127) * 127 + std::size_t(i % 127)), u16(h[std::size_t(j) * 254 + i])) << i << " " << j;
+    }
+  const json s = json::parse(out.files.at("unreal_height.json"));
+  EXPECT_EQ(s["overlap_samples"], 0);
+  EXPECT_DOUBLE_EQ(s["tiles"][1]["x0_m"].get<double>(), 127 * 4.0);
+  EXPECT_EQ(s["unreal"]["landscape_samples"][0], 254);
+  // The overlapping layout (253 = 2·126 + 1) is refused for Unreal.
+  EXPECT_THROW(engine_files(terrain(253, 253, 4.0), "unreal", "2x2"), Error);
 }
 
 // ---- maps ----------------------------------------------------------------------------------------

@@ -39,6 +39,7 @@
 #include "relief/recipe.hpp"
 #include "relief/steps.hpp"
 #include "relief/world.hpp"
+#include "relief/world_engine.hpp"
 
 using namespace relief;
 
@@ -435,6 +436,9 @@ struct CliWorld {
   std::string size;    // N or NxM, up to kMaxWorldSize
   int tile = 257;
   bool force = false;
+  // Engine tile set and LOD pyramid written from the finished store (relief/world_engine.hpp).
+  std::string engine, split, godot_format;
+  bool lod = false;
 };
 
 // --size for a world: N or NxM with kMinSize..kMaxWorldSize samples per axis.
@@ -475,6 +479,12 @@ int cmd_world(const CliWorld& w) {
   ws.out_path = "--out";
   ws.force_name = "--force";
   const bool seed_given = ws.recipe.seed.has_value();
+  // The engine tile set's options, checked against the world's size before any tile is built.
+  ExportOptions engine_options;
+  if (!w.engine.empty()) set_export_option(engine_options, "engine", w.engine, "--engine");
+  if (!w.split.empty()) set_export_option(engine_options, "split", w.split, "--split");
+  if (!w.godot_format.empty()) set_export_option(engine_options, "godot_format", w.godot_format, "--godot-format");
+  check_world_export(engine_options, ws.nx ? ws.nx : ws.recipe.world.nx, ws.nz ? ws.nz : ws.recipe.world.nz, cli_flag_path, "--size");
   Progress prog{is_tty() && !s.quiet};
   ws.progress = [&](const WorldProgress& p) {
     char line[256];
@@ -504,11 +514,42 @@ int cmd_world(const CliWorld& w) {
     if (!seed_given)
       std::printf("seed %llu (%s; reproduce with --seed %llu)\n", (unsigned long long)rep.seed,
                   rep.seed_reused ? "the seed of the world in the folder" : "random", (unsigned long long)rep.seed);
-    const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
     std::printf("world %lldx%lld in %lldx%lld tiles of %d: %lld built, %lld resumed; %s in %s (world.json, overview.png, report.json)\n",
                 (long long)rep.grid.nx, (long long)rep.grid.nz, (long long)rep.grid.tiles_x, (long long)rep.grid.tiles_z,
                 rep.grid.tile, (long long)rep.tiles_built, (long long)rep.tiles_skipped, human_bytes(rep.store_bytes).c_str(),
                 s.out_dir.c_str());
+  }
+  if (engine_options.engine != Engine::None || w.lod) {
+    WorldExportSettings es;
+    es.store_dir = s.out_dir;
+    es.options = engine_options;
+    es.lod = w.lod;
+    es.option_path = cli_flag_path;
+    es.size_path = "--size";
+    es.progress = [&](std::string_view what, double f) { prog(what, f); };
+    es.cancelled = [] { return g_signal.load() != 0; };
+    WorldExportReport er;
+    try {
+      er = export_world(es);
+    } catch (const Cancelled&) {
+      prog.done();
+      g_finished = true;
+      const int sig = g_signal.load();
+      std::fprintf(stderr, "relief: interrupted by %s; the store is complete: run the same command again to write the engine tiles\n",
+                   signal_name(sig));
+      return sig ? 128 + sig : 1;
+    }
+    prog.done();
+    if (!s.quiet) {
+      if (er.engine_tiles)
+        std::printf("%s: %d engine tiles in %s/%s\n", to_string(engine_options.engine).c_str(), er.engine_tiles, s.out_dir.c_str(),
+                    es.engine_subdir.c_str());
+      if (er.lod_levels)
+        std::printf("lod: %d levels, %lld tiles in %s/%s\n", er.lod_levels, (long long)er.lod_tiles, s.out_dir.c_str(), es.lod_subdir.c_str());
+    }
+  }
+  if (!s.quiet) {
+    const double total = std::chrono::duration<double>(std::chrono::steady_clock::now() - t_start).count();
     std::printf("%.2f s, peak memory %s\n", total, human_bytes(peak_rss_bytes()).c_str());
   }
   return 0;
@@ -808,6 +849,13 @@ int main(int argc, char** argv) {
   wld->add_flag("--force", wsx.force,
                 "Replace a different world found in the output folder (its world.json, tiles, overview.png and report.json); "
                 "without it such a folder is refused");
+  wld->add_option("--engine", wsx.engine, "Also write the engine tile set from the store into OUT/engine: unity, unreal or godot "
+                                          "(the same files as `relief generate --engine E --split KxM` at this size)");
+  wld->add_option("--split", wsx.split, "Engine tiles along x and z, NxM (default 1x1; unity, godot: neighbours share a border sample; "
+                                        "unreal: edge to edge)");
+  wld->add_option("--godot-format", wsx.godot_format, "Engine godot: exr (32-bit float metres, default) or r16");
+  wld->add_flag("--lod", wsx.lod, "Also write a LOD pyramid into OUT/lod: 16-bit PNG height (and RGB colour) tiles, each level "
+                                  "every other sample of the one below, up to one tile");
 
   bool presets_json = false;
   auto* pre = app.add_subcommand("presets", "List presets: built-in, then $RELIEF_PRESETS folders and ~/.config/relief/presets");
