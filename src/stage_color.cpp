@@ -30,6 +30,7 @@
 #include "relief/error.hpp"
 #include "relief/random.hpp"
 #include "shared_tables.hpp"
+#include "slope_kernel.hpp"
 #include "stages.hpp"
 #include "texture.hpp"
 
@@ -64,10 +65,10 @@ void apply_slope(Terrain& t, const SlopeParams& p, const Context&) {
   const Frame& fr = t.frame;
   const Layer& h = t.get("height");
   require_nonempty(t, h, "height");
-  Layer& s = t.layer("slope", 1);
-  Layer& sd = t.layer("slope_deg", 1);
+  // Every sample of both layers is written below: no zero fill first.
+  Layer& s = t.layer_for_overwrite("slope", 1);
+  Layer& sd = t.layer_for_overwrite("slope_deg", 1);
   const bool eight = p.border == SlopeBorder::Eight;
-  const double cell2 = 2.0 * fr.cell_m();
   // Any sample: the mean absolute difference to the neighbours that exist (or /8 with border
   // `eight`) and the slope in degrees with one-sided differences at the border.
   auto edge_sample = [&](int i, int j, float* srow, float* sdrow) {
@@ -84,31 +85,17 @@ void apply_slope(Terrain& t, const SlopeParams& p, const Context&) {
     srow[i] = float(eight ? sum / 8.0 : sum / count);
     sdrow[i] = float(slope_deg_at(fr, h, i, j));
   };
+  detail::SlopeRow k;
+  k.sea_level = fr.sea_level;
+  k.height_m = fr.height_m;
+  k.cell2_m = 2.0 * fr.cell_m();
   detail::parallel_rows(fr.nz, [&](int j) {
     float* srow = s.data.data() + std::size_t(j) * fr.nx;
     float* sdrow = sd.data.data() + std::size_t(j) * fr.nx;
     if (h.channels == 1 && j > 0 && j + 1 < fr.nz && fr.nx >= 3) {
-      // Interior samples of an interior row: the same sums and differences in the same order as
-      // the general loop below (same bits), without its bounds checks.
-      const float* up = h.row(j - 1, fr.nx);
-      const float* mid = h.row(j, fr.nx);
-      const float* down = h.row(j + 1, fr.nx);
-      for (int i = 1; i + 1 < fr.nx; ++i) {
-        const double e = mid[i];
-        double sum = std::fabs(e - double(up[i - 1]));
-        sum += std::fabs(e - double(up[i]));
-        sum += std::fabs(e - double(up[i + 1]));
-        sum += std::fabs(e - double(mid[i - 1]));
-        sum += std::fabs(e - double(mid[i + 1]));
-        sum += std::fabs(e - double(down[i - 1]));
-        sum += std::fabs(e - double(down[i]));
-        sum += std::fabs(e - double(down[i + 1]));
-        srow[i] = float(sum / 8.0);
-      }
-      for (int i = 1; i + 1 < fr.nx; ++i) {  // apart, so that the loop above vectorises
-        const detail::Gradient g{(fr.y_m(mid[i + 1]) - fr.y_m(mid[i - 1])) / cell2, (fr.y_m(down[i]) - fr.y_m(up[i])) / cell2};
-        sdrow[i] = float(detail::slope_deg_of(g));
-      }
+      // Interior samples of an interior row: the row kernel (slope_kernel.hpp), the same bits as
+      // edge_sample's sums and differences without its bounds checks; the two border columns apart.
+      detail::slope_row(k, h.row(j - 1, fr.nx), h.row(j, fr.nx), h.row(j + 1, fr.nx), srow, sdrow, fr.nx);
       for (int i : {0, fr.nx - 1}) edge_sample(i, j, srow, sdrow);
       return;
     }
@@ -415,7 +402,8 @@ void apply_hillshade(Terrain& t, const HillshadeParams& p, const Context&) {
     const Layer& a = t.get("albedo");
     if (a.channels == 3 && a.data.size() == fr.count() * 3) albedo = &a;
   }
-  detail::hillshade(fr, h, albedo, p, &t.layer("shade", 1), &t.layer("color", 3));
+  // Both outputs are written whole by the kernel: no zero fill first.
+  detail::hillshade(fr, h, albedo, p, &t.layer_for_overwrite("shade", 1), &t.layer_for_overwrite("color", 3));
 }
 
 }  // namespace

@@ -1,26 +1,66 @@
 #include "relief/terrain.hpp"
 
+#include <cstdint>
+
 #include "relief/error.hpp"
 
+#if defined(__linux__)
+#include <sys/mman.h>
+#endif
+
 namespace relief {
+
+namespace {
+
+// Hands the smallest spare buffer whose capacity holds `want` floats to `data` (if `data`'s own
+// capacity is too small and there is one).
+void take_spare(std::vector<std::vector<float>>& spare, std::vector<float>& data, std::size_t want) {
+  if (data.capacity() >= want) return;
+  auto best = spare.end();
+  for (auto it = spare.begin(); it != spare.end(); ++it)
+    if (it->capacity() >= want && (best == spare.end() || it->capacity() < best->capacity())) best = it;
+  if (best != spare.end()) {
+    data.swap(*best);
+    spare.erase(best);
+  }
+}
+
+// Reserves room for `want` floats in an empty vector and asks for transparent huge pages over the
+// whole 2 MiB pages inside it, before anything touches it (a hint: without THP nothing changes).
+void reserve_huge(std::vector<float>& data, std::size_t want) {
+  constexpr std::size_t kHuge = std::size_t(2) << 20;
+  data.clear();
+  data.shrink_to_fit();
+  data.reserve(want);
+#if defined(__linux__) && defined(MADV_HUGEPAGE)
+  const auto begin = reinterpret_cast<std::uintptr_t>(data.data());
+  const std::uintptr_t first = (begin + kHuge - 1) & ~std::uintptr_t(kHuge - 1);
+  const std::uintptr_t last = (begin + want * sizeof(float)) & ~std::uintptr_t(kHuge - 1);
+  if (last > first) (void)madvise(reinterpret_cast<void*>(first), last - first, MADV_HUGEPAGE);
+#endif
+}
+
+}  // namespace
 
 Layer& Terrain::layer(const std::string& name, int channels) {
   Layer& l = layers[name];
   const std::size_t want = frame.count() * std::size_t(channels);
   if (l.channels != channels || l.data.size() != want) {
     l.channels = channels;
-    if (l.data.capacity() < want) {
-      // The smallest spare buffer that holds the layer, if any.
-      auto best = spare.end();
-      for (auto it = spare.begin(); it != spare.end(); ++it)
-        if (it->capacity() >= want && (best == spare.end() || it->capacity() < best->capacity())) best = it;
-      if (best != spare.end()) {
-        l.data.swap(*best);
-        spare.erase(best);
-      }
-    }
+    take_spare(spare, l.data, want);
     l.data.assign(want, 0.0f);
   }
+  return l;
+}
+
+Layer& Terrain::layer_for_overwrite(const std::string& name, int channels) {
+  Layer& l = layers[name];
+  const std::size_t want = frame.count() * std::size_t(channels);
+  l.channels = channels;
+  if (l.data.size() == want) return l;
+  take_spare(spare, l.data, want);
+  if (l.data.capacity() < want && want * sizeof(float) >= (std::size_t(4) << 20)) reserve_huge(l.data, want);
+  l.data.resize(want);  // writes only the elements added beyond the old size
   return l;
 }
 
