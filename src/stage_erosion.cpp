@@ -116,7 +116,7 @@ void apply_fill(Terrain& t, const FillParams& p, const Context&) {
   Layer& h = height_layer(t);
   const Frame& f = t.frame;
   const float sea = float(f.sea_level), eps = float(p.epsilon_m / f.height_m);
-  if (!hydro::already_drains<float>(h.data.data(), f.nx, f.nz, sea, eps))
+  if (!hydro::already_drains<float>(h.data.data(), f.nx, f.nz, sea))
     hydro::fill_depressions<float>(h.data.data(), f.nx, f.nz, sea, eps);
 }
 
@@ -151,7 +151,7 @@ void apply_flow(Terrain& t, const FlowParams& p, const Context& ctx) {
   const auto progress = stage_progress(ctx, "flow");
   // A height that already drains (a `fill` stage before this one) is not filled again: the
   // fill would change nothing (hydrology.hpp, already_drains), and the check is one cheap pass.
-  if (!hydro::already_drains<float>(filled.data(), nx, nz, sea, float(p.epsilon_m / H)))
+  if (!hydro::already_drains<float>(filled.data(), nx, nz, sea))
     hydro::fill_depressions<float>(filled.data(), nx, nz, sea, float(p.epsilon_m / H));
   if (progress) progress(0.7);  // the fill is most of the stage's time (bench: fill + d8 + accumulation)
   std::vector<std::uint32_t> rec(n), order, count(n);

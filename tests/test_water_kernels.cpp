@@ -13,6 +13,7 @@
 #include <cstring>
 #include <deque>
 #include <functional>
+#include <limits>
 #include <map>
 #include <tuple>
 #include <type_traits>
@@ -57,12 +58,11 @@ using test::same_bits;
 
 // ---- references ------------------------------------------------------------------------------
 
-// Priority-Flood+ε written plainly, as hydrology.hpp states it before its shortcuts: Barnes et
-// al.'s Algorithm 3 (plain FIFO pit queue) with Zhou et al.'s slope traversal (depth first) that
-// queues every traversed cell bordering a lower or equal unvisited cell, and a priority queue that
-// pops the smallest key, equal keys last-in first-out (a map of stacks keyed on the order-preserving
-// bits of the value, as the radix heap orders them). fill_depressions drops queue entries that
-// could only pop as no-ops (Wei et al. 2018's test) and must give these bits exactly.
+// The fill's defining equation (hydrology.hpp), solved plainly by Bellman-Ford sweeps instead of
+// a priority flood: start every non-outlet cell at its seed (+inf: none), then lower each cell to
+// min over its 8 neighbours n of g(F(n), z(c)), g(L, z) = z when z > L else step(L), sweeping
+// forwards and backwards until nothing changes. g(L, z) > L, so there are no cycles of equal cost
+// and the sweeps converge to the unique (hence least) solution; the flood must give it exactly.
 template <class T>
 auto order_bits(T v) {
   using U = std::conditional_t<sizeof(T) == 4, std::uint32_t, std::uint64_t>;
@@ -80,66 +80,48 @@ T from_order_bits(U k) {
   return v;
 }
 template <class T>
-void fill_reference(std::vector<T>& z, int nx, int nz, T sea, T epsilon) {
+void fill_reference(std::vector<T>& z, int nx, int nz, const std::vector<std::uint8_t>& outlet, const std::vector<T>& seed, T epsilon) {
   using U = decltype(order_bits(T()));
-  const std::size_t n = z.size();
-  std::vector<char> closed(n, 0);
-  auto in_grid = [&](int i, int j) { return i >= 0 && j >= 0 && i < nx && j < nz; };
-  for (int j = 0; j < nz; ++j)
-    for (int i = 0; i < nx; ++i) closed[std::size_t(j) * nx + i] = hydro::on_border(i, j, nx, nz) || z[std::size_t(j) * nx + i] < sea;
-  std::map<U, std::vector<std::uint32_t>> open;
-  for (int j = 0; j < nz; ++j)
-    for (int i = 0; i < nx; ++i) {
-      const std::size_t c = std::size_t(j) * nx + i;
-      bool land = false;
-      for (int k = 0; k < 8; ++k)
-        land |= in_grid(i + hydro::kDi[k], j + hydro::kDj[k]) && !closed[std::size_t(j + hydro::kDj[k]) * nx + i + hydro::kDi[k]];
-      if (closed[c] && land) open[order_bits(z[c])].push_back(std::uint32_t(c));
-    }
-  std::vector<std::uint32_t> trail;
-  auto traverse = [&](std::uint32_t m) {
-    trail.push_back(m);
-    while (!trail.empty()) {
-      const std::uint32_t q = trail.back();
-      trail.pop_back();
-      const int i = int(q % std::uint32_t(nx)), j = int(q / std::uint32_t(nx));
-      bool boundary = false;
-      for (int k = 0; k < 8; ++k) {
-        const std::size_t r = std::size_t(j + hydro::kDj[k]) * nx + i + hydro::kDi[k];
-        if (closed[r]) continue;
-        if (z[r] > z[q]) closed[r] = 1, trail.push_back(std::uint32_t(r));
-        else boundary = true;
-      }
-      if (boundary) open[order_bits(z[q])].push_back(q);
-    }
+  const T inf = std::numeric_limits<T>::infinity();
+  auto step = [&](T l) {
+    T next = from_order_bits<T>(U(order_bits(l) + 1));
+    if (!(next > l)) next = from_order_bits<T>(U(order_bits(l) + 2));  // −0 → +0 is not a step
+    if (l + epsilon > next) next = l + epsilon;
+    return next;
   };
-  std::deque<std::pair<T, std::uint32_t>> pits;
-  while (!pits.empty() || !open.empty()) {
-    T lc;
-    std::uint32_t c;
-    if (!pits.empty()) {
-      std::tie(lc, c) = pits.front();
-      pits.pop_front();
-    } else {
-      auto lowest = open.begin();
-      lc = from_order_bits<T>(lowest->first);
-      c = lowest->second.back();
-      lowest->second.pop_back();
-      if (lowest->second.empty()) open.erase(lowest);
-    }
-    T next = from_order_bits<T>(U(order_bits(lc) + 1));
-    if (!(next > lc)) next = from_order_bits<T>(U(order_bits(lc) + 2));  // −0 → +0 is not a step
-    if (lc + epsilon > next) next = lc + epsilon;
-    const int i = int(c % std::uint32_t(nx)), j = int(c / std::uint32_t(nx));
+  std::vector<T> f(z.size(), inf);
+  for (std::size_t c = 0; c < z.size(); ++c) f[c] = outlet[c] ? z[c] : (seed.empty() ? inf : std::max(seed[c], z[c]));
+  auto relax = [&](int i, int j) {
+    const std::size_t c = std::size_t(j) * nx + i;
+    if (outlet[c]) return false;
+    T best = f[c];
     for (int k = 0; k < 8; ++k) {
-      if (!in_grid(i + hydro::kDi[k], j + hydro::kDj[k])) continue;
-      const std::size_t m = std::size_t(j + hydro::kDj[k]) * nx + i + hydro::kDi[k];
-      if (closed[m]) continue;
-      closed[m] = 1;
-      if (z[m] < next) z[m] = next, pits.push_back({next, std::uint32_t(m)});
-      else traverse(std::uint32_t(m));
+      const int a = i + hydro::kDi[k], b = j + hydro::kDj[k];
+      if (a < 0 || b < 0 || a >= nx || b >= nz) continue;
+      const T l = f[std::size_t(b) * nx + a];
+      if (l == inf) continue;
+      const T g = z[c] > l ? z[c] : step(l);
+      if (g < best) best = g;
     }
+    if (!(best < f[c])) return false;
+    f[c] = best;
+    return true;
+  };
+  for (bool changed = true; changed;) {
+    changed = false;
+    for (int j = 0; j < nz; ++j)
+      for (int i = 0; i < nx; ++i) changed |= relax(i, j);
+    for (int j = nz; j-- > 0;)
+      for (int i = nx; i-- > 0;) changed |= relax(i, j);
   }
+  z = f;
+}
+template <class T>
+void fill_reference(std::vector<T>& z, int nx, int nz, T sea, T epsilon) {
+  std::vector<std::uint8_t> outlet(z.size());
+  for (int j = 0; j < nz; ++j)
+    for (int i = 0; i < nx; ++i) outlet[std::size_t(j) * nx + i] = hydro::on_border(i, j, nx, nz) || z[std::size_t(j) * nx + i] < sea;
+  fill_reference<T>(z, nx, nz, outlet, {}, epsilon);
 }
 
 // The two-pass Jacobi thermal step, written plainly (the rule of erosion.hpp).
@@ -265,9 +247,10 @@ void for_each_target(const std::function<void(const char*)>& fn) {
 
 // =================================================================================== fill
 
-TEST(FillKernel, SameBitsAsThePlainZhouTraversalThatQueuesEveryBoundaryCell) {
+TEST(FillKernel, SameBitsAsTheEquationSolvedByBellmanFordSweeps) {
   // Rough grids full of ties and flats (1×1 up to 41×37, with and without sea, ε = 0 and ε > 0),
-  // float and double, then fBm islands: the skipped queue entries never change a bit.
+  // float and double, then fBm islands: the flood's order, its shortcuts and its skipped queue
+  // entries never change a bit.
   int changed = 0;
   for (std::uint64_t seed = 0; seed < 400; ++seed) {
     const int nx = 1 + int(hash64(seed, 1, 7) % 41), nz = 1 + int(hash64(seed, 2, 7) % 37);
@@ -299,6 +282,39 @@ TEST(FillKernel, SameBitsAsThePlainZhouTraversalThatQueuesEveryBoundaryCell) {
 }
 
 // =================================================================================== thermal
+
+TEST(FillKernel, TileSolveWithSeedsIsTheEquationRestrictedToTheTile) {
+  // Random tiles with outlets only where the "world" has them (some tiles have none) and seeds on
+  // some border cells (upper bounds from outside; none on every fifth tile): the least levels paths inside the tile give,
+  // +inf where none reaches.
+  int unreached = 0, seeded_lower = 0;
+  for (std::uint64_t seed = 0; seed < 300; ++seed) {
+    const int nx = 1 + int(hash64(seed, 1, 9) % 33), nz = 1 + int(hash64(seed, 2, 9) % 29);
+    const std::vector<float> z = rough(nx, nz, seed + 1000);
+    const float sea = seed % 4 == 0 ? -1.0f : float(hash64(seed, 3, 9) % 8) / 32.0f;
+    const float eps = seed % 2 ? 0.0f : 1.0f / 512;
+    std::vector<std::uint8_t> outlet(z.size());
+    std::vector<float> seeds(z.size(), std::numeric_limits<float>::infinity());
+    const bool world_left = seed % 3 == 0;  // the tile's left column is the world's border
+    for (int j = 0; j < nz; ++j)
+      for (int i = 0; i < nx; ++i) {
+        const std::size_t c = std::size_t(j) * nx + i;
+        outlet[c] = (world_left && i == 0) || z[c] < sea;
+        const bool border = hydro::on_border(i, j, nx, nz);
+        if (border && seed % 5 != 0 && hash64(seed, c, 11) % 3 == 0) seeds[c] = z[c] + float(hash64(seed, c, 12) % 16) / 64.0f;
+      }
+    std::vector<float> a = z, b = z;
+    fill_reference<float>(a, nx, nz, outlet, seeds, eps);
+    hydro::fill_depressions_tile<float>(b.data(), nx, nz, outlet.data(), seeds.data(), eps);
+    ASSERT_TRUE(same_bits(a, b)) << "seed " << seed << " " << nx << "x" << nz;
+    for (std::size_t c = 0; c < z.size(); ++c) {
+      unreached += b[c] == std::numeric_limits<float>::infinity();
+      seeded_lower += seeds[c] < std::numeric_limits<float>::infinity() && b[c] < seeds[c];
+    }
+  }
+  EXPECT_GT(unreached, 0) << "some tiles have cells no path reaches";
+  EXPECT_GT(seeded_lower, 0) << "some seeds are beaten by paths inside the tile";
+}
 
 TEST(ThermalKernel, FusedPassMatchesTheTwoPassJacobiStep) {
   // Odd sizes (row tails of every vector width, a single row or column, blocks of 16 rows with a

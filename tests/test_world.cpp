@@ -516,35 +516,40 @@ std::vector<float> tiled_fill(const std::vector<float>& z, int nx, int nz, int t
     for (int j = 0; j < w.nz; ++j)
       for (int i = 0; i < w.nx; ++i) out[std::size_t(w.iz0 + j) * nx + std::size_t(w.ix0 + i)] = f[std::size_t(j) * w.nx + i];
   };
-  const TiledFillStats st = fill_least_fixpoint_tiled(g, sea, eps, load, store);
+  const TiledFillStats st = fill_depressions_tiled(g, sea, eps, load, store);
   if (stats) *stats = st;
   return out;
 }
 
 }  // namespace
 
-// What blocks an exact tiled `fill` stage today: hydrology.cpp's Priority-Flood+ε raises the whole
-// trough from whichever equal spill it pops first, so its far end sits 7ε above the spill although
-// the other spill is one step away. The least fixpoint is symmetric.
-TEST(WorldFill, HydrologyFillDependsOnTheProcessingOrder) {
+// The fill is a least fixpoint, so it does not depend on which of two equal spills the flood pops
+// first: both ends of the trough sit one step above their spill, and the middle four steps up,
+// rounded step by step. (The Priority-Flood+ε with a FIFO pit queue that came before raised the
+// whole trough from whichever spill it popped first: its far end sat 7ε above the spill.)
+TEST(WorldFill, FillDoesNotDependOnTheProcessingOrder) {
   const float eps = 0.01f;
-  std::vector<float> a = trough(), b = trough();
+  std::vector<float> a = trough();
   hydro::fill_depressions<float>(a.data(), 9, 3, 0.0f, eps);
-  fill_least_fixpoint(b.data(), 9, 3, 0.0f, eps);
-  EXPECT_NE(a[9 + 1], a[9 + 7]) << "fill_depressions became symmetric: check whether it is now order-independent";
-  EXPECT_FLOAT_EQ(std::max(a[9 + 1], a[9 + 7]), 1.0f + 7 * eps);
-  EXPECT_EQ(b[9 + 1], b[9 + 7]);
-  EXPECT_EQ(b[9 + 1], 1.0f + eps);
-  EXPECT_EQ(b[9 + 4], (1.0f + eps + eps) + eps + eps);  // 4 steps from either spill, rounded step by step
-  EXPECT_FALSE(relief::test::same_bits(a, b));
+  EXPECT_EQ(a[9 + 1], a[9 + 7]);
+  EXPECT_EQ(a[9 + 1], 1.0f + eps);
+  EXPECT_EQ(a[9 + 4], (1.0f + eps + eps) + eps + eps);
+  // A symmetric input gives symmetric levels.
+  for (int j = 0; j < 3; ++j)
+    for (int i = 0; i < 9; ++i) EXPECT_EQ(a[std::size_t(j) * 9 + i], a[std::size_t(j) * 9 + std::size_t(8 - i)]);
+  // A cell less than ε above the level it drains to keeps its height (g(L, z) = z when z > L).
+  std::vector<float> g = {5, 5, 5, 5, 5, 1.0f, 1.005f, 2, 5, 5, 5, 5, 5, 5, 5};  // 5×3, spill at (0, 1)
+  hydro::fill_depressions<float>(g.data(), 5, 3, 0.0f, eps);
+  EXPECT_EQ(g[6], 1.005f);
+  EXPECT_EQ(g[7], 2.0f);
 }
 
-TEST(WorldFill, LeastFixpointDrainsEverySample) {
+TEST(WorldFill, FillDrainsEverySample) {
   const int n = 129;
   const std::vector<float> z = basin_world(n);
   for (float eps : {0.0f, 1e-5f}) {
     std::vector<float> f = z;
-    fill_least_fixpoint(f.data(), n, n, 0.4f, eps);
+    hydro::fill_depressions<float>(f.data(), n, n, 0.4f, eps);
     for (int j = 1; j < n - 1; ++j)
       for (int i = 1; i < n - 1; ++i) {
         const std::size_t c = std::size_t(j) * n + i;
@@ -561,18 +566,17 @@ TEST(WorldFill, LeastFixpointDrainsEverySample) {
           ASSERT_GE(double(f[c]) - double(lowest), double(eps) * 0.999) << i << "," << j;
         }
       }
-    // The basin's floor was raised (it is a closed depression), and hydrology's fill agrees on the
-    // filled set (which samples rise), if not on every bit of the flats.
+    // The basin's floor was raised (it is a closed depression).
     EXPECT_GT(f[std::size_t(n / 2) * n + n / 2], 0.45f);
   }
 }
 
-TEST(WorldFill, TiledLeastFixpointEqualsTheWholeMapBitForBit) {
+TEST(WorldFill, TiledFillEqualsTheWholeMapBitForBit) {
   const int n = 257;
   const std::vector<float> z = basin_world(n);
   for (float eps : {0.0f, 2e-6f}) {
     std::vector<float> ref = z;
-    fill_least_fixpoint(ref.data(), n, n, 0.4f, eps);
+    hydro::fill_depressions<float>(ref.data(), n, n, 0.4f, eps);
     for (int tile : {17, 33, 65, 129, 257}) {
       SCOPED_TRACE("tile " + std::to_string(tile) + " eps " + std::to_string(eps));
       TiledFillStats st;
@@ -589,7 +593,7 @@ TEST(WorldFill, TiledLeastFixpointEqualsTheWholeMapBitForBit) {
             std::vector<float> t(std::size_t(w.nx) * w.nz);
             for (int j = 0; j < w.nz; ++j)
               for (int i = 0; i < w.nx; ++i) t[std::size_t(j) * w.nx + i] = z[std::size_t(w.iz0 + j) * n + std::size_t(w.ix0 + i)];
-            fill_least_fixpoint(t.data(), w.nx, w.nz, 0.4f, eps);
+            hydro::fill_depressions<float>(t.data(), w.nx, w.nz, 0.4f, eps);
             for (int j = 0; j < w.nz; ++j)
               for (int i = 0; i < w.nx; ++i) naive[std::size_t(w.iz0 + j) * n + std::size_t(w.ix0 + i)] = t[std::size_t(j) * w.nx + i];
           }
@@ -600,7 +604,7 @@ TEST(WorldFill, TiledLeastFixpointEqualsTheWholeMapBitForBit) {
   // A non-square world whose last tiles are clipped.
   const std::vector<float> zs(z.begin(), z.begin() + std::ptrdiff_t(257) * 200);
   std::vector<float> ref = zs;
-  fill_least_fixpoint(ref.data(), 257, 200, 0.4f, 1e-6f);
+  hydro::fill_depressions<float>(ref.data(), 257, 200, 0.4f, 1e-6f);
   EXPECT_TRUE(relief::test::same_bits(ref, tiled_fill(zs, 257, 200, 65, 0.4f, 1e-6f)));
 }
 
@@ -691,39 +695,18 @@ json fill_doc(bool after) {
   return doc;
 }
 
-// The whole-map reference of a recipe whose stage `g` is "fill": stages before it, then
-// fill_least_fixpoint on the height, then the stages after it (resumed).
-Terrain whole_map_with_fixpoint_fill(Recipe r, int nx, int nz, int g) {
-  r.world.nx = nx;
-  r.world.nz = nz;
-  Recipe before = r;
-  before.stages.resize(std::size_t(g));
-  Terrain t = run(before).terrain;
-  Layer& h = t.get("height");
-  fill_least_fixpoint(h.data.data(), nx, nz, float(r.world.sea_level), float(0.01 / r.world.height_m));
-  if (std::size_t(g) + 1 == r.stages.size()) return t;
-  RunOptions opt;
-  opt.resume = Resume{&t, g + 1};
-  return run(r, opt).terrain;
-}
-
-WorldSettings with_fill(WorldSettings s) {
-  s.algorithms["fill"] = world_fill_least_fixpoint();
-  return s;
-}
-
 }  // namespace
 
 TEST(WorldPhases, AWorldAlgorithmBetweenLocalPhasesIsExact) {
   const Recipe r = recipe_of(fill_doc(true), 4);
-  const Terrain whole = whole_map_with_fixpoint_fill(r, 257, 257, 3);
+  const Terrain whole = whole_map(r, 257, 257);
   Recipe unfilled = r;
   unfilled.stages.resize(3);
   ASSERT_FALSE(relief::test::same_bits(whole.get("height").data, whole_map(unfilled, 257, 257).get("height").data));  // it filled
   for (int tile : {33, 129}) {
     SCOPED_TRACE("tile " + std::to_string(tile));
     TempDir d("world-phases");
-    const WorldReport rep = build_world(with_fill(settings(r, 257, 257, tile, d / "w")));
+    const WorldReport rep = build_world((settings(r, 257, 257, tile, d / "w")));
     expect_same_layers(whole, read_world_window(d / "w", 0, 0, 257, 257));
     EXPECT_TRUE(verify_world(d / "w").empty());
     EXPECT_FALSE(fs::exists(d.path / "w" / "phase-0"));  // intermediate phases removed at the end
@@ -734,9 +717,9 @@ TEST(WorldPhases, AWorldAlgorithmBetweenLocalPhasesIsExact) {
 
 TEST(WorldPhases, AWorldAlgorithmAsTheLastStageIsExact) {
   const Recipe r = recipe_of(fill_doc(false), 6);
-  const Terrain whole = whole_map_with_fixpoint_fill(r, 200, 257, 3);
+  const Terrain whole = whole_map(r, 200, 257);
   TempDir d("world-phase-last");
-  build_world(with_fill(settings(r, 200, 257, 65, d / "w")));
+  build_world((settings(r, 200, 257, 65, d / "w")));
   expect_same_layers(whole, read_world_window(d / "w", 0, 0, 200, 257));
   EXPECT_TRUE(verify_world(d / "w").empty());
 }
@@ -744,31 +727,34 @@ TEST(WorldPhases, AWorldAlgorithmAsTheLastStageIsExact) {
 TEST(WorldPhases, ACancelledPhasedBuildResumesToTheSameBytes) {
   const Recipe r = recipe_of(fill_doc(true), 4);
   TempDir ref("world-ph-ref"), part("world-ph-part");
-  build_world(with_fill(settings(r, 257, 257, 65, ref / "w")));
+  build_world((settings(r, 257, 257, 65, ref / "w")));
   for (int stop : {5, 20, 28}) {  // in the first local phase, and in the second (16 tiles each)
     SCOPED_TRACE("cancelled after " + std::to_string(stop) + " tiles");
-    WorldSettings s = with_fill(settings(r, 257, 257, 65, part / "w", 1));
+    WorldSettings s = (settings(r, 257, 257, 65, part / "w", 1));
     int n = 0;
     s.after_tile = [&](std::int64_t, std::int64_t) {
       if (++n == stop) throw Cancelled();
     };
     EXPECT_THROW(build_world(s), Cancelled);
     if (stop > 16) EXPECT_TRUE(fs::exists(part.path / "w" / "phase-0" / "complete"));
-    build_world(with_fill(settings(r, 257, 257, 65, part / "w")));
+    build_world((settings(r, 257, 257, 65, part / "w")));
     expect_same_store(ref.path / "w", part.path / "w");
     fs::remove_all(part.path / "w");
   }
 }
 
-TEST(WorldPhases, WithoutAnAlgorithmTheStageIsStillRefused) {
-  const Recipe r = recipe_of(fill_doc(true), 4);
+TEST(WorldPhases, AGlobalStageWithoutAnAlgorithmIsStillRefused) {
+  json doc = fill_doc(true);
+  doc["stages"][3] = json{{"stage", "hydraulic"}};  // global, no world algorithm
   TempDir d("world-ph-refuse");
   try {
-    build_world(settings(r, 257, 257, 65, d / "w"));
-    ADD_FAILURE() << "fill accepted without a world algorithm";
+    build_world(settings(recipe_of(doc, 4), 257, 257, 65, d / "w"));
+    ADD_FAILURE() << "hydraulic accepted without a world algorithm";
   } catch (const Error& e) {
     EXPECT_EQ(e.path(), "stages[3]");
+    EXPECT_NE(e.message().find("no world support yet"), std::string::npos) << e.what();
   }
+  EXPECT_EQ(default_world_algorithms().count("fill"), 1u);
 }
 
 // A world wider than one map may be (kMaxSize samples): the frame and the tiles still follow the

@@ -134,7 +134,7 @@ void bench_erosion(const BenchSettings& s, json& entries) {
     bool drains = false;
     const Sample copy = time_runs(s.runs, [&] { arena.execute([&] { b = filled; }); });
     const Sample check = time_runs(s.runs, [&] {
-      arena.execute([&] { drains = hydro::already_drains<float>(filled.data(), m, m, sea, 0.0f); });
+      arena.execute([&] { drains = hydro::already_drains<float>(filled.data(), m, m, sea); });
     });
     record("already_drains check (filled)", m, threads, check, {{"vs_copy", check.median / copy.median}, {"drains", drains}});
     const StageDef* flow = find_stage("flow");

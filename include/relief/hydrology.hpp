@@ -23,27 +23,46 @@ inline bool on_border(int i, int j, int nx, int nz) { return i == 0 || j == 0 ||
 
 // Priority-Flood+ε depression filling (Barnes, Lehman, Mulla 2014, Algorithm 3), with the slope
 // traversal of Zhou, Sun, Fu 2016 (cells met uphill of the flood front are final at once and only
-// enter the priority queue when they border lower unvisited cells) and a monotone radix heap
-// (Ahuja, Mehlhorn, Orlin, Tarjan 1990) keyed on the order-preserving bits of the elevation.
+// enter the priority queue when they border lower unvisited cells), the queue filter of Wei, Zhou,
+// Fu 2018 (such a cell is queued only when a lower unvisited neighbour has no spill path) and a
+// monotone radix heap (Ahuja, Mehlhorn, Orlin, Tarjan 1990) keyed on the order-preserving bits of
+// the elevation.
 //
-// `z` (nx·nz values, any finite values) is raised in place to the filled surface: outlets keep
-// their values; every other cell ends strictly above at least one neighbour through which it
-// drains, step by step, to an outlet. A cell filled inside a depression is raised to
-// max(level + epsilon, next representable value above level) of the cell it was reached from, so
-// flats get a gradient of at least `epsilon` (≥ 0, in the units of z) per cell towards the spill
-// point. Cells that are not in a depression are unchanged. nx, nz ≥ 1.
+// The filled surface F is defined, independently of any processing order, as the least solution of
+//     F(c) = z(c)                                        for outlets (border, or z < sea),
+//     F(c) = min over the 8 neighbours n of g(F(n), z(c))  otherwise,
+//     g(L, z) = z when z > L, else step(L),   step(L) = max(L + ε, the next value above L).
+// So: values only rise; a cell with a lower neighbour on a path that descends to an outlet keeps
+// its value; a cell inside a depression or on a flat is raised to step(level) of the cell it
+// drains to, so filled flats get a gradient of at least `epsilon` (≥ 0, in the units of z) per
+// cell towards the spill point; every non-outlet cell ends strictly above a neighbour through which
+// it drains, step by step, to an outlet. The traversal settles levels in non-decreasing order
+// (Dijkstra's order, which finds the least solution: Knuth 1977), and equal levels may settle in
+// any order without changing a bit — which is what lets a tiled world reproduce the whole map's
+// result exactly (fill_depressions_tile below, relief/world.hpp).
+//
+// `z` (nx·nz values, any finite values) is raised in place to F. nx, nz ≥ 1.
 template <class T>
 void fill_depressions(T* z, int nx, int nz, T sea, T epsilon);
 
-// True when fill_depressions(z, nx, nz, sea, epsilon) would change no value: every cell that is
-// not an outlet (map border, or below `sea`) has a neighbour r with z[r] < z[c] and z[c] at or
-// above r's fill level max(z[r] + epsilon, next float above z[r]). Then the flood reaches every
-// cell uphill of an outlet without raising it (each cell is closed, unchanged, by the traversal of
-// such a neighbour), so a surface that an earlier `fill` with the same epsilon (or a larger one)
-// left drains as it is. One row-parallel pass over the lowest neighbour of each cell, stopping
-// early once a row fails; never changes z.
+// One tile of a tiled fill (Barnes 2016's Parallel Priority-Flood, exchanging tile borders): the
+// least solution of the same equation restricted to paths inside the nx × nz tile, where
+// `outlet[c]` ≠ 0 marks the cells fixed at z (the world's border and the sea; a tile's own border
+// is not an outlet unless the world's is) and `seed[c]` (+inf: none) is a level that some path
+// outside the tile gives c (an upper bound of F(c), as a neighbouring tile's solve found it). On
+// return z[c] holds the least level any path inside the tile (from an outlet or a seed) gives c, or
+// +inf when no such path reaches c. Solving every tile again with the border levels its neighbours
+// found, until no border level changes, gives fill_depressions' result on the whole world, bit for
+// bit (src/world_fill.cpp).
 template <class T>
-bool already_drains(const T* z, int nx, int nz, T sea, T epsilon);
+void fill_depressions_tile(T* z, int nx, int nz, const std::uint8_t* outlet, const T* seed, T epsilon);
+
+// True when fill_depressions(z, nx, nz, sea, ε) would change no value, for any ε: every cell that
+// is not an outlet (map border, or below `sea`) has a strictly lower neighbour. So a surface that
+// an earlier `fill` left drains as it is. One row-parallel pass over the lowest neighbour of each
+// cell, stopping early once a row fails; never changes z.
+template <class T>
+bool already_drains(const T* z, int nx, int nz, T sea);
 
 // D8 steepest descent: rec[c] = the neighbour with the largest drop / distance, if that drop is
 // > 0; rec[c] = c for outlets and for pits (no lower neighbour). Ties go to the first neighbour in

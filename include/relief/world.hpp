@@ -20,11 +20,12 @@
 //            world's edge, and is cropped, so every sample of every layer equals, bit for bit, the
 //            same sample of one whole-map run of the recipe at the world's size, for any tile size
 //            and thread count (tests/test_world.cpp checks it against run()).
-//   refused  global stages (fill, flow, erosion, biomes, climate, props, …): build_world throws
-//            Error("stages[i]", …) before any work, saying the stage has no world support yet —
-//            unless WorldSettings::algorithms gives the stage a world algorithm (see "Phases";
-//            none is registered by default: the one written so far, world_fill_least_fixpoint,
-//            is exact against fill_least_fixpoint, not against the fill stage's own algorithm).
+//   exact    the global stages that have a world algorithm (default_world_algorithms(), or
+//            WorldSettings::algorithms): today `fill` (depression filling: tiles solved and their
+//            border levels exchanged until nothing changes, src/world_fill.cpp). Each runs as a
+//            phase of its own over the stored tiles (see "Phases"), bit for bit as on the whole map.
+//   refused  the other global stages (flow, erosion, biomes, climate, props, …): build_world throws
+//            Error("stages[i]", …) before any work, saying the stage has no world support yet.
 //
 // Tile store (the output folder; every file written atomically: temporary file, rename; world.json,
 // overview.png and report.json are flushed (fsync) first, tiles are not — a tile that a power cut
@@ -165,11 +166,9 @@ struct WorldStageIO {
 };
 // Runs one global stage (`stage`, at `index` in the recipe) over the whole stored world.
 using WorldStageAlgorithm = std::function<void(const WorldStageIO& io, const RecipeStage& stage, int index)>;
-// A world algorithm for the "fill" stage: fill_least_fixpoint_tiled (below) of the height layer
-// with the stage's epsilon_m. Exact against a whole-map run whose fill is fill_least_fixpoint —
-// not yet against the "fill" stage itself, whose hydrology.cpp algorithm is order-dependent (see
-// the end of this file); so build_world only uses it when a caller registers it.
-WorldStageAlgorithm world_fill_least_fixpoint();
+// The world algorithm of the "fill" stage: fill_depressions_tiled (below) of the height layer with
+// the stage's epsilon_m. Exact: the same bits as the stage on the whole map.
+WorldStageAlgorithm world_fill();
 // The world algorithms build_world uses for global stages that WorldSettings::algorithms does not
 // name: those that are exact against the stage's whole-map run (by stage name).
 std::map<std::string, WorldStageAlgorithm> default_world_algorithms();
@@ -245,32 +244,21 @@ Terrain read_world_window(const std::string& dir, std::int64_t ix0, std::int64_t
 // run's frame at that size, bit for bit).
 Frame world_frame(const Recipe& r, std::int64_t nx, std::int64_t nz);
 
-// ---- depression filling a tiled world can reproduce (phase 2, not yet a world stage) ----------
-// The "fill" stage (src/hydrology.cpp, Priority-Flood+ε with a FIFO pit queue) gives values that
-// depend on its global processing order (which spill reaches a flat first), so no tiled build can
-// reproduce its bits. These functions define the filled surface as a least fixpoint instead (see
-// src/world_fill.cpp): F = z at outlets (the grid's border, or z < sea); elsewhere
-// F(c) = min over the 8 neighbours n of g(F(n), z(c)), with g(L, z) = z when z > L, else
-// max(next float above L, L + epsilon). Same contract as fill_depressions otherwise: values only
-// rise, cells that drain downhill are unchanged, every non-outlet cell ends strictly above a
-// neighbour through which it drains to an outlet, filled flats rise by ≥ epsilon per step. The
-// result does not depend on any processing order, so:
-//
-// fill_least_fixpoint: the whole grid in memory (nx·nz floats, raised in place).
-void fill_least_fixpoint(float* z, int nx, int nz, float sea, float epsilon);
-// fill_least_fixpoint_tiled: the same surface over a world grid's tiles, bit for bit, holding one
-// tile and the samples on tile borders (about 2·(nx·tiles_z + nz·tiles_x) floats) at a time. Each
-// round solves every tile whose border values changed, seeded with the border values known so
-// far, and exchanges the new border values; it stops when no border value changes. `load(X, Z)`
-// returns tile (X, Z)'s heights (window.nx × window.nz, as WorldGrid::window); `store(X, Z, f)`
-// receives its filled heights after each solve of it (the last call per tile is final).
+// ---- depression filling over tiles ------------------------------------------------------------
+// fill_depressions_tiled: hydro::fill_depressions (relief/hydrology.hpp) of the whole world, bit for
+// bit, holding one tile and the samples on tile borders (about 2·(nx·tiles_z + nz·tiles_x) floats)
+// at a time. Each round solves every tile whose border levels changed (hydro::fill_depressions_tile,
+// seeded with the border levels known so far) and exchanges the new border levels; it stops when no
+// border level changes. `load(X, Z)` returns tile (X, Z)'s heights (window.nx × window.nz, as
+// WorldGrid::window); `store(X, Z, f)` receives its filled heights after each solve of it (the last
+// call per tile is final; earlier ones may hold +inf where no path was known yet).
 using TileLoad = std::function<std::vector<float>(std::int64_t X, std::int64_t Z)>;
 using TileStore = std::function<void(std::int64_t X, std::int64_t Z, std::vector<float> filled)>;
 struct TiledFillStats {
   int rounds = 0;               // passes over the dirty tiles (the last one changes nothing)
   std::int64_t tile_solves = 0;  // tile solves in all
 };
-TiledFillStats fill_least_fixpoint_tiled(const WorldGrid& grid, float sea, float epsilon, const TileLoad& load,
-                                         const TileStore& store);
+TiledFillStats fill_depressions_tiled(const WorldGrid& grid, float sea, float epsilon, const TileLoad& load,
+                                     const TileStore& store);
 
 }  // namespace relief
