@@ -11,7 +11,9 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <filesystem>
+#include <functional>
 #include <memory>
 #include <mutex>
 #include <regex>
@@ -22,6 +24,7 @@
 #include "relief/generate.hpp"
 #include "relief/world.hpp"
 #include "world_internal.hpp"
+#include "world_transport.hpp"
 
 namespace relief {
 namespace {
@@ -137,6 +140,140 @@ void write_or_throw(const fs::path& p, std::string_view bytes, const std::string
   }
 }
 
+
+// ---- distributed builds (src/world_transport.hpp) ----------------------------------------------
+
+// What rank 0 keeps of one finished tile: its checksum and size and overview samples (last phase),
+// its stage times (built tiles), whether it was built or found finished.
+struct TileResult {
+  std::int64_t k = -1;    // tile index, Z·tiles_x + X
+  bool built = false;     // false: found finished in the folder
+  std::uint32_t crc = 0;  // last phase: CRC-32 of the file
+  std::uint64_t bytes = 0;
+  std::size_t first = 0;  // stage index of ms[0]
+  std::vector<double> ms;
+  std::vector<bool> fused;
+  std::vector<float> overview;  // the overview samples the tile owns (build_world's overview_points order)
+};
+
+// A result as sent to rank 0: u32 length of a JSON header, the header, the overview floats.
+std::string encode_result(const TileResult& t) {
+  json h = {{"k", t.k}, {"built", t.built}, {"crc", t.crc}, {"bytes", t.bytes}, {"first", t.first}, {"ms", t.ms}, {"fused", t.fused}};
+  const std::string hs = h.dump();
+  std::string out(4, '\0');
+  for (int b = 0; b < 4; ++b) out[std::size_t(b)] = char((hs.size() >> (8 * b)) & 0xFF);
+  out += hs;
+  const std::size_t at = out.size();
+  out.resize(at + t.overview.size() * sizeof(float));
+  if (!t.overview.empty()) std::memcpy(out.data() + at, t.overview.data(), t.overview.size() * sizeof(float));
+  return out;
+}
+
+TileResult decode_result(const std::string& s) {
+  auto bad = [] { return std::runtime_error("world transport: a malformed tile result"); };
+  if (s.size() < 4) throw bad();
+  std::size_t n = 0;
+  for (int b = 0; b < 4; ++b) n |= std::size_t(std::uint8_t(s[std::size_t(b)])) << (8 * b);
+  if (n > s.size() - 4 || (s.size() - 4 - n) % sizeof(float)) throw bad();
+  const json h = json::parse(s.substr(4, n), nullptr, false);
+  if (!h.is_object()) throw bad();
+  TileResult t;
+  try {
+    t.k = h.at("k").get<std::int64_t>();
+    t.built = h.at("built").get<bool>();
+    t.crc = h.at("crc").get<std::uint32_t>();
+    t.bytes = h.at("bytes").get<std::uint64_t>();
+    t.first = h.at("first").get<std::size_t>();
+    t.ms = h.at("ms").get<std::vector<double>>();
+    t.fused = h.at("fused").get<std::vector<bool>>();
+  } catch (const json::exception&) {
+    throw bad();
+  }
+  if (t.fused.size() != t.ms.size()) throw bad();
+  t.overview.resize((s.size() - 4 - n) / sizeof(float));
+  if (!t.overview.empty()) std::memcpy(t.overview.data(), s.data() + 4 + n, t.overview.size() * sizeof(float));
+  return t;
+}
+
+// What a rank's part of a step came to, as JSON: {"kind": 0} (ok), 1 (relief::Error: path,
+// message), 2 (Cancelled), 3 (any other exception: message).
+json outcome_of(std::exception_ptr e) {
+  if (!e) return {{"kind", 0}};
+  try {
+    std::rethrow_exception(e);
+  } catch (const Error& x) {
+    return {{"kind", 1}, {"path", x.path()}, {"message", x.message()}};
+  } catch (const Cancelled&) {
+    return {{"kind", 2}};
+  } catch (const std::exception& x) {
+    return {{"kind", 3}, {"message", x.what()}};
+  } catch (...) {
+    return {{"kind", 3}, {"message", "an unknown exception"}};
+  }
+}
+
+// Throws what outcome `o` (outcome_of) describes; nothing when it is ok. `rank` > 0: the rank it came
+// from, named in the message of errors that are not about the input.
+void rethrow_outcome(const json& o, int rank) {
+  const int kind = o.value("kind", 3);
+  if (kind == 0) return;
+  const std::string message = o.value("message", std::string("(no message)"));
+  if (kind == 1) throw Error(o.value("path", std::string()), message);
+  if (kind == 2) throw Cancelled();
+  throw std::runtime_error(rank > 0 ? "rank " + std::to_string(rank) + ": " + message : message);
+}
+
+// A step that rank 0 does for everyone: `on_root` runs on rank 0, then every rank learns its outcome
+// (broadcast): its payload is returned everywhere, its exception rethrown everywhere (as is on
+// rank 0, rebuilt from outcome_of on the others). Collective. In one process: on_root().
+json agree(detail::WorldTransport& tr, const std::function<json()>& on_root) {
+  std::string msg;
+  std::exception_ptr mine;
+  json payload;
+  if (tr.rank() == 0) {
+    json o;
+    try {
+      payload = on_root ? on_root() : json();
+      o = {{"kind", 0}, {"payload", payload}};
+    } catch (...) {
+      mine = std::current_exception();
+      o = outcome_of(mine);
+    }
+    if (tr.size() == 1) {
+      if (mine) std::rethrow_exception(mine);
+      return payload;
+    }
+    msg = o.dump();
+  }
+  tr.broadcast(msg);
+  if (mine) std::rethrow_exception(mine);
+  if (tr.rank() == 0) return payload;
+  const json o = json::parse(msg, nullptr, false);
+  if (!o.is_object()) throw std::runtime_error("world transport: a malformed message from rank 0");
+  rethrow_outcome(o, 0);
+  return o.value("payload", json());
+}
+
+// agree() after every rank's own part: `local` (this rank's failure, or null) reaches rank 0 first;
+// rank 0 throws the first failure (its own, else the lowest rank's) for everyone, else runs on_root.
+json agree_all(detail::WorldTransport& tr, std::exception_ptr local, const std::function<json()>& on_root) {
+  if (tr.size() == 1) {
+    if (local) std::rethrow_exception(local);
+    return on_root ? on_root() : json();
+  }
+  detail::WorkHandout gather(tr, 0, nullptr);
+  const std::vector<std::string> statuses = gather.finish(outcome_of(local).dump());
+  return agree(tr, [&]() -> json {
+    if (local) std::rethrow_exception(local);
+    for (std::size_t k = 1; k < statuses.size(); ++k) {
+      const json o = json::parse(statuses[k], nullptr, false);
+      if (!o.is_object()) throw std::runtime_error("world transport: rank " + std::to_string(k) + " sent a malformed status");
+      rethrow_outcome(o, int(k));
+    }
+    return on_root ? on_root() : json();
+  });
+}
+
 }  // namespace
 
 WorldReport build_world(WorldSettings s) {
@@ -185,169 +322,204 @@ WorldReport build_world(WorldSettings s) {
                       {"world", "exact"}});
   }
 
-  // 2. The folder: the same world (resume), a different one (refuse unless forced), or none.
+  // The ranks (one without MPI): rank 0 prepares the folder and writes the manifest, every rank
+  // builds the tiles rank 0 hands it, rank 0 runs the world algorithms and finishes the store.
+  const std::unique_ptr<detail::WorldTransport> transport =
+      s.mpi_module.empty() ? detail::in_process_transport() : detail::load_mpi_transport(s.mpi_module, s.mpi_path);
+  detail::WorldTransport& tr = *transport;
+  const bool root = tr.rank() == 0;
+  rep.rank = tr.rank();
+  rep.ranks = tr.size();
+  if (!root) s.progress = nullptr;  // rank 0 counts every rank's tiles
   const fs::path dir(s.out_dir);
   std::error_code ec;
-  json old;
-  bool have_old = false;
-  if (fs::exists(dir / "world.json", ec)) {
-    bool ok = false;
-    const std::string text = detail::read_file_bytes((dir / "world.json").string(), ok);
-    old = json::parse(text, nullptr, false);
-    have_old = true;
-  }
-  const std::string recipe_id = [&] {
-    json j = r.to_json();
-    j.erase("seed");
-    return world_id_of(j, grid.tile);
-  }();
-  // The old manifest is a file in the user's folder: read only fields of the expected types.
-  auto old_string = [&](const char* key) -> std::string {
-    const auto it = old.is_object() ? old.find(key) : old.end();
-    return it != old.end() && it->is_string() ? it->get<std::string>() : std::string();
-  };
-  auto old_field = [&](const char* key) -> json {
-    const auto it = old.is_object() ? old.find(key) : old.end();
-    return it != old.end() ? *it : json();
-  };
-  const bool old_is_world = old_string("format") == "relief-world";
-  if (!r.seed) {
-    const json seed = old_field("seed");
-    if (have_old && old_is_world && old_string("recipe_id") == recipe_id && seed.is_number_unsigned()) {
-      r.seed = seed.get<std::uint64_t>();
-      rep.seed_reused = true;
-    } else {
-      r.seed = random_seed();
-    }
-  }
-  rep.seed = *r.seed;
-  const json resolved = r.to_json();
-  rep.recipe = resolved;
-  rep.world_id = world_id_of(resolved, grid.tile);
-  if (have_old) {
-    const bool same = old_is_world && old_string("world_id") == rep.world_id;
-    if (!same && !s.force) {
-      std::string what = "something that is not a Relief world manifest";
-      if (old_is_world) {
-        const json rec = old_field("recipe"), fr = old_field("frame"), gr = old_field("grid"), seed = old_field("seed");
-        const json name = rec.is_object() && rec.contains("name") ? rec["name"] : json("?");
-        const json tile = gr.is_object() && gr.contains("tile") ? gr["tile"] : json(0);
-        what = "another world (recipe " + (name.is_string() ? quote(name.get<std::string>()) : name.dump()) +
-               (fr.is_object() && fr.contains("size") ? ", " + fr["size"].dump() : "") + ", tile " + tile.dump() +
-               (seed.is_null() ? "" : ", seed " + seed.dump()) + ")";
-      }
-      throw Error(s.out_path, "the folder " + quote(s.out_dir) + " holds " + what +
-                                  ", not this one (its world.json differs in recipe, seed, size or tile); choose another folder, "
-                                  "or pass " + s.force_name + " to replace it");
-    }
-    if (!same) remove_old_world(dir);
-  }
-
-  // 3. The layers the recipe leaves: from a run on a small window (same names and channels).
-  {
-    RunOptions probe;
-    probe.threads = 1;
-    Recipe small = r;
-    if (globals.empty()) {
-      probe.window = frame.window(0, 0, int(std::min<std::int64_t>(grid.nx, 5)), int(std::min<std::int64_t>(grid.nz, 5)));
-    } else {  // global stages run on a small whole map
-      small.world.nx = int(std::min<std::int64_t>(grid.nx, 33));
-      small.world.nz = int(std::min<std::int64_t>(grid.nz, 33));
-    }
-    const RunResult res = run(small, probe);
-    for (auto& [name, l] : res.terrain.layers) rep.layers.emplace_back(name, l.channels);
-  }
-  std::uint64_t channels = 0;
-  for (auto& [name, c] : rep.layers) channels += std::uint64_t(c);
-
-  // 4. Disk: zlib's bound of every tile's raw floats, against the free space (plus tiles there).
-  {
-    std::uint64_t need = 4096;  // world.json, report.json, overview.png beyond their sizes below
-    for (int kx = 0; kx < 2; ++kx)
-      for (int kz = 0; kz < 2; ++kz) {
-        // The four kinds of tile: full, clipped in x, clipped in z, the corner.
-        const std::int64_t cols = kx == 0 ? grid.tiles_x - 1 : 1, rows = kz == 0 ? grid.tiles_z - 1 : 1;
-        const WorldGrid::Window w = grid.window(kx == 0 ? 0 : grid.tiles_x - 1, kz == 0 ? 0 : grid.tiles_z - 1);
-        const std::uint64_t raw = std::uint64_t(w.nx) * std::uint64_t(w.nz) * channels * 4;
-        need += std::uint64_t(cols * rows) * (compressBound(uLong(raw)) + 1024);
-      }
-    need += std::uint64_t(grid.count()) * 64 + std::uint64_t(kWorldOverviewMax) * kWorldOverviewMax * 3;
-    need *= std::uint64_t(1 + 2 * globals.size());  // one store per phase until the build completes
-    rep.estimated_bytes = need;
-    std::uint64_t present = 0;
-    if (fs::is_directory(dir / "tiles", ec))
-      for (const auto& e : fs::directory_iterator(dir / "tiles", ec))
-        if (e.is_regular_file(ec)) present += e.file_size(ec);
-    std::uint64_t free_bytes = s.disk_free_bytes;
-    if (free_bytes == 0) {
-      const fs::space_info sp = fs::space(existing_ancestor(dir), ec);
-      free_bytes = ec ? UINT64_MAX : sp.available;
-    }
-    if (need > free_bytes + present)
-      throw Error(s.size_path, "a " + std::to_string(grid.nx) + "x" + std::to_string(grid.nz) + " world with " +
-                                   std::to_string(channels) + " float channels needs up to " + human_bytes(need) +
-                                   " on disk, but " + quote(s.out_dir) + " has " + human_bytes(free_bytes) +
-                                   " free; choose a smaller size or free some space");
-  }
-
-  // 5. Memory: the tiles built at once, each a run on the grown tile, plus its encoding.
   const int threads = s.threads > 0 ? capped_threads(s.threads) : tbb::info::default_concurrency();
   const int at_once = grid.count() >= 2 * std::int64_t(threads) ? threads : 1;
   rep.tiles_at_once = at_once;
-  {
-    Recipe grown = r;
-    grown.world.nx = int(std::min<std::int64_t>(grid.nx, grid.tile + 2 * std::int64_t(halo)));
-    grown.world.nz = int(std::min<std::int64_t>(grid.nz, grid.tile + 2 * std::int64_t(halo)));
-    const std::uint64_t raw = std::uint64_t(grid.tile) * std::uint64_t(grid.tile) * channels * 4;
-    const std::uint64_t per_tile = estimate_memory_bytes(grown, false) + 2 * raw + compressBound(uLong(raw));
-    const int step = int((std::max(grid.nx, grid.nz) - 1 + kWorldOverviewMax - 2) / (kWorldOverviewMax - 1));
-    const std::uint64_t overview = std::uint64_t((grid.nx - 1) / std::max(1, step) + 1) * std::uint64_t((grid.nz - 1) / std::max(1, step) + 1) * 7;
-    rep.tile_memory_bytes = std::uint64_t(at_once) * per_tile + overview + std::uint64_t(grid.count()) * 16;
-    const std::uint64_t budget = s.memory_budget_bytes ? s.memory_budget_bytes : memory_budget_bytes();
-    if (budget && rep.tile_memory_bytes > budget)
-      throw Error(s.tile_path, "tiles of " + std::to_string(grid.tile) + " samples (" + std::to_string(at_once) +
-                                   " at once) need about " + human_bytes(rep.tile_memory_bytes) + ", but the limit here is " +
-                                   human_bytes(budget) + "; choose a smaller tile or fewer threads");
-  }
-
-  // 6. The manifest, before the first tile.
   const int step = int(std::max<std::int64_t>(1, (std::max(grid.nx, grid.nz) - 1 + kWorldOverviewMax - 2) / (kWorldOverviewMax - 1)));
   rep.overview_step = step;
   const int ow = int((grid.nx - 1) / step + 1), oh = int((grid.nz - 1) / step + 1);
-  json manifest = {
-      {"format", "relief-world"},
-      {"version", 1},
-      {"status", "building"},
-      {"world_id", rep.world_id},
-      {"recipe_id", recipe_id},
-      {"seed", rep.seed},
-      {"frame",
-       {{"size", {grid.nx, grid.nz}},
-        {"spacing_m", frame.spacing_m},
-        {"width_m", frame.world_width_m},
-        {"depth_m", frame.world_depth_m},
-        {"height_m", frame.height_m},
-        {"sea_level", frame.sea_level},
-        {"convention", "sample (i, j) at x = i·spacing_m, z = j·spacing_m; corners included; row-major, x fastest"}}},
-      {"grid",
-       {{"tile", grid.tile},
-        {"tiles", {grid.tiles_x, grid.tiles_z}},
-        {"shared_border", 1},
-        {"tile_window", "tile (X, Z) covers samples [X*(tile-1), min(X*(tile-1)+tile, size)) per axis; the last row and "
-                        "column are clipped to the world when size-1 is not a multiple of tile-1"},
-        {"path", "tiles/x{X:04}_z{Z:04}.rtile"}}},
-      {"layers", json::array()},
-      {"tile_format", {{"magic", "RLFTILE1"}, {"version", 1}, {"encoding", "float32le-rowdelta-shuffle-planes"}, {"checksum", "crc32 trailer"}}},
-      {"halo", halo},
-      {"stages", stages},
-      {"overview", {{"file", "overview.png"}, {"step", step}, {"size", {ow, oh}}}},
-      {"recipe", resolved}};
-  for (auto& [name, c] : rep.layers) manifest["layers"].push_back({{"name", name}, {"channels", c}});
-  fs::create_directories(dir / "tiles", ec);
-  if (ec) throw Error(s.out_path, "cannot create " + quote((dir / "tiles").string()) + ": " + ec.message());
-  remove_dead_temporaries(dir.string());
-  remove_dead_temporaries((dir / "tiles").string());
-  write_or_throw(dir / "world.json", manifest.dump(2) + "\n", s.out_path);
+
+  // 2.-6. on rank 0; the other ranks learn the seed (or rank 0's error) from it.
+  json resolved, manifest;
+  const json started = agree(tr, [&]() -> json {
+    // 2. The folder: the same world (resume), a different one (refuse unless forced), or none.
+    json old;
+    bool have_old = false;
+    if (fs::exists(dir / "world.json", ec)) {
+      bool ok = false;
+      const std::string text = detail::read_file_bytes((dir / "world.json").string(), ok);
+      old = json::parse(text, nullptr, false);
+      have_old = true;
+    }
+    const std::string recipe_id = [&] {
+      json j = r.to_json();
+      j.erase("seed");
+      return world_id_of(j, grid.tile);
+    }();
+    // The old manifest is a file in the user's folder: read only fields of the expected types.
+    auto old_string = [&](const char* key) -> std::string {
+      const auto it = old.is_object() ? old.find(key) : old.end();
+      return it != old.end() && it->is_string() ? it->get<std::string>() : std::string();
+    };
+    auto old_field = [&](const char* key) -> json {
+      const auto it = old.is_object() ? old.find(key) : old.end();
+      return it != old.end() ? *it : json();
+    };
+    const bool old_is_world = old_string("format") == "relief-world";
+    if (!r.seed) {
+      const json seed = old_field("seed");
+      if (have_old && old_is_world && old_string("recipe_id") == recipe_id && seed.is_number_unsigned()) {
+        r.seed = seed.get<std::uint64_t>();
+        rep.seed_reused = true;
+      } else {
+        r.seed = random_seed();
+      }
+    }
+    rep.seed = *r.seed;
+    resolved = r.to_json();
+    rep.recipe = resolved;
+    rep.world_id = world_id_of(resolved, grid.tile);
+    if (have_old) {
+      const bool same = old_is_world && old_string("world_id") == rep.world_id;
+      if (!same && !s.force) {
+        std::string what = "something that is not a Relief world manifest";
+        if (old_is_world) {
+          const json rec = old_field("recipe"), fr = old_field("frame"), gr = old_field("grid"), seed = old_field("seed");
+          const json name = rec.is_object() && rec.contains("name") ? rec["name"] : json("?");
+          const json tile = gr.is_object() && gr.contains("tile") ? gr["tile"] : json(0);
+          what = "another world (recipe " + (name.is_string() ? quote(name.get<std::string>()) : name.dump()) +
+                 (fr.is_object() && fr.contains("size") ? ", " + fr["size"].dump() : "") + ", tile " + tile.dump() +
+                 (seed.is_null() ? "" : ", seed " + seed.dump()) + ")";
+        }
+        throw Error(s.out_path, "the folder " + quote(s.out_dir) + " holds " + what +
+                                    ", not this one (its world.json differs in recipe, seed, size or tile); choose another folder, "
+                                    "or pass " + s.force_name + " to replace it");
+      }
+      if (!same) remove_old_world(dir);
+    }
+
+    // 3. The layers the recipe leaves: from a run on a small window (same names and channels).
+    {
+      RunOptions probe;
+      probe.threads = 1;
+      Recipe small = r;
+      if (globals.empty()) {
+        probe.window = frame.window(0, 0, int(std::min<std::int64_t>(grid.nx, 5)), int(std::min<std::int64_t>(grid.nz, 5)));
+      } else {  // global stages run on a small whole map
+        small.world.nx = int(std::min<std::int64_t>(grid.nx, 33));
+        small.world.nz = int(std::min<std::int64_t>(grid.nz, 33));
+      }
+      const RunResult res = run(small, probe);
+      for (auto& [name, l] : res.terrain.layers) rep.layers.emplace_back(name, l.channels);
+    }
+    std::uint64_t channels = 0;
+    for (auto& [name, c] : rep.layers) channels += std::uint64_t(c);
+
+    // 4. Disk: zlib's bound of every tile's raw floats, against the free space (plus tiles there).
+    {
+      std::uint64_t need = 4096;  // world.json, report.json, overview.png beyond their sizes below
+      for (int kx = 0; kx < 2; ++kx)
+        for (int kz = 0; kz < 2; ++kz) {
+          // The four kinds of tile: full, clipped in x, clipped in z, the corner.
+          const std::int64_t cols = kx == 0 ? grid.tiles_x - 1 : 1, rows = kz == 0 ? grid.tiles_z - 1 : 1;
+          const WorldGrid::Window w = grid.window(kx == 0 ? 0 : grid.tiles_x - 1, kz == 0 ? 0 : grid.tiles_z - 1);
+          const std::uint64_t raw = std::uint64_t(w.nx) * std::uint64_t(w.nz) * channels * 4;
+          need += std::uint64_t(cols * rows) * (compressBound(uLong(raw)) + 1024);
+        }
+      need += std::uint64_t(grid.count()) * 64 + std::uint64_t(kWorldOverviewMax) * kWorldOverviewMax * 3;
+      need *= std::uint64_t(1 + 2 * globals.size());  // one store per phase until the build completes
+      rep.estimated_bytes = need;
+      std::uint64_t present = 0;
+      if (fs::is_directory(dir / "tiles", ec))
+        for (const auto& e : fs::directory_iterator(dir / "tiles", ec))
+          if (e.is_regular_file(ec)) present += e.file_size(ec);
+      std::uint64_t free_bytes = s.disk_free_bytes;
+      if (free_bytes == 0) {
+        const fs::space_info sp = fs::space(existing_ancestor(dir), ec);
+        free_bytes = ec ? UINT64_MAX : sp.available;
+      }
+      if (need > free_bytes + present)
+        throw Error(s.size_path, "a " + std::to_string(grid.nx) + "x" + std::to_string(grid.nz) + " world with " +
+                                     std::to_string(channels) + " float channels needs up to " + human_bytes(need) +
+                                     " on disk, but " + quote(s.out_dir) + " has " + human_bytes(free_bytes) +
+                                     " free; choose a smaller size or free some space");
+    }
+
+    // 5. Memory: the tiles built at once, each a run on the grown tile, plus its encoding.
+    {
+      Recipe grown = r;
+      grown.world.nx = int(std::min<std::int64_t>(grid.nx, grid.tile + 2 * std::int64_t(halo)));
+      grown.world.nz = int(std::min<std::int64_t>(grid.nz, grid.tile + 2 * std::int64_t(halo)));
+      const std::uint64_t raw = std::uint64_t(grid.tile) * std::uint64_t(grid.tile) * channels * 4;
+      const std::uint64_t per_tile = estimate_memory_bytes(grown, false) + 2 * raw + compressBound(uLong(raw));
+      const int step = int((std::max(grid.nx, grid.nz) - 1 + kWorldOverviewMax - 2) / (kWorldOverviewMax - 1));
+      const std::uint64_t overview = std::uint64_t((grid.nx - 1) / std::max(1, step) + 1) * std::uint64_t((grid.nz - 1) / std::max(1, step) + 1) * 7;
+      rep.tile_memory_bytes = std::uint64_t(at_once) * per_tile + overview + std::uint64_t(grid.count()) * 16;
+      const std::uint64_t budget = s.memory_budget_bytes ? s.memory_budget_bytes : memory_budget_bytes();
+      if (budget && rep.tile_memory_bytes > budget)
+        throw Error(s.tile_path, "tiles of " + std::to_string(grid.tile) + " samples (" + std::to_string(at_once) +
+                                     " at once) need about " + human_bytes(rep.tile_memory_bytes) + ", but the limit here is " +
+                                     human_bytes(budget) + "; choose a smaller tile or fewer threads");
+    }
+
+    // 6. The manifest, before the first tile.
+    manifest = {
+        {"format", "relief-world"},
+        {"version", 1},
+        {"status", "building"},
+        {"world_id", rep.world_id},
+        {"recipe_id", recipe_id},
+        {"seed", rep.seed},
+        {"frame",
+         {{"size", {grid.nx, grid.nz}},
+          {"spacing_m", frame.spacing_m},
+          {"width_m", frame.world_width_m},
+          {"depth_m", frame.world_depth_m},
+          {"height_m", frame.height_m},
+          {"sea_level", frame.sea_level},
+          {"convention", "sample (i, j) at x = i·spacing_m, z = j·spacing_m; corners included; row-major, x fastest"}}},
+        {"grid",
+         {{"tile", grid.tile},
+          {"tiles", {grid.tiles_x, grid.tiles_z}},
+          {"shared_border", 1},
+          {"tile_window", "tile (X, Z) covers samples [X*(tile-1), min(X*(tile-1)+tile, size)) per axis; the last row and "
+                          "column are clipped to the world when size-1 is not a multiple of tile-1"},
+          {"path", "tiles/x{X:04}_z{Z:04}.rtile"}}},
+        {"layers", json::array()},
+        {"tile_format", {{"magic", "RLFTILE1"}, {"version", 1}, {"encoding", "float32le-rowdelta-shuffle-planes"}, {"checksum", "crc32 trailer"}}},
+        {"halo", halo},
+        {"stages", stages},
+        {"overview", {{"file", "overview.png"}, {"step", step}, {"size", {ow, oh}}}},
+        {"recipe", resolved}};
+    for (auto& [name, c] : rep.layers) manifest["layers"].push_back({{"name", name}, {"channels", c}});
+    fs::create_directories(dir / "tiles", ec);
+    if (ec) throw Error(s.out_path, "cannot create " + quote((dir / "tiles").string()) + ": " + ec.message());
+    remove_dead_temporaries(dir.string());
+    remove_dead_temporaries((dir / "tiles").string());
+    write_or_throw(dir / "world.json", manifest.dump(2) + "\n", s.out_path);
+    return json{{"seed", rep.seed}, {"seed_reused", rep.seed_reused}};
+  });
+  if (!root) {
+    r.seed = started.at("seed").get<std::uint64_t>();
+    rep.seed = *r.seed;
+    rep.seed_reused = started.at("seed_reused").get<bool>();
+    resolved = r.to_json();
+    rep.recipe = resolved;
+    rep.world_id = world_id_of(resolved, grid.tile);
+  }
+  // Every rank must see rank 0's folder (one shared file system): the manifest it wrote.
+  {
+    std::exception_ptr unseen;
+    if (!root) {
+      bool ok = false;
+      const json seen = json::parse(detail::read_file_bytes((dir / "world.json").string(), ok), nullptr, false);
+      if (!ok || !seen.is_object() || !seen.contains("world_id") || seen["world_id"] != rep.world_id)
+        unseen = std::make_exception_ptr(Error(s.out_path, "rank " + std::to_string(tr.rank()) + " does not see the manifest that rank 0 wrote in " +
+                                                             quote(s.out_dir) + ": every rank must write to the same folder of one shared file system"));
+    }
+    agree_all(tr, unseen, nullptr);
+  }
 
   // 7. The phases: local stages tile by tile, global stages by their world algorithms.
   struct Phase {
@@ -376,13 +548,14 @@ WorldReport build_world(WorldSettings s) {
   const std::int64_t total = grid.count() * local_phases;
   std::vector<std::uint32_t> crcs(std::size_t(grid.count()), 0);
   std::vector<std::uint64_t> sizes(std::size_t(grid.count()), 0);
-  std::vector<float> overview(std::size_t(ow) * std::size_t(oh), 0.0f);
+  std::vector<float> overview(root ? std::size_t(ow) * std::size_t(oh) : 0, 0.0f);  // rank 0 only
   std::vector<double> stage_ms(r.stages.size(), 0.0);
   std::vector<bool> fused(r.stages.size(), false);
   std::mutex m;  // progress, timings, counters
   std::int64_t done = 0, skipped = 0, built = 0;
   double built_units = 0;  // tiles' worth of building finished (for the time estimate)
   double last_fraction = 0;
+  std::uint64_t peak_memory = 0;  // the largest peak of the other ranks (rank 0)
   const auto t_tiles = Clock::now();
   auto report = [&](std::string_view stage_name, int stage, double tile_fraction) {  // under m
     if (!s.progress) return;
@@ -403,22 +576,32 @@ WorldReport build_world(WorldSettings s) {
     s.progress(p);
   };
   auto cancelled = [&] { return s.cancelled && s.cancelled(); };
-  auto take_overview = [&](const WorldTile& t) {
-    auto it = t.layers.find("height");
-    if (it == t.layers.end()) return;
-    const WorldGrid::Window& w = t.window;
+  // The overview samples a tile owns (its shared last row and column belong to the next tile), in
+  // the order of its rows, then columns: f(index into overview, index into the tile's samples).
+  auto overview_points = [&](const WorldGrid::Window& w, auto&& f) {
     const bool last_x = w.ix0 + w.nx == grid.nx, last_z = w.iz0 + w.nz == grid.nz;
-    // Each tile writes the samples it owns (its shared last row and column belong to the next tile).
     for (int j = 0; j < w.nz - (last_z ? 0 : 1); ++j) {
       const std::int64_t iz = w.iz0 + j;
       if (iz % step) continue;
       for (int i = 0; i < w.nx - (last_x ? 0 : 1); ++i) {
         const std::int64_t ix = w.ix0 + i;
         if (ix % step) continue;
-        overview[std::size_t(iz / step) * std::size_t(ow) + std::size_t(ix / step)] =
-            it->second.data[std::size_t(j) * std::size_t(w.nx) * std::size_t(it->second.channels) + std::size_t(i) * std::size_t(it->second.channels)];
+        f(std::size_t(iz / step) * std::size_t(ow) + std::size_t(ix / step), std::size_t(j) * std::size_t(w.nx) + std::size_t(i));
       }
     }
+  };
+  auto overview_of = [&](const WorldTile& t) {
+    std::vector<float> v;
+    auto it = t.layers.find("height");
+    if (it == t.layers.end()) return v;
+    const std::size_t c = std::size_t(it->second.channels);
+    overview_points(t.window, [&](std::size_t, std::size_t at) { v.push_back(it->second.data[at * c]); });
+    return v;
+  };
+  auto take_overview = [&](const WorldTile& t) {  // rank 0
+    const std::vector<float> v = overview_of(t);
+    std::size_t n = 0;
+    if (!v.empty()) overview_points(t.window, [&](std::size_t at, std::size_t) { overview[at] = v[n++]; });
   };
   auto tile_file = [](const Phase& ph, std::int64_t X, std::int64_t Z) {
     return ph.folder / fs::path(world_tile_path(X, Z)).filename();
@@ -491,12 +674,49 @@ WorldReport build_world(WorldSettings s) {
   };
   auto placeholder = std::make_shared<const Placeholder>();
   const int run_threads = at_once > 1 ? 1 : threads;
+  // What rank 0 keeps of a finished tile (built here, by another rank, or found finished).
+  std::vector<std::int64_t> built_by_rank(std::size_t(tr.size()), 0);  // rank 0: tiles each rank built
+  auto apply_result = [&](TileResult&& t, bool last, int from) {  // under m
+    if (last) {
+      crcs[std::size_t(t.k)] = t.crc;
+      sizes[std::size_t(t.k)] = t.bytes;
+      const WorldGrid::Window w = grid.window(t.k % grid.tiles_x, t.k / grid.tiles_x);
+      std::size_t n = 0;
+      if (!t.overview.empty())
+        overview_points(w, [&](std::size_t at, std::size_t) {
+          if (n < t.overview.size()) overview[at] = t.overview[n++];
+        });
+    }
+    for (std::size_t i = 0; i < t.ms.size() && t.first + i < stage_ms.size(); ++i) {
+      stage_ms[t.first + i] += t.ms[i];
+      fused[t.first + i] = fused[t.first + i] || t.fused[i];
+    }
+    ++done;
+    if (t.built) {
+      ++built;
+      ++built_by_rank[std::size_t(from)];
+      built_units += 1.0;
+    } else {
+      ++skipped;
+    }
+    report("", 0, 0.0);
+  };
+  std::int64_t built_here = 0;  // tiles this rank built
   bool final_done_in_memory = false;
   for (std::size_t pk = 0; pk < phases.size(); ++pk) {
     const Phase& ph = phases[pk];
     const bool last = pk + 1 == phases.size();
-    std::error_code e2;
-    if (!last && fs::exists(ph.folder / "complete", e2)) {  // done before (resumed)
+    // Rank 0 decides whether the phase is done already (resumed) and prepares its folder; then
+    // every rank opens the folder (removing temporary files that killed runs left there, before
+    // any rank writes in it).
+    const json begun = agree(tr, [&]() -> json {
+      std::error_code e2;
+      if (!last && fs::exists(ph.folder / "complete", e2)) return {{"skip", true}};
+      fs::create_directories(ph.folder, e2);
+      if (e2) throw Error(s.out_path, "cannot create " + quote(ph.folder.string()) + ": " + e2.message());
+      return {{"skip", false}};
+    });
+    if (begun.at("skip").get<bool>()) {
       if (!ph.global) {
         std::lock_guard<std::mutex> lock(m);
         done += grid.count();
@@ -504,35 +724,48 @@ WorldReport build_world(WorldSettings s) {
       }
       continue;
     }
-    fs::create_directories(ph.folder, e2);
-    if (e2) throw Error(s.out_path, "cannot create " + quote(ph.folder.string()) + ": " + e2.message());
-    try {  // (removes temporary files that killed runs left in the folder)
-      outputs[pk] = std::make_unique<FileOutput>(ph.folder.string(), FileOutput::Mode::Immediate, FileOutput::Sync::Atomic);
-    } catch (const Error& e) {
-      throw Error(s.out_path, e.message());
+    if (!ph.global) {
+      std::exception_ptr opened;
+      try {
+        outputs[pk] = std::make_unique<FileOutput>(ph.folder.string(), FileOutput::Mode::Immediate, FileOutput::Sync::Atomic);
+      } catch (const Error& e) {
+        opened = std::make_exception_ptr(Error(s.out_path, e.message()));
+      } catch (...) {
+        opened = std::current_exception();
+      }
+      agree_all(tr, opened, nullptr);
     }
     if (ph.global) {
-      const RecipeStage& st = r.stages[ph.first];
-      const Phase& in = phases[pk - 1];
-      WorldStageIO io;
-      io.grid = grid;
-      io.world = frame;
-      io.load = [&](std::int64_t X, std::int64_t Z) { return load_tile(in, X, Z); };
-      io.store = [&](std::int64_t X, std::int64_t Z, WorldTile t) {
-        t.X = X;
-        t.Z = Z;
-        t.window = grid.window(X, Z);
-        store_tile(ph, std::move(t));
-      };
-      io.cancelled = s.cancelled;
-      {
-        std::lock_guard<std::mutex> lock(m);
-        report(st.def->name, int(ph.first), 0.0);
-      }
-      const auto t0 = Clock::now();
-      s.algorithms.at(st.def->name)(io, st, int(ph.first));
-      stage_ms[ph.first] += ms_since(t0);
-      if (!last) write_or_throw(ph.folder / "complete", "", s.out_path);
+      // The world algorithm runs on rank 0; the other ranks wait for its outcome.
+      agree(tr, [&]() -> json {
+        try {
+          outputs[pk] = std::make_unique<FileOutput>(ph.folder.string(), FileOutput::Mode::Immediate, FileOutput::Sync::Atomic);
+        } catch (const Error& e) {
+          throw Error(s.out_path, e.message());
+        }
+        const RecipeStage& st = r.stages[ph.first];
+        const Phase& in = phases[pk - 1];
+        WorldStageIO io;
+        io.grid = grid;
+        io.world = frame;
+        io.load = [&](std::int64_t X, std::int64_t Z) { return load_tile(in, X, Z); };
+        io.store = [&](std::int64_t X, std::int64_t Z, WorldTile t) {
+          t.X = X;
+          t.Z = Z;
+          t.window = grid.window(X, Z);
+          store_tile(ph, std::move(t));
+        };
+        io.cancelled = s.cancelled;
+        {
+          std::lock_guard<std::mutex> lock(m);
+          report(st.def->name, int(ph.first), 0.0);
+        }
+        const auto t0 = Clock::now();
+        s.algorithms.at(st.def->name)(io, st, int(ph.first));
+        stage_ms[ph.first] += ms_since(t0);
+        if (!last) write_or_throw(ph.folder / "complete", "", s.out_path);
+        return json();
+      });
       continue;
     }
     // A local phase: stages [first, end), resumed from the previous phase's tiles when first > 0.
@@ -550,21 +783,20 @@ WorldReport build_world(WorldSettings s) {
       if (cancelled()) throw Cancelled();
       const std::int64_t X = k % grid.tiles_x, Z = k / grid.tiles_x;
       const WorldGrid::Window w = grid.window(X, Z);
+      TileResult res;
+      res.k = k;
+      res.first = ph.first;
       // A finished tile of this world and phase: verified and skipped.
       {
         WorldTile t;
         const std::string bytes = existing(ph, X, Z, last ? &t : nullptr);
         if (!bytes.empty()) {
           if (last) {
-            take_overview(t);
-            crcs[std::size_t(k)] = detail::crc32_of(bytes);
-            sizes[std::size_t(k)] = bytes.size();
+            res.overview = overview_of(t);
+            res.crc = detail::crc32_of(bytes);
+            res.bytes = bytes.size();
           }
-          std::lock_guard<std::mutex> lock(m);
-          ++done;
-          ++skipped;
-          report("", 0, 0.0);
-          return;
+          return res;
         }
       }
       RunOptions opt;
@@ -572,6 +804,7 @@ WorldReport build_world(WorldSettings s) {
       opt.window = frame.window(w.ix0, w.iz0, w.nx, w.nz);
       opt.cancelled = s.cancelled;
       opt.progress = [&](std::string_view name, double f) {
+        if (!s.progress) return;
         std::lock_guard<std::mutex> lock(m);
         const int stage = std::min(int(rp.stages.size()) - 1, int(f * double(rp.stages.size())));
         report(name == "done" ? std::string_view() : name, std::max(0, stage), at_once > 1 ? 0.0 : f);
@@ -595,44 +828,98 @@ WorldReport build_world(WorldSettings s) {
         snapshot = whole ? read_region(*in, 0, 0, w.nx, w.nz) : read_region(*in, gx0, gz0, gnx, gnz);
         opt.resume = Resume{&snapshot, int(ph.first)};
       }
-      RunResult res = run(rp, opt);
+      RunResult run_res = run(rp, opt);
       snapshot = Terrain();
       WorldTile t;
       t.X = X;
       t.Z = Z;
       t.window = w;
-      t.layers = std::move(res.terrain.layers);
-      res.terrain = Terrain();
-      if (last) take_overview(t);
+      t.layers = std::move(run_res.terrain.layers);
+      run_res.terrain = Terrain();
+      if (last) res.overview = overview_of(t);
       const std::string bytes = store_tile(ph, std::move(t));
       if (last) {
-        crcs[std::size_t(k)] = detail::crc32_of(bytes);
-        sizes[std::size_t(k)] = bytes.size();
+        res.crc = detail::crc32_of(bytes);
+        res.bytes = bytes.size();
       }
-      {
-        std::lock_guard<std::mutex> lock(m);
-        for (std::size_t i = 0; i < res.timings.size() && ph.first + i < stage_ms.size(); ++i) {
-          stage_ms[ph.first + i] += res.timings[i].ms;
-          fused[ph.first + i] = fused[ph.first + i] || res.timings[i].fused;
-        }
-        ++done;
-        ++built;
-        built_units += 1.0;
-        report("", 0, 0.0);
+      res.built = true;
+      for (const StageTiming& st : run_res.timings) {
+        res.ms.push_back(st.ms);
+        res.fused.push_back(st.fused);
       }
       if (s.after_tile) s.after_tile(X, Z);
+      return res;
+    };
+    // The tiles are handed out one by one by rank 0 (WorkHandout) to `at_once` lanes on each rank;
+    // each finished tile's result reaches rank 0 (apply_result). A lane that fails stops the round;
+    // the first failure (rank 0's own, else the lowest rank's) is what every rank throws.
+    detail::WorkHandout handout(tr, grid.count(), [&](int from, const std::string& bytes) {
+      TileResult t = decode_result(bytes);
+      if (t.k < 0 || t.k >= grid.count()) throw std::runtime_error("world transport: a result for tile " + std::to_string(t.k));
+      std::lock_guard<std::mutex> lock(m);
+      apply_result(std::move(t), last, from);
+    });
+    std::mutex fail_m;
+    std::exception_ptr failed;
+    auto lane = [&] {
+      try {
+        std::string sent;
+        bool have = false;
+        for (std::int64_t k; (k = handout.next(have ? &sent : nullptr)) >= 0;) {
+          have = false;
+          TileResult res = do_tile(k);
+          if (res.built) {
+            std::lock_guard<std::mutex> lock(m);
+            ++built_here;
+          }
+          if (root) {
+            std::lock_guard<std::mutex> lock(m);
+            apply_result(std::move(res), last, 0);
+          } else {
+            sent = encode_result(res);
+            have = true;
+          }
+        }
+      } catch (...) {
+        handout.stop();
+        std::lock_guard<std::mutex> lock(fail_m);
+        if (!failed) failed = std::current_exception();
+      }
     };
     if (at_once > 1) {
       tbb::task_arena arena(at_once);
       arena.execute([&] {
-        tbb::parallel_for(std::int64_t(0), grid.count(), [&](std::int64_t k) { do_tile(k); }, tbb::simple_partitioner());
+        tbb::parallel_for(0, at_once, [&](int) { lane(); }, tbb::simple_partitioner());
       });
     } else {
-      for (std::int64_t k = 0; k < grid.count(); ++k) do_tile(k);
+      lane();
     }
+    json status = outcome_of(failed);
+    status["peak_rss"] = peak_rss_bytes();
+    std::vector<std::string> statuses;
+    std::exception_ptr finish_failed;
+    try {
+      statuses = handout.finish(status.dump());
+    } catch (...) {
+      finish_failed = std::current_exception();
+    }
+    agree(tr, [&]() -> json {
+      if (failed) std::rethrow_exception(failed);
+      if (finish_failed) std::rethrow_exception(finish_failed);
+      for (std::size_t k = 1; k < statuses.size(); ++k) {
+        const json o = json::parse(statuses[k], nullptr, false);
+        if (!o.is_object()) throw std::runtime_error("world transport: rank " + std::to_string(k) + " sent a malformed status");
+        peak_memory = std::max(peak_memory, o.value("peak_rss", std::uint64_t(0)));
+        rethrow_outcome(o, int(k));
+      }
+      if (!last) write_or_throw(ph.folder / "complete", "", s.out_path);
+      return json();
+    });
     if (last) final_done_in_memory = true;
-    else write_or_throw(ph.folder / "complete", "", s.out_path);
   }
+  rep.tiles_built = built_here;
+  // Rank 0 finishes the store: the other ranks' tiles are written and their results are here.
+  if (!root) return rep;
   if (!final_done_in_memory) {  // the last phase was a world algorithm: checksums and overview from its tiles
     for (std::int64_t k = 0; k < grid.count(); ++k) {
       WorldTile t;
@@ -652,7 +939,7 @@ WorldReport build_world(WorldSettings s) {
   // 8. Overview, report, then the manifest marks the build complete.
   write_or_throw(dir / "overview.png", overview_png(overview, ow, oh, frame.spacing_m * step, frame.height_m, frame.sea_level),
                  s.out_path);
-  rep.peak_memory_bytes = peak_rss_bytes();
+  rep.peak_memory_bytes = std::max(peak_rss_bytes(), peak_memory);  // the largest of any rank
   rep.total_ms = ms_since(t_start);
   json st = json::array();
   for (auto& t : rep.timings) {
@@ -665,9 +952,11 @@ WorldReport build_world(WorldSettings s) {
       {"seed", rep.seed},
       {"size", {grid.nx, grid.nz}},
       {"tile", grid.tile},
-      {"tiles", {{"total", grid.count()}, {"phases", phases.size()}, {"built", built}, {"skipped", skipped}, {"at_once", at_once}}},
+      {"tiles", {{"total", grid.count()}, {"phases", phases.size()}, {"built", built}, {"skipped", skipped}, {"at_once", at_once}, {"built_by_rank", built_by_rank}}},
       {"performance",
        {{"threads", threads},
+        {"ranks", tr.size()},
+        {"transport", tr.description()},
         {"stages", st},
         {"total_ms", rep.total_ms},
         {"peak_memory_bytes", rep.peak_memory_bytes},

@@ -436,6 +436,7 @@ struct CliWorld {
   std::string size;    // N or NxM, up to kMaxWorldSize
   int tile = 257;
   bool force = false;
+  bool mpi = false;  // --mpi: a distributed build (implied under mpirun)
   // Engine tile set and LOD pyramid written from the finished store (relief/world_engine.hpp).
   std::string engine, split, godot_format;
   bool lod = false;
@@ -454,6 +455,21 @@ std::pair<std::int64_t, std::int64_t> parse_world_size(const std::string& text) 
   const std::int64_t nx = num(text.substr(0, x)), nz = x == std::string::npos ? nx : num(text.substr(x + 1));
   if (nx < kMinSize || nz < kMinSize || nx > kMaxWorldSize || nz > kMaxWorldSize) throw Error("--size", expect + ", got " + quote(text));
   return {nx, nz};
+}
+
+// Distributed world builds (MPI): under Open MPI's mpirun (it sets OMPI_COMM_WORLD_SIZE and
+// OMPI_COMM_WORLD_RANK in every rank's environment) or with --mpi. The MPI transport is the relief_mpi
+// module next to this binary, loaded by build_world with dlopen ($RELIEF_MPI_MODULE names another
+// file), so that relief itself needs no MPI at run time.
+int world_mpi_rank() {
+  const char* r = std::getenv("OMPI_COMM_WORLD_RANK");
+  return r && *r ? std::atoi(r) : 0;
+}
+std::string world_mpi_module() {
+  if (const char* p = std::getenv("RELIEF_MPI_MODULE"); p && *p) return p;
+  std::error_code ec;
+  const std::filesystem::path exe = std::filesystem::read_symlink("/proc/self/exe", ec);
+  return ec ? std::string("relief_mpi.so") : (exe.parent_path() / "relief_mpi.so").string();
 }
 
 int cmd_world(const CliWorld& w) {
@@ -478,6 +494,10 @@ int cmd_world(const CliWorld& w) {
   ws.tile_path = "--tile";
   ws.out_path = "--out";
   ws.force_name = "--force";
+  if (w.mpi || std::getenv("OMPI_COMM_WORLD_SIZE")) {
+    ws.mpi_module = world_mpi_module();
+    ws.mpi_path = "--mpi";
+  }
   const bool seed_given = ws.recipe.seed.has_value();
   // The engine tile set's options, checked against the world's size before any tile is built.
   ExportOptions engine_options;
@@ -485,7 +505,7 @@ int cmd_world(const CliWorld& w) {
   if (!w.split.empty()) set_export_option(engine_options, "split", w.split, "--split");
   if (!w.godot_format.empty()) set_export_option(engine_options, "godot_format", w.godot_format, "--godot-format");
   check_world_export(engine_options, ws.nx ? ws.nx : ws.recipe.world.nx, ws.nz ? ws.nz : ws.recipe.world.nz, cli_flag_path, "--size");
-  Progress prog{is_tty() && !s.quiet};
+  Progress prog{is_tty() && !s.quiet && world_mpi_rank() == 0};
   ws.progress = [&](const WorldProgress& p) {
     char line[256];
     char left[48] = "";
@@ -505,11 +525,13 @@ int cmd_world(const CliWorld& w) {
     prog.done();
     g_finished = true;
     const int sig = g_signal.load();
+    if (world_mpi_rank() != 0) return sig ? 128 + sig : 1;  // rank 0 says it
     std::fprintf(stderr, "relief: interrupted by %s; the finished tiles are kept: run the same command again to resume\n",
                  signal_name(sig));
     return sig ? 128 + sig : 1;
   }
   prog.done();
+  if (rep.rank != 0) return 0;  // rank 0 prints, and writes what comes after the store
   if (!s.quiet) {
     if (!seed_given)
       std::printf("seed %llu (%s; reproduce with --seed %llu)\n", (unsigned long long)rep.seed,
@@ -553,6 +575,27 @@ int cmd_world(const CliWorld& w) {
     std::printf("%.2f s, peak memory %s\n", total, human_bytes(peak_rss_bytes()).c_str());
   }
   return 0;
+}
+
+// `relief world` on one rank of a distributed build: ranks other than 0 print no error, since rank 0
+// reports the same one (every rank reads the same input, and build_world throws any rank's failure
+// on every rank) — except when MPI itself did not start on that rank (--mpi errors).
+int cmd_world_rank(const CliWorld& w) {
+  if (world_mpi_rank() == 0) return cmd_world(w);
+  try {
+    return cmd_world(w);
+  } catch (const Error& e) {
+    if (e.path() == "--mpi") throw;
+    g_finished = true;
+    return 2;
+  } catch (const Cancelled&) {
+    g_finished = true;
+    const int sig = g_signal.load();
+    return sig ? 128 + sig : 1;
+  } catch (const std::exception&) {
+    g_finished = true;
+    return 1;
+  }
 }
 
 int cmd_presets(bool as_json) {
@@ -849,6 +892,9 @@ int main(int argc, char** argv) {
   wld->add_flag("--force", wsx.force,
                 "Replace a different world found in the output folder (its world.json, tiles, overview.png and report.json); "
                 "without it such a folder is refused");
+  wld->add_flag("--mpi", wsx.mpi,
+                "Build with MPI, tiles spread over the ranks (implied under mpirun: `mpirun -n P relief world ...`); the "
+                "store's bytes are those of a build without MPI");
   wld->add_option("--engine", wsx.engine, "Also write the engine tile set from the store into OUT/engine: unity, unreal or godot "
                                           "(the same files as `relief generate --engine E --split KxM` at this size)");
   wld->add_option("--split", wsx.split, "Engine tiles along x and z, NxM (default 1x1; unity, godot: neighbours share a border sample; "
@@ -931,7 +977,7 @@ int main(int argc, char** argv) {
       check_generate_flags(wsx.recipe);
       wsx.recipe.threads = capped_threads(wsx.recipe.threads);
       take_interrupts();
-      const int code = cmd_world(wsx);
+      const int code = cmd_world_rank(wsx);
       g_finished = true;
       return code;
     }

@@ -199,6 +199,20 @@ struct WorldSettings {
   // Called after each tile is written, with its (X, Z) (tests kill or cancel builds part way); from
   // several threads at once when tiles are built concurrently.
   std::function<void(std::int64_t X, std::int64_t Z)> after_tile;
+  // Distributed build (MPI): the path of the relief_mpi module (src/world_mpi.cpp), loaded with
+  // dlopen and started (MPI_Init) by build_world; "": one process, no MPI. Every rank calls
+  // build_world with the same settings; out_dir must be one folder of a file system every rank
+  // shares. What is distributed: the tiles of every local phase, handed out one at a time by rank 0
+  // (each rank builds them `tiles at once` as above, writes them into the shared folder atomically,
+  // and sends rank 0 each tile's CRC-32, size, overview samples and stage times). On rank 0 only: the
+  // folder checks, the seed, world.json, overview.png, report.json, and the world algorithms of
+  // global stages (the other ranks wait). The store's bytes are those of a build without MPI, for
+  // any number of ranks. Progress is reported on rank 0 only. An error on any rank is thrown on
+  // every rank (Error, Cancelled, or std::runtime_error naming the rank). Error(mpi_path, …) when the
+  // module is missing or MPI does not start; MPI starts once per process (one distributed build per
+  // process).
+  std::string mpi_module;
+  std::string mpi_path = "mpi";
 };
 
 struct WorldReport {
@@ -217,6 +231,10 @@ struct WorldReport {
   int tiles_at_once = 1;
   int overview_step = 1;  // overview.png samples every this many world samples
   json recipe;            // resolved recipe as built (seed and world size set)
+  // Distributed builds: this process's rank and the number of ranks (0 and 1 without MPI). On rank 0
+  // the report covers every rank (tiles_built: all ranks', peak_memory_bytes: the largest); on the
+  // others only seed, seed_reused, world_id, grid, recipe, rank, ranks and tiles_built (its own).
+  int rank = 0, ranks = 1;
 };
 
 // Builds (or resumes) the world as described at the top of this file. Throws relief::Error for bad

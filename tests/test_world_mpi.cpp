@@ -1,0 +1,273 @@
+// Distributed world builds (relief/world.hpp, WorldSettings::mpi_module; issue 18): the relief binary
+// run by `mpirun --oversubscribe --allow-run-as-root -n P` writes, for P = 1, 2, 4 and for more
+// ranks than tiles, the store a build without MPI writes, byte for byte (every tile file, world.json
+// with its tile checksums, overview.png); a phased build (a global `fill` stage run by its world
+// algorithm on rank 0) too; a distributed build resumes a store that a build without MPI left
+// unfinished; bad input exits with code 2 and is printed once. Skipped, saying why, when mpirun
+// (openmpi-bin) or the relief_mpi module (built when CMake finds libopenmpi-dev) is missing.
+#include <gtest/gtest.h>
+
+#include <cstdlib>
+#include <filesystem>
+#include <map>
+#include <string>
+
+#include "relief/world.hpp"
+#include "support.hpp"
+
+using relief::test::Shell;
+using relief::test::TempDir;
+namespace fs = std::filesystem;
+
+namespace {
+
+std::string module_path() { return (fs::path(RELIEF_BINARY).parent_path() / "relief_mpi.so").string(); }
+
+// Why the MPI tests cannot run here ("" when they can).
+std::string missing_mpi() {
+  if (std::system("command -v mpirun >/dev/null 2>&1") != 0) return "mpirun is missing (install openmpi-bin)";
+  if (!fs::exists(module_path()))
+    return "the relief_mpi module " + module_path() + " was not built (CMake did not find MPI: install libopenmpi-dev)";
+  return "";
+}
+
+#define REQUIRE_MPI()                                          \
+  do {                                                         \
+    const std::string why = missing_mpi();                     \
+    if (!why.empty()) GTEST_SKIP() << "MPI tests skipped: " << why; \
+  } while (0)
+
+// `relief ARGS` on `ranks` ranks (CI runs as root on 2 cores: --oversubscribe --allow-run-as-root).
+Shell mpirun(int ranks, const std::string& args) {
+  return relief::test::sh("mpirun --oversubscribe --allow-run-as-root -n " + std::to_string(ranks) + " " + RELIEF_BINARY + " " +
+                          args);
+}
+
+// Every regular file under `dir` (relative path → bytes) but report.json (times, ranks).
+std::map<std::string, std::string> store_files(const fs::path& dir) {
+  std::map<std::string, std::string> files;
+  for (const auto& e : fs::recursive_directory_iterator(dir))
+    if (e.is_regular_file()) {
+      const std::string rel = fs::relative(e.path(), dir).string();
+      if (rel != "report.json") files[rel] = relief::test::slurp(e.path());
+    }
+  return files;
+}
+
+void expect_same_store(const fs::path& ref, const fs::path& got) {
+  const auto a = store_files(ref), b = store_files(got);
+  EXPECT_EQ(a.size(), b.size());
+  std::size_t tiles = 0;
+  for (auto& [name, bytes] : a) {
+    const auto it = b.find(name);
+    if (it == b.end()) {
+      ADD_FAILURE() << name << " is missing";
+      continue;
+    }
+    EXPECT_TRUE(bytes == it->second) << name << " differs";
+    tiles += name.ends_with(".rtile");
+  }
+  EXPECT_GT(tiles, 0u);
+  EXPECT_TRUE(relief::verify_world(got.string()).empty());
+  // The manifest's tile checksums (compared whole above) describe complete tiles.
+  EXPECT_EQ(relief::read_world_manifest(got.string())["status"], "complete");
+}
+
+relief::json report_of(const fs::path& dir) { return relief::json::parse(relief::test::slurp(dir / "report.json")); }
+
+// The ranks' tiles add up to the world's, and report.json says how many ranks built it.
+void expect_ranks(const fs::path& dir, int ranks, std::int64_t built) {
+  const relief::json rep = report_of(dir);
+  EXPECT_EQ(rep["performance"]["ranks"], ranks);
+  const relief::json by_rank = rep["tiles"]["built_by_rank"];
+  ASSERT_EQ(by_rank.size(), std::size_t(ranks)) << rep.dump();
+  std::int64_t sum = 0;
+  for (const auto& n : by_rank) sum += n.get<std::int64_t>();
+  EXPECT_EQ(sum, built) << rep.dump();
+  EXPECT_EQ(rep["tiles"]["built"], built);
+}
+
+const std::string kArgs = "world island --size 257 --tile 33 --seed 4 -q -j 1";  // 64 tiles
+
+// The island with a global `fill` stage after its third stage (and the rest after it when `after`).
+relief::json fill_doc(bool after) {
+  relief::json doc = relief::load_preset("island");
+  relief::json stages = relief::json::array({doc["stages"][0], doc["stages"][1], doc["stages"][2],
+                                             relief::json{{"stage", "fill"}, {"epsilon_m", 0.01}}});
+  if (after)
+    for (std::size_t k = 3; k < doc["stages"].size(); ++k) stages.push_back(doc["stages"][k]);
+  doc["stages"] = stages;
+  return doc;
+}
+
+// A world algorithm standing in for `fill` in WorldMpiPhases: each tile's heights raised by
+// 0.001·(X + 2·Z + 1), a change that is easy to get wrong (tile order, lost stores) and cheap.
+relief::WorldStageAlgorithm raise_tiles() {
+  return [](const relief::WorldStageIO& io, const relief::RecipeStage&, int) {
+    for (std::int64_t Z = 0; Z < io.grid.tiles_z; ++Z)
+      for (std::int64_t X = 0; X < io.grid.tiles_x; ++X) {
+        relief::WorldTile t = io.load(X, Z);
+        for (float& h : t.layers.at("height").data) h += 0.001f * float(X + 2 * Z + 1);
+        io.store(X, Z, std::move(t));
+      }
+  };
+}
+
+}  // namespace
+
+// Not a test on its own: the program that WorldMpi.PhasesWithAWorldAlgorithm runs on every rank
+// under mpirun (and once without it, for the reference), a library build_world with a world
+// algorithm registered for `fill`. Skipped when RELIEF_TEST_MPI_OUT does not say where to build.
+TEST(WorldMpiRank, BuildsThePhasedWorldNamedByTheEnvironment) {
+  const char* out = std::getenv("RELIEF_TEST_MPI_OUT");
+  if (!out || !*out) GTEST_SKIP() << "run by WorldMpi.PhasesWithAWorldAlgorithmAreTheSameOnOneTwoAndFourRanks";
+  const char* after = std::getenv("RELIEF_TEST_MPI_AFTER");
+  relief::json doc = fill_doc(after && *after == '1');
+  doc["seed"] = 3;
+  relief::WorldSettings s;
+  s.recipe = relief::parse_recipe(doc);
+  s.nx = s.nz = 129;
+  s.tile = 33;
+  s.threads = 1;
+  s.out_dir = out;
+  s.algorithms["fill"] = raise_tiles();
+  if (std::getenv("OMPI_COMM_WORLD_SIZE")) s.mpi_module = module_path();
+  const relief::WorldReport rep = relief::build_world(s);
+  EXPECT_EQ(rep.ranks, std::getenv("OMPI_COMM_WORLD_SIZE") ? std::atoi(std::getenv("OMPI_COMM_WORLD_SIZE")) : 1);
+}
+
+// A global stage run by its world algorithm on rank 0 over the tiles every rank wrote (between two
+// local phases, and as the last stage): the same store on 1, 2 and 4 ranks as in one process.
+TEST(WorldMpi, PhasesWithAWorldAlgorithmAreTheSameOnOneTwoAndFourRanks) {
+  REQUIRE_MPI();
+  TempDir d("world-mpi-phases");
+  const std::string self = (fs::path(RELIEF_BINARY).parent_path() / "tests" / "test_world_mpi").string();
+  ASSERT_TRUE(fs::exists(self)) << self;
+  const std::string filter = " --gtest_filter=WorldMpiRank.BuildsThePhasedWorldNamedByTheEnvironment --gtest_brief=1";
+  for (const char* after : {"1", "0"}) {
+    SCOPED_TRACE(std::string("stages after fill: ") + after);
+    const std::string env = std::string("RELIEF_TEST_MPI_AFTER=") + after + " ";
+    const std::string ref = d / (std::string("ref") + after);
+    const Shell one = relief::test::sh(env + "RELIEF_TEST_MPI_OUT=" + ref + " " + self + filter);
+    ASSERT_EQ(one.code, 0) << one.out;
+    expect_ranks(ref, 1, after[0] == '1' ? 32 : 16);
+    for (int ranks : {1, 2, 4}) {
+      SCOPED_TRACE(std::to_string(ranks) + " ranks");
+      const std::string out = d / (std::string("p") + after + "-" + std::to_string(ranks));
+      const Shell r = relief::test::sh("mpirun --oversubscribe --allow-run-as-root -n " + std::to_string(ranks) + " -x RELIEF_TEST_MPI_OUT=" +
+                                       out + " -x RELIEF_TEST_MPI_AFTER=" + after + " " + self + filter);
+      ASSERT_EQ(r.code, 0) << r.out;
+      expect_same_store(ref, out);
+      EXPECT_FALSE(fs::exists(fs::path(out) / "phase-0"));  // intermediate phases removed
+      expect_ranks(out, ranks, after[0] == '1' ? 32 : 16);
+    }
+  }
+}
+
+TEST(WorldMpi, OneTwoAndFourRanksWriteTheStoreOfABuildWithoutMpi) {
+  REQUIRE_MPI();
+  TempDir d("world-mpi");
+  const Shell ref = relief::test::relief_cli(kArgs + " -o " + (d / "ref"));
+  ASSERT_EQ(ref.code, 0) << ref.out;
+  expect_ranks(d.path / "ref", 1, 64);
+  for (int ranks : {1, 2, 4}) {
+    SCOPED_TRACE(std::to_string(ranks) + " ranks");
+    const std::string out = d / ("p" + std::to_string(ranks));
+    const Shell r = mpirun(ranks, kArgs + " -o " + out);
+    ASSERT_EQ(r.code, 0) << r.out;
+    EXPECT_TRUE(r.out.empty()) << r.out;  // -q: nothing from any rank
+    expect_same_store(d.path / "ref", out);
+    expect_ranks(out, ranks, 64);
+  }
+}
+
+TEST(WorldMpi, MoreRanksThanTilesStillBuildTheWorld) {
+  REQUIRE_MPI();
+  TempDir d("world-mpi-few");
+  const std::string args = "world hills --size 65x33 --tile 33 --seed 2 -q";  // 2 tiles
+  const Shell ref = relief::test::relief_cli(args + " -o " + (d / "ref"));
+  ASSERT_EQ(ref.code, 0) << ref.out;
+  const Shell r = mpirun(5, args + " -o " + (d / "p5"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  expect_same_store(d.path / "ref", d.path / "p5");
+  expect_ranks(d.path / "p5", 5, 2);
+}
+
+// The CLI with the `fill` stage between local phases: fill runs by its world algorithm on rank 0
+// over the tiles the ranks wrote, then every rank builds the next phase's tiles from them. Skipped
+// while the library has no default world algorithm for fill (default_world_algorithms()).
+TEST(WorldMpi, TheCliWithTheFillStageIsTheSameOnTwoAndFourRanks) {
+  REQUIRE_MPI();
+  TempDir d("world-mpi-fill");
+  relief::test::write_text(d.path / "fill.json", fill_doc(true).dump());
+  const std::string args = "world " + (d / "fill.json") + " --size 129 --tile 33 --seed 3 -q -j 1";
+  const Shell ref = relief::test::relief_cli(args + " -o " + (d / "ref"));
+  if (ref.code == 2 && ref.out.find("no world support") != std::string::npos)
+    GTEST_SKIP() << "this relief has no world algorithm for fill yet: " << ref.out;
+  ASSERT_EQ(ref.code, 0) << ref.out;
+  ASSERT_EQ(relief::read_world_manifest(d / "ref")["stages"][3]["world"], "world algorithm");
+  for (int ranks : {2, 4}) {
+    SCOPED_TRACE(std::to_string(ranks) + " ranks");
+    const std::string out = d / ("p" + std::to_string(ranks));
+    const Shell r = mpirun(ranks, args + " -o " + out);
+    ASSERT_EQ(r.code, 0) << r.out;
+    expect_same_store(d.path / "ref", out);
+    EXPECT_FALSE(fs::exists(fs::path(out) / "phase-0"));  // intermediate phase removed
+    expect_ranks(out, ranks, 2 * 16);                      // two local phases of 16 tiles
+  }
+}
+
+// A store left unfinished (tiles missing, the manifest still "building") by a build without MPI
+// is finished by a distributed one, which skips the tiles that are there.
+TEST(WorldMpi, ADistributedBuildResumesAnUnfinishedStore) {
+  REQUIRE_MPI();
+  TempDir d("world-mpi-resume");
+  const Shell ref = relief::test::relief_cli(kArgs + " -o " + (d / "ref"));
+  ASSERT_EQ(ref.code, 0) << ref.out;
+  fs::copy(d.path / "ref", d.path / "part", fs::copy_options::recursive);
+  relief::json manifest = relief::read_world_manifest(d / "part");
+  manifest["status"] = "building";
+  manifest.erase("tiles");
+  relief::test::write_text(d.path / "part" / "world.json", manifest.dump(2) + "\n");
+  fs::remove(d.path / "part" / "overview.png");
+  int removed = 0;
+  for (int k : {0, 5, 17, 40, 63}) removed += fs::remove(d.path / "part" / relief::world_tile_path(k % 8, k / 8));
+  ASSERT_EQ(removed, 5);
+  const Shell r = mpirun(2, kArgs + " -o " + (d / "part"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  expect_same_store(d.path / "ref", d.path / "part");
+  const relief::json rep = report_of(d.path / "part");
+  EXPECT_EQ(rep["tiles"]["built"], 5);
+  EXPECT_EQ(rep["tiles"]["skipped"], 59);
+}
+
+TEST(WorldMpi, BadInputExitsWithCode2AndRankZeroAloneSaysWhy) {
+  REQUIRE_MPI();
+  TempDir d("world-mpi-bad");
+  // --mpi without the module (no mpirun: a singleton would start).
+  const Shell nomod = relief::test::sh(std::string("RELIEF_MPI_MODULE=").append(d / "none.so").append(" ").append(RELIEF_BINARY) +
+                                       " world island --size 65 --tile 33 --mpi -o " + (d / "a"));
+  EXPECT_EQ(nomod.code, 2) << nomod.out;
+  EXPECT_NE(nomod.out.find("--mpi: expected the MPI module"), std::string::npos) << nomod.out;
+  EXPECT_FALSE(fs::exists(d.path / "a" / "world.json"));
+  // A file that is not the module.
+  relief::test::write_text(d.path / "fake.so", "not a shared object");
+  const Shell fake = relief::test::sh(std::string("RELIEF_MPI_MODULE=").append(d / "fake.so").append(" ").append(RELIEF_BINARY) +
+                                      " world island --size 65 --tile 33 --mpi -o " + (d / "a"));
+  EXPECT_EQ(fake.code, 2) << fake.out;
+  EXPECT_NE(fake.out.find("--mpi: cannot load the MPI module"), std::string::npos) << fake.out;
+  // Under mpirun: a bad tile size is refused by every rank, printed by rank 0 only.
+  const Shell tile = mpirun(3, "world island --size 129 --tile 64 -o " + (d / "b"));
+  EXPECT_EQ(tile.code, 2) << tile.out;
+  const std::string needle = "relief: error: --tile: expected a tile size of 2^n+1";
+  const std::size_t first = tile.out.find(needle);
+  ASSERT_NE(first, std::string::npos) << tile.out;
+  EXPECT_EQ(tile.out.find(needle, first + 1), std::string::npos) << "printed by more than one rank:\n" << tile.out;
+  // A folder holding another world: found by rank 0, thrown on every rank, printed once.
+  ASSERT_EQ(relief::test::relief_cli("world island --size 65 --tile 33 --seed 1 -q -o " + (d / "c")).code, 0);
+  const Shell other = mpirun(2, "world island --size 65 --tile 33 --seed 2 -q -o " + (d / "c"));
+  EXPECT_EQ(other.code, 2) << other.out;
+  const std::size_t at = other.out.find("relief: error: --out: the folder");
+  ASSERT_NE(at, std::string::npos) << other.out;
+  EXPECT_EQ(other.out.find("relief: error:", at + 1), std::string::npos) << "printed by more than one rank:\n" << other.out;
+}
