@@ -6,6 +6,7 @@
 
 #include <cstring>
 #include <filesystem>
+#include <functional>
 
 #include <cmath>
 
@@ -219,12 +220,17 @@ TEST(FlowTiled, WithoutCarvingAndWithNarrowRiversEqualsTheWholeMap) {
   }
 }
 
-// A valley along the diagonal: the main river runs through every tile corner (where four tiles
-// meet and a sample's receiver lies in the diagonal tile), side valleys join it from both sides.
-TEST(FlowTiled, ARiverThroughTileCornersEqualsTheWholeMap) {
-  const int n = 129;
+namespace {
+
+// The whole-map flow stage on a synthetic height z(i, j) (filled first, so that it drains).
+struct Synthetic {
+  Terrain whole;
+  std::vector<float> h;
+  WorldFlowParams p;
+};
+Synthetic synthetic(int n, const std::function<double(int, int)>& z, const json& flow) {
   json doc = {{"world", {{"size", n}, {"width_m", 4000.0}, {"height_m", 500.0}, {"sea_level", 0.4}}},
-              {"stages", json::array({json{{"stage", "noise"}}, flow_stage(30.0)})},
+              {"stages", json::array({json{{"stage", "noise"}}, flow})},
               {"seed", 1}};
   const Recipe r = parse_recipe(doc);
   Recipe first = r;
@@ -232,28 +238,61 @@ TEST(FlowTiled, ARiverThroughTileCornersEqualsTheWholeMap) {
   Terrain t = run(first).terrain;
   std::vector<float>& h = t.get("height").data;
   for (int j = 0; j < n; ++j)
-    for (int i = 0; i < n; ++i) {
-      const double across = std::abs(i - j), along = 2.0 * (n - 1) - i - j;
-      const double ripple = ((i * 7 + j * 13) % 5) * 1e-5;  // side valleys and uneven slopes
-      h[std::size_t(j) * n + i] = float(0.41 + 2e-3 * across + 1e-3 * along + ripple);
-    }
+    for (int i = 0; i < n; ++i) h[std::size_t(j) * n + i] = float(z(i, j));
   hydro::fill_depressions<float>(h.data(), n, n, 0.4f, 0.0f);
   RunOptions opt;
   opt.resume = Resume{&t, 1};
-  const Terrain whole = run(r, opt).terrain;
+  return {run(r, opt).terrain, h, world_flow_params(r.stages[1].stage->params())};
+}
+
+}  // namespace
+
+// A valley along the diagonal: the main river runs through every tile corner (where four tiles
+// meet and a sample's receiver lies in the diagonal tile), side valleys join it from both sides.
+TEST(FlowTiled, ARiverThroughTileCornersEqualsTheWholeMap) {
+  const int n = 129;
+  const Synthetic sy = synthetic(
+      n,
+      [&](int i, int j) {
+        const double across = std::abs(i - j), along = 2.0 * (n - 1) - i - j;
+        const double ripple = ((i * 7 + j * 13) % 5) * 1e-5;  // side valleys and uneven slopes
+        return 0.41 + 2e-3 * across + 1e-3 * along + ripple;
+      },
+      flow_stage(30.0));
+  const Terrain& whole = sy.whole;
   const float cell2 = float(whole.frame.cell_m() * whole.frame.cell_m());
   ASSERT_GT(whole.get("flow").data[std::size_t(n - 2) * n + (n - 2)], 1000.0f * cell2);
   ASSERT_GT(whole.get("flow").data[std::size_t(32) * n + 32], 100.0f * cell2);  // a corner of tiles 5, 9, 17, 33
-  const WorldFlowParams p = world_flow_params(r.stages[1].stage->params());
   for (int tile : {5, 9, 17, 33}) {
     SCOPED_TRACE("tile " + std::to_string(tile));
     Assembled a;
     std::vector<River> rivers;
-    const TiledFlowStats st = tiled(h, n, n, tile, whole.frame, p, a, &rivers);
+    const TiledFlowStats st = tiled(sy.h, n, n, tile, whole.frame, sy.p, a, &rivers);
     expect_layers(whole, a, n);
     expect_same_rivers(whole, rivers);
     EXPECT_GE(st.rounds, 2);
     EXPECT_GT(st.cross_links, 0);
+  }
+}
+
+// A wide river one sample below a row of tile borders (z = 32 for tiles of 5, 9, 17 and 33),
+// flowing along it: its discs cover samples of the tiles above, which hold no river of their own.
+TEST(FlowTiled, AWideRiverAlongATileBorderCoversTheTilesBeside) {
+  const int n = 129;
+  const Synthetic sy = synthetic(
+      n, [&](int i, int j) { return 0.41 + 2e-3 * std::abs(j - 33) + 1e-3 * (n - 1 - i) + ((i * 5 + j * 3) % 4) * 1e-5; },
+      flow_stage(0.0, 1000.0));
+  const Terrain& whole = sy.whole;
+  const std::vector<float>& water = whole.get("water").data;
+  ASSERT_GT(water[std::size_t(29) * n + 100], 0.5f);  // four samples above the river, in the tiles above
+  for (int tile : {5, 9, 17, 33}) {
+    SCOPED_TRACE("tile " + std::to_string(tile));
+    Assembled a;
+    std::vector<River> rivers;
+    const TiledFlowStats st = tiled(sy.h, n, n, tile, whole.frame, sy.p, a, &rivers);
+    expect_layers(whole, a, n);
+    expect_same_rivers(whole, rivers);
+    EXPECT_GT(st.cover_cells, 0u);
   }
 }
 
