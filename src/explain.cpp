@@ -6,6 +6,7 @@
 #include "relief/output.hpp"
 #include "relief/recipe.hpp"
 #include "relief/stage.hpp"
+#include "relief/world.hpp"
 
 namespace relief {
 
@@ -16,7 +17,12 @@ json parameter_table_json(std::string_view only_stage) {
   o["world"] = ws;
   json st = json::array();
   for (auto& d : stage_registry())
-    if (only_stage.empty() || d.name == only_stage) st.push_back(d.to_json());
+    if (only_stage.empty() || d.name == only_stage) {
+      json j = d.to_json();
+      const WorldGuarantee g = world_guarantee(d);
+      j["world"] = {{"guarantee", g.guarantee}, {"how", g.how}};  // in `relief world` builds
+      st.push_back(std::move(j));
+    }
   if (!only_stage.empty() && st.empty()) {
     std::vector<std::string> names;
     for (auto& d : stage_registry()) names.push_back(d.name);

@@ -134,6 +134,43 @@ WorldStageAlgorithm world_fill() {
   };
 }
 
-std::map<std::string, WorldStageAlgorithm> default_world_algorithms() { return {{"fill", world_fill()}}; }
+namespace {
+// The library's world algorithms: stage name → the algorithm, its guarantee and how it works.
+struct WorldAlgorithmEntry {
+  const char* stage;
+  WorldStageAlgorithm (*make)();
+  const char* guarantee;
+  const char* how;
+};
+const std::vector<WorldAlgorithmEntry>& world_algorithm_entries() {
+  static const std::vector<WorldAlgorithmEntry> all = {
+      {"fill", world_fill, "exact",
+       "tiles filled alone, then again with the border levels their neighbours found, until no border level changes "
+       "(Barnes 2016)"},
+  };
+  return all;
+}
+}  // namespace
+
+std::map<std::string, WorldStageAlgorithm> default_world_algorithms() {
+  std::map<std::string, WorldStageAlgorithm> m;
+  for (const WorldAlgorithmEntry& e : world_algorithm_entries()) m.emplace(e.stage, e.make());
+  return m;
+}
+
+WorldGuarantee world_guarantee(const StageDef& d) {
+  for (const WorldAlgorithmEntry& e : world_algorithm_entries())
+    if (d.name == e.stage) return {e.guarantee, e.how};
+  switch (d.locality) {
+    case Locality::Pointwise:
+      return {"exact", "pointwise: each tile computes its own samples"};
+    case Locality::Neighbourhood:
+      return {"exact", "neighbourhood: each tile is computed on its window grown by the stage's halo" +
+                           std::string(d.halo_rule.empty() ? " (" + std::to_string(d.halo) + " samples)" : " (" + d.halo_rule + ")")};
+    case Locality::Global:
+      break;
+  }
+  return {"none", "not yet in world builds: " + (d.why_global.empty() ? std::string("it needs the whole map") : d.why_global)};
+}
 
 }  // namespace relief

@@ -769,3 +769,22 @@ TEST(WorldExact, AWorldWiderThanOneMapEqualsTheWholeRun) {
   EXPECT_EQ(read_world_manifest(d / "w")["frame"]["size"][0], nx);
   expect_same_layers(whole, read_world_window(d / "w", 0, 0, nx, nz));
 }
+
+// What `relief explain` and world.json say each stage guarantees in a world build.
+TEST(WorldGuarantees, FromTheStagesLocalityAndTheLibrarysWorldAlgorithms) {
+  auto of = [](const char* name) { return world_guarantee(*find_stage(name)); };
+  EXPECT_EQ(of("noise").guarantee, "exact");
+  EXPECT_NE(of("noise").how.find("pointwise"), std::string::npos);
+  EXPECT_EQ(of("thermal").guarantee, "exact");
+  EXPECT_NE(of("thermal").how.find("halo"), std::string::npos) << of("thermal").how;
+  EXPECT_EQ(of("fill").guarantee, "exact");
+  EXPECT_NE(of("fill").how.find("Barnes"), std::string::npos);
+  EXPECT_EQ(of("tilemap").guarantee, "none");
+  EXPECT_NE(of("tilemap").how.find("whole map"), std::string::npos) << of("tilemap").how;
+  // Every stage the library registers a world algorithm for says so.
+  for (const auto& [name, algo] : default_world_algorithms()) EXPECT_NE(of(name.c_str()).guarantee, "none") << name;
+  // The CLI prints it.
+  const auto out = relief::test::relief_cli("explain fill");
+  ASSERT_EQ(out.code, 0) << out.out;
+  EXPECT_NE(out.out.find("world builds: exact"), std::string::npos) << out.out;
+}

@@ -671,6 +671,13 @@ void print_params(const std::vector<ParamInfo>& ps, int indent = 4) {
   }
 }
 
+// What the stage guarantees in `relief world` builds (world.hpp, world_guarantee), one wrapped line.
+void print_world_guarantee(const StageDef& d, int indent = 4) {
+  const WorldGuarantee g = world_guarantee(d);
+  const auto lines = wrap("world builds: " + g.guarantee + " — " + g.how, 100);
+  for (std::size_t k = 0; k < lines.size(); ++k) std::printf("%*s%s%s\n", indent, "", k == 0 ? "" : "  ", lines[k].c_str());
+}
+
 int cmd_explain(const std::string& stage, bool as_json) {
   if (as_json) {
     std::printf("%s\n", parameter_table_json(stage).dump(2).c_str());
@@ -685,6 +692,7 @@ int cmd_explain(const std::string& stage, bool as_json) {
       throw Error("stage", "unknown stage " + quote(stage) + (near.empty() ? "" : " (did you mean '" + near + "'?)"));
     }
     std::printf("%s: %s\n", d->name.c_str(), d->summary.c_str());
+    print_world_guarantee(*d);
     print_params(d->params);
     return 0;
   }
@@ -693,6 +701,7 @@ int cmd_explain(const std::string& stage, bool as_json) {
   std::printf("\nstages (use `relief explain STAGE` for one):\n");
   for (auto& d : stage_registry()) {
     std::printf("  %s: %s\n", d.name.c_str(), d.summary.c_str());
+    print_world_guarantee(d, 4);
     print_params(d.params);
   }
   std::printf("\nformats (--formats a,b,c):\n");

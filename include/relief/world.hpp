@@ -172,6 +172,15 @@ WorldStageAlgorithm world_fill();
 // The world algorithms build_world uses for global stages that WorldSettings::algorithms does not
 // name: those that are exact against the stage's whole-map run (by stage name).
 std::map<std::string, WorldStageAlgorithm> default_world_algorithms();
+// What a stage guarantees in a world build (world.json's stage entries, `relief explain`):
+// guarantee "exact" (the same bits as one whole-map build, for any tile size), "bounded" (an
+// approximation whose seam error is measured and published) or "none" (refused: build_world throws
+// naming the stage), and one line saying how or why. From the stage's locality (pointwise and
+// neighbourhood stages are exact through their halo) and default_world_algorithms().
+struct WorldGuarantee {
+  std::string guarantee, how;
+};
+WorldGuarantee world_guarantee(const StageDef& stage);
 
 struct WorldSettings {
   Recipe recipe;  // parsed and validated; world.size is replaced by nx × nz
