@@ -2,6 +2,16 @@
 // (relief/world.hpp). Each tile is run() on its window, which grows by the stages' halos and is
 // cropped (pipeline.cpp), so pointwise and neighbourhood stages are exact; global stages are
 // refused until a world algorithm handles them (Barnes' perimeter methods, issue 18).
+//
+// Distributed builds (WorldSettings::mpi_module; src/world_transport.hpp): every rank runs this
+// function. Rank 0 alone checks the folder, draws the seed and writes world.json, runs the world
+// algorithms of global stages (the others wait in a broadcast) and writes overview.png, report.json
+// and the final world.json. The tiles of each local phase are handed out one at a time by rank 0
+// (WorkHandout); every rank builds them on `at_once` lanes and writes them into the shared folder,
+// and each tile's small result (CRC-32, size, overview samples, stage times: TileResult) goes to
+// rank 0, which fills the manifest and the overview exactly as a build in one process does. Every
+// step whose outcome the ranks must share ends in agree()/agree_all(): rank 0's outcome (or the
+// first failure of any rank) is broadcast and rethrown on every rank, so all ranks leave together.
 #include <tbb/info.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>

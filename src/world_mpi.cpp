@@ -5,7 +5,7 @@
 //
 // MPI use: MPI_COMM_WORLD duplicated; MPI_THREAD_SERIALIZED (the world build calls the transport
 // from several threads, one at a time); every wait is a nonblocking call tested in a loop that
-// sleeps (20 µs growing to 1 ms) instead of MPI's blocking calls, which spin and would take the
+// sleeps (10 µs growing to 0.2 or 1 ms) instead of MPI's blocking calls, which spin and would take the
 // core from the ranks that work (2 ranks on 2 cores).
 #include <dlfcn.h>
 #include <mpi.h>
@@ -22,11 +22,14 @@ namespace {
 
 using relief::detail::WorldTransport;
 
+// Sleeps between polls: 10 µs doubling to `cap` (200 µs for a reply to a request, 1 ms in
+// collectives, where ranks wait for rank 0's world algorithms).
 struct Backoff {
-  int us = 20;
+  int us = 10, cap = 1000;
+  explicit Backoff(int cap_us = 1000) : cap(cap_us) {}
   void wait() {
     std::this_thread::sleep_for(std::chrono::microseconds(us));
-    us = us < 500 ? us * 2 : 1000;
+    us = std::min(cap, us * 2);
   }
 };
 
@@ -78,7 +81,7 @@ class MpiTransport final : public WorldTransport {
     return true;
   }
   std::string receive(int from, int tag) override {
-    Backoff b;
+    Backoff b(200);
     for (;;) {
       int flag = 0;
       MPI_Status st;

@@ -12,7 +12,7 @@
 //   - messages are byte strings (at most 2^31-1 bytes), matched by (source, tag) in send order
 //     between two ranks; tags below 1000 are the transport's own;
 //   - calls may come from several threads, never at the same time (callers serialise them);
-//   - every wait sleeps between polls (20 µs growing to 1 ms) rather than spinning, so ranks
+//   - every wait sleeps between polls (10 µs growing to 0.2 or 1 ms) rather than spinning, so ranks
 //     waiting for rank 0 leave the cores to it;
 //   - broadcast() and barrier() are collective: every rank calls them in the same order.
 #include <atomic>

@@ -579,7 +579,9 @@ int cmd_world(const CliWorld& w) {
 
 // `relief world` on one rank of a distributed build: ranks other than 0 print no error, since rank 0
 // reports the same one (every rank reads the same input, and build_world throws any rank's failure
-// on every rank) — except when MPI itself did not start on that rank (--mpi errors).
+// on every rank) — except when MPI itself did not start on that rank (--mpi errors). They exit with
+// status 0 then: a rank that exits non-zero first makes mpirun stop the others, which could cut
+// rank 0 short before it prints; mpirun's own status is rank 0's (2).
 int cmd_world_rank(const CliWorld& w) {
   if (world_mpi_rank() == 0) return cmd_world(w);
   try {
@@ -587,7 +589,7 @@ int cmd_world_rank(const CliWorld& w) {
   } catch (const Error& e) {
     if (e.path() == "--mpi") throw;
     g_finished = true;
-    return 2;
+    return 0;
   } catch (const Cancelled&) {
     g_finished = true;
     const int sig = g_signal.load();
