@@ -295,3 +295,70 @@ TEST(WorldEngineCli, TilingThatDoesNotFitTheWorldExitsTwoBeforeBuilding) {
   relief::test::expect_cli_error(base + " --size 257 --engine unity --godot-format r16", "--godot-format: ");
   EXPECT_FALSE(fs::exists(d.path / "w" / "world.json"));  // refused before any tile
 }
+
+namespace {
+// A small world built through the library (island without its global stage), for export_world.
+std::string small_world(const TempDir& d, std::int64_t n, int tile) {
+  json doc = load_preset("island");
+  json stages = json::array();
+  for (int k : {0, 1, 3, 4}) stages.push_back(doc["stages"][k]);
+  doc["stages"] = stages;
+  doc["seed"] = 2;
+  WorldSettings s;
+  s.recipe = parse_recipe(doc);
+  s.nx = s.nz = n;
+  s.tile = tile;
+  s.out_dir = d / "world";
+  s.threads = 2;
+  build_world(s);
+  return s.out_dir;
+}
+}  // namespace
+
+TEST(WorldExport, ASecondExportLeavesNoStaleTiles) {
+  TempDir d("relief-world-export");
+  WorldExportSettings s;
+  s.store_dir = small_world(d, 257, 65);
+  s.options.engine = Engine::Unity;
+  s.options.split = "2x2";
+  s.lod = true;
+  const WorldExportReport a = export_world(s);
+  EXPECT_EQ(a.engine_tiles, 4);
+  EXPECT_EQ(a.lod_levels, 3);  // 4×4 tiles of 65, 2×2, 1
+  EXPECT_EQ(a.lod_tiles, 16 + 4 + 1);
+  s.options.split = "1x1";
+  s.options.engine = Engine::Godot;
+  s.lod = false;
+  const WorldExportReport b = export_world(s);
+  EXPECT_EQ(b.engine_tiles, 1);
+  EXPECT_EQ(names_in(fs::path(s.store_dir) / "engine", ""),
+            (std::set<std::string>{"godot_height.exr", "godot_height.json", "godot_import.txt"}));
+  for (const std::string& f : b.files) EXPECT_TRUE(fs::exists(fs::path(s.store_dir) / f)) << f;
+  EXPECT_TRUE(fs::exists(fs::path(s.store_dir) / "lod" / "2" / "x0_z0.png"));  // not asked for: left alone
+}
+
+TEST(WorldExport, RefusesAnUnfinishedStoreAndATilingThatDoesNotFit) {
+  TempDir d("relief-world-export-bad");
+  WorldExportSettings s;
+  s.store_dir = small_world(d, 129, 65);
+  s.options.engine = Engine::Unreal;  // 129 is not 127·k
+  try {
+    export_world(s);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.path(), "export.engine");
+  }
+  EXPECT_THROW(check_world_export(s.options, 129, 129), Error);
+  EXPECT_NO_THROW(check_world_export(s.options, 127, 127));
+  s.options.engine = Engine::Unity;  // legal: 129 = 2^7 + 1
+  EXPECT_NO_THROW(export_world(s));
+  json m = json::parse(slurp(fs::path(s.store_dir) / "world.json"));
+  m["status"] = "building";
+  relief::test::write_text(fs::path(s.store_dir) / "world.json", m.dump());
+  try {
+    export_world(s);
+    ADD_FAILURE() << "no error";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.path(), "output");
+  }
+}
