@@ -17,7 +17,7 @@
 //                 nx = kx·t. Unreal 5's tiled import (Landscape > Import from File, World
 //                 Partition) reads every `<name>_x<X>_y<Y>` file (all the same size) into one
 //                 heightmap and copies tile (X, Y) to X·width, Y·height, edge to edge
-//                 (FLandscapeImportHelper::GetImportDataInternal); overlapping tiles would repeat
+//                 (GetImportDataInternal, LandscapeImportHelper.cpp); overlapping tiles would repeat
 //                 a row and column at every seam.
 // Tile (X, Y): X along +x, Y along our +z, named `<engine>_height_x<X>_y<Y>.<ext>` (no suffix
 // for 1×1). File formats, orientation and value mapping: the README's Engines section and the
