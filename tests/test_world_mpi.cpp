@@ -6,11 +6,16 @@
 // unfinished; bad input exits with code 2 and is printed once. Skipped, saying why, when mpirun
 // (openmpi-bin) or the relief_mpi module (built when CMake finds libopenmpi-dev) is missing.
 #include <gtest/gtest.h>
+#include <signal.h>
+#include <sys/wait.h>
+#include <unistd.h>
 
+#include <chrono>
 #include <cstdlib>
 #include <filesystem>
 #include <map>
 #include <string>
+#include <thread>
 
 #include "relief/world.hpp"
 #include "support.hpp"
@@ -239,6 +244,60 @@ TEST(WorldMpi, ADistributedBuildResumesAnUnfinishedStore) {
   const relief::json rep = report_of(d.path / "part");
   EXPECT_EQ(rep["tiles"]["built"], 5);
   EXPECT_EQ(rep["tiles"]["skipped"], 59);
+}
+
+// SIGKILL of mpirun part way through: its ranks go too (they lose mpirun), the finished tiles stay,
+// and a distributed rerun finishes the store with the bytes of an uninterrupted build without MPI.
+TEST(WorldMpi, AfterSigkillOfMpirunADistributedRerunGivesTheSameBytes) {
+  REQUIRE_MPI();
+  TempDir d("world-mpi-kill");
+  const std::string args = "world island --size 1025 --tile 33 --seed 6 -q -j 1";  // 1024 tiles
+  const Shell ref = relief::test::relief_cli(args + " -o " + (d / "ref"));
+  ASSERT_EQ(ref.code, 0) << ref.out;
+  const fs::path out = d.path / "w";
+  auto tiles_in = [&] {
+    std::error_code ec;
+    std::size_t n = 0;
+    for (const auto& e : fs::directory_iterator(out / "tiles", ec)) n += e.path().extension() == ".rtile";
+    return n;
+  };
+  const std::string cmd = "exec mpirun --oversubscribe --allow-run-as-root -n 2 " + std::string(RELIEF_BINARY) + " " + args +
+                          " -o " + out.string() + " >/dev/null 2>&1";
+  const pid_t pid = fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    ::execl("/bin/sh", "sh", "-c", cmd.c_str(), (char*)nullptr);
+    ::_exit(127);
+  }
+  int st = 0;
+  bool exited = false;
+  const auto t0 = std::chrono::steady_clock::now();
+  while (!exited && tiles_in() < 100 && std::chrono::steady_clock::now() - t0 < std::chrono::seconds(60)) {
+    std::this_thread::sleep_for(std::chrono::microseconds(200));
+    exited = ::waitpid(pid, &st, WNOHANG) == pid;
+  }
+  if (!exited) {
+    ::kill(pid, SIGKILL);
+    ::waitpid(pid, &st, 0);
+  }
+  // The ranks notice that mpirun is gone and leave; those still there after 30 s are ended here.
+  // (The pattern's "[/]" keeps pgrep from finding the shell that runs it.)
+  const std::string ranks_of = "pgrep -f -- '-o [/]" + out.string().substr(1) + "'";
+  for (int k = 0; k < 300 && !relief::test::sh(ranks_of).out.empty(); ++k) std::this_thread::sleep_for(std::chrono::milliseconds(100));
+  std::stringstream left(relief::test::sh(ranks_of).out);
+  for (long p; left >> p;) {
+    ADD_FAILURE() << "rank " << p << " still ran 30 s after mpirun was killed";
+    ::kill(pid_t(p), SIGKILL);
+  }
+  const std::size_t kept = tiles_in();
+  const Shell again = mpirun(2, args + " -o " + out.string());
+  ASSERT_EQ(again.code, 0) << again.out;
+  expect_same_store(d.path / "ref", out);
+  if (WIFSIGNALED(st)) {  // killed part way (not after the build had finished): it resumed
+    EXPECT_EQ(report_of(out)["tiles"]["skipped"], kept);
+    EXPECT_GT(kept, 0u);
+    EXPECT_LT(kept, 1024u);
+  }
 }
 
 TEST(WorldMpi, BadInputExitsWithCode2AndRankZeroAloneSaysWhy) {
