@@ -62,6 +62,17 @@ TEST(ExportCli, EnginePicksALegalSizeAndWritesItsFiles) {
   ASSERT_EQ(tiles.code, 0) << tiles.out;
   for (const char* f : {"unity_height_x0_y0.raw", "unity_height_x1_y0.raw", "unity_height_x0_y1.raw", "unity_height_x1_y1.raw"})
     EXPECT_EQ(fs::file_size(t.path / f), 33u * 33u * 2u) << f;
+
+  // Unreal's tiles abut (no shared sample): without --size, a 2×2 split of the 513² island becomes
+  // 2 × 253 = 506 samples a side, four 253² tiles (the legal size nearest to half the map).
+  TempDir u;
+  const Result un = relief_cli("generate island --seed 2 --engine unreal --split 2x2 --formats heightmap -o " + u.path.string());
+  ASSERT_EQ(un.code, 0) << un.out;
+  EXPECT_NE(un.out.find("unreal: using --size 506x506"), std::string::npos) << un.out;
+  const auto us = nlohmann::json::parse(slurp(u.path / "unreal_height.json"));
+  EXPECT_EQ(us["samples_per_tile"], 253);
+  for (const char* f : {"unreal_height_x0_y0.png", "unreal_height_x1_y0.png", "unreal_height_x0_y1.png", "unreal_height_x1_y1.png"})
+    EXPECT_TRUE(fs::exists(u.path / f)) << f;
 }
 
 TEST(ExportCli, FormatsAllWritesEveryFileIdenticallyForAnyThreadCount) {

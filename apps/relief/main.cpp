@@ -291,11 +291,13 @@ int cmd_generate(const CliGenerate& s) {
   if (formats == "default") formats.clear();
   const bool engine = export_options.engine != Engine::None;
   if (engine && s.size.empty()) {
-    // Pick the engine's legal size nearest to the recipe's (square tiles, overlapping by one sample).
+    // Pick the engine's legal size nearest to the recipe's (square tiles that share a border sample,
+    // or abut for Unreal: engine_tile_overlap, world_engine.hpp).
     Recipe probe = parse_recipe(doc);
+    const int ov = engine_tile_overlap(export_options.engine);
     const int n = engine_legal_size(export_options.engine, probe.world.nx, export_options.split_x());
-    const int tile = (n - 1) / export_options.split_x() + 1;
-    const int nz = export_options.split_z() * (tile - 1) + 1;
+    const int tile = (n - ov) / export_options.split_x() + ov;
+    const int nz = export_options.split_z() * (tile - ov) + ov;
     if (n != probe.world.nx || nz != probe.world.nz) {
       parse_size(std::to_string(n) + "x" + std::to_string(nz), doc);
       if (!s.quiet) std::fprintf(stderr, "relief: %s: using --size %dx%d (legal for the engine)\n", to_string(export_options.engine).c_str(), n, nz);
