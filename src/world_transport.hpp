@@ -1,6 +1,7 @@
 #pragma once
-// The message passing a distributed world build needs (relief/world.hpp, "Distributed builds"),
-// behind a small interface so that the single-process build needs no MPI at run time:
+// The message passing a distributed world build needs (relief/world.hpp, WorldSettings::mpi_module;
+// what runs where: the top of src/world.cpp), behind a small interface so that the single-process
+// build needs no MPI at run time:
 //   - in_process_transport(): rank 0 of 1, no messages (every build without MPI);
 //   - load_mpi_transport(): the relief_mpi module (src/world_mpi.cpp, built only when CMake finds
 //     MPI, linked to libmpi), loaded with dlopen; the relief binary and relief_core never link MPI.
@@ -10,7 +11,7 @@
 // Contracts of WorldTransport (both implementations):
 //   - ranks 0..size()-1; rank 0 is the root (writes the manifest, runs the world algorithms);
 //   - messages are byte strings (at most 2^31-1 bytes), matched by (source, tag) in send order
-//     between two ranks; tags below 1000 are the transport's own;
+//     between two ranks (WorkHandout uses tags 1 and 2; nothing else sends point to point);
 //   - calls may come from several threads, never at the same time (callers serialise them);
 //   - every wait sleeps between polls (10 µs growing to 0.2 or 1 ms) rather than spinning, so ranks
 //     waiting for rank 0 leave the cores to it;
