@@ -36,4 +36,16 @@ int classify(const std::vector<ClimateBiome>& table, double temperature, double 
 // Two passes of the 1-D lower envelope of parabolas, O(nx · nz); row/column parallel, exact.
 std::vector<float> distance_transform(const std::vector<unsigned char>& source, int nx, int nz);
 
+// The same transform, bounded for tiled worlds: each sample's distance (in samples) to the nearest
+// source when it is less than `cap` samples, +∞ otherwise (no source nearer). The test is made on
+// the exact integer squared distance d² (d² ≤ within_limit(cap), the largest integer below cap²),
+// before any rounding, so the answer is a function of the true d² alone. Window independence: a
+// source nearer than `cap` lies within within_halo(cap) samples (Chebyshev) of the sample, so on
+// any window that holds every sample within that halo of a sample, the result at the sample equals
+// the whole map's bit for bit (farther sources can only make the window's d² larger, and it is
+// already beyond the limit on the whole map).
+double within_limit(double cap);  // ceil(cap²) − 1 (−1 when cap ≤ 0)
+int within_halo(double cap);      // floor(√within_limit(cap)): the Chebyshev reach of the test
+std::vector<float> distance_transform_within(const std::vector<unsigned char>& source, int nx, int nz, double cap);
+
 }  // namespace relief::detail

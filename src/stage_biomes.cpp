@@ -24,9 +24,18 @@
 // max(coast_m, 1.5·H/tan(coast_slope_deg)) with H the sample's own lift (stages after this one,
 // such as terraces, can steepen it again).
 //
-// Pointwise with blend = interpolate or none: a sample depends on its world position, its incoming
-// elevation, the seed and the parameters only. blend = selective is a neighbourhood pass of
-// selective_radius_m (rounded to samples) repeated selective_passes times.
+// Reach (issue 18): a neighbourhood stage. The coast taper reads the distance to the sea only where
+// it is below the longest fade-in D_max = max(coast_m, 1.5 · L · (1 − sea) · height_m /
+// tan(coast_slope_deg)) (coast_m alone without coast_slope_deg), L the highest point of any type's
+// curve (a monotone curve never overshoots its points, so no lift exceeds L; the per-sample D is
+// also clamped to D_max so that a lift rounded an ulp above L cannot reach further): beyond D the
+// taper is exactly 1. So the distance is detail::distance_transform_within(D_max / cell) (the exact
+// integer squared distance tested before rounding), and the halo is within_halo(D_max / cell)
+// samples; every other term depends on the sample's world position, its incoming elevation, the
+// seed and the parameters (region points live on a jittered grid of world cells). blend = selective
+// adds a neighbourhood pass of selective_radius_m (rounded to samples, at least 1) repeated
+// selective_passes times: radius × passes more samples. Whole-map bytes are those of the old
+// global definition (a farther sea never changed the taper).
 #include <algorithm>
 #include <cmath>
 #include <cstdint>
@@ -306,6 +315,28 @@ void masked_box(const Frame& fr, Layer& h, Layer& albedo, const std::vector<std:
   albedo.data.swap(na);
 }
 
+// D_max of the note at the top of the file, in metres (0 without coast_m).
+double coast_reach_max_m(const BiomesParams& p, const Frame& fr) {
+  if (!(p.coast_m > 0)) return 0.0;
+  if (!(p.coast_slope_deg > 0)) return p.coast_m;
+  double top = 0;
+  for (const BiomeType& t : p.types)
+    for (const CurvePoint& c : t.curve) top = std::max(top, c.y);
+  const double tan_coast = std::tan(std::clamp(p.coast_slope_deg, 1e-3, 89.0) * std::numbers::pi / 180.0);
+  return std::max(p.coast_m, 1.5 * top * (1.0 - fr.sea_level) * fr.height_m / tan_coast);
+}
+
+int selective_radius(const BiomesParams& p, const Frame& fr) {
+  return std::max(1, int(std::lround(p.selective_radius_m / fr.cell_m())));
+}
+
+Reach biomes_reach(const BiomesParams& p, const Frame& fr) {
+  const double reach_max = coast_reach_max_m(p, fr);
+  std::int64_t halo = reach_max > 0 ? detail::within_halo(reach_max / fr.cell_m()) : 0;
+  if (p.blend == BiomesParams::Blend::Selective) halo += std::int64_t(selective_radius(p, fr)) * p.selective_passes;
+  return neighbourhood(int(std::min<std::int64_t>(halo, 1 << 28)));
+}
+
 void apply_biomes(Terrain& t, const BiomesParams& p, const Context& ctx) {
   const Frame& fr = t.frame;
   const std::string path = "stages[" + std::to_string(ctx.stage_index) + "]";
@@ -322,11 +353,13 @@ void apply_biomes(Terrain& t, const BiomesParams& p, const Context& ctx) {
 
   const double tan_coast = std::tan(std::clamp(p.coast_slope_deg, 1e-3, 89.0) * std::numbers::pi / 180.0);
   // Distance from each land sample to the nearest sea sample of the incoming terrain, in metres.
+  // +∞ at D_max and beyond (where the taper is 1 whatever the distance).
   std::vector<float> coast_dist;
+  const double coast_reach_max = coast_reach_max_m(p, fr);
   if (p.coast_m > 0) {
     std::vector<unsigned char> sea_mask(fr.count());
     for (std::size_t k = 0; k < sea_mask.size(); ++k) sea_mask[k] = double(h.data[k]) <= sea;
-    coast_dist = detail::distance_transform(sea_mask, fr.nx, fr.nz);
+    coast_dist = detail::distance_transform_within(sea_mask, fr.nx, fr.nz, coast_reach_max / fr.cell_m());
   }
   Layer& albedo = t.layer("albedo", 3);
   Layer& biome = t.layer("biome", 1);
@@ -439,7 +472,7 @@ void apply_biomes(Terrain& t, const BiomesParams& p, const Context& ctx) {
         // A smoothstep rise of H metres over D metres is at most 1.5·H/D steep: with
         // coast_slope_deg, D grows with this sample's lift so that the fade-in stays under it.
         const double reach_m = p.coast_slope_deg > 0
-                                   ? std::max(p.coast_m, 1.5 * std::max(0.0, lift) * land * fr.height_m / tan_coast)
+                                   ? std::min(coast_reach_max, std::max(p.coast_m, 1.5 * std::max(0.0, lift) * land * fr.height_m / tan_coast))
                                    : p.coast_m;
         if (std::isfinite(dm)) taper *= smoothstep01(dm / reach_m);
       }
@@ -456,7 +489,7 @@ void apply_biomes(Terrain& t, const BiomesParams& p, const Context& ctx) {
   });
 
   if (mode == 1) {
-    const int r = std::max(1, int(std::lround(p.selective_radius_m / fr.cell_m())));
+    const int r = selective_radius(p, fr);
     for (int pass = 0; pass < p.selective_passes; ++pass) masked_box(fr, h, albedo, movable, r);
   }
 
@@ -569,8 +602,11 @@ StageDef biomes() {
   StageDef d = make_stage<P>("biomes",
                        "Voronoi biome regions with their own noise, curve and colours, blended; writes height, albedo, "
                        "biome",
-                       global("the distance to the coast (coast_m) is a distance transform of the whole map's sea"),
-                       std::move(table), apply_biomes, validate_biomes);
+                       neighbourhood(biomes_reach(P{}, Frame{}).halo), std::move(table), apply_biomes, validate_biomes,
+                       biomes_reach,
+                       "the coast fade-in's longest reach D_max (coast_m, longer with coast_slope_deg for the highest "
+                       "curve point): floor of the largest distance below D_max / cell, in samples; selective blend adds "
+                       "radius × passes");
   d.memory = {{{"albedo", 3}, {"biome", 1}}, {}, 12, {}};
   return d;
 }

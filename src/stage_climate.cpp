@@ -9,10 +9,17 @@
 //   * P. F. Felzenszwalb, D. P. Huttenlocher, "Distance Transforms of Sampled Functions" (2012).
 //
 // temperature = clamp(temperature_base + temperature_noise · nT − lapse · u − latitude · (1 − z/D))
-// moisture    = clamp(moisture_base + moisture_noise · nM + sea_moisture · exp(−d_sea / coast_m))
+// moisture    = clamp(moisture_base + moisture_noise · nM + sea_moisture · s(d_sea))
 // with nT, nM fBm noise in about [−1, 1], u = (e − sea)/(1 − sea) the height above the sea as a
 // fraction of the land range, z/D the position from the north (z-min) edge, d_sea the distance to
-// the nearest sea sample in metres. Global: d_sea depends on the whole map.
+// the nearest sea sample in metres, and the sea's share
+//     s(d) = (exp(−d / coast_m) − exp(−K)) / (1 − exp(−K))   for d < K · coast_m,  0 beyond,
+// K = kSeaReachCoasts = 8: the exponential fall cut where it is below 3.4·10⁻⁴ and lowered by that
+// much so that it meets 0 continuously (issue 18; before, s was exp(−d / coast_m) everywhere and
+// d_sea a distance transform of the whole map: now the stage reads the sea only within
+// K · coast_m, so it is a neighbourhood stage, exact on windows and in tiled worlds).
+// Halo: within_halo(K · coast_m / cell) samples (climate.hpp): every sea sample nearer than the cut
+// lies within it. Moisture moves by at most sea_moisture · 3.4·10⁻⁴ against the old definition.
 #include <algorithm>
 #include <cmath>
 #include <limits>
@@ -103,7 +110,10 @@ int classify(const std::vector<ClimateBiome>& table, double t, double m) {
   return -1;
 }
 
-std::vector<float> distance_transform(const std::vector<unsigned char>& source, int nx, int nz) {
+namespace {
+// Squared distances (exact integers in double: the lower envelope's minimum at integer q is
+// dq² + f[v], sums of squares of integers far below 2⁵³) to the nearest source, +∞ with none.
+std::vector<double> squared_distances(const std::vector<unsigned char>& source, int nx, int nz) {
   const double inf = std::numeric_limits<double>::infinity();
   std::vector<double> g(std::size_t(nx) * std::size_t(nz));
   const std::size_t sx = std::size_t(nx), sz = std::size_t(nz);
@@ -115,13 +125,40 @@ std::vector<float> distance_transform(const std::vector<unsigned char>& source, 
     dt1(f.data(), nz, d.data(), v.data(), zz.data());
     for (std::size_t j = 0; j < sz; ++j) g[j * sx + std::size_t(i)] = d[j];
   }, 16);
-  std::vector<float> out(g.size());
+  std::vector<double> out(g.size());
   parallel_rows(nz, [&](int j) {
-    std::vector<double> d(sx), zz(sx + 1);
+    std::vector<double> zz(sx + 1);
     std::vector<int> v(sx);
-    dt1(g.data() + std::size_t(j) * sx, nx, d.data(), v.data(), zz.data());
-    for (std::size_t i = 0; i < sx; ++i) out[std::size_t(j) * sx + i] = float(std::sqrt(d[i]));
+    dt1(g.data() + std::size_t(j) * sx, nx, out.data() + std::size_t(j) * sx, v.data(), zz.data());
   }, 16);
+  return out;
+}
+}  // namespace
+
+std::vector<float> distance_transform(const std::vector<unsigned char>& source, int nx, int nz) {
+  std::vector<double> d2 = squared_distances(source, nx, nz);
+  std::vector<float> out(d2.size());
+  for (std::size_t k = 0; k < d2.size(); ++k) out[k] = float(std::sqrt(d2[k]));
+  return out;
+}
+
+double within_limit(double cap) { return cap > 0 ? std::ceil(cap * cap) - 1.0 : -1.0; }
+
+int within_halo(double cap) {
+  const double lim = within_limit(cap);
+  if (lim < 0) return 0;
+  auto h = std::int64_t(std::sqrt(lim));
+  while (double(h) * double(h) > lim) --h;  // exact floor(√lim) whatever sqrt's rounding
+  while (double(h + 1) * double(h + 1) <= lim) ++h;
+  return int(std::min<std::int64_t>(h, std::numeric_limits<int>::max() / 4));
+}
+
+std::vector<float> distance_transform_within(const std::vector<unsigned char>& source, int nx, int nz, double cap) {
+  const double lim = within_limit(cap);
+  std::vector<double> d2 = squared_distances(source, nx, nz);
+  std::vector<float> out(d2.size());
+  for (std::size_t k = 0; k < d2.size(); ++k)
+    out[k] = d2[k] <= lim ? float(std::sqrt(d2[k])) : std::numeric_limits<float>::infinity();
   return out;
 }
 
@@ -131,6 +168,7 @@ namespace stages {
 namespace {
 
 using detail::ClimateBiome;
+constexpr double kSeaReachCoasts = 8.0;  // the sea's moisture is cut at this many coast_m
 
 struct ClimateParams {
   double temperature_wavelength_m = 3000, moisture_wavelength_m = 1800;
@@ -169,7 +207,9 @@ void apply_climate(Terrain& t, const ClimateParams& p, const Context& ctx) {
 
   std::vector<unsigned char> water(fr.count());
   for (std::size_t k = 0; k < water.size(); ++k) water[k] = double(h.data[k]) <= sea;
-  const std::vector<float> dist = detail::distance_transform(water, fr.nx, fr.nz);
+  const double cut_m = kSeaReachCoasts * p.coast_m;
+  const std::vector<float> dist = detail::distance_transform_within(water, fr.nx, fr.nz, cut_m / fr.cell_m());
+  const double tail = std::exp(-kSeaReachCoasts), share_scale = 1.0 / (1.0 - tail);
   const Noise nt(detail::gradient_fbm(p.temperature_wavelength_m, 4, ctx.stage_seed(1)));
   const Noise nm(detail::gradient_fbm(p.moisture_wavelength_m, 4, ctx.stage_seed(2)));
   Layer& temp = t.layer("temperature", 1);
@@ -192,7 +232,7 @@ void apply_climate(Terrain& t, const ClimateParams& p, const Context& ctx) {
       const double T = std::clamp(p.temperature_base + p.temperature_noise * rt[std::size_t(i)] - p.lapse * u - p.latitude * north, 0.0, 1.0);
       const double dm = double(dist[k]) * fr.cell_m();
       const double M = std::clamp(p.moisture_base + p.moisture_noise * rm[std::size_t(i)] +
-                                      (std::isfinite(dm) ? p.sea_moisture * std::exp(-dm / p.coast_m) : 0.0),
+                                      (std::isfinite(dm) ? p.sea_moisture * std::max(0.0, (std::exp(-dm / p.coast_m) - tail) * share_scale) : 0.0),
                                   0.0, 1.0);
       temp.data[k] = float(T);
       moist.data[k] = float(M);
@@ -213,6 +253,10 @@ void apply_climate(Terrain& t, const ClimateParams& p, const Context& ctx) {
       biome.data[k] = float(id);
     }
   });
+}
+
+Reach climate_reach(const ClimateParams& p, const Frame& f) {
+  return neighbourhood(detail::within_halo(kSeaReachCoasts * p.coast_m / f.cell_m()));
 }
 
 void validate_climate(const ClimateParams& p, const std::string& path) {
@@ -278,8 +322,10 @@ StageDef climate() {
   StageDef d = make_stage<P>("climate",
                        "Climate biomes: moisture (rising near the sea) and temperature (cooling with height) classified "
                        "by a Whittaker table; writes temperature, moisture, biome, albedo",
-                       global("the distance to the sea is a distance transform of the whole map"), std::move(table),
-                       apply_climate, validate_climate);
+                       neighbourhood(detail::within_halo(kSeaReachCoasts * 250.0 / (4000.0 / 512))), std::move(table),
+                       apply_climate, validate_climate, climate_reach,
+                       "the sea's moisture reaches 8 · coast_m: floor of the largest distance below 8 · coast_m / cell, "
+                       "in samples");
   d.memory = {{{"temperature", 1}, {"moisture", 1}, {"biome", 1}, {"albedo", 3}}, {}, 8, {}};
   return d;
 }

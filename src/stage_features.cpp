@@ -16,7 +16,14 @@
 // Differences from seed 003, on purpose: circles lift with a smooth bump instead of a flat step
 // (no terracing rings at high resolution); the lift is normalised so that the rim stands `height`
 // above sea level on average whatever the iteration count; a crater bowl is carved inside the rim.
-// The volcano and the features need the whole map to choose a place on land: global stages.
+// The volcano (placement land) and the features need the whole map to choose a place on land:
+// global stages — their candidates are scored on the incoming heights anywhere in the window, so a
+// tile cannot know the choice without every other tile's heights (a world algorithm could: score
+// the candidates from the stored tiles, then apply the disk; not written yet). A volcano with
+// placement fixed is a neighbourhood stage: a sample within radius_m of the centre depends on the
+// lava level, read from the heights at the rim (rim_radius_m from the centre) and the centre, so
+// on the input within radius_m + rim_radius_m of it; volcano_reach gives ceil of that in samples
+// + 2 (the bilinear reads' second sample and rounding).
 #include <algorithm>
 #include <cmath>
 #include <numbers>
@@ -49,8 +56,10 @@ void add_circles(const Frame& fr, const std::vector<Circle>& cs, std::vector<dou
       const double dz = z - c.z_m;
       if (std::fabs(dz) >= c.r_m) continue;
       const double half = std::sqrt(c.r_m * c.r_m - dz * dz);
-      const int i0 = std::max(0, int(std::floor((c.x_m - half - fr.x0_m()) / fr.cell_m())));
-      const int i1 = std::min(fr.nx - 1, int(std::ceil((c.x_m + half - fr.x0_m()) / fr.cell_m())));
+      // One sample wider than the chord on each side: the d2 test below decides, so the rounding of
+      // the range (which differs between windows) never drops a sample.
+      const int i0 = int(std::max(0.0, std::floor((c.x_m - half) / fr.cell_m() - double(fr.ix0)) - 1.0));
+      const int i1 = int(std::min(double(fr.nx - 1), std::ceil((c.x_m + half) / fr.cell_m() - double(fr.ix0)) + 1.0));
       for (int i = i0; i <= i1; ++i) {
         const double dx = fr.x_m(i) - c.x_m;
         const double d2 = (dx * dx + dz * dz) / (c.r_m * c.r_m);
@@ -60,9 +69,12 @@ void add_circles(const Frame& fr, const std::vector<Circle>& cs, std::vector<dou
   });
 }
 
+// Positions become world-grid coordinates first (x / cell), then the window's offset (an integer)
+// is subtracted, exactly: so a window of the world reads the same samples with the same weights,
+// bit for bit, as the whole map (x − x0 in metres would round differently per window).
 double sample_bilinear(const Frame& fr, const Layer& l, double x, double z) {
-  const double fx = std::clamp((x - fr.x0_m()) / fr.cell_m(), 0.0, double(fr.nx - 1));
-  const double fz = std::clamp((z - fr.z0_m()) / fr.cell_m(), 0.0, double(fr.nz - 1));
+  const double fx = std::clamp(x / fr.cell_m() - double(fr.ix0), 0.0, double(fr.nx - 1));
+  const double fz = std::clamp(z / fr.cell_m() - double(fr.iz0), 0.0, double(fr.nz - 1));
   const int i0 = std::min(int(fx), fr.nx - 2), j0 = std::min(int(fz), fr.nz - 2);
   const double tx = fx - i0, tz = fz - j0;
   auto at = [&](int i, int j) { return double(l.data[(std::size_t(j) * fr.nx + i) * l.channels]); };
@@ -72,8 +84,9 @@ double sample_bilinear(const Frame& fr, const Layer& l, double x, double z) {
 }
 
 float sample_nearest(const Frame& fr, const Layer& l, double x, double z, int c) {
-  const int i = std::clamp(int(std::lround((x - fr.x0_m()) / fr.cell_m())), 0, fr.nx - 1);
-  const int j = std::clamp(int(std::lround((z - fr.z0_m()) / fr.cell_m())), 0, fr.nz - 1);
+  const std::int64_t gi = std::llround(x / fr.cell_m()) - fr.ix0, gj = std::llround(z / fr.cell_m()) - fr.iz0;
+  const int i = int(std::clamp<std::int64_t>(gi, 0, fr.nx - 1));
+  const int j = int(std::clamp<std::int64_t>(gj, 0, fr.nz - 1));
   return l.data[(std::size_t(j) * fr.nx + i) * l.channels + c];
 }
 
@@ -250,6 +263,11 @@ void apply_volcano(Terrain& t, const VolcanoParams& p, const Context& ctx) {
   pt.z_m = cz;
   pt.y_m = fr.y_m(rim_e);  // the rim's mean height
   t.points.push_back(pt);
+}
+
+Reach volcano_reach(const VolcanoParams& p, const Frame& f) {
+  if (p.placement == VolcanoPlacement::Land) return global("its place is chosen among candidates on the land of the whole map");
+  return neighbourhood(int(std::min(double(1 << 28), std::ceil((p.radius_m + p.rim_radius_m) / f.cell_m()))) + 2);
 }
 
 void validate_volcano(const VolcanoParams& p, const std::string& path) {
@@ -438,7 +456,8 @@ StageDef volcano() {
                        "Volcano (seed 003): foundation, stacked circles around a rim, crater and lava; writes height, "
                        "albedo, biome, the 'volcano' footprint layer and a feature point",
                        global("its place is chosen among candidates on the land of the whole map"), std::move(table),
-                       apply_volcano, validate_volcano);
+                       apply_volcano, validate_volcano, volcano_reach,
+                       "placement fixed: ceil((radius_m + rim_radius_m) / cell) + 2 samples; placement land: global");
   d.memory = {{{"volcano", 1}}, {}, 4, {}};
   return d;
 }

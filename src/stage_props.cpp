@@ -4,14 +4,24 @@
 // the sea, on the volcano (where the 'volcano' footprint layer is > 0), on slopes steeper than
 // max_slope_deg, or where no prop type allowed in the sample's biome passes its own noise test
 // (its noise field n ∈ [0, 1] at the position must reach its tolerance); among the passing types
-// one is chosen by hash. The chosen prop is then rejected if it is closer to a placed prop than the
-// larger of their two spacings. Passing noise "hills" group similar props into clusters; each type
-// has its own field, so two types cluster independently of each other.
+// one is chosen by hash. The chosen prop is then rejected if an earlier candidate (a lower attempt
+// number that passed every test above, placed or not) is closer than the larger of their two
+// spacings: B. Matérn's type II hard-core thinning ("Spatial Variation", 1960; 2nd ed. Springer
+// 1986, §3.6), with the attempt number as the mark. Passing noise "hills" group similar props into
+// clusters; each type has its own field, so two types cluster independently of each other.
 //
 // Determinism: the candidate of attempt k (position, type, rotation, scale) is a pure function of
-// (seed, k) and the terrain, computed in parallel; the spacing test then runs over the attempts in
-// order, so the result is the same for any thread count. Global: the spacing test couples the
-// whole map, and attempts falling outside a window are dropped.
+// (seed, k) and the terrain within 2 samples of its position (bilinear height, nearest biome and
+// volcano samples, the central-difference slope of its nearest sample; positions are taken to world
+// grid units before the window's offset is subtracted, features.hpp), computed in parallel; a
+// candidate survives unless an earlier candidate lies within the largest spacing S of it. Props are
+// emitted in world row-major order of their positions (z, then x). So the result is the same for any thread count, and the stage is a
+// neighbourhood stage (issue 18): a prop depends on the terrain within ceil(S / cell) + 2 samples
+// of its position, and a window grown by that halo holds, for every position inside the original
+// window, the same props as the whole map (world_points.hpp picks each tile's own).
+// Before issue 18 a candidate was tested against placed props only (greedy, in attempt order),
+// which chains across the whole map; Matérn's rule drops the few candidates that were blocked only
+// by a candidate that was itself dropped (at the presets' densities, about λ·π·S² ≈ 0.1 % of them).
 #include <algorithm>
 #include <cmath>
 #include <string>
@@ -103,7 +113,9 @@ void apply_props(Terrain& t, const PropsParams& p, const Context& ctx) {
     noises.emplace_back(s);
   }
   const double max_tan = std::tan(p.max_slope_deg * 3.14159265358979323846 / 180.0);
-  const double x0 = fr.x0_m(), x1 = fr.x0_m() + fr.width_m(), z0 = fr.z0_m(), z1 = fr.z0_m() + fr.depth_m();
+  // The window's first and last samples' positions (as run()'s crop keeps points): at the world's
+  // edges every window that reaches them has the same bounds as the whole map.
+  const double x0 = fr.x0_m(), x1 = fr.x_m(fr.nx - 1), z0 = fr.z0_m(), z1 = fr.z_m(fr.nz - 1);
   std::vector<Candidate> cand(std::size_t(p.attempts));
   detail::parallel_rows(p.attempts, [&](int a) {
     Candidate& c = cand[std::size_t(a)];
@@ -115,8 +127,8 @@ void apply_props(Terrain& t, const PropsParams& p, const Context& ctx) {
     if (c.e <= fr.sea_level) return;
     if (volcano && detail::sample_nearest(fr, *volcano, c.x, c.z) > 0.0f) return;
     if (p.max_slope_deg < 90.0) {
-      const int i = std::clamp(int(std::lround((c.x - x0) / fr.cell_m())), 0, fr.nx - 1);
-      const int j = std::clamp(int(std::lround((c.z - z0) / fr.cell_m())), 0, fr.nz - 1);
+      const int i = int(std::clamp<std::int64_t>(std::llround(c.x / fr.cell_m()) - fr.ix0, 0, fr.nx - 1));
+      const int j = int(std::clamp<std::int64_t>(std::llround(c.z / fr.cell_m()) - fr.iz0, 0, fr.nz - 1));
       const detail::Gradient g = detail::gradient_at(fr, h, i, j);
       if (std::hypot(g.dx, g.dz) > max_tan) return;
     }
@@ -135,15 +147,23 @@ void apply_props(Terrain& t, const PropsParams& p, const Context& ctx) {
     c.rot = p.rotation_deg * unit_double(mix64(hc));
     c.scale = pt.scale_min + (pt.scale_max - pt.scale_min) * unit_double(mix64(mix64(hc)));
   }, 256);
-  // Spacing test in attempt order, with a hash grid of cells of the largest spacing.
+  // Matérn II thinning: a candidate survives unless an earlier candidate lies within the larger of
+  // their spacings. A hash grid of cells of the largest spacing; each candidate looks at the 3 × 3
+  // cells around its own.
   double cell = 1e-3;
   for (auto& pt : p.types) cell = std::max(cell, pt.spacing_m);
   std::unordered_map<std::uint64_t, std::vector<std::size_t>> grid;
   auto key = [](std::int64_t a, std::int64_t b) { return (std::uint64_t(a) << 32) ^ std::uint64_t(std::uint32_t(b)); };
-  std::vector<std::size_t> placed;
   for (std::size_t a = 0; a < cand.size(); ++a) {
     const Candidate& c = cand[a];
     if (c.type < 0) continue;
+    grid[key(std::int64_t(std::floor(c.x / cell)), std::int64_t(std::floor(c.z / cell)))].push_back(a);
+  }
+  std::vector<char> keep(cand.size(), 0);
+  detail::parallel_rows(p.attempts, [&](int ai) {
+    const std::size_t a = std::size_t(ai);
+    const Candidate& c = cand[a];
+    if (c.type < 0) return;
     const double sp = p.types[std::size_t(c.type)].spacing_m;
     const auto gx = std::int64_t(std::floor(c.x / cell)), gz = std::int64_t(std::floor(c.z / cell));
     bool ok = true;
@@ -152,6 +172,7 @@ void apply_props(Terrain& t, const PropsParams& p, const Context& ctx) {
         auto it = grid.find(key(gx + dx, gz + dz));
         if (it == grid.end()) continue;
         for (std::size_t q : it->second) {
+          if (q >= a) break;  // each cell's list is in attempt order
           const Candidate& o = cand[q];
           const double need = std::max(sp, p.types[std::size_t(o.type)].spacing_m);
           if ((o.x - c.x) * (o.x - c.x) + (o.z - c.z) * (o.z - c.z) < need * need) {
@@ -160,10 +181,16 @@ void apply_props(Terrain& t, const PropsParams& p, const Context& ctx) {
           }
         }
       }
-    if (!ok) continue;
-    grid[key(gx, gz)].push_back(a);
-    placed.push_back(a);
-  }
+    keep[a] = ok;
+  }, 256);
+  // Emitted in world row-major order of position (z, then x; attempt order for equal positions), an
+  // order every window agrees on (world_points.hpp merges tiles' props by the same key).
+  std::vector<std::size_t> placed;
+  for (std::size_t a = 0; a < cand.size(); ++a)
+    if (keep[a]) placed.push_back(a);
+  std::stable_sort(placed.begin(), placed.end(), [&](std::size_t a, std::size_t b) {
+    return cand[a].z != cand[b].z ? cand[a].z < cand[b].z : cand[a].x < cand[b].x;
+  });
   for (std::size_t a : placed) {
     const Candidate& c = cand[a];
     Point pt;
@@ -176,6 +203,13 @@ void apply_props(Terrain& t, const PropsParams& p, const Context& ctx) {
     pt.scale = c.scale;
     t.points.push_back(pt);
   }
+}
+
+// The largest spacing in samples, rounded up, plus the 2 samples a candidate's own tests read.
+Reach props_reach(const PropsParams& p, const Frame& f) {
+  double s = 0;
+  for (auto& t : p.types) s = std::max(s, t.spacing_m);
+  return neighbourhood(int(std::min(double(1 << 28), std::ceil(s / f.cell_m()))) + 2);
 }
 
 void validate_props(const PropsParams& p, const std::string& path) {
@@ -217,8 +251,8 @@ StageDef props() {
   return make_stage<P>("props",
                        "Props (seed 003): seeded attempts, rejected in the sea, on the volcano or too close; clustered by "
                        "per-type noise; appended to the terrain's points",
-                       global("the spacing test couples props across the whole map"), std::move(table), apply_props,
-                       validate_props);
+                       neighbourhood(props_reach(P{}, Frame{}).halo), std::move(table), apply_props, validate_props,
+                       props_reach, "ceil(largest spacing_m / cell) + 2 samples");
 }
 
 }  // namespace relief::stages
