@@ -24,6 +24,7 @@
 #include "relief/error.hpp"
 #include "relief/hydrology.hpp"
 #include "relief/world.hpp"
+#include "relief/world_flow.hpp"
 
 namespace relief {
 namespace {
@@ -147,6 +148,10 @@ const std::vector<WorldAlgorithmEntry>& world_algorithm_entries() {
       {"fill", world_fill, "exact",
        "tiles filled alone, then again with the border levels their neighbours found, until no border level changes "
        "(Barnes 2016)"},
+      {"flow", [] { return world_flow(); }, "exact",
+       "drainage counts accumulated in each tile, joined through a graph of tile perimeters (Barnes 2017); rivers, "
+       "Strahler orders and carving exchanged between tiles until nothing changes; needs a height that drains (a fill "
+       "stage before it)"},
   };
   return all;
 }

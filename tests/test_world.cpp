@@ -13,6 +13,7 @@
 #include <map>
 #include <set>
 #include <thread>
+#include <tuple>
 
 #include "relief/error.hpp"
 #include "relief/hydrology.hpp"
@@ -20,19 +21,14 @@
 #include "relief/world.hpp"
 #include "support.hpp"
 #include "world_internal.hpp"
+#include "world_support.hpp"
 
 using namespace relief;
+using namespace relief::test::world;
 using relief::test::TempDir;
 namespace fs = std::filesystem;
 
 namespace {
-
-Recipe recipe_of(json doc, std::uint64_t seed = 11) {
-  doc["seed"] = seed;
-  return parse_recipe(doc);
-}
-
-json preset_doc(const std::string& name) { return load_preset(name); }
 
 // noise → thermal (halo 2·ceil(distance/cell)) → slope-dependent colour → hillshade: the widest
 // halos of the local stages.
@@ -47,60 +43,6 @@ json thermal_doc() {
   stages.push_back(doc["stages"][4]);
   doc["stages"] = stages;
   return doc;
-}
-
-WorldSettings settings(const Recipe& r, std::int64_t nx, std::int64_t nz, int tile, const std::string& dir, int threads = 2) {
-  WorldSettings s;
-  s.recipe = r;
-  s.nx = nx;
-  s.nz = nz;
-  s.tile = tile;
-  s.out_dir = dir;
-  s.threads = threads;
-  return s;
-}
-
-// The whole-map run of `r` at nx × nz.
-Terrain whole_map(Recipe r, int nx, int nz) {
-  r.world.nx = nx;
-  r.world.nz = nz;
-  RunOptions opt;
-  opt.threads = 2;
-  return run(r, opt).terrain;
-}
-
-void expect_same_layers(const Terrain& whole, const Terrain& world) {
-  ASSERT_EQ(whole.layers.size(), world.layers.size());
-  for (auto& [name, a] : whole.layers) {
-    ASSERT_TRUE(world.has(name)) << name;
-    const Layer& b = world.layers.at(name);
-    ASSERT_EQ(a.channels, b.channels) << name;
-    ASSERT_EQ(a.data.size(), b.data.size()) << name;
-    std::size_t first = a.data.size();
-    for (std::size_t k = 0; k < a.data.size() && first == a.data.size(); ++k)
-      if (std::memcmp(&a.data[k], &b.data[k], 4) != 0) first = k;
-    EXPECT_EQ(first, a.data.size()) << "layer " << name << " differs first at value " << first;
-  }
-}
-
-// Every regular file under `dir` (relative path → bytes), leaving out report.json (times).
-std::map<std::string, std::string> store_files(const fs::path& dir) {
-  std::map<std::string, std::string> files;
-  for (const auto& e : fs::recursive_directory_iterator(dir))
-    if (e.is_regular_file()) {
-      const std::string rel = fs::relative(e.path(), dir).string();
-      if (rel != "report.json") files[rel] = relief::test::slurp(e.path());
-    }
-  return files;
-}
-
-void expect_same_store(const fs::path& a, const fs::path& b) {
-  const auto fa = store_files(a), fb = store_files(b);
-  ASSERT_EQ(fa.size(), fb.size());
-  for (auto& [name, bytes] : fa) {
-    ASSERT_TRUE(fb.count(name)) << name;
-    EXPECT_TRUE(bytes == fb.at(name)) << name << " differs";
-  }
 }
 
 std::size_t count_tiles(const fs::path& dir) {
@@ -787,4 +729,19 @@ TEST(WorldGuarantees, FromTheStagesLocalityAndTheLibrarysWorldAlgorithms) {
   const auto out = relief::test::relief_cli("explain fill");
   ASSERT_EQ(out.code, 0) << out.out;
   EXPECT_NE(out.out.find("world builds: exact"), std::string::npos) << out.out;
+}
+
+// A recipe of the river-island kind whose every stage is exact (fill and flow by their world
+// algorithms): the world equals the whole map for tiles that cut its rivers, a clipped last row and
+// column included (the 2049² version with tiles of 257, 513 and 1025 is test_world_exact, slow).
+TEST(WorldExact, RiverWorldWithFillAndFlowEqualsTheWholeMap) {
+  const Recipe r = recipe_of(river_world_doc(), 3);
+  for (auto [nx, nz, tile] : {std::tuple{513, 513, 65}, std::tuple{513, 500, 129}}) {
+    SCOPED_TRACE(std::to_string(nx) + "x" + std::to_string(nz) + " tile " + std::to_string(tile));
+    const Terrain whole = whole_map(r, nx, nz);
+    ASSERT_TRUE(whole.has("flow") && whole.has("water"));
+    TempDir d("world-rivers");
+    build_world(settings(r, nx, nz, tile, d / "w"));
+    expect_same_layers(whole, read_world_window(d / "w", 0, 0, nx, nz));
+  }
 }

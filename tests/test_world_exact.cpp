@@ -1,0 +1,29 @@
+// World builds at the size (label `slow`): a 2049² world built in tiles of 257, 513 and
+// 1025 equals the whole-map build byte for byte, for a recipe whose every stage is exact in world
+// builds: the river-island kind with fill, flow and rivers (noise, island, redistribute, fill,
+// flow, color, hillshade).
+#include <gtest/gtest.h>
+
+#include "relief/world.hpp"
+#include "support.hpp"
+#include "world_support.hpp"
+
+using namespace relief;
+using namespace relief::test::world;
+using relief::test::TempDir;
+
+TEST(WorldExactAtScale, RiverWorld2049InTilesOf257_513_1025EqualsTheWholeMap) {
+  const Recipe r = recipe_of(river_world_doc(), 5);
+  const int n = 2049;
+  const Terrain whole = whole_map(r, n, n);
+  ASSERT_TRUE(whole.has("flow"));
+  for (int tile : {257, 513, 1025}) {
+    SCOPED_TRACE("tile " + std::to_string(tile));
+    TempDir d("world-exact-" + std::to_string(tile));
+    const WorldReport rep = build_world(settings(r, n, n, tile, d / "w"));
+    EXPECT_EQ(rep.grid.tiles_x, (n - 1) / (tile - 1));
+    expect_same_layers(whole, read_world_window(d / "w", 0, 0, n, n));
+    const json m = read_world_manifest(d / "w");
+    for (const json& st : m["stages"]) EXPECT_EQ(st.value("guarantee", st.value("world", "")).substr(0, 5), "exact") << st.dump();
+  }
+}
