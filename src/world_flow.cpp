@@ -80,6 +80,9 @@ struct Nodes {
   std::vector<std::uint8_t> cross;
   std::vector<std::uint64_t> ext, inflow;  // inflow from other tiles: at this node (ext), through it
   std::vector<std::uint8_t> channel, strahler, chd;
+  std::vector<float> e;                     // input height (the lake floor in a lake)
+  std::vector<std::uint8_t> lake;
+  std::vector<std::uint32_t> comp;          // global component label (kNone: not raised)
   std::vector<float> carved;
   std::vector<std::uint32_t> dstart, donors;  // cross donors of each node (CSR)
   std::uint32_t at(std::int64_t c) const {
@@ -96,6 +99,30 @@ struct Ctx {
   float sea;
   double H, cell, cell2, runoff_m_s, threshold_cells;
   std::int64_t t1;
+  const TileLoad* filled = nullptr;  // the filled heights, when the input may hold depressions
+};
+
+// Lakes: connected components (8-neighbours) of samples the fill raised, labelled per tile and
+// joined across tiles by union-find over the labels of perimeter samples; a component is kept as a
+// lake when apply_flow keeps it (max depth and area: order-free aggregates).
+struct Components {
+  std::vector<std::uint64_t> base;  // first global label of each tile
+  std::vector<std::uint32_t> parent;
+  std::vector<std::uint64_t> count;
+  std::vector<double> depth;
+  std::vector<std::uint8_t> kept;  // by root
+  std::uint32_t find(std::uint32_t a) {
+    while (parent[a] != a) a = parent[a] = parent[parent[a]];
+    return a;
+  }
+  void join(std::uint32_t a, std::uint32_t b) {
+    a = find(a), b = find(b);
+    if (a == b) return;
+    if (a > b) std::swap(a, b);
+    parent[b] = a;
+    count[a] += count[b];
+    depth[a] = std::max(depth[a], depth[b]);
+  }
 };
 
 // One tile's grown window, its receivers and its local flow order over the owned rectangle.
@@ -105,7 +132,11 @@ struct Solve {
   std::int64_t gx0 = 0, gz0 = 0;  // grown window's first sample (world)
   int gnx = 0, gnz = 0;
   int ox0 = 0, oz0 = 0, onx = 0, onz = 0;  // owned rectangle in grown coordinates
-  std::vector<float> zg;
+  std::vector<float> zg;  // filled heights (the input when it drains), grown window
+  std::vector<float> eo;  // the input heights, owned
+  std::vector<std::uint8_t> raised, lake;  // owned: raised by the fill; in a kept lake
+  std::vector<std::uint32_t> label;        // owned: local component of raised samples (kNone: not raised)
+  std::uint32_t labels = 0;
   std::vector<std::uint32_t> rec;                 // grown, hydro::d8_receivers
   std::vector<std::uint32_t> rl, order, acc;      // owned: local receivers (self at exits), order, count
   // finished (pass S and later)
@@ -136,7 +167,7 @@ Solve prepare(const Ctx& c, Bands& bands, const TileLoad& load, std::int64_t X, 
   Solve s;
   s.X = X, s.Z = Z;
   s.w = c.g.window(X, Z);
-  const std::vector<float> z = load(X, Z);
+  const std::vector<float> z = c.filled ? (*c.filled)(X, Z) : load(X, Z);
   if (z.size() != std::size_t(s.w.nx) * std::size_t(s.w.nz))
     throw Error("world", "flow: tile " + std::to_string(X) + "," + std::to_string(Z) + " has " + std::to_string(z.size()) +
                              " heights, expected " + std::to_string(std::size_t(s.w.nx) * std::size_t(s.w.nz)));
@@ -171,14 +202,52 @@ Solve prepare(const Ctx& c, Bands& bands, const TileLoad& load, std::int64_t X, 
       s.rl[o] = r == kNone ? o : r;
     }
   hydro::flow_order(s.rl.data(), on, s.order, s.acc.data());
+  // The input heights and the components of raised samples (apply_flow's lake search, per tile).
+  s.eo.resize(on);
+  s.raised.assign(on, 0);
+  s.label.assign(on, kNone);
+  const std::vector<float> raw = c.filled ? load(X, Z) : std::vector<float>();
+  for (int oj = 0; oj < s.onz; ++oj)
+    for (int oi = 0; oi < s.onx; ++oi) {
+      const std::uint32_t o = std::uint32_t(oj) * std::uint32_t(s.onx) + std::uint32_t(oi);
+      const float f = s.zg[s.grown(oi, oj)];
+      s.eo[o] = c.filled ? raw[std::size_t(oj) * std::size_t(s.w.nx) + std::size_t(oi)] : f;
+      s.raised[o] = f > s.eo[o];
+    }
+  std::vector<std::uint32_t> stack;
+  for (std::uint32_t o0 = 0; o0 < on; ++o0) {
+    if (!s.raised[o0] || s.label[o0] != kNone) continue;
+    s.label[o0] = s.labels;
+    stack.assign(1, o0);
+    while (!stack.empty()) {
+      const std::uint32_t o = stack.back();
+      stack.pop_back();
+      const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
+      for (int k = 0; k < 8; ++k) {
+        const int a = oi + hydro::kDi[k], b = oj + hydro::kDj[k];
+        if (a < 0 || b < 0 || a >= s.onx || b >= s.onz) continue;
+        const std::uint32_t m = std::uint32_t(b) * std::uint32_t(s.onx) + std::uint32_t(a);
+        if (s.raised[m] && s.label[m] == kNone) s.label[m] = s.labels, stack.push_back(m);
+      }
+    }
+    ++s.labels;
+  }
   return s;
+}
+
+// Marks the owned samples in kept lakes (after the components are joined).
+void mark_lakes(const Ctx& c, Components& comp, Solve& s, std::uint64_t tile) {
+  s.lake.assign(s.rl.size(), 0);
+  if (!c.p.lakes) return;
+  for (std::size_t o = 0; o < s.rl.size(); ++o)
+    if (s.label[o] != kNone) s.lake[o] = comp.kept[comp.find(std::uint32_t(comp.base[tile] + s.label[o]))];
 }
 
 // The whole map's hydro::already_drains condition on the owned samples: every sample that is not
 // an outlet (world border, or below the sea) has a strictly lower neighbour, so that apply_flow
 // fills nothing (a world of fewer than 3 samples along an axis always drains, as there).
 void check_drains(const Ctx& c, const Solve& s, const std::string& path) {
-  if (c.g.nx < 3 || c.g.nz < 3) return;
+  if (c.filled || c.g.nx < 3 || c.g.nz < 3) return;
   for (int oj = 0; oj < s.onz; ++oj)
     for (int oi = 0; oi < s.onx; ++oi) {
       const std::int64_t ix = s.w.ix0 + oi, iz = s.w.iz0 + oj;
@@ -217,7 +286,7 @@ void finish(const Ctx& c, const Nodes& nd, Solve& s) {
   for (std::uint32_t o = 0; o < on; ++o) {
     s.cnt[o] = std::uint64_t(s.acc[o]) + b[o];
     const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
-    s.ch[o] = double(s.cnt[o]) >= c.threshold_cells && s.zg[s.grown(oi, oj)] >= c.sea;
+    s.ch[o] = double(s.cnt[o]) >= c.threshold_cells && (s.lake[o] ? s.eo[o] : s.zg[s.grown(oi, oj)]) >= c.sea;
   }
   // Strahler orders (donors first), with channel donors in other tiles as known so far.
   s.str.assign(on, 0);
@@ -251,7 +320,7 @@ void finish(const Ctx& c, const Nodes& nd, Solve& s) {
   s.ec.resize(on);
   for (std::uint32_t o = 0; o < on; ++o) {
     const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
-    s.ec[o] = s.zg[s.grown(oi, oj)];
+    s.ec[o] = s.lake[o] ? s.eo[o] : s.zg[s.grown(oi, oj)];  // lake floors stay under their water
   }
   if (c.p.carve_depth_coeff > 0) {
     for (std::size_t q = on; q-- > 0;) {
@@ -259,10 +328,16 @@ void finish(const Ctx& c, const Nodes& nd, Solve& s) {
       const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
       const std::size_t gi = s.grown(oi, oj);
       const std::uint32_t rg = s.rec[gi];
-      if (!s.ch[o] || rg == gi) continue;
+      if (!s.ch[o] || s.lake[o] || rg == gi) continue;
       const double depth = c.p.carve_depth_coeff * std::pow(discharge(c, s.cnt[o]), 0.4);
       const std::uint32_t ro = owned_of(s, rg);
-      const float below = ro != kNone ? s.ec[ro] : nd.carved[nd.at(world_index(c, s, rg))];
+      float below;  // a lake's surface, else the carved receiver
+      if (ro != kNone) {
+        below = s.lake[ro] ? s.zg[rg] : s.ec[ro];
+      } else {
+        const std::uint32_t k = nd.at(world_index(c, s, rg));
+        below = nd.lake[k] ? nd.z[k] : nd.carved[k];
+      }
       const float carved = std::max(float(double(s.ec[o]) - depth / c.H), std::nextafter(below, 2.0f));
       s.ec[o] = std::min(s.ec[o], carved);
     }
@@ -272,6 +347,67 @@ void finish(const Ctx& c, const Nodes& nd, Solve& s) {
 // A piece of a river inside one tile: from a start sample (a head or a confluence) or from the
 // sample where a river enters the tile, down to its end or to the sample (`next`, in another tile)
 // where it goes on.
+// One sample of a kept lake, as apply_flow's lake record reads it.
+struct LakeSample {
+  float filled, e;
+  std::uint64_t count;
+  bool exits;  // its receiver is not in the same lake
+};
+
+// apply_flow's Lake record of one lake from all its samples (world index → sample): its
+// depth-first order from its first sample in row-major order is replayed, so that every sum
+// (volume, centroid) adds the same doubles in the same order and the outlet ties break alike.
+Lake lake_record(const Ctx& c, const std::unordered_map<std::int64_t, LakeSample>& cells_of, std::int64_t seed) {
+  const Frame& f = c.f;
+  std::vector<std::int64_t> cells, stack(1, seed);
+  std::unordered_map<std::int64_t, std::uint8_t> seen;
+  seen.emplace(seed, 1);
+  while (!stack.empty()) {
+    const std::int64_t q = stack.back();
+    stack.pop_back();
+    cells.push_back(q);
+    const std::int64_t i = q % c.g.nx, j = q / c.g.nx;
+    for (int k = 0; k < 8; ++k) {
+      const std::int64_t a = i + hydro::kDi[k], b = j + hydro::kDj[k];
+      if (a < 0 || b < 0 || a >= c.g.nx || b >= c.g.nz) continue;
+      const std::int64_t m = b * c.g.nx + a;
+      if (cells_of.count(m) && seen.emplace(m, 1).second) stack.push_back(m);
+    }
+  }
+  Lake lake;
+  float level = 0;
+  double max_depth = 0, volume = 0, sx = 0, sz = 0;
+  for (const std::int64_t q : cells) {
+    const LakeSample& ls = cells_of.at(q);
+    level = std::max(level, ls.filled);
+    const double depth = (double(ls.filled) - ls.e) * c.H;
+    max_depth = std::max(max_depth, depth);
+    volume += depth * c.cell2;
+  }
+  lake.area_m2 = double(cells.size()) * c.cell2;
+  lake.level_m = f.y_m(level);
+  lake.volume_m3 = volume;
+  lake.max_depth_m = max_depth;
+  lake.samples = cells.size();
+  lake.x0_m = lake.z0_m = 1e300;
+  lake.x1_m = lake.z1_m = -1e300;
+  std::int64_t outlet = cells[0];
+  std::uint64_t outlet_count = 0;
+  for (const std::int64_t q : cells) {
+    const double x = f.x_m(int(q % c.g.nx)), z = f.z_m(int(q / c.g.nx));
+    sx += x, sz += z;
+    lake.x0_m = std::min(lake.x0_m, x), lake.x1_m = std::max(lake.x1_m, x);
+    lake.z0_m = std::min(lake.z0_m, z), lake.z1_m = std::max(lake.z1_m, z);
+    const LakeSample& ls = cells_of.at(q);
+    if (ls.exits && ls.count > outlet_count) outlet = q, outlet_count = ls.count;
+  }
+  lake.x_m = sx / double(cells.size());
+  lake.z_m = sz / double(cells.size());
+  lake.outlet_x_m = f.x_m(int(outlet % c.g.nx));
+  lake.outlet_z_m = f.z_m(int(outlet / c.g.nx));
+  return lake;
+}
+
 struct Piece {
   std::vector<RiverVertex> vertices;
   std::string end;
@@ -302,8 +438,8 @@ void trace_pieces(const Ctx& c, const Nodes& nd, const Solve& s, std::unordered_
     std::uint32_t o = o0;
     for (;;) {
       const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
-      pc.vertices.push_back(vertex(s.w.ix0 + oi, s.w.iz0 + oj, s.ec[o], s.cnt[o]));
       const std::size_t gi = s.grown(oi, oj);
+      pc.vertices.push_back(vertex(s.w.ix0 + oi, s.w.iz0 + oj, s.lake[o] ? s.zg[gi] : s.ec[o], s.cnt[o]));
       const std::uint32_t rg = s.rec[gi];
       if (rg == gi) {
         pc.end = "edge";
@@ -317,10 +453,10 @@ void trace_pieces(const Ctx& c, const Nodes& nd, const Solve& s, std::unordered_
       float r_e;
       std::uint64_t r_count;
       if (ro != kNone) {
-        r_channel = s.ch[ro], r_chd = s.chd[ro], r_e = s.ec[ro], r_count = s.cnt[ro];
+        r_channel = s.ch[ro], r_chd = s.chd[ro], r_e = s.lake[ro] ? s.zg[rg] : s.ec[ro], r_count = s.cnt[ro];
       } else {
         const std::uint32_t k = nd.at(rw);
-        r_channel = nd.channel[k], r_chd = nd.chd[k], r_e = nd.carved[k], r_count = std::uint64_t(nd.acc[k]) + nd.inflow[k];
+        r_channel = nd.channel[k], r_chd = nd.chd[k], r_e = nd.lake[k] ? nd.z[k] : nd.carved[k], r_count = std::uint64_t(nd.acc[k]) + nd.inflow[k];
       }
       if (!r_channel) {  // only the sea ends a channel
         RiverVertex mouth = vertex(rx, rz, r_e, r_count);
@@ -384,10 +520,10 @@ WorldFlowParams world_flow_params(const json& j) {
 
 TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowParams& p, const TileLoad& load,
                           const FlowTileStore& store, std::vector<River>* rivers, const std::function<bool()>& cancelled,
-                          const std::string& path) {
+                          const std::string& path, const TileLoad& filled, std::vector<Lake>* lakes) {
   TiledFlowStats st;
   st.tiles = g.count();
-  Ctx c{g, f, p, float(f.sea_level), f.height_m, f.cell_m(), 0, 0, 0, g.tile - 1};
+  Ctx c{g, f, p, float(f.sea_level), f.height_m, f.cell_m(), 0, 0, 0, g.tile - 1, filled ? &filled : nullptr};
   c.cell2 = c.cell * c.cell;
   c.runoff_m_s = p.runoff_mm_per_year * 1e-3 / kSecondsPerYear;
   c.threshold_cells = p.river_area_km2 * 1e6 / c.cell2;
@@ -401,7 +537,7 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
     for (std::int64_t X = 0; X < g.tiles_x; ++X) {
       check();
       const WorldGrid::Window w = g.window(X, Z);
-      const std::vector<float> z = load(X, Z);
+      const std::vector<float> z = c.filled ? (*c.filled)(X, Z) : load(X, Z);
       if (z.size() != std::size_t(w.nx) * std::size_t(w.nz)) throw Error("world", "flow: a tile has the wrong size");
       for (int j = 0; j < w.nz; ++j)
         for (int i = 0; i < w.nx; ++i) {
@@ -413,8 +549,10 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
         }
     }
 
-  // Pass A: local accumulation and perimeter links.
+  // Pass A: local accumulation, perimeter links, components of raised samples.
   Nodes nd;
+  Components comp;
+  comp.base.resize(std::size_t(g.count()) + 1, 0);
   for (std::int64_t Z = 0; Z < g.tiles_z; ++Z)
     for (std::int64_t X = 0; X < g.tiles_x; ++X) {
       check();
@@ -428,6 +566,21 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
         if (r != o) np[o] = s.perim(r) ? r : np[r];
       }
       const std::uint32_t t = std::uint32_t(Z * g.tiles_x + X);
+      const std::uint64_t base = comp.parent.size();
+      comp.base[t] = base;
+      if (base + s.labels >= kNone) throw Error("world", "flow: too many depressions (more than 2^32 - 1)");
+      for (std::uint32_t k = 0; k < s.labels; ++k) {
+        comp.parent.push_back(std::uint32_t(base + k));
+        comp.count.push_back(0);
+        comp.depth.push_back(0.0);
+      }
+      for (std::uint32_t o = 0; o < on; ++o) {
+        if (s.label[o] == kNone) continue;
+        const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
+        const std::size_t l = std::size_t(base + s.label[o]);
+        ++comp.count[l];
+        comp.depth[l] = std::max(comp.depth[l], (double(s.zg[s.grown(oi, oj)]) - s.eo[o]) * c.H);  // as apply_flow
+      }
       for (std::uint32_t o = 0; o < on; ++o) {
         if (!s.perim(o)) continue;
         const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
@@ -438,6 +591,8 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
         nd.tile.push_back(t);
         nd.acc.push_back(s.acc[o]);
         nd.z.push_back(s.zg[gi]);
+        nd.e.push_back(s.eo[o]);
+        nd.comp.push_back(s.label[o] == kNone ? kNone : std::uint32_t(base + s.label[o]));
         const std::uint32_t rg = s.rec[gi];
         if (rg != gi && owned_of(s, rg) == kNone) {
           nd.cross.push_back(1);
@@ -453,8 +608,32 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
       }
     }
 
-  // Global solve over the perimeter graph (Kahn), 64-bit counts.
+  // Components across tiles: join raised perimeter samples with their raised neighbours in other
+  // tiles (a sample next to an owned rectangle but outside it lies on another's perimeter).
   const std::size_t nn = nd.cell.size();
+  comp.base[std::size_t(g.count())] = comp.parent.size();
+  for (std::size_t k = 0; k < nn; ++k) {
+    if (nd.comp[k] == kNone) continue;
+    const std::int64_t i = nd.cell[k] % g.nx, j = nd.cell[k] / g.nx;
+    for (int d = 0; d < 8; ++d) {
+      const std::int64_t a = i + hydro::kDi[d], b = j + hydro::kDj[d];
+      if (a < 0 || b < 0 || a >= g.nx || b >= g.nz) continue;
+      const auto it = nd.id.find(b * g.nx + a);
+      if (it == nd.id.end() || nd.tile[it->second] == nd.tile[k] || nd.comp[it->second] == kNone) continue;
+      comp.join(nd.comp[k], nd.comp[it->second]);
+    }
+  }
+  comp.kept.assign(comp.parent.size(), 0);
+  for (std::uint32_t l = 0; l < comp.parent.size(); ++l)
+    if (comp.parent[l] == l)
+      comp.kept[l] = p.lakes && !(comp.depth[l] < p.lake_min_depth_m || double(comp.count[l]) * c.cell2 < p.lake_min_area_m2);
+  nd.lake.assign(nn, 0);
+  for (std::size_t k = 0; k < nn; ++k)
+    if (nd.comp[k] != kNone) nd.lake[k] = comp.kept[comp.find(nd.comp[k])];
+  for (std::uint32_t l = 0; l < comp.parent.size(); ++l)
+    if (comp.parent[l] == l && comp.kept[l]) ++st.lakes;
+
+  // Global solve over the perimeter graph (Kahn), 64-bit counts.
   st.perimeter_nodes = std::int64_t(nn);
   nd.link.resize(nn);
   std::vector<std::uint32_t> indeg(nn, 0);
@@ -490,10 +669,11 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
   if (queue.size() != nn) throw Error("world", "flow: internal error, the perimeter graph has a cycle");
   nd.channel.resize(nn);
   for (std::size_t k = 0; k < nn; ++k)
-    nd.channel[k] = double(std::uint64_t(nd.acc[k]) + nd.inflow[k]) >= c.threshold_cells && nd.z[k] >= c.sea;
+    nd.channel[k] = double(std::uint64_t(nd.acc[k]) + nd.inflow[k]) >= c.threshold_cells && (nd.lake[k] ? nd.e[k] : nd.z[k]) >= c.sea;
   nd.strahler.assign(nn, 0);
   nd.chd.assign(nn, 0);
-  nd.carved = nd.z;
+  nd.carved.resize(nn);
+  for (std::size_t k = 0; k < nn; ++k) nd.carved[k] = nd.lake[k] ? nd.e[k] : nd.z[k];
 
   // Pass S: Strahler orders downstream and carved heights upstream, until nothing changes.
   const std::int64_t tiles = g.count();
@@ -507,6 +687,7 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
       check();
       Solve s = prepare(c, bands, load, t % g.tiles_x, t / g.tiles_x);
       ++st.tile_solves;
+      mark_lakes(c, comp, s, std::uint64_t(t));
       finish(c, nd, s);
       for (std::uint32_t o = 0; o < s.rl.size(); ++o) {
         st.max_count = std::max(st.max_count, s.cnt[o]);
@@ -536,9 +717,10 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
     check();
     Solve s = prepare(c, bands, load, t % g.tiles_x, t / g.tiles_x);
     ++st.tile_solves;
+    mark_lakes(c, comp, s, std::uint64_t(t));
     finish(c, nd, s);
     for (std::uint32_t o = 0; o < s.rl.size(); ++o) {
-      if (!s.ch[o]) continue;
+      if (!s.ch[o] || s.lake[o]) continue;
       const std::int64_t i = s.w.ix0 + o % std::uint32_t(s.onx), j = s.w.iz0 + o / std::uint32_t(s.onx);
       each_cover(c, i, j, s.cnt[o], [&](std::int64_t a, std::int64_t b, float v, bool sea_test) {
         if (!(v > 0) || strictly_inside(s, a, b)) return;
@@ -549,14 +731,16 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
   }
   st.cover_cells = cover_sea.size() + cover_any.size();
 
-  // Final pass: each tile's layers (and the river pieces).
+  // Final pass: each tile's layers (and the river pieces, the lakes' samples).
   std::unordered_map<std::int64_t, Piece> pieces;
+  std::unordered_map<std::uint32_t, std::unordered_map<std::int64_t, LakeSample>> lake_cells;  // by root
   std::vector<std::int64_t> starts;
   for (std::int64_t t = 0; t < tiles; ++t) {
     check();
     const std::int64_t X = t % g.tiles_x, Z = t / g.tiles_x;
     Solve s = prepare(c, bands, load, X, Z);
     ++st.tile_solves;
+    mark_lakes(c, comp, s, std::uint64_t(t));
     finish(c, nd, s);
     const WorldGrid::Window& w = s.w;
     const std::size_t n = std::size_t(w.nx) * std::size_t(w.nz);
@@ -571,16 +755,18 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
         if (i < s.onx && j < s.onz) {
           const std::size_t o = std::size_t(j) * std::size_t(s.onx) + std::size_t(i);
           out.height[m] = s.ec[o];
+          if (s.lake[o]) out.water[m] = 1.0f;
           count = s.cnt[o];
         } else {
           const std::uint32_t k = nd.at((w.iz0 + j) * g.nx + w.ix0 + i);
           out.height[m] = nd.carved[k];
+          if (nd.lake[k]) out.water[m] = 1.0f;
           count = std::uint64_t(nd.acc[k]) + nd.inflow[k];
         }
         out.flow[m] = float(double(count) * c.cell2);
       }
     for (std::uint32_t o = 0; o < s.rl.size(); ++o) {
-      if (!s.ch[o]) continue;
+      if (!s.ch[o] || s.lake[o]) continue;
       const std::int64_t i = w.ix0 + o % std::uint32_t(s.onx), j = w.iz0 + o / std::uint32_t(s.onx);
       each_cover(c, i, j, s.cnt[o], [&](std::int64_t a, std::int64_t b, float v, bool sea_test) {
         if (a < w.ix0 || b < w.iz0 || a >= w.ix0 + w.nx || b >= w.iz0 + w.nz) return;
@@ -599,7 +785,36 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
           out.water[m] = std::max(out.water[m], it->second);
       }
     if (rivers) trace_pieces(c, nd, s, pieces, starts);
+    if (lakes)
+      for (std::uint32_t o = 0; o < s.rl.size(); ++o) {
+        if (!s.lake[o]) continue;
+        const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
+        const std::uint32_t root = comp.find(std::uint32_t(comp.base[std::size_t(t)] + s.label[o]));
+        const std::size_t gi = s.grown(oi, oj);
+        const std::uint32_t rg = s.rec[gi];
+        bool same = false;
+        if (const std::uint32_t ro = owned_of(s, rg); ro != kNone) {
+          same = s.lake[ro] && comp.find(std::uint32_t(comp.base[std::size_t(t)] + s.label[ro])) == root;
+        } else {
+          const std::uint32_t k = nd.at(world_index(c, s, rg));
+          same = nd.lake[k] && comp.find(nd.comp[k]) == root;
+        }
+        const std::int64_t wc = (w.iz0 + oj) * g.nx + w.ix0 + oi;
+        lake_cells[root].emplace(wc, LakeSample{s.zg[gi], s.eo[o], s.cnt[o], !same});
+      }
     if (store) store(X, Z, std::move(out));
+  }
+  if (lakes) {
+    // Lakes in the order of their first sample (row-major), as apply_flow's scan numbers them.
+    std::vector<std::pair<std::int64_t, std::uint32_t>> seeds;
+    for (auto& [root, cells_of] : lake_cells) {
+      std::int64_t first = std::numeric_limits<std::int64_t>::max();
+      for (auto& [q, ls] : cells_of) first = std::min(first, q);
+      seeds.emplace_back(first, root);
+    }
+    std::sort(seeds.begin(), seeds.end());
+    lakes->clear();
+    for (auto& [first, root] : seeds) lakes->push_back(lake_record(c, lake_cells.at(root), first));
   }
   if (rivers) {
     // Whole polylines: each start's piece, followed into the tiles it continues in; in the order
@@ -640,9 +855,10 @@ WorldStageAlgorithm world_flow(WorldWaterSink water) {
       io.store(X, Z, std::move(t));
     };
     std::vector<River> rivers;
+    std::vector<Lake> lakes;
     flow_tiled(io.grid, io.world, p, load, store, water ? &rivers : nullptr, io.cancelled,
-               "stages[" + std::to_string(index) + "]");
-    if (water) water(io.world, std::move(rivers), {});
+               "stages[" + std::to_string(index) + "]", {}, water ? &lakes : nullptr);
+    if (water) water(io.world, std::move(rivers), std::move(lakes));
   };
 }
 

@@ -73,7 +73,8 @@ struct Assembled {
 // flow_tiled over `h` (nx × nz) cut in tiles of `tile`, results assembled into whole layers;
 // shared border samples must agree between the tiles that hold them.
 TiledFlowStats tiled(const std::vector<float>& h, int nx, int nz, int tile, const Frame& world, const WorldFlowParams& p,
-                     Assembled& a, std::vector<River>* rivers = nullptr) {
+                     Assembled& a, std::vector<River>* rivers = nullptr, const std::vector<float>* filled = nullptr,
+                     std::vector<Lake>* lakes = nullptr) {
   const WorldGrid g = world_grid(nx, nz, tile);
   const std::size_t n = std::size_t(nx) * std::size_t(nz);
   a.height.assign(n, -1.0f);
@@ -104,7 +105,17 @@ TiledFlowStats tiled(const std::vector<float>& h, int nx, int nz, int tile, cons
         }
       }
   };
-  return flow_tiled(g, world, p, load, store, rivers);
+  TileLoad load_filled;
+  if (filled)
+    load_filled = [&](std::int64_t X, std::int64_t Z) {
+      const WorldGrid::Window w = g.window(X, Z);
+      std::vector<float> v(std::size_t(w.nx) * std::size_t(w.nz));
+      for (int j = 0; j < w.nz; ++j)
+        for (int i = 0; i < w.nx; ++i)
+          v[std::size_t(j) * w.nx + i] = (*filled)[std::size_t(w.iz0 + j) * std::size_t(nx) + std::size_t(w.ix0 + i)];
+      return v;
+    };
+  return flow_tiled(g, world, p, load, store, rivers, {}, "height", load_filled, lakes);
 }
 
 std::size_t first_difference(const std::vector<float>& a, const std::vector<float>& b) {
@@ -126,7 +137,7 @@ void expect_layers(const Terrain& whole, const Assembled& a, int nx) {
 
 // Rivers field for field (doubles bit for bit), then rivers.json and lakes.json byte for byte
 // against the whole-map writers.
-void expect_same_rivers(const Terrain& whole, const std::vector<River>& rivers) {
+void expect_same_rivers(const Terrain& whole, const std::vector<River>& rivers, const std::vector<Lake>& lakes = {}) {
   ASSERT_EQ(whole.rivers.size(), rivers.size());
   auto same = [](double a, double b) { return std::memcmp(&a, &b, sizeof a) == 0; };
   for (std::size_t k = 0; k < rivers.size(); ++k) {
@@ -144,7 +155,7 @@ void expect_same_rivers(const Terrain& whole, const std::vector<River>& rivers) 
   MemoryOutput ref, out;
   const WriteContext ctx;
   for (const WriterDef& w : water_writers()) w.write(whole, ctx, ref);
-  write_world_water(whole.frame, rivers, {}, out);
+  write_world_water(whole.frame, rivers, lakes, out);
   ASSERT_EQ(ref.files.size(), 2u);
   EXPECT_TRUE(ref.files == out.files);
 }
@@ -295,6 +306,66 @@ TEST(FlowTiled, AWideRiverAlongATileBorderCoversTheTilesBeside) {
     expect_layers(whole, a, n);
     expect_same_rivers(whole, rivers);
     EXPECT_GT(st.cover_cells, 0u);
+  }
+}
+
+// No fill stage before the flow stage: it fills itself and keeps deep, large depressions as lakes.
+// With the whole world's filled heights given (as a tiled fill gives them), the layers (lake floors
+// under their water, water 1 on lakes, carving that stops at lake surfaces) and the rivers (vertices
+// on a lake at its surface) equal the whole map's; lakes crossing tiles are joined by union-find.
+TEST(FlowTiled, LakesAcrossTilesGiveTheWholeMapsLayersAndRivers) {
+  for (const char* mode : {"lakes", "fill"}) {
+    SCOPED_TRACE(mode);
+    json doc = island_flow_doc(20.0, false);
+    json flow = doc["stages"][4];
+    flow["depressions"] = mode;
+    flow["lake_min_depth_m"] = 0.5;
+    flow["lake_min_area_m2"] = 2000.0;
+    doc["stages"] = json::array({doc["stages"][0], doc["stages"][1], doc["stages"][2], flow});
+    Recipe r = recipe_of(doc, 12);
+    const int nx = 257, nz = 230;
+    r.world.nx = nx, r.world.nz = nz;
+    Recipe before = r;
+    before.stages.resize(3);
+    const Terrain input = run(before).terrain;
+    const Terrain whole = run(r).terrain;
+    std::vector<float> filled = input.get("height").data;
+    const WorldFlowParams p = world_flow_params(r.stages[3].stage->params());
+    hydro::fill_depressions<float>(filled.data(), nx, nz, float(r.world.sea_level), float(p.epsilon_m / r.world.height_m));
+    ASSERT_FALSE(relief::test::same_bits(filled, input.get("height").data));  // it has depressions
+    if (std::string(mode) == "lakes") {
+      ASSERT_GE(whole.lakes.size(), 3u);
+    } else {
+      ASSERT_TRUE(whole.lakes.empty());
+    }
+    for (int tile : {9, 33, 65, 257}) {
+      SCOPED_TRACE("tile " + std::to_string(tile));
+      if (tile == 9 && !whole.lakes.empty()) {  // some lakes lie across tile borders
+        const double span = 8 * whole.frame.cell_m();
+        std::size_t across = 0;
+        for (const Lake& l : whole.lakes)
+          across += std::floor(l.x0_m / span) != std::floor(l.x1_m / span) || std::floor(l.z0_m / span) != std::floor(l.z1_m / span);
+        EXPECT_GE(across, 2u);
+      }
+      Assembled a;
+      std::vector<River> rivers;
+      std::vector<Lake> lakes;
+      const TiledFlowStats st =
+          tiled(input.get("height").data, nx, nz, tile, world_frame(r, nx, nz), p, a, &rivers, &filled, &lakes);
+      expect_layers(whole, a, nx);
+      EXPECT_EQ(st.lakes, std::int64_t(whole.lakes.size()));
+      ASSERT_EQ(whole.lakes.size(), lakes.size());
+      auto same = [](double x, double y) { return std::memcmp(&x, &y, sizeof x) == 0; };
+      for (std::size_t k = 0; k < lakes.size(); ++k) {
+        const Lake &u = whole.lakes[k], &v = lakes[k];
+        EXPECT_TRUE(same(u.level_m, v.level_m) && same(u.area_m2, v.area_m2) && same(u.volume_m3, v.volume_m3) &&
+                    same(u.max_depth_m, v.max_depth_m) && same(u.x_m, v.x_m) && same(u.z_m, v.z_m) &&
+                    same(u.x0_m, v.x0_m) && same(u.z0_m, v.z0_m) && same(u.x1_m, v.x1_m) && same(u.z1_m, v.z1_m) &&
+                    same(u.outlet_x_m, v.outlet_x_m) && same(u.outlet_z_m, v.outlet_z_m) && u.samples == v.samples)
+            << "lake " << k;
+      }
+      expect_same_rivers(whole, rivers, lakes);
+    }
   }
 }
 

@@ -4,18 +4,25 @@
 // memory (issue 18; Barnes 2017, "Parallel non-divergent flow accumulation for trillion cell
 // digital elevation models on desktops or clusters"). Implementation: src/world_flow.cpp.
 //
-// Precondition: the height the stage reads already drains, in the sense of hydro::already_drains
-// (hydrology.hpp: every sample that is not an outlet has a strictly lower neighbour): a fill stage
-// ran before it. Then apply_flow fills nothing, so no cell is raised and the stage makes no lakes;
-// flow_tiled checks the condition on every sample (with a one-sample halo across tiles) and throws
-// Error(path, …) when it fails, since lakes of a depression-holding world are not handled yet.
+// Input. `load` gives the height the stage reads. Either it already drains, in the sense of
+// hydro::already_drains (hydrology.hpp: every sample that is not an outlet has a strictly lower
+// neighbour; a fill stage ran before), so that apply_flow fills nothing and makes no lakes —
+// flow_tiled checks this on every sample (with a one-sample halo across tiles) and throws
+// Error(error_path, …) when it fails — or the caller also gives `filled`: the whole world's
+// hydro::fill_depressions of that height with the stage's epsilon_m (as fill_depressions_tiled,
+// relief/world.hpp, computes it tile by tile), and then lakes are made as apply_flow makes them.
 //
 // What it reproduces, per tile window (WorldGrid::window), bit for bit:
 //   "height"  unchanged, or carved (carve_depth_coeff > 0) receivers-first as apply_flow does;
 //   "flow"    float(double(count) · cell²), count = samples draining through the sample (64-bit);
 //   "water"   river cover (point cover w / cell, or the anti-aliased disc where wider than a cell).
-// and Terrain::rivers (whole polylines across tiles, same order, same values), Terrain::lakes (empty,
-// as the whole map's for a height that drains); write_world_water writes their JSON files.
+//   lakes     connected components (8-neighbours) of raised samples, labelled per tile and joined
+//             across tiles by union-find over perimeter labels; kept by max depth and area (order-free
+//             aggregates), so the layers need no lake's whole extent;
+// and Terrain::rivers (whole polylines across tiles, same order, same values) and Terrain::lakes
+// (same order, same records: each kept lake's samples are gathered and apply_flow's depth-first
+// order replayed, so its sums add the same doubles in the same order — memory: the samples of all
+// kept lakes, 30-60 bytes each); write_world_water writes their JSON files.
 //
 // Method. Ownership: tile (X, Z) owns the samples of its window minus its last column and row,
 // except the last tile of a row or column, which owns them too: the owned rectangles partition the
@@ -27,7 +34,7 @@
 //     inside the tile, or (an "exit") its receiver in the neighbouring tile.
 //   Global solve: a topological pass over the perimeter graph gives each node its inflow from
 //     other tiles (64-bit integers; exact, order-free).
-//   Pass S (rounds until no perimeter value changes, as fill_least_fixpoint_tiled): each tile
+//   Pass S (rounds until no perimeter value changes, as the tiled fill does): each tile
 //     finishes counts from its entries' inflows, then channels, Strahler orders (the orders of
 //     channel donors in other tiles as known so far: they only rise) and carving (the carved
 //     heights of receivers in other tiles as known so far, starting uncarved: they only fall).
@@ -78,6 +85,7 @@ struct TiledFlowStats {
   std::uint64_t max_count = 0;        // largest drainage count (samples)
   std::size_t cover_cells = 0;        // entries of the cross-tile river cover map
   std::size_t river_pieces = 0;       // river pieces traced in tiles (when rivers were asked for)
+  std::int64_t lakes = 0;             // depressions kept as lakes (with `filled`)
 };
 
 // Runs the flow stage over the world grid `grid` whose whole frame is `world` (cell size, height
@@ -85,11 +93,13 @@ struct TiledFlowStats {
 // (the stage's input, window.nx × window.nz); `store(X, Z, tile)` receives its results once, in the
 // final pass. When `rivers` is not null it receives Terrain::rivers of the whole-map run, equal
 // field for field (whole polylines across tiles, in the same order); memory: all their vertices.
+// `filled` (optional): see "Input" above. `lakes` (optional) receives Terrain::lakes, likewise.
 // Throws Error(error_path, …) when the height does not already drain (see the top).
 // `cancelled` (optional) is checked between tiles: true throws relief::Cancelled.
 TiledFlowStats flow_tiled(const WorldGrid& grid, const Frame& world, const WorldFlowParams& params, const TileLoad& load,
                           const FlowTileStore& store, std::vector<River>* rivers = nullptr,
-                          const std::function<bool()>& cancelled = {}, const std::string& error_path = "height");
+                          const std::function<bool()>& cancelled = {}, const std::string& error_path = "height",
+                          const TileLoad& filled = {}, std::vector<Lake>* lakes = nullptr);
 
 // Where a world's rivers and lakes go (the world frame, then Terrain::rivers and Terrain::lakes as
 // the whole-map run makes them; lakes are always empty today, see the top).
