@@ -27,6 +27,7 @@
 #include <memory>
 #include <mutex>
 #include <regex>
+#include <set>
 
 #include "relief/encode_image.hpp"
 #include "relief/error.hpp"
@@ -297,6 +298,8 @@ WorldReport build_world(WorldSettings s) {
   r.world.nz = int(grid.nz);
   const Frame frame = r.world.frame();
   // The library's own world algorithms (default_world_algorithms) unless the caller gave its own.
+  std::set<std::string> callers_algorithms;
+  for (const auto& [name, algo] : s.algorithms) callers_algorithms.insert(name);
   for (auto& [name, algo] : default_world_algorithms()) s.algorithms.emplace(name, algo);
 
   // 1. Stages: every one must have a world algorithm (for now: be local).
@@ -314,22 +317,24 @@ WorldReport build_world(WorldSettings s) {
                         {"label", st.label},
                         {"locality", "global"},
                         {"halo", 0},
-                        {"world", "world algorithm"}});
+                        {"world", callers_algorithms.count(st.def->name) ? "world algorithm" : world_guarantee(*st.def).guarantee},
+                        {"world_how", callers_algorithms.count(st.def->name) ? "the caller's world algorithm" : world_guarantee(*st.def).how}});
       continue;
     }
     if (re.locality == Locality::Global)
       throw Error("stages[" + std::to_string(i) + "]",
                   "'" + st.def->name + "' has no world support yet: it needs the whole map (" +
                       (re.why.empty() ? "a global stage" : re.why) +
-                      "); world builds run pointwise and neighbourhood stages for now — leave it out, or build one map "
-                      "with `relief generate`");
+                      "); world builds run pointwise and neighbourhood stages and the global stages that have a world "
+                      "algorithm (`relief explain` says which) — leave it out, or build one map with `relief generate`");
     if (re.locality == Locality::Neighbourhood) halo += std::max(0, re.halo);
     stages.push_back({{"index", i},
                       {"stage", st.def->name},
                       {"label", st.label},
                       {"locality", locality_name(re.locality)},
                       {"halo", re.locality == Locality::Neighbourhood ? re.halo : 0},
-                      {"world", "exact"}});
+                      {"world", "exact"},
+                      {"world_how", world_guarantee(*st.def).how}});
   }
 
   // The ranks (one without MPI): rank 0 prepares the folder and writes the manifest, every rank
@@ -909,7 +914,7 @@ WorldReport build_world(WorldSettings s) {
     std::vector<std::string> statuses;
     std::exception_ptr finish_failed;
     try {
-      statuses = handout.finish(status.dump());
+      statuses = handout.finish(status.dump(), failed != nullptr);
     } catch (...) {
       finish_failed = std::current_exception();
     }

@@ -16,7 +16,7 @@
 namespace relief::detail {
 namespace {
 
-constexpr int kTagRequest = 1;  // rank > 0 → rank 0: 'R' (no result), 'S' + result, 'D' + status
+constexpr int kTagRequest = 1;  // rank > 0 → rank 0: 'R' (no result), 'S' + result, 'D'/'F' + status (F: failed)
 constexpr int kTagReply = 2;    // rank 0 → rank > 0: the next task, 8 bytes little-endian (−1: none)
 
 class InProcess final : public WorldTransport {
@@ -122,7 +122,8 @@ void WorkHandout::serve() {
     }
     b = Backoff();
     if (msg.empty() || from <= 0 || from >= t_.size()) throw std::runtime_error("world transport: a malformed request");
-    if (msg[0] == 'D') {
+    if (msg[0] == 'D' || msg[0] == 'F') {
+      if (msg[0] == 'F') stop_ = true;  // no rank starts another task of this round
       done_[std::size_t(from)] = msg.substr(1);
       ++finished_;
       continue;
@@ -145,10 +146,10 @@ void WorkHandout::serve() {
   }
 }
 
-std::vector<std::string> WorkHandout::finish(const std::string& done) {
+std::vector<std::string> WorkHandout::finish(const std::string& done, bool failed) {
   if (t_.rank() != 0) {
     std::lock_guard<std::mutex> lock(m_);
-    t_.send(0, kTagRequest, "D" + done);
+    t_.send(0, kTagRequest, (failed ? "F" : "D") + done);
     return {};
   }
   if (server_.joinable()) server_.join();  // returns once every other rank has sent its status

@@ -75,10 +75,11 @@ class WorkHandout {
   // The result of the task just finished (nullptr: none), then the next task of this rank, or -1.
   std::int64_t next(const std::string* result);
   void stop() { stop_ = true; }
-  // Ends the round on this rank. Ranks > 0 send `done` (their status) to rank 0; rank 0 waits
+  // Ends the round on this rank. Ranks > 0 send `done` (their status) to rank 0 (`failed`: rank 0
+  // stops the round for every rank, as stop() does); rank 0 waits
   // until every rank has finished and returns their statuses (index = rank; its own is `done`), or
   // rethrows what on_result threw for another rank's result.
-  std::vector<std::string> finish(const std::string& done);
+  std::vector<std::string> finish(const std::string& done, bool failed = false);
 
  private:
   void serve();

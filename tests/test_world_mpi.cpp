@@ -305,6 +305,23 @@ TEST(WorldMpi, AfterSigkillOfMpirunADistributedRerunGivesTheSameBytes) {
   }
 }
 
+// A tile that no rank can write (a folder stands at its path): whichever rank builds it fails, the
+// round stops on every rank, and the build exits with code 2, the error printed once (by rank 0).
+TEST(WorldMpi, ATileThatCannotBeWrittenFailsEveryRankWithOneMessage) {
+  REQUIRE_MPI();
+  TempDir d("world-mpi-unwritable");
+  for (int k : {9, 30, 45, 62}) fs::create_directories(d.path / "w" / relief::world_tile_path(k % 8, k / 8));
+  for (int ranks : {2, 3}) {
+    SCOPED_TRACE(std::to_string(ranks) + " ranks");
+    const Shell r = mpirun(ranks, kArgs + " -o " + (d / "w"));
+    EXPECT_EQ(r.code, 2) << r.out;
+    const std::size_t at = r.out.find("relief: error: --out:");
+    ASSERT_NE(at, std::string::npos) << r.out;
+    EXPECT_EQ(r.out.find("relief: error:", at + 1), std::string::npos) << "printed by more than one rank:\n" << r.out;
+    EXPECT_EQ(relief::read_world_manifest(d / "w")["status"], "building");  // not marked complete
+  }
+}
+
 TEST(WorldMpi, BadInputExitsWithCode2AndRankZeroAloneSaysWhy) {
   REQUIRE_MPI();
   TempDir d("world-mpi-bad");
