@@ -652,7 +652,7 @@ TEST(WorldPhases, AWorldAlgorithmBetweenLocalPhasesIsExact) {
     expect_same_layers(whole, read_world_window(d / "w", 0, 0, 257, 257));
     EXPECT_TRUE(verify_world(d / "w").empty());
     EXPECT_FALSE(fs::exists(d.path / "w" / "phase-0"));  // intermediate phases removed at the end
-    EXPECT_EQ(read_world_manifest(d / "w")["stages"][3]["world"], "world algorithm");
+    EXPECT_EQ(read_world_manifest(d / "w")["stages"][3]["world"], "exact");
     EXPECT_EQ(rep.tiles_built, 2 * rep.grid.count());  // two local phases
   }
 }
