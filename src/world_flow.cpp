@@ -243,6 +243,12 @@ void mark_lakes(const Ctx& c, Components& comp, Solve& s, std::uint64_t tile) {
     if (s.label[o] != kNone) s.lake[o] = comp.kept[comp.find(std::uint32_t(comp.base[tile] + s.label[o]))];
 }
 
+// Thrown by check_drains (an Error like any other to flow_tiled's callers; world_flow catches it
+// and fills first).
+struct NotDraining : Error {
+  using Error::Error;
+};
+
 // The whole map's hydro::already_drains condition on the owned samples: every sample that is not
 // an outlet (world border, or below the sea) has a strictly lower neighbour, so that apply_flow
 // fills nothing (a world of fewer than 3 samples along an axis always drains, as there).
@@ -257,7 +263,7 @@ void check_drains(const Ctx& c, const Solve& s, const std::string& path) {
       for (int k = 0; k < 8; ++k) m = std::min(m, s.zg[std::size_t(gj + hydro::kDj[k]) * std::size_t(s.gnx) + std::size_t(gi + hydro::kDi[k])]);
       const float zc = s.zg[std::size_t(gj) * std::size_t(s.gnx) + std::size_t(gi)];
       if (!(zc < c.sea || m < zc))
-        throw Error(path, "the flow stage's world algorithm needs a height that already drains (a fill stage before "
+        throw NotDraining(path, "the flow stage's world algorithm needs a height that already drains (a fill stage before "
                           "it); sample (" +
                               std::to_string(ix) + ", " + std::to_string(iz) + ") does not");
     }
@@ -846,6 +852,7 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
 WorldStageAlgorithm world_flow(WorldWaterSink water) {
   return [water](const WorldStageIO& io, const RecipeStage& st, int index) {
     const WorldFlowParams p = world_flow_params(st.stage->params());
+    const WorldGrid& g = io.grid;
     const TileLoad load = [&](std::int64_t X, std::int64_t Z) { return io.load(X, Z).layers.at("height").data; };
     const FlowTileStore store = [&](std::int64_t X, std::int64_t Z, FlowTile ft) {
       WorldTile t = io.load(X, Z);
@@ -854,10 +861,52 @@ WorldStageAlgorithm world_flow(WorldWaterSink water) {
       t.layers["water"] = Layer{1, std::move(ft.water)};
       io.store(X, Z, std::move(t));
     };
+    const std::string path = "stages[" + std::to_string(index) + "]";
     std::vector<River> rivers;
     std::vector<Lake> lakes;
-    flow_tiled(io.grid, io.world, p, load, store, water ? &rivers : nullptr, io.cancelled,
-               "stages[" + std::to_string(index) + "]", {}, water ? &lakes : nullptr);
+    try {
+      flow_tiled(g, io.world, p, load, store, water ? &rivers : nullptr, io.cancelled, path, {}, water ? &lakes : nullptr);
+    } catch (const NotDraining&) {
+      // No fill stage before this one: fill as apply_flow does (fill_depressions_tiled gives the
+      // whole world's hydro::fill_depressions). Only each tile's final border levels are kept; a
+      // tile's filled heights are then one tile solve seeded with them (the solve that stored it).
+      const float sea = float(io.world.sea_level), eps = float(p.epsilon_m / io.world.height_m);
+      auto ring_of = [](const WorldGrid::Window& w, const std::vector<float>& f) {
+        std::vector<float> r;
+        for (int j = 0; j < w.nz; ++j)
+          for (int i = 0; i < w.nx; ++i)
+            if (i == 0 || j == 0 || i == w.nx - 1 || j == w.nz - 1) r.push_back(f[std::size_t(j) * std::size_t(w.nx) + std::size_t(i)]);
+        return r;
+      };
+      std::vector<std::vector<float>> rings(std::size_t(g.count()));
+      const TileLoad fill_load = [&](std::int64_t X, std::int64_t Z) {
+        if (io.cancelled && io.cancelled()) throw Cancelled();
+        return load(X, Z);
+      };
+      fill_depressions_tiled(g, sea, eps, fill_load, [&](std::int64_t X, std::int64_t Z, std::vector<float> f) {
+        rings[std::size_t(Z * g.tiles_x + X)] = ring_of(g.window(X, Z), f);
+      });
+      const TileLoad filled = [&](std::int64_t X, std::int64_t Z) {
+        const WorldGrid::Window w = g.window(X, Z);
+        std::vector<float> z = load(X, Z);
+        const std::size_t n = std::size_t(w.nx) * std::size_t(w.nz);
+        std::vector<std::uint8_t> outlet(n);
+        std::vector<float> seed(n, std::numeric_limits<float>::infinity());
+        const std::vector<float>& ring = rings[std::size_t(Z * g.tiles_x + X)];
+        std::size_t k = 0;
+        for (int j = 0; j < w.nz; ++j)
+          for (int i = 0; i < w.nx; ++i) {
+            const std::int64_t ix = w.ix0 + i, iz = w.iz0 + j;
+            const std::size_t q = std::size_t(j) * std::size_t(w.nx) + std::size_t(i);
+            outlet[q] = ix == 0 || iz == 0 || ix == g.nx - 1 || iz == g.nz - 1 || z[q] < sea;  // as fill_depressions_tiled
+            if (i == 0 || j == 0 || i == w.nx - 1 || j == w.nz - 1) seed[q] = ring[k++];
+          }
+        hydro::fill_depressions_tile<float>(z.data(), w.nx, w.nz, outlet.data(), seed.data(), eps);
+        return z;
+      };
+      flow_tiled(g, io.world, p, load, store, water ? &rivers : nullptr, io.cancelled, path, filled,
+                 water ? &lakes : nullptr);
+    }
     if (water) water(io.world, std::move(rivers), std::move(lakes));
   };
 }

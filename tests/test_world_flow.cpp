@@ -478,3 +478,46 @@ TEST(FlowTiled, DISABLED_Figures) {
     expect_same_rivers(whole, rivers);
   }
 }
+
+// No fill stage: world_flow fills (tiled) as the flow stage does and keeps lakes; the store's
+// layers, the rivers and the lakes equal the whole-map run's.
+TEST(WorldFlow, BuildWorldWithLakesAndNoFillStageEqualsTheWholeMap) {
+  json doc = island_flow_doc(20.0, true);
+  json flow = doc["stages"][4];
+  flow["lake_min_depth_m"] = 0.5;
+  flow["lake_min_area_m2"] = 2000.0;
+  doc["stages"] = json::array({doc["stages"][0], doc["stages"][1], doc["stages"][2], flow, doc["stages"][5], doc["stages"][6]});
+  Recipe r = recipe_of(doc, 12);
+  const int nx = 257, nz = 230;
+  Recipe rr = r;
+  rr.world.nx = nx, rr.world.nz = nz;
+  const Terrain ref = run(rr).terrain;
+  ASSERT_GE(ref.lakes.size(), 3u);
+  for (int tile : {33, 129}) {
+    SCOPED_TRACE("tile " + std::to_string(tile));
+    TempDir d("world-flow-lakes");
+    WorldSettings s;
+    s.recipe = r;
+    s.nx = nx;
+    s.nz = nz;
+    s.tile = tile;
+    s.out_dir = d / "w";
+    s.threads = 2;
+    std::vector<River> rivers;
+    std::vector<Lake> lakes;
+    s.algorithms["flow"] = world_flow([&](const Frame&, std::vector<River> rv, std::vector<Lake> lk) {
+      rivers = std::move(rv);
+      lakes = std::move(lk);
+    });
+    build_world(s);
+    ASSERT_EQ(lakes.size(), ref.lakes.size());
+    expect_same_rivers(ref, rivers, lakes);  // rivers.json and lakes.json byte for byte
+    const Terrain w = read_world_window(d / "w", 0, 0, nx, nz);
+    ASSERT_EQ(ref.layers.size(), w.layers.size());
+    for (auto& [name, layer] : ref.layers) {
+      ASSERT_TRUE(w.has(name)) << name;
+      const std::size_t k = first_difference(layer.data, w.get(name).data);
+      EXPECT_EQ(k, layer.data.size()) << "layer " << name << " differs first at value " << k;
+    }
+  }
+}

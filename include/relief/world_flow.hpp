@@ -107,7 +107,10 @@ using WorldWaterSink = std::function<void(const Frame& world, std::vector<River>
 
 // The world algorithm for build_world (WorldSettings::algorithms["flow"]): flow_tiled over the
 // stored tiles' "height", writing "height", "flow" and "water" into each tile; `water` (optional)
-// receives the rivers and lakes.
+// receives the rivers and lakes. When the height does not drain (no fill stage before this one), it
+// first fills it as apply_flow does: fill_depressions_tiled (relief/world.hpp), keeping each tile's
+// final border levels (4·T floats per tile), and gives flow_tiled each tile's filled heights as one
+// hydro::fill_depressions_tile solve seeded with them.
 WorldStageAlgorithm world_flow(WorldWaterSink water = {});
 
 // rivers.json and lakes.json of a world, byte for byte those the whole-map run's writers
