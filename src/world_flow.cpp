@@ -73,7 +73,11 @@ class Bands {
 
 // The perimeter graph: one node per sample on the boundary of a tile's owned rectangle.
 struct Nodes {
-  std::unordered_map<std::int64_t, std::uint32_t> id;  // world sample index → node
+  // Node ids by arithmetic: the perimeter samples of tile t's owned rectangle are nodes
+  // base[t] + k, k running row-major over the perimeter (the first row, then the two ends of each
+  // middle row, then the last row; owned rectangles are at least 2 × 2).
+  std::int64_t nx = 0, nz = 0, t1 = 0, tx = 0, tz = 0;
+  std::vector<std::uint64_t> base;
   std::vector<std::int64_t> cell, link_cell;
   std::vector<std::uint32_t> link, tile, acc;
   std::vector<float> z;
@@ -85,10 +89,25 @@ struct Nodes {
   std::vector<std::uint32_t> comp;          // global component label (kNone: not raised)
   std::vector<float> carved;
   std::vector<std::uint32_t> dstart, donors;  // cross donors of each node (CSR)
+  // The node of world sample c, or kNone when c is not on the perimeter of its owned rectangle.
+  std::uint32_t find(std::int64_t c) const {
+    const std::int64_t ix = c % nx, iz = c / nx;
+    const std::int64_t X = std::min(ix / t1, tx - 1), Z = std::min(iz / t1, tz - 1);
+    const std::int64_t ox0 = X * t1, oz0 = Z * t1;
+    const std::int64_t onx = (X == tx - 1 ? nx : ox0 + t1) - ox0, onz = (Z == tz - 1 ? nz : oz0 + t1) - oz0;
+    const std::int64_t oi = ix - ox0, oj = iz - oz0;
+    std::int64_t k;
+    if (oj == 0) k = oi;
+    else if (oj == onz - 1) k = onx + 2 * (onz - 2) + oi;
+    else if (oi == 0) k = onx + 2 * (oj - 1);
+    else if (oi == onx - 1) k = onx + 2 * (oj - 1) + 1;
+    else return kNone;
+    return std::uint32_t(base[std::size_t(Z * tx + X)] + std::uint64_t(k));
+  }
   std::uint32_t at(std::int64_t c) const {
-    const auto it = id.find(c);
-    if (it == id.end()) throw Error("world", "flow: internal error, sample " + std::to_string(c) + " is not a perimeter node");
-    return it->second;
+    const std::uint32_t k = find(c);
+    if (k == kNone) throw Error("world", "flow: internal error, sample " + std::to_string(c) + " is not a perimeter node");
+    return k;
   }
 };
 
@@ -557,6 +576,8 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
 
   // Pass A: local accumulation, perimeter links, components of raised samples.
   Nodes nd;
+  nd.nx = g.nx, nd.nz = g.nz, nd.t1 = c.t1, nd.tx = g.tiles_x, nd.tz = g.tiles_z;
+  nd.base.assign(std::size_t(g.count()) + 1, 0);
   Components comp;
   comp.base.resize(std::size_t(g.count()) + 1, 0);
   for (std::int64_t Z = 0; Z < g.tiles_z; ++Z)
@@ -572,6 +593,9 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
         if (r != o) np[o] = s.perim(r) ? r : np[r];
       }
       const std::uint32_t t = std::uint32_t(Z * g.tiles_x + X);
+      nd.base[t] = nd.cell.size();
+      if (nd.cell.size() + 2 * std::size_t(s.onx + s.onz) >= kNone)
+        throw Error("world", "flow: too many tile perimeter samples (more than 2^32 - 1): use larger tiles");
       const std::uint64_t base = comp.parent.size();
       comp.base[t] = base;
       if (base + s.labels >= kNone) throw Error("world", "flow: too many depressions (more than 2^32 - 1)");
@@ -592,7 +616,7 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
         const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
         const std::size_t gi = s.grown(oi, oj);
         const std::int64_t wc = (s.w.iz0 + oj) * g.nx + s.w.ix0 + oi;
-        nd.id.emplace(wc, std::uint32_t(nd.cell.size()));
+        if (nd.find(wc) != nd.cell.size()) throw Error("world", "flow: internal error, perimeter numbering");
         nd.cell.push_back(wc);
         nd.tile.push_back(t);
         nd.acc.push_back(s.acc[o]);
@@ -624,9 +648,9 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
     for (int d = 0; d < 8; ++d) {
       const std::int64_t a = i + hydro::kDi[d], b = j + hydro::kDj[d];
       if (a < 0 || b < 0 || a >= g.nx || b >= g.nz) continue;
-      const auto it = nd.id.find(b * g.nx + a);
-      if (it == nd.id.end() || nd.tile[it->second] == nd.tile[k] || nd.comp[it->second] == kNone) continue;
-      comp.join(nd.comp[k], nd.comp[it->second]);
+      const std::uint32_t m = nd.find(b * g.nx + a);
+      if (m == kNone || nd.tile[m] == nd.tile[k] || nd.comp[m] == kNone) continue;
+      comp.join(nd.comp[k], nd.comp[m]);
     }
   }
   comp.kept.assign(comp.parent.size(), 0);
