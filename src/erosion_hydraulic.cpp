@@ -85,24 +85,18 @@ struct Kernel {
   const double* cell_w = nullptr;
   int ncells = 0;
   double to_norm = 0;  // 1 / (height_m · cell_m²)
-  // Droplet starts.
-  std::uint64_t seed = 0;
-  double wx = 0, wz = 0;
 };
 
-// One tile's droplets: ids into the start hash, run in order, totals into *st.
+// One block's droplets of one round: start positions (x, z interleaved) in the block's own cell
+// coordinates, whose origin is window cell (ox, oz) (the block's world origin minus the droplets'
+// reach, so that positions stay positive); run in order, totals into *st. A droplet's arithmetic in
+// block coordinates is the same in every window that holds it (translation-exact floats).
 struct TileJob {
-  const std::uint32_t* ids = nullptr;
+  const float* pos = nullptr;
   std::uint32_t n = 0;
   HydraulicStats* st = nullptr;
+  std::int32_t ox = 0, oz = 0;
 };
-
-// Start position of droplet k in cells, in [0, nx − 1) × [0, nz − 1).
-inline void start_position(const Kernel& k, std::uint32_t id, float& px, float& pz) {
-  const float xmax = std::nextafter(float(k.wx), 0.0f), zmax = std::nextafter(float(k.wz), 0.0f);
-  px = std::min(float(unit_double(hash64(k.seed, id, 0x78)) * k.wx), xmax);
-  pz = std::min(float(unit_double(hash64(k.seed, id, 0x7a)) * k.wz), zmax);
-}
 
 }  // namespace kernel
 }  // namespace relief::erosion
@@ -205,6 +199,7 @@ class Batch {
     }
     const auto zero = hn::Zero(df), one = hn::Set(df, 1.0f);
     const auto vnx = hn::Set(di, k_.nx);
+    const auto xlim0 = hn::Set(df, k_.xlim), zlim0 = hn::Set(df, k_.zlim);
     const float* HWY_RESTRICT e = k_.e;
     const std::ptrdiff_t nx = k_.nx;
     // Bilinear corners of (px, pz), as the scalar Height() and Step() compute them.
@@ -212,12 +207,14 @@ class Batch {
       hn::Vec<DI> ix, iz;
       hn::Vec<DF> fx, fz, a, b, c, d;
     };
+    // Positions are in each lane's block coordinates; the cell indices add the block's origin.
     auto corners = [&](hn::Vec<DF> px, hn::Vec<DF> pz) {
       Corners r;
-      r.ix = hn::ConvertTo(di, px);
-      r.iz = hn::ConvertTo(di, pz);
-      r.fx = hn::Sub(px, hn::ConvertTo(df, r.ix));
-      r.fz = hn::Sub(pz, hn::ConvertTo(df, r.iz));
+      const auto tx = hn::ConvertTo(di, px), tz = hn::ConvertTo(di, pz);
+      r.fx = hn::Sub(px, hn::ConvertTo(df, tx));
+      r.fz = hn::Sub(pz, hn::ConvertTo(df, tz));
+      r.ix = hn::Add(tx, hn::Load(di, ox_));
+      r.iz = hn::Add(tz, hn::Load(di, oz_));
       const auto idx = hn::Add(hn::Mul(r.iz, vnx), r.ix);
       r.a = hn::GatherIndex(df, e, idx);
       r.b = hn::GatherIndex(df, e + 1, idx);
@@ -233,7 +230,7 @@ class Batch {
     };
     const auto gs = hn::Set(df, k_.gs), inertia = hn::Set(df, k_.inertia), keep = hn::Set(df, k_.keep_dir);
     const auto tiny = hn::Set(df, 1e-12f), stepc = hn::Set(df, k_.step_c);
-    const auto xlim = hn::Set(df, k_.xlim), zlim = hn::Set(df, k_.zlim), H = hn::Set(df, k_.H);
+    const auto H = hn::Set(df, k_.H);
     const auto capacity = hn::Set(df, k_.capacity), minc = hn::Set(df, k_.min_capacity);
     const auto area = hn::Set(df, k_.area), gravity = hn::Set(df, k_.gravity), evap = hn::Set(df, k_.evap_keep);
     HWY_ALIGN std::int32_t ix[kMax], iz[kMax];
@@ -252,11 +249,14 @@ class Batch {
       dx = hn::Div(dx, len);
       dz = hn::Div(dz, len);
       const auto npx = hn::Add(px, hn::Mul(dx, stepc)), npz = hn::Add(pz, hn::Mul(dz, stepc));
-      const auto inside = hn::And(hn::And(hn::Ge(npx, zero), hn::Ge(npz, zero)),
-                                  hn::And(hn::Lt(npx, xlim), hn::Lt(npz, zlim)));
+      // Inside the window: 0 ≤ np + o < lim, i.e. −o ≤ np < lim − o (integers, exact in float).
+      const auto negox = hn::ConvertTo(df, hn::Neg(hn::Load(di, ox_)));
+      const auto negoz = hn::ConvertTo(df, hn::Neg(hn::Load(di, oz_)));
+      const auto inside = hn::And(hn::And(hn::Ge(npx, negox), hn::Ge(npz, negoz)),
+                                  hn::And(hn::Lt(npx, hn::Add(xlim0, negox)), hn::Lt(npz, hn::Add(zlim0, negoz))));
       const auto go = hn::And(alive, inside);
-      // Lanes that stop here read the heights at (0, 0): always inside the grid.
-      const auto h_new = height(corners(hn::IfThenElseZero(go, npx), hn::IfThenElseZero(go, npz)));
+      // Lanes that stop here read the heights at window cell (0, 0): always inside the grid.
+      const auto h_new = height(corners(hn::IfThenElse(go, npx, negox), hn::IfThenElse(go, npz, negoz)));
       const auto vdy = hn::Mul(hn::Sub(h_new, h_old), H);  // metres, negative downhill
       const auto speed = hn::Load(df, speed_), water = hn::Load(df, water_);
       const auto c0 = hn::Mul(hn::Mul(hn::Mul(hn::Neg(vdy), speed), water), capacity);
@@ -283,7 +283,7 @@ class Batch {
         if (!L.active) continue;
         bool more;
         if (!((alive_bits[l >> 3] >> (l & 7)) & 1)) {
-          more = Die(L, px_[l], pz_[l]);  // position unchanged: the droplet dies where it is
+          more = Die(L, l);  // position unchanged: the droplet dies where it is
         } else if (!((go_bits[l >> 3] >> (l & 7)) & 1)) {
           L.st->off_map_m3 += L.sed;
           more = false;
@@ -304,31 +304,33 @@ class Batch {
     double sed = 0;  // m³; double so that what a droplet carries balances what it moved
     int life = 0;
     bool active = false;
-    const std::uint32_t* ids = nullptr;  // the current tile's remaining droplets [ids, end)
-    const std::uint32_t* end = nullptr;
+    const float* pos = nullptr;  // the current block's remaining droplet starts [pos, end)
+    const float* end = nullptr;
+    std::int32_t ox = 0, oz = 0;  // the block's origin in window cells
     HydraulicStats* st = nullptr;
     float* acc = nullptr;
   };
 
-  float Height(float px, float pz) const {
-    const int ix = int(px), iz = int(pz);
-    const float fx = px - float(ix), fz = pz - float(iz);
-    const float* p = k_.e + std::size_t(iz) * k_.nx + ix;
+  float Height(float px, float pz, int ox, int oz) const {
+    const int tx = int(px), tz = int(pz);
+    const float fx = px - float(tx), fz = pz - float(tz);
+    const float* p = k_.e + std::size_t(tz + oz) * k_.nx + (tx + ox);
     return p[0] * (1 - fx) * (1 - fz) + p[1] * fx * (1 - fz) + p[k_.nx] * (1 - fx) * fz + p[k_.nx + 1] * fx * fz;
   }
 
   // An idle lane computes at (0, 0) and is ignored.
-  void Park(int l) { px_[l] = pz_[l] = dx_[l] = dz_[l] = 0, speed_[l] = water_[l] = 1; }
+  void Park(int l) { px_[l] = pz_[l] = dx_[l] = dz_[l] = 0, speed_[l] = water_[l] = 1, ox_[l] = oz_[l] = 0; }
 
   // Starts lane l's next droplet (from its tile, or from the next tile of the phase); false when
   // the phase has no more. Droplets starting in the sea are skipped.
   bool Next(int l) {
     Lane& L = lanes_[l];
     for (;;) {
-      while (L.ids != L.end) {
-        float px, pz;
-        start_position(k_, *L.ids++, px, pz);
-        if (Height(px, pz) < k_.sea) continue;
+      while (L.pos != L.end) {
+        const float px = L.pos[0], pz = L.pos[1];
+        L.pos += 2;
+        if (Height(px, pz, L.ox, L.oz) < k_.sea) continue;
+        ox_[l] = L.ox, oz_[l] = L.oz;
         px_[l] = px, pz_[l] = pz, dx_[l] = 0, dz_[l] = 0, speed_[l] = 1, water_[l] = 1;
         L.sed = 0, L.life = 0;
         ++L.st->droplets;
@@ -336,7 +338,8 @@ class Batch {
       }
       const std::size_t j = next_->fetch_add(1, std::memory_order_relaxed);
       if (j >= njobs_) return false;
-      L.ids = jobs_[j].ids, L.end = jobs_[j].ids + jobs_[j].n, L.st = jobs_[j].st;
+      L.pos = jobs_[j].pos, L.end = jobs_[j].pos + 2 * std::size_t(jobs_[j].n), L.st = jobs_[j].st;
+      L.ox = jobs_[j].ox, L.oz = jobs_[j].oz;
     }
   }
 
@@ -423,15 +426,15 @@ class Batch {
     }
     if (++L.life == k_.lifetime) {
       const int l = int(&L - lanes_);
-      return Die(L, px_[l], pz_[l]);
+      return Die(L, l);
     }
     return true;
   }
 
   // The droplet dies on land at (px, pz): what it carries is deposited with the brush.
-  bool Die(Lane& L, float px, float pz) {
+  bool Die(Lane& L, int l) {
     if (L.sed > 0) {
-      const double got = Brush(L, int(px), int(pz), float(L.sed), true);
+      const double got = Brush(L, int(px_[l]) + ox_[l], int(pz_[l]) + oz_[l], float(L.sed), true);
       L.st->deposited_m3 += got;
       L.st->stranded_m3 += L.sed - got;
     }
@@ -444,6 +447,7 @@ class Batch {
   std::atomic<std::size_t>* next_;
   Lane lanes_[kMax];
   HWY_ALIGN float px_[kMax], pz_[kMax], dx_[kMax], dz_[kMax], speed_[kMax], water_[kMax];
+  HWY_ALIGN std::int32_t ox_[kMax] = {}, oz_[kMax] = {};
   hwy::AlignedFreeUniquePtr<float[]> acc_;
 };
 
@@ -471,12 +475,13 @@ HydraulicStats hydraulic_erosion(float* e, const Frame& f, const HydraulicSettin
   HydraulicStats total;
   if (f.nx < 2 || f.nz < 2) return total;
   const double cell = f.cell_m();
-  const double area_km2 = double(f.nx - 1) * double(f.nz - 1) * cell * cell * 1e-6;
-  const double wanted = std::round(s.droplets_per_km2 * area_km2);
+  // Droplets per world cell (the square between four samples): lambda on average, see erosion.hpp.
+  const double lambda = s.droplets_per_km2 * cell * cell * 1e-6;
+  const double wanted = lambda * double(f.nx - 1) * double(f.nz - 1);
   if (wanted > 4e8)
     throw Error("droplets_per_km2", "this window would need " + std::to_string(std::uint64_t(wanted)) +
                                         " droplets (at most 400000000); lower the density");
-  const std::uint32_t count = std::uint32_t(wanted);
+  const double lambda_whole = std::floor(lambda), lambda_frac = lambda - lambda_whole;
 
   // The brush covers at least the 3×3 cells around the droplet, so that on a coarse grid (cells
   // larger than the brush) a droplet's volume is not piled onto one cell. Weights ∝ (r − d).
@@ -520,48 +525,88 @@ HydraulicStats hydraulic_erosion(float* e, const Frame& f, const HydraulicSettin
     box[std::size_t(cdj[c] + R) * k.P + (cdi[c] + R)] = float(cw[c] * k.to_norm);
   k.box = box.get();
   k.cell_di = cdi.data(), k.cell_dj = cdj.data(), k.cell_w = cw.data(), k.ncells = int(cw.size());
-  k.seed = seed;
-  k.wx = f.nx - 1, k.wz = f.nz - 1;
 
-  // Tiles of side 2·reach: a droplet never leaves reach cells around its start (it moves step_m
-  // per step and erodes within the brush radius), so tiles of one checkerboard colour never touch
-  // the same cells.
+  // Blocks of side 2·reach cells, aligned on the WORLD's cell grid: a droplet never leaves reach
+  // cells around its start (it moves step_m per step and erodes within the brush radius), so blocks
+  // of one checkerboard colour never touch the same cells. A window's blocks are the world's blocks
+  // cut by the window (still disjoint).
   const int reach = int(std::ceil(s.lifetime * s.step_m / cell)) + radius_c + 2;
-  const int tile = 2 * reach;
-  const int ntx = (f.nx - 1 + tile - 1) / tile, ntz = (f.nz - 1 + tile - 1) / tile;
+  const std::int64_t B = 2 * std::int64_t(reach);
+  const std::int64_t bx0 = f.ix0 / B, bz0 = f.iz0 / B;
+  const int ntx = int((f.ix0 + f.nx - 2) / B - bx0 + 1), ntz = int((f.iz0 + f.nz - 2) / B - bz0 + 1);
   const std::size_t ntiles = std::size_t(ntx) * ntz;
-  // Counting sort of the droplets by tile (index order is kept inside each tile).
-  std::vector<std::uint32_t> tile_of(count), first(ntiles + 1, 0), ids(count);
-  for (std::uint32_t id = 0; id < count; ++id) {
-    float px, pz;
-    kernel::start_position(k, id, px, pz);
-    const int tx = std::min(int(px) / tile, ntx - 1), tz = std::min(int(pz) / tile, ntz - 1);
-    tile_of[id] = std::uint32_t(tz * ntx + tx);
-    ++first[tile_of[id] + 1];
-  }
-  for (std::size_t t = 0; t < ntiles; ++t) first[t + 1] += first[t];
-  {
-    std::vector<std::uint32_t> fill(first.begin(), first.end() - 1);
-    for (std::uint32_t id = 0; id < count; ++id) ids[fill[tile_of[id]]++] = id;
-  }
-  std::vector<HydraulicStats> per_tile(ntiles);
-  // Each round runs a quarter of every tile's droplets; each phase one checkerboard colour. The
-  // tiles of a phase touch disjoint cells, so they may run in any order on any thread, each tile's
-  // droplets in index order in one lane: every thread pulls the next tile from a shared counter,
-  // the largest tiles first so that lanes run out of work together.
+  // Each block's droplets: start positions in window cells (x, z interleaved), sorted by their order
+  // key; round r holds [start[r], start[r + 1]) (in droplets).
   constexpr int kRounds = 4;
+  struct Block {
+    std::vector<float> pos;
+    std::uint32_t start[kRounds + 1] = {};
+    std::int32_t ox = 0, oz = 0;
+  };
+  std::vector<Block> blocks(ntiles);
+  tbb::parallel_for(std::size_t(0), ntiles, [&](std::size_t t) {
+    const std::int64_t tx = std::int64_t(t % std::size_t(ntx)), tz = std::int64_t(t / std::size_t(ntx));
+    const int i0 = int(std::max<std::int64_t>(0, (bx0 + tx) * B - f.ix0));
+    const int i1 = int(std::min<std::int64_t>(f.nx - 1, (bx0 + tx + 1) * B - f.ix0));
+    const int j0 = int(std::max<std::int64_t>(0, (bz0 + tz) * B - f.iz0));
+    const int j1 = int(std::min<std::int64_t>(f.nz - 1, (bz0 + tz + 1) * B - f.iz0));
+    // Block coordinates: window cell (i, j) is at (i − ox, j − oz); the block's cells at reach .. reach + B.
+    const std::int64_t ox = (bx0 + tx) * B - reach - f.ix0, oz = (bz0 + tz) * B - reach - f.iz0;
+    struct Start {
+      std::uint64_t key;
+      int j, i, k;
+      float px, pz;
+    };
+    std::vector<Start> starts;
+    for (int j = j0; j < j1; ++j)
+      for (int i = i0; i < i1; ++i) {
+        const std::uint64_t base =
+            hash64(hash64(seed, std::uint64_t(f.ix0 + i)), std::uint64_t(f.iz0 + j));
+        const int n = int(lambda_whole) + (unit_double(hash64(base, 0x6e)) < lambda_frac ? 1 : 0);
+        for (int d = 0; d < n; ++d) {
+          const std::uint64_t hk = hash64(base, std::uint64_t(d));
+          // Below the cell's far corner (float rounding could reach it).
+          const float xe = float(i + 1 - ox), ze = float(j + 1 - oz);
+          const float px = std::min(float(double(i - ox) + unit_double(hash64(hk, 0x78))), std::nextafter(xe, 0.0f));
+          const float pz = std::min(float(double(j - oz) + unit_double(hash64(hk, 0x7a))), std::nextafter(ze, 0.0f));
+          starts.push_back({hash64(hk, 0x6f), j, i, d, px, pz});
+        }
+      }
+    // The order key's top two bits are the round; the rest shuffles the block's droplets. Ties
+    // (never seen in practice) by world cell, row-major, then by index in the cell.
+    std::sort(starts.begin(), starts.end(), [](const Start& a, const Start& b) {
+      if (a.key != b.key) return a.key < b.key;
+      if (a.j != b.j) return a.j < b.j;
+      if (a.i != b.i) return a.i < b.i;
+      return a.k < b.k;
+    });
+    Block& bl = blocks[t];
+    bl.ox = std::int32_t(ox), bl.oz = std::int32_t(oz);
+    bl.pos.resize(2 * starts.size());
+    int r = 0;
+    for (std::size_t q = 0; q < starts.size(); ++q) {
+      bl.pos[2 * q] = starts[q].px, bl.pos[2 * q + 1] = starts[q].pz;
+      while (int(starts[q].key >> 62) > r) bl.start[++r] = std::uint32_t(q);
+    }
+    while (r < kRounds) bl.start[++r] = std::uint32_t(starts.size());
+  });
+  std::vector<HydraulicStats> per_tile(ntiles);
+  // Each round runs one round of every block's droplets; each phase one checkerboard colour of the
+  // world's blocks. The blocks of a phase touch disjoint cells, so they may run in any order on
+  // any thread, each block's droplets in key order in one lane: every thread pulls the next block
+  // from a shared counter, the largest first so that lanes run out of work together.
   const int workers = std::max(1, tbb::this_task_arena::max_concurrency());
   std::vector<kernel::TileJob> jobs;
   for (int round = 0; round < kRounds; ++round)
     for (int phase = 0; phase < 4; ++phase) {
       jobs.clear();
-      for (int tz = phase / 2; tz < ntz; tz += 2)
-        for (int tx = phase % 2; tx < ntx; tx += 2) {
+      for (int tz = 0; tz < ntz; ++tz)
+        for (int tx = 0; tx < ntx; ++tx) {
+          if (int((bx0 + tx) & 1) + 2 * int((bz0 + tz) & 1) != phase) continue;
           const std::size_t t = std::size_t(tz) * ntx + tx;
-          const std::uint32_t n = first[t + 1] - first[t];
-          const std::uint32_t lo = first[t] + std::uint32_t(std::uint64_t(n) * round / kRounds);
-          const std::uint32_t hi = first[t] + std::uint32_t(std::uint64_t(n) * (round + 1) / kRounds);
-          if (hi > lo) jobs.push_back({ids.data() + lo, hi - lo, &per_tile[t]});
+          const Block& bl = blocks[t];
+          const std::uint32_t lo = bl.start[round], hi = bl.start[round + 1];
+          if (hi > lo) jobs.push_back({bl.pos.data() + 2 * std::size_t(lo), hi - lo, &per_tile[t], bl.ox, bl.oz});
         }
       std::stable_sort(jobs.begin(), jobs.end(), [](const kernel::TileJob& a, const kernel::TileJob& b) { return a.n > b.n; });
       std::atomic<std::size_t> next{0};

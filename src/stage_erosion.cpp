@@ -63,9 +63,11 @@ void apply_hydraulic(Terrain& t, const HydraulicParams& p, const Context& ctx) {
 }
 
 // Global, but bounded: a droplet moves at most lifetime · step_m from its start and erodes within
-// brush_radius_m of its path. The bound is declared (for a world builder that accepts a measured
-// seam error); run() still refuses the stage on a window, since droplets starting in the halo would
-// not be the whole map's droplets and their order changes the result.
+// brush_radius_m of its path. Droplets are defined by world position (erosion.hpp), so a window
+// runs the whole map's droplets that start inside it, in the same order; world_hydraulic
+// (relief/world_bounded.hpp) runs the stage on each tile grown by this halo, with a measured seam
+// error. run() still refuses the stage on a window: droplets starting outside it are missing, so
+// its result there is not the whole map's bits.
 constexpr const char* kHydraulicWhy =
     "droplets start anywhere on the map, one after another, each changing the map the next one runs over";
 Reach hydraulic_reach(const HydraulicParams& p, const Frame& f) {

@@ -16,7 +16,7 @@ namespace relief::erosion {
 
 // ---- droplet hydraulic erosion (Beyer 2015, with Lague's parameter set) ---------------------
 struct HydraulicSettings {
-  double droplets_per_km2 = 20000;  // droplet starts per km² of the window (land starts only)
+  double droplets_per_km2 = 20000;  // droplet starts per km² of the world (land starts only)
   int lifetime = 30;                // maximum steps per droplet
   double step_m = 8;                // distance a droplet moves per step
   double brush_radius_m = 24;       // erosion (and deposition) brush radius
@@ -56,10 +56,20 @@ struct HydraulicStats {
 // than that (cells of several brush radii), a droplet takes several steps inside one cell and digs
 // there: previews should keep cell_m within ~2 brush radii of the build's.
 //
-// Parallel schedule: droplets are bucketed by start position into square tiles of side
-// 2·reach (reach = lifetime·step + brush radius, in cells, + 2), which are processed in 4 phases
-// (a 2×2 checkerboard) and 4 rounds; tiles of one phase touch disjoint cells, and each tile runs
-// its droplets sequentially in index order. The result depends on the parameters and the seed only.
+// Droplets are defined by WORLD position, so that a window of the world (Frame::ix0, iz0) runs the
+// same droplets as the whole map over the cells they share. World cell (cx, cz) (the square between
+// samples cx, cx+1 and cz, cz+1 of the world grid) starts ⌊λ⌋ droplets, plus one more when
+// unit(hash(seed, cx, cz, 'n')) < frac(λ), with λ = droplets_per_km2 · cell_m² · 10⁻⁶; droplet d of
+// the cell starts at (cx + u, cz + v), u and v from hash(seed, cx, cz, d). The map is cut into
+// square blocks of side 2·reach cells aligned on the world's cell grid (reach = lifetime·step +
+// brush radius, in cells, + 2); blocks are processed in 4 rounds, each in 4 phases (a 2×2
+// checkerboard by the world block's parity); blocks of one phase touch disjoint cells. A droplet's
+// round is the top 2 bits of its order key hash(seed, cx, cz, d, 'o'), and each block runs its
+// droplets of the round sequentially in key order. A window therefore runs, in the same order, the
+// subset of the whole map's droplets that start inside it (their results differ only through what
+// droplets starting outside the window did: hydraulic erosion is bounded, not exact, on a window;
+// relief/world_bounded.hpp measures it). The result depends on the parameters, the seed and the
+// window's world position only, never on the thread count.
 // progress(fraction), if given, is called on the calling thread as the work advances (16 times).
 HydraulicStats hydraulic_erosion(float* e, const Frame& f, const HydraulicSettings& s, std::uint64_t seed,
                                  const std::function<void(double)>& progress = {});
