@@ -705,7 +705,13 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
   nd.carved.resize(nn);
   for (std::size_t k = 0; k < nn; ++k) nd.carved[k] = nd.lake[k] ? nd.e[k] : nd.z[k];
 
-  // Pass S: Strahler orders downstream and carved heights upstream, until nothing changes.
+  // Pass S: Strahler orders downstream and carved heights upstream, until nothing changes. The
+  // first round (every tile) also gathers the river cover that reaches beyond the owned rectangle
+  // of its channel sample ("pass W"): it depends on counts, channels and lakes only, all known now.
+  std::unordered_map<std::int64_t, float> cover_sea, cover_any;  // sea-tested discs, point covers
+  auto strictly_inside = [](const Solve& s, std::int64_t ix, std::int64_t iz) {
+    return ix > s.w.ix0 && iz > s.w.iz0 && ix < s.w.ix0 + s.onx - 1 && iz < s.w.iz0 + s.onz - 1;
+  };
   const std::int64_t tiles = g.count();
   std::vector<std::uint8_t> dirty(std::size_t(tiles), 1);
   for (bool any = true; any;) {
@@ -719,6 +725,16 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
       ++st.tile_solves;
       mark_lakes(c, comp, s, std::uint64_t(t));
       finish(c, nd, s);
+      if (st.rounds == 1)
+        for (std::uint32_t o = 0; o < s.rl.size(); ++o) {
+          if (!s.ch[o] || s.lake[o]) continue;
+          const std::int64_t i = s.w.ix0 + o % std::uint32_t(s.onx), j = s.w.iz0 + o / std::uint32_t(s.onx);
+          each_cover(c, i, j, s.cnt[o], [&](std::int64_t a, std::int64_t b, float v, bool sea_test) {
+            if (!(v > 0) || strictly_inside(s, a, b)) return;
+            float& slot = (sea_test ? cover_sea : cover_any).try_emplace(b * g.nx + a, 0.0f).first->second;
+            slot = std::max(slot, v);
+          });
+        }
       for (std::uint32_t o = 0; o < s.rl.size(); ++o) {
         st.max_count = std::max(st.max_count, s.cnt[o]);
         if (!s.perim(o)) continue;
@@ -738,27 +754,6 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
     dirty = std::move(next);
   }
 
-  // Pass W: river cover that reaches beyond the owned rectangle of its channel sample.
-  std::unordered_map<std::int64_t, float> cover_sea, cover_any;  // sea-tested discs, point covers
-  auto strictly_inside = [](const Solve& s, std::int64_t ix, std::int64_t iz) {
-    return ix > s.w.ix0 && iz > s.w.iz0 && ix < s.w.ix0 + s.onx - 1 && iz < s.w.iz0 + s.onz - 1;
-  };
-  for (std::int64_t t = 0; t < tiles; ++t) {
-    check();
-    Solve s = prepare(c, bands, load, t % g.tiles_x, t / g.tiles_x);
-    ++st.tile_solves;
-    mark_lakes(c, comp, s, std::uint64_t(t));
-    finish(c, nd, s);
-    for (std::uint32_t o = 0; o < s.rl.size(); ++o) {
-      if (!s.ch[o] || s.lake[o]) continue;
-      const std::int64_t i = s.w.ix0 + o % std::uint32_t(s.onx), j = s.w.iz0 + o / std::uint32_t(s.onx);
-      each_cover(c, i, j, s.cnt[o], [&](std::int64_t a, std::int64_t b, float v, bool sea_test) {
-        if (!(v > 0) || strictly_inside(s, a, b)) return;
-        float& slot = (sea_test ? cover_sea : cover_any).try_emplace(b * g.nx + a, 0.0f).first->second;
-        slot = std::max(slot, v);
-      });
-    }
-  }
   st.cover_cells = cover_sea.size() + cover_any.size();
 
   // Final pass: each tile's layers (and the river pieces, the lakes' samples).

@@ -39,15 +39,16 @@
 //     channel donors in other tiles as known so far: they only rise) and carving (the carved
 //     heights of receivers in other tiles as known so far, starting uncarved: they only fall).
 //     Both are monotone over a finite acyclic graph, so the rounds stop at the exact values.
-//   Pass W: every river disc's cover of a sample that is not inside the disc's own owned rectangle
-//     goes into a map by world sample (the disc radius is unbounded a priori, so no fixed halo).
+//   Pass W (in pass S's first round): every river disc's cover of a sample that is not inside the
+//     disc's own owned rectangle goes into a map by world sample (the disc radius is unbounded a
+//     priori, so no fixed halo).
 //   Final pass: each tile's layers, from its own solve, the perimeter nodes (shared samples it does
 //     not own) and the cover map.
 // Memory: one grown tile and its solve (about 40 bytes a sample), plus about 70 bytes per
 // perimeter sample of the owned rectangles (4·T per tile: 16.8 M samples, ~1.2 GB, for a 65537²
 // world in tiles of 1025), the height bands, the cover map (samples within a disc radius of tile
 // borders, ~40 bytes each), all river vertices and, with lakes, the samples of all kept lakes.
-// Time: each tile is solved 4 times or more (A, S rounds, W, final); pass S's rounds are bounded
+// Time: each tile is solved 3 times or more (A, S rounds, final); pass S's rounds are bounded
 // by the longest chain of tile crossings along a river whose order or carving changes.
 #include <cstdint>
 #include <functional>
