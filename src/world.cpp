@@ -72,8 +72,9 @@ fs::path existing_ancestor(fs::path p) {
   return p;
 }
 
-// Old world files in `dir` that --force removes: world.json, overview.png, report.json and the
-// tile files named as build_world names them (nothing else).
+// Old world files in `dir` that --force removes: world.json, overview.png, report.json, the flow
+// stage's rivers.json and lakes.json, and the tile files named as build_world names them (nothing
+// else).
 // An intermediate phase's folder: its tile files and marker, then the folder if empty.
 void remove_phase_folder(const fs::path& folder) {
   std::error_code ec;
@@ -87,7 +88,7 @@ void remove_phase_folder(const fs::path& folder) {
 
 void remove_old_world(const fs::path& dir) {
   std::error_code ec;
-  for (const char* f : {"world.json", "overview.png", "report.json"}) fs::remove(dir / f, ec);
+  for (const char* f : {"world.json", "overview.png", "report.json", "rivers.json", "lakes.json"}) fs::remove(dir / f, ec);
   const std::regex tile_name(R"(x\d{4,}_z\d{4,}\.rtile)");
   if (fs::is_directory(dir / "tiles", ec))
     for (const auto& e : fs::directory_iterator(dir / "tiles", ec))
@@ -771,6 +772,9 @@ WorldReport build_world(WorldSettings s) {
           store_tile(ph, std::move(t));
         };
         io.cancelled = s.cancelled;
+        // World files a stage makes (rivers.json, lakes.json) go into the world folder, atomically.
+        FileOutput world_files(dir.string(), FileOutput::Mode::Immediate, FileOutput::Sync::Atomic);
+        io.out = &world_files;
         {
           std::lock_guard<std::mutex> lock(m);
           report(st.def->name, int(ph.first), 0.0);

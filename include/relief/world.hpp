@@ -103,6 +103,7 @@
 #include <string_view>
 #include <vector>
 
+#include "relief/output_interface.hpp"
 #include "relief/pipeline.hpp"
 #include "relief/recipe.hpp"
 
@@ -163,6 +164,10 @@ struct WorldStageIO {
   std::function<WorldTile(std::int64_t X, std::int64_t Z)> load;
   std::function<void(std::int64_t X, std::int64_t Z, WorldTile tile)> store;
   std::function<bool()> cancelled;
+  // The world folder, for the world files a stage makes besides its tiles (the flow stage's
+  // rivers.json and lakes.json: relief/world_flow.hpp); each put() is atomic. Null when the caller
+  // runs the algorithm outside build_world.
+  Output* out = nullptr;
 };
 // Runs one global stage (`stage`, at `index` in the recipe) over the whole stored world.
 using WorldStageAlgorithm = std::function<void(const WorldStageIO& io, const RecipeStage& stage, int index)>;
