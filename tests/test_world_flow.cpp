@@ -7,6 +7,7 @@
 #include <cstring>
 #include <filesystem>
 #include <functional>
+#include <tuple>
 #include <chrono>
 #include <cstdio>
 
@@ -209,6 +210,22 @@ TEST(FlowTiled, ClippedLastTilesOfANonSquareWorldEqualTheWholeMap) {
     Assembled a;
     std::vector<River> rivers;
     tiled(input.get("height").data, nx, nz, tile, world_frame(r, nx, nz), p, a, &rivers);
+    expect_layers(whole, a, nx);
+    expect_same_rivers(whole, rivers);
+  }
+}
+
+// One column of tiles (the world narrower than a tile along x) and one row of them.
+TEST(FlowTiled, OneColumnOrOneRowOfTilesEqualsTheWholeMap) {
+  const Recipe r = recipe_of(island_flow_doc(20.0, false), 8);
+  for (auto [nx, nz, tile] : {std::tuple{100, 257, 129}, std::tuple{257, 70, 129}, std::tuple{129, 257, 129}}) {
+    SCOPED_TRACE(std::to_string(nx) + "x" + std::to_string(nz) + " tile " + std::to_string(tile));
+    const Terrain input = filled_input(r, nx, nz), whole = whole_map(r, nx, nz);
+    Assembled a;
+    std::vector<River> rivers;
+    const TiledFlowStats st =
+        tiled(input.get("height").data, nx, nz, tile, world_frame(r, nx, nz), world_flow_params(r.stages[4].stage->params()), a, &rivers);
+    EXPECT_EQ(st.tiles, 2);
     expect_layers(whole, a, nx);
     expect_same_rivers(whole, rivers);
   }
