@@ -812,7 +812,7 @@ WorldReport build_world(WorldSettings s) {
         if (!bytes.empty()) {
           if (last) {
             res.overview = overview_of(t);
-            res.crc = detail::crc32_of(bytes);
+            res.crc = detail::tile_checksum(bytes);
             res.bytes = bytes.size();
           }
           return res;
@@ -858,7 +858,7 @@ WorldReport build_world(WorldSettings s) {
       if (last) res.overview = overview_of(t);
       const std::string bytes = store_tile(ph, std::move(t));
       if (last) {
-        res.crc = detail::crc32_of(bytes);
+        res.crc = detail::tile_checksum(bytes);
         res.bytes = bytes.size();
       }
       res.built = true;
@@ -945,7 +945,7 @@ WorldReport build_world(WorldSettings s) {
       const std::string bytes = existing(phases.back(), k % grid.tiles_x, k / grid.tiles_x, &t);
       if (bytes.empty()) throw Error(s.out_path, "the world algorithm of the last stage left tile " + std::to_string(k) + " missing");
       take_overview(t);
-      crcs[std::size_t(k)] = detail::crc32_of(bytes);
+      crcs[std::size_t(k)] = detail::tile_checksum(bytes);
       sizes[std::size_t(k)] = bytes.size();
     }
   }
@@ -983,18 +983,33 @@ WorldReport build_world(WorldSettings s) {
       {"store_bytes", rep.store_bytes},
       {"estimated_store_bytes", rep.estimated_bytes}};
   write_or_throw(dir / "report.json", report_doc.dump(2) + "\n", s.out_path);
-  json tiles = json::array();
+  // The tiles array is written as text, one tile at a time, in the layout dump(1) gives: a world of
+  // many tiles would otherwise hold a JSON node per number (hundreds of bytes per tile).
+  manifest["status"] = "complete";
+  manifest["tiles"] = json::array();
+  std::string text = manifest.dump(1);
+  const std::string empty_tiles = "\"tiles\": []\n}";
+  if (text.size() < empty_tiles.size() || text.compare(text.size() - empty_tiles.size(), empty_tiles.size(), empty_tiles) != 0)
+    throw std::logic_error("world.json: the tiles array is not last");
+  text.resize(text.size() - 3);  // up to and including "tiles": [
+  text += "\n";
   for (std::int64_t k = 0; k < grid.count(); ++k) {
     const std::int64_t X = k % grid.tiles_x, Z = k / grid.tiles_x;
     const WorldGrid::Window w = grid.window(X, Z);
-    tiles.push_back({{"tile", {X, Z}},
-                     {"window", {w.ix0, w.iz0, w.nx, w.nz}},
-                     {"crc32", detail::hex32(crcs[std::size_t(k)])},
-                     {"bytes", sizes[std::size_t(k)]}});
+    const json one = {{"tile", {X, Z}},
+                      {"window", {w.ix0, w.iz0, w.nx, w.nz}},
+                      {"crc32", detail::hex32(crcs[std::size_t(k)])},
+                      {"bytes", sizes[std::size_t(k)]}};
+    const std::string body = one.dump(1);  // indented by two levels below
+    text += "  ";
+    for (char c : body) {
+      text += c;
+      if (c == '\n') text += "  ";
+    }
+    text += k + 1 < grid.count() ? ",\n" : "\n";
   }
-  manifest["status"] = "complete";
-  manifest["tiles"] = std::move(tiles);
-  write_or_throw(dir / "world.json", manifest.dump(1) + "\n", s.out_path);
+  text += " ]\n}\n";
+  write_or_throw(dir / "world.json", text, s.out_path);
   for (std::size_t k = 0; k + 1 < phases.size(); ++k) remove_phase_folder(phases[k].folder);
   return rep;
 }

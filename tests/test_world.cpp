@@ -165,6 +165,16 @@ TEST(WorldStore, ManifestDescribesTheWorldAndTheTilesVerify) {
   EXPECT_EQ(m["frame"]["size"], json::array({257, 129}));
   EXPECT_EQ(m["grid"]["tiles"], json::array({4, 2}));
   EXPECT_EQ(m["tiles"].size(), 8u);
+  EXPECT_EQ(m["tiles"][5]["tile"], json::array({1, 1}));
+  EXPECT_EQ(m["tiles"][5]["window"], json::array({64, 64, 65, 65}));
+  // Each tile's checksum is its own: the CRC-32 its trailer holds (not the whole file's CRC-32,
+  // which is the same residue for every file that ends in its own CRC-32).
+  std::set<std::string> sums;
+  for (const json& t : m["tiles"]) sums.insert(t["crc32"].get<std::string>());
+  EXPECT_EQ(sums.size(), 8u);
+  EXPECT_EQ(sums.count("2144df1c"), 0u);
+  // The tiles are written as text: the file is what dump(1) would give for the whole document.
+  EXPECT_EQ(relief::test::slurp(d.path / "w" / "world.json"), m.dump(1) + "\n");
   EXPECT_EQ(m["world_id"], rep.world_id);
   EXPECT_EQ(m["seed"], 11);
   EXPECT_EQ(m["recipe"]["world"]["size"], json::array({257, 129}));

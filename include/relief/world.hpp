@@ -60,7 +60,8 @@
 //                  with zlib's RLE strategy at level 1; the planes are coded concurrently. About
 //                  half the raw size for heights and colours.
 //   4 bytes        u32 CRC-32 (zlib's crc32, ISO-HDLC) of every byte before it.
-// world.json lists each tile's CRC-32 of the whole file (trailer included) and its size.
+// world.json lists each tile's checksum (the CRC-32 its trailer holds: of every byte before the
+// trailer) and its size.
 //
 // Resuming. world.json holds a `world_id`: a hash of the format version, the resolved recipe
 // (seed, world size and every parameter) and the tile size. A build into a folder whose world.json
