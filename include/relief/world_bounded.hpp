@@ -27,6 +27,13 @@
 //   test_world_bounded.cpp measures the resulting seam error (see seam_metrics).
 //   Memory: one grown window and its run, the input tiles it touches one at a time, and the blend
 //   strips (halo × tile samples for the tile to the left, halo × world width for the row above).
+//   Measured (tests/test_world_bounded.cpp, 513² worlds of the eroded-mountains preset, RMS within 2
+//   halos of a seam over the world's relief): stream_power + hydraulic + thermal + fill 0.79 %
+//   (tiles of 129) and 0.50 % (257); droplets alone on raw ridged noise 1.35 % and 1.10 % (the
+//   issue's goal is 0.5 %). The error is not concentrated at seams (the RMS over the whole world is
+//   the same): droplet erosion feeds back on itself, so what the missing droplets did to the halo
+//   changes the gullies inside the tile. The largest slope jump across a seam stays below the 99.9th
+//   percentile of the jumps inside tiles for the preset's chain.
 //
 // stream_power (bounded; exact when the world has at most kStreamPowerCoarseMax samples per axis).
 // Drainage area is global: it accumulates over every sample upstream. So the stage is solved on the
