@@ -772,6 +772,7 @@ WorldReport build_world(WorldSettings s) {
           store_tile(ph, std::move(t));
         };
         io.cancelled = s.cancelled;
+        io.seed = rep.seed;
         // World files a stage makes (rivers.json, lakes.json) go into the world folder, atomically.
         FileOutput world_files(dir.string(), FileOutput::Mode::Immediate, FileOutput::Sync::Atomic);
         io.out = &world_files;

@@ -42,6 +42,10 @@ float neighbour_weight(int d, int b) {
 
 }  // namespace
 
+WorldStageAlgorithm world_hydraulic() {
+  return [](const WorldStageIO& io, const RecipeStage& st, int index) { world_hydraulic(io.seed)(io, st, index); };
+}
+
 WorldStageAlgorithm world_hydraulic(std::uint64_t seed) {
   return [seed](const WorldStageIO& io, const RecipeStage& st, int index) {
     const WorldGrid& g = io.grid;

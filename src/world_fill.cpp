@@ -24,6 +24,7 @@
 #include "relief/error.hpp"
 #include "relief/hydrology.hpp"
 #include "relief/world.hpp"
+#include "relief/world_bounded.hpp"
 #include "relief/world_flow.hpp"
 
 namespace relief {
@@ -150,8 +151,16 @@ const std::vector<WorldAlgorithmEntry>& world_algorithm_entries() {
        "(Barnes 2016)"},
       {"flow", [] { return world_flow(); }, "exact",
        "drainage counts accumulated in each tile, joined through a graph of tile perimeters (Barnes 2017); rivers, "
-       "Strahler orders and carving exchanged between tiles until nothing changes; needs a height that drains (a fill "
-       "stage before it)"},
+       "Strahler orders and carving exchanged between tiles until nothing changes; lakes joined across tiles by "
+       "union-find over perimeter labels; a height that does not drain is filled first (as by the fill stage); "
+       "rivers.json and lakes.json for the whole world"},
+      {"hydraulic", [] { return world_hydraulic(); }, "bounded",
+       "droplets defined by world position; each tile eroded on its window grown by a droplet's longest path, the "
+       "strip after each seam blended with the neighbour's run; seam error measured against one whole-map build "
+       "(tests/test_world_bounded.cpp)"},
+      {"stream_power", [] { return world_stream_power(); }, "bounded",
+       "solved once over the whole world on a grid of at most 2049 samples per axis (exact when the world is no "
+       "larger), the change interpolated into every tile; drainage stays continuous across tiles"},
   };
   return all;
 }

@@ -883,8 +883,10 @@ WorldStageAlgorithm world_flow(WorldWaterSink water) {
     const std::string path = "stages[" + std::to_string(index) + "]";
     std::vector<River> rivers;
     std::vector<Lake> lakes;
+    // The world's rivers and lakes go to the sink, else into the world folder (rivers.json, lakes.json).
+    const bool want_water = water || io.out;
     try {
-      flow_tiled(g, io.world, p, load, store, water ? &rivers : nullptr, io.cancelled, path, {}, water ? &lakes : nullptr);
+      flow_tiled(g, io.world, p, load, store, want_water ? &rivers : nullptr, io.cancelled, path, {}, want_water ? &lakes : nullptr);
     } catch (const NotDraining&) {
       // No fill stage before this one: fill as apply_flow does (fill_depressions_tiled gives the
       // whole world's hydro::fill_depressions). Only each tile's final border levels are kept; a
@@ -923,10 +925,11 @@ WorldStageAlgorithm world_flow(WorldWaterSink water) {
         hydro::fill_depressions_tile<float>(z.data(), w.nx, w.nz, outlet.data(), seed.data(), eps);
         return z;
       };
-      flow_tiled(g, io.world, p, load, store, water ? &rivers : nullptr, io.cancelled, path, filled,
-                 water ? &lakes : nullptr);
+      flow_tiled(g, io.world, p, load, store, want_water ? &rivers : nullptr, io.cancelled, path, filled,
+                 want_water ? &lakes : nullptr);
     }
     if (water) water(io.world, std::move(rivers), std::move(lakes));
+    else if (io.out) write_world_water(io.world, rivers, lakes, *io.out);
   };
 }
 

@@ -294,7 +294,7 @@ TEST(WorldResume, WithoutASeedTheFolderSeedIsReused) {
 // ---- refusals -------------------------------------------------------------------------------------
 
 TEST(WorldErrors, GlobalStagesAreRefusedUpFront) {
-  const Recipe r = recipe_of(preset_doc("river-island"));  // noise, island, redistribute, stream_power, …
+  const Recipe r = recipe_of(preset_doc("volcanic-island"));  // noise, island, biomes, volcano (placed on land), …
   TempDir d("world-global");
   try {
     build_world(settings(r, 257, 257, 65, d / "w"));
@@ -379,7 +379,7 @@ TEST(WorldCli, BuildsAStoreAndRefusesBadInputWithExitCode2) {
   expect_same_layers(whole_map(recipe_of(preset_doc("island"), 4), 129, 129), read_world_window(out, 0, 0, 129, 129));
   relief::test::expect_cli_error("world island --size 257 --tile 64 -o " + (d / "a"), "--tile: expected a tile size of 2^n+1");
   relief::test::expect_cli_error("world island --size 257 --tile 513 -o " + (d / "a"), "larger than the world");
-  relief::test::expect_cli_error("world river-island --size 257 --tile 65 -o " + (d / "a"), "stages[3]: 'stream_power' has no world support yet");
+  relief::test::expect_cli_error("world volcanic-island --size 257 --tile 65 -o " + (d / "a"), "stages[3]: 'volcano' has no world support yet");
   relief::test::expect_cli_error("world island --size 129 --tile 33 --seed 5 -q -o " + out, "--out: the folder");
   relief::test::expect_cli_error("world island --size 1048577 --tile 8193 -o " + (d / "a"), "on disk");
   relief::test::expect_cli_error("world island --size 1048578 --tile 33 -o " + (d / "a"), "--size");
@@ -697,11 +697,11 @@ TEST(WorldPhases, ACancelledPhasedBuildResumesToTheSameBytes) {
 
 TEST(WorldPhases, AGlobalStageWithoutAnAlgorithmIsStillRefused) {
   json doc = fill_doc(true);
-  doc["stages"][3] = json{{"stage", "hydraulic"}};  // global, no world algorithm
+  doc["stages"][3] = json{{"stage", "tilemap"}};  // global, no world algorithm
   TempDir d("world-ph-refuse");
   try {
     build_world(settings(recipe_of(doc, 4), 257, 257, 65, d / "w"));
-    ADD_FAILURE() << "hydraulic accepted without a world algorithm";
+    ADD_FAILURE() << "tilemap accepted without a world algorithm";
   } catch (const Error& e) {
     EXPECT_EQ(e.path(), "stages[3]");
     EXPECT_NE(e.message().find("no world support yet"), std::string::npos) << e.what();

@@ -165,6 +165,9 @@ struct WorldStageIO {
   std::function<WorldTile(std::int64_t X, std::int64_t Z)> load;
   std::function<void(std::int64_t X, std::int64_t Z, WorldTile tile)> store;
   std::function<bool()> cancelled;
+  // The build's seed (WorldReport::seed: the recipe's, or the one drawn or reused), from which
+  // stages seed their randomness with their index, as in a whole-map run (Context::seed).
+  std::uint64_t seed = 0;
   // The world folder, for the world files a stage makes besides its tiles (the flow stage's
   // rivers.json and lakes.json: relief/world_flow.hpp); each put() is atomic. Null when the caller
   // runs the algorithm outside build_world.

@@ -3,9 +3,8 @@
 // droplet hydraulic erosion and stream power, and the seam metrics that measure how far a tiled
 // build of them is from one whole-map build.
 //
-// Register them with WorldSettings::algorithms (relief/world.hpp):
-//     settings.algorithms["hydraulic"] = world_hydraulic(seed);
-//     settings.algorithms["stream_power"] = world_stream_power();
+// default_world_algorithms() (relief/world.hpp) registers world_hydraulic() and world_stream_power();
+// tests may register others through WorldSettings::algorithms, e.g. world_stream_power(101).
 // Each runs as a phase of its own over the stored tiles (world.hpp, "Phases"): it reads the previous
 // phase's tiles with io.load and writes every tile once with io.store, every layer but "height"
 // passed through unchanged.
@@ -60,8 +59,10 @@ constexpr int kStreamPowerCoarseMax = 2049;  // stream power's coarse grid: at m
 
 // The world algorithm of the "hydraulic" stage (above). `seed` is the recipe's seed
 // (WorldReport::seed; the recipe's seed when it sets one): the stage seeds its droplets from it and
-// the stage's index, as the whole-map run does. (WorldStageIO does not carry the seed yet.)
+// the stage's index, as the whole-map run does.
 WorldStageAlgorithm world_hydraulic(std::uint64_t seed);
+// The same with the build's seed (WorldStageIO::seed): what default_world_algorithms() registers.
+WorldStageAlgorithm world_hydraulic();
 // The world algorithm of the "stream_power" stage (above), with a coarse grid of at most
 // `coarse_max` samples per axis (≥ 3; tests lower it to exercise the coarse path on small worlds).
 WorldStageAlgorithm world_stream_power(int coarse_max = kStreamPowerCoarseMax);

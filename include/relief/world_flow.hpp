@@ -107,15 +107,16 @@ TiledFlowStats flow_tiled(const WorldGrid& grid, const Frame& world, const World
                           const TileLoad& filled = {}, std::vector<Lake>* lakes = nullptr);
 
 // Where a world's rivers and lakes go (the world frame, then Terrain::rivers and Terrain::lakes as
-// the whole-map run makes them; lakes are always empty today, see the top).
+// the whole-map run makes them).
 using WorldWaterSink = std::function<void(const Frame& world, std::vector<River> rivers, std::vector<Lake> lakes)>;
 
-// The world algorithm for build_world (WorldSettings::algorithms["flow"]): flow_tiled over the
-// stored tiles' "height", writing "height", "flow" and "water" into each tile; `water` (optional)
-// receives the rivers and lakes. When the height does not drain (no fill stage before this one), it
-// first fills it as apply_flow does: fill_depressions_tiled (relief/world.hpp), keeping each tile's
-// final border levels (4·T floats per tile), and gives flow_tiled each tile's filled heights as one
-// hydro::fill_depressions_tile solve seeded with them.
+// The world algorithm for build_world (default_world_algorithms()["flow"]): flow_tiled over the
+// stored tiles' "height", writing "height", "flow" and "water" into each tile; the rivers and lakes
+// go to `water` when given, else (WorldStageIO::out set, as build_world sets it) into the world
+// folder as rivers.json and lakes.json (write_world_water). When the height does not drain (no
+// fill stage before this one), it first fills it as apply_flow does: fill_depressions_tiled
+// (relief/world.hpp), keeping each tile's final border levels (4·T floats per tile), and gives
+// flow_tiled each tile's filled heights as one hydro::fill_depressions_tile solve seeded with them.
 WorldStageAlgorithm world_flow(WorldWaterSink water = {});
 
 // rivers.json and lakes.json of a world, byte for byte those the whole-map run's writers
