@@ -534,7 +534,9 @@ TEST(WorldFill, TiledFillEqualsTheWholeMapBitForBit) {
       TiledFillStats st;
       const std::vector<float> got = tiled_fill(z, n, n, tile, 0.4f, eps, &st);
       EXPECT_TRUE(relief::test::same_bits(ref, got));
-      if (tile < 257) EXPECT_GT(st.rounds, 1);  // the basin spans tiles: borders had to be exchanged
+      if (tile < 257) {
+        EXPECT_GT(st.rounds, 1);  // the basin spans tiles: borders had to be exchanged
+      }
       if (tile < 257) {
         // Peer: each tile filled alone (its border as outlets) is not the world's fill.
         const WorldGrid g = world_grid(n, n, tile);
@@ -658,7 +660,7 @@ TEST(WorldPhases, AWorldAlgorithmBetweenLocalPhasesIsExact) {
   for (int tile : {33, 129}) {
     SCOPED_TRACE("tile " + std::to_string(tile));
     TempDir d("world-phases");
-    const WorldReport rep = build_world((settings(r, 257, 257, tile, d / "w")));
+    const WorldReport rep = build_world(settings(r, 257, 257, tile, d / "w"));
     expect_same_layers(whole, read_world_window(d / "w", 0, 0, 257, 257));
     EXPECT_TRUE(verify_world(d / "w").empty());
     EXPECT_FALSE(fs::exists(d.path / "w" / "phase-0"));  // intermediate phases removed at the end
@@ -671,7 +673,7 @@ TEST(WorldPhases, AWorldAlgorithmAsTheLastStageIsExact) {
   const Recipe r = recipe_of(fill_doc(false), 6);
   const Terrain whole = whole_map(r, 200, 257);
   TempDir d("world-phase-last");
-  build_world((settings(r, 200, 257, 65, d / "w")));
+  build_world(settings(r, 200, 257, 65, d / "w"));
   expect_same_layers(whole, read_world_window(d / "w", 0, 0, 200, 257));
   EXPECT_TRUE(verify_world(d / "w").empty());
 }
@@ -679,7 +681,7 @@ TEST(WorldPhases, AWorldAlgorithmAsTheLastStageIsExact) {
 TEST(WorldPhases, ACancelledPhasedBuildResumesToTheSameBytes) {
   const Recipe r = recipe_of(fill_doc(true), 4);
   TempDir ref("world-ph-ref"), part("world-ph-part");
-  build_world((settings(r, 257, 257, 65, ref / "w")));
+  build_world(settings(r, 257, 257, 65, ref / "w"));
   for (int stop : {5, 20, 28}) {  // in the first local phase, and in the second (16 tiles each)
     SCOPED_TRACE("cancelled after " + std::to_string(stop) + " tiles");
     WorldSettings s = (settings(r, 257, 257, 65, part / "w", 1));
@@ -688,8 +690,10 @@ TEST(WorldPhases, ACancelledPhasedBuildResumesToTheSameBytes) {
       if (++n == stop) throw Cancelled();
     };
     EXPECT_THROW(build_world(s), Cancelled);
-    if (stop > 16) EXPECT_TRUE(fs::exists(part.path / "w" / "phase-0" / "complete"));
-    build_world((settings(r, 257, 257, 65, part / "w")));
+    if (stop > 16) {
+      EXPECT_TRUE(fs::exists(part.path / "w" / "phase-0" / "complete"));
+    }
+    build_world(settings(r, 257, 257, 65, part / "w"));
     expect_same_store(ref.path / "w", part.path / "w");
     fs::remove_all(part.path / "w");
   }

@@ -19,6 +19,7 @@
 
 #include "relief/world.hpp"
 #include "support.hpp"
+#include "world_support.hpp"
 
 using relief::test::Shell;
 using relief::test::TempDir;
@@ -53,19 +54,9 @@ Shell mpirun(int ranks, const std::string& args) {
                           " " + args);
 }
 
-// Every regular file under `dir` (relative path → bytes) but report.json (times, ranks).
-std::map<std::string, std::string> store_files(const fs::path& dir) {
-  std::map<std::string, std::string> files;
-  for (const auto& e : fs::recursive_directory_iterator(dir))
-    if (e.is_regular_file()) {
-      const std::string rel = fs::relative(e.path(), dir).string();
-      if (rel != "report.json") files[rel] = relief::test::slurp(e.path());
-    }
-  return files;
-}
-
 void expect_same_store(const fs::path& ref, const fs::path& got) {
-  const auto a = store_files(ref), b = store_files(got);
+  // Every regular file (relative path → bytes) but report.json (times, ranks).
+  const auto a = relief::test::world::store_files(ref), b = relief::test::world::store_files(got);
   EXPECT_EQ(a.size(), b.size());
   std::size_t tiles = 0;
   for (auto& [name, bytes] : a) {

@@ -19,16 +19,13 @@
 #include "relief/world_points.hpp"
 #include "relief/writer.hpp"
 #include "support.hpp"
+#include "world_support.hpp"
 
 using namespace relief;
+using namespace relief::test::world;
 using relief::test::TempDir;
 
 namespace {
-
-Recipe recipe_of(json doc, std::uint64_t seed = 11) {
-  doc["seed"] = seed;
-  return parse_recipe(doc);
-}
 
 // volcanic-island with the stages a world build can run: the volcano at a fixed place (the island's
 // middle) and no features (global: their places are chosen on the whole map's land).
@@ -46,39 +43,6 @@ json volcanic_local_doc() {
   }
   doc["stages"] = stages;
   return doc;
-}
-
-WorldSettings settings(const Recipe& r, std::int64_t nx, std::int64_t nz, int tile, const std::string& dir, int threads = 2) {
-  WorldSettings s;
-  s.recipe = r;
-  s.nx = nx;
-  s.nz = nz;
-  s.tile = tile;
-  s.out_dir = dir;
-  s.threads = threads;
-  return s;
-}
-
-Terrain whole_map(Recipe r, int nx, int nz) {
-  r.world.nx = nx;
-  r.world.nz = nz;
-  RunOptions opt;
-  opt.threads = 2;
-  return run(r, opt).terrain;
-}
-
-void expect_same_layers(const Terrain& whole, const Terrain& world) {
-  ASSERT_EQ(whole.layers.size(), world.layers.size());
-  for (auto& [name, a] : whole.layers) {
-    ASSERT_TRUE(world.has(name)) << name;
-    const Layer& b = world.layers.at(name);
-    ASSERT_EQ(a.channels, b.channels) << name;
-    ASSERT_EQ(a.data.size(), b.data.size()) << name;
-    std::size_t first = a.data.size();
-    for (std::size_t k = 0; k < a.data.size() && first == a.data.size(); ++k)
-      if (std::memcmp(&a.data[k], &b.data[k], 4) != 0) first = k;
-    EXPECT_EQ(first, a.data.size()) << "layer " << name << " differs first at value " << first;
-  }
 }
 
 int halo_of(const Recipe& r, const std::string& stage, int nx) {

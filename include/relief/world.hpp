@@ -20,12 +20,16 @@
 //            world's edge, and is cropped, so every sample of every layer equals, bit for bit, the
 //            same sample of one whole-map run of the recipe at the world's size, for any tile size
 //            and thread count (tests/test_world.cpp checks it against run()).
-//   exact    the global stages that have a world algorithm (default_world_algorithms(), or
-//            WorldSettings::algorithms): today `fill` (depression filling: tiles solved and their
-//            border levels exchanged until nothing changes, src/world_fill.cpp). Each runs as a
-//            phase of its own over the stored tiles (see "Phases"), bit for bit as on the whole map.
-//   refused  the other global stages (flow, erosion, biomes, climate, props, …): build_world throws
-//            Error("stages[i]", …) before any work, saying the stage has no world support yet.
+//   exact    the global stages whose world algorithm is exact (default_world_algorithms(), or
+//            WorldSettings::algorithms): `fill` (tiles solved and their border levels exchanged
+//            until nothing changes, src/world_fill.cpp) and `flow` (drainage, rivers, lakes,
+//            relief/world_flow.hpp). Each runs as a phase of its own over the stored tiles (see
+//            "Phases"), bit for bit as on the whole map.
+//   bounded  `hydraulic` and `stream_power` (relief/world_bounded.hpp): approximations whose seam
+//            error against a whole-map build is measured (tests/test_world_bounded.cpp).
+//   refused  the other global stages (tilemap, features, a volcano placed on land): build_world
+//            throws Error("stages[i]", …) before any work, saying the stage has no world support yet.
+// world_guarantee(stage) says which, and how; world.json and `relief explain` print it.
 //
 // Tile store (the output folder; every file written atomically: temporary file, rename; world.json,
 // overview.png and report.json are flushed (fsync) first, tiles are not — a tile that a power cut
@@ -96,7 +100,10 @@
 // done, skipped on resume); they are removed once the build is complete. Disk: the estimate counts
 // one full store per phase.
 //
-// Not stored (yet): points (no local stage makes them today), rivers, lakes, the tilemap, volumes.
+// Also in the folder: rivers.json and lakes.json when the recipe has a flow stage (its world
+// algorithm writes them through WorldStageIO::out). Not stored (yet): points (props.json: the
+// props stage's points are not merged across tiles; relief/world_points.hpp has the merge), the
+// tilemap, volumes.
 #include <cstdint>
 #include <functional>
 #include <map>
