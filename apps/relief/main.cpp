@@ -194,6 +194,8 @@ std::string apply_tilemap_shortcuts(const CliGenerate& s, const std::string& for
 // renames) and exits with the same code. Either way no file of the output changes.
 std::atomic<int> g_signal{0};
 std::atomic<bool> g_finished{false};
+// What the 2 s fallback says was kept: `relief world` keeps its finished tiles (a rerun resumes).
+std::atomic<const char*> g_interrupt_outcome{"no file was changed"};
 
 const char* signal_name(int sig) { return sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "a signal"; }
 
@@ -230,7 +232,7 @@ void take_interrupts() {
     if (g_finished) return;
     remove_live_temporaries();
     const char* clear = isatty(fileno(stderr)) ? "\r\033[K" : "";
-    dprintf(2, "%srelief: interrupted by %s; no file was changed\n", clear, signal_name(sig));
+    dprintf(2, "%srelief: interrupted by %s; %s\n", clear, signal_name(sig), g_interrupt_outcome.load());
     ::_exit(128 + sig);
   }).detach();
 }
@@ -989,6 +991,7 @@ int main(int argc, char** argv) {
       if (wsx.recipe.seed_given) wsx.recipe.seed = read_int_flag(world_seed_text, "--seed", 0, std::int64_t(kMaxSeed), "decimal digits");
       check_generate_flags(wsx.recipe);
       wsx.recipe.threads = capped_threads(wsx.recipe.threads);
+      g_interrupt_outcome = "the finished tiles are kept: run the same command again to resume";
       take_interrupts();
       const int code = cmd_world_rank(wsx);
       g_finished = true;
