@@ -19,6 +19,7 @@
 #include "relief/world.hpp"
 #include "relief/world_flow.hpp"
 #include "support.hpp"
+#include "world_support.hpp"
 #include "writer_defs.hpp"
 
 using namespace relief;
@@ -440,13 +441,7 @@ TEST(WorldFlow, BuildWorldEqualsTheWholeMap) {
   for (int tile : {33, 129}) {
     SCOPED_TRACE("tile " + std::to_string(tile));
     TempDir d("world-flow");
-    WorldSettings s;
-    s.recipe = r;
-    s.nx = nx;
-    s.nz = nz;
-    s.tile = tile;
-    s.out_dir = d / "w";
-    s.threads = 2;
+    WorldSettings s = relief::test::world::settings(r, nx, nz, tile, d / "w");
     std::vector<River> rivers;
     s.algorithms["fill"] = whole_world_fill();
     s.algorithms["flow"] = world_flow([&](const Frame& world, std::vector<River> rv, std::vector<Lake> lakes) {
@@ -513,13 +508,7 @@ TEST(WorldFlow, BuildWorldWithLakesAndNoFillStageEqualsTheWholeMap) {
   for (int tile : {33, 129}) {
     SCOPED_TRACE("tile " + std::to_string(tile));
     TempDir d("world-flow-lakes");
-    WorldSettings s;
-    s.recipe = r;
-    s.nx = nx;
-    s.nz = nz;
-    s.tile = tile;
-    s.out_dir = d / "w";
-    s.threads = 2;
+    WorldSettings s = relief::test::world::settings(r, nx, nz, tile, d / "w");
     std::vector<River> rivers;
     std::vector<Lake> lakes;
     s.algorithms["flow"] = world_flow([&](const Frame&, std::vector<River> rv, std::vector<Lake> lk) {
