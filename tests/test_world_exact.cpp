@@ -36,3 +36,14 @@ TEST(WorldExactAtScale, RiverWorld2049InTilesOf257_513_1025EqualsTheWholeMap) {
       EXPECT_TRUE(relief::test::slurp(d.path / "w" / f) == relief::test::slurp(g.path / f)) << f << " differs from the whole map's";
   }
 }
+
+// The CLI names the world files it wrote, the rivers and lakes among them.
+TEST(WorldExactAtScale, TheCliWritesAndNamesTheWorldsRiversAndLakes) {
+  TempDir d("world-exact-cli");
+  relief::test::write_text(d.path / "recipe.json", river_world_doc().dump());
+  const auto r = relief::test::relief_cli("world " + (d / "recipe.json") + " --size 257 --tile 129 --seed 2 -o " + (d / "w"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("(world.json, overview.png, report.json, rivers.json, lakes.json)"), std::string::npos) << r.out;
+  EXPECT_TRUE(std::filesystem::exists(d.path / "w" / "rivers.json"));
+  EXPECT_TRUE(std::filesystem::exists(d.path / "w" / "lakes.json"));
+}

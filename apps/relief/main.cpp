@@ -540,10 +540,14 @@ int cmd_world(const CliWorld& w) {
     if (!seed_given)
       std::printf("seed %llu (%s; reproduce with --seed %llu)\n", (unsigned long long)rep.seed,
                   rep.seed_reused ? "the seed of the world in the folder" : "random", (unsigned long long)rep.seed);
-    std::printf("world %lldx%lld in %lldx%lld tiles of %d: %lld built, %lld resumed; %s in %s (world.json, overview.png, report.json)\n",
-                (long long)rep.grid.nx, (long long)rep.grid.nz, (long long)rep.grid.tiles_x, (long long)rep.grid.tiles_z,
-                rep.grid.tile, (long long)rep.tiles_built, (long long)rep.tiles_skipped, human_bytes(rep.store_bytes).c_str(),
-                s.out_dir.c_str());
+    // The world files beside the tiles: the flow stage's rivers and lakes when the recipe has one.
+    std::string files = "world.json, overview.png, report.json";
+    for (const auto& st : rep.recipe.value("stages", json::array()))
+      if (st.value("stage", "") == "flow") files += ", rivers.json, lakes.json";
+    std::printf("world %lldx%lld in %lldx%lld tiles of %d: %lld built, %lld resumed; %s in %s (%s)\n", (long long)rep.grid.nx,
+                (long long)rep.grid.nz, (long long)rep.grid.tiles_x, (long long)rep.grid.tiles_z, rep.grid.tile,
+                (long long)rep.tiles_built, (long long)rep.tiles_skipped, human_bytes(rep.store_bytes).c_str(), s.out_dir.c_str(),
+                files.c_str());
   }
   if (engine_options.engine != Engine::None || w.lod) {
     WorldExportSettings es;
