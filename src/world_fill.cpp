@@ -24,8 +24,6 @@
 #include "relief/error.hpp"
 #include "relief/hydrology.hpp"
 #include "relief/world.hpp"
-#include "relief/world_bounded.hpp"
-#include "relief/world_flow.hpp"
 
 namespace relief {
 namespace {
@@ -134,60 +132,6 @@ WorldStageAlgorithm world_fill() {
     };
     fill_depressions_tiled(io.grid, sea, eps, load, store);
   };
-}
-
-namespace {
-// The library's world algorithms: stage name → the algorithm, its guarantee and how it works.
-struct WorldAlgorithmEntry {
-  const char* stage;
-  WorldStageAlgorithm (*make)();
-  const char* guarantee;
-  const char* how;
-};
-const std::vector<WorldAlgorithmEntry>& world_algorithm_entries() {
-  static const std::vector<WorldAlgorithmEntry> all = {
-      {"fill", world_fill, "exact",
-       "tiles filled alone, then again with the border levels their neighbours found, until no border level changes "
-       "(Barnes 2016)"},
-      {"flow", [] { return world_flow(); }, "exact",
-       "drainage counts accumulated in each tile, joined through a graph of tile perimeters (Barnes 2017); rivers, "
-       "Strahler orders and carving exchanged between tiles until nothing changes; lakes joined across tiles by "
-       "union-find over perimeter labels; a height that does not drain is filled first (as by the fill stage); "
-       "rivers.json and lakes.json for the whole world"},
-      {"hydraulic", [] { return world_hydraulic(); }, "bounded",
-       "droplets defined by world position; each tile eroded on its window grown by a droplet's longest path, the "
-       "strip after each seam blended with the neighbour's run; seam error measured against one whole-map build "
-       "(tests/test_world_bounded.cpp)"},
-      {"stream_power", [] { return world_stream_power(); }, "bounded",
-       "solved once over the whole world on a grid of at most 2049 samples per axis (exact when the world is no "
-       "larger), the change interpolated into every tile; drainage stays continuous across tiles"},
-  };
-  return all;
-}
-}  // namespace
-
-std::map<std::string, WorldStageAlgorithm> default_world_algorithms() {
-  std::map<std::string, WorldStageAlgorithm> m;
-  for (const WorldAlgorithmEntry& e : world_algorithm_entries()) m.emplace(e.stage, e.make());
-  return m;
-}
-
-WorldGuarantee world_guarantee(const StageDef& d) {
-  for (const WorldAlgorithmEntry& e : world_algorithm_entries())
-    if (d.name == e.stage) return {e.guarantee, e.how};
-  // Local stages whose points are not yet merged into world files (world_points.hpp has the merge).
-  const std::string points = d.name == "props" ? "; its points (props.json, props.csv) are not written by world builds yet" : "";
-  switch (d.locality) {
-    case Locality::Pointwise:
-      return {"exact", "pointwise: each tile computes its own samples" + points};
-    case Locality::Neighbourhood:
-      return {"exact", "neighbourhood: each tile is computed on its window grown by the stage's halo" +
-                           std::string(d.halo_rule.empty() ? " (" + std::to_string(d.halo) + " samples)" : " (" + d.halo_rule + ")") +
-                           points};
-    case Locality::Global:
-      break;
-  }
-  return {"none", "not yet in world builds: " + (d.why_global.empty() ? std::string("it needs the whole map") : d.why_global)};
 }
 
 }  // namespace relief
