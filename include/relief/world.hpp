@@ -79,7 +79,8 @@
 // that a rerun without --seed resumes; else a random seed is drawn (WorldReport::seed).
 //
 // Disk and memory are checked before any work: the store's size is estimated (zlib's worst-case
-// bound of every tile's raw floats) and a world that the output's file system cannot hold
+// bound of every tile's raw floats; with phases, the largest two consecutive phase stores, each
+// from the layers it holds) and a world that the output's file system cannot hold
 // (minus the tiles already there) is refused (Error naming `size_path`); so is a tile whose run
 // (estimate_memory_bytes of the grown tile, times the tiles built at once) exceeds the memory budget
 // (Error naming `tile_path`), and a grid of more than kMaxWorldTiles tiles.
@@ -97,8 +98,14 @@
 // standing in as pointwise placeholders that never run (stage indices, hence seeds, unchanged). So
 // every phase is exact when its inputs are. Phases other than the last write into
 // `phase-K/` folders (same tile format, world_id + "-pK" in the header, a `complete` marker when
-// done, skipped on resume); they are removed once the build is complete. Disk: the estimate counts
-// one full store per phase.
+// done, skipped on resume). Lean: a phase's store holds only the layers that later phases read or
+// that reach the last store. Local stages may read any layer, so a local phase after it keeps
+// everything; only the library's own world algorithms say what they read and overwrite (fill:
+// reads and writes height; flow: reads height, writes height, flow and water), so a layer that one
+// of them overwrites before any stage reads it is dropped. As soon as phase K+1 is complete, the
+// tile files of phase K are removed (its `complete` marker stays, so that a resumed build skips
+// it); every phase folder is removed once the build is complete. Disk: the estimate is that of the
+// largest two consecutive phase stores (each from its own layers), not their sum over all phases.
 //
 // Also in the folder: rivers.json and lakes.json when the recipe has a flow stage (its world
 // algorithm writes them through WorldStageIO::out). Not stored (yet): points (props.json: the
@@ -164,13 +171,26 @@ struct WorldTile {
 
 // ---- world algorithms for global stages (experimental; see "Phases" above) -------------------
 // What a world algorithm sees: the tile grid and world frame, the state after the stages before it
-// (load: every layer of tile (X, Z)) and where its result goes (store: tile (X, Z) with every layer,
-// its own changes applied; the last store of a tile is final). Called from one thread.
+// (load: every layer of tile (X, Z); load_layers: only the named ones) and where its result goes
+// (store: tile (X, Z) with every layer, its own changes applied; update: only the layers it
+// changed or added; the last store or update of a tile is final). build_world runs the algorithm
+// on rank 0 inside a task arena of `threads` threads (tbb): it may call load, load_layers, store
+// and update concurrently for different tiles, and must give the same bits for any thread count.
 struct WorldStageIO {
   WorldGrid grid;
   Frame world;  // the whole world's frame
   std::function<WorldTile(std::int64_t X, std::int64_t Z)> load;
   std::function<void(std::int64_t X, std::int64_t Z, WorldTile tile)> store;
+  // Tile (X, Z) as load() gives it, but holding only the named layers: the others' byte planes are
+  // neither inflated nor decoded (the file's CRC-32 and framing are still checked). Throws
+  // Error("output", …) naming the tile and the layer when one is missing. Null outside build_world.
+  std::function<WorldTile(std::int64_t X, std::int64_t Z, const std::vector<std::string>& layers)> load_layers;
+  // Stores tile (X, Z) as the input tile (load's) with the layers of `changed` replaced or added:
+  // the other layers' encoded bytes are copied through, neither decoded nor encoded again. The
+  // file is byte for byte the one store() writes for the whole tile (each layer's planes are coded
+  // on their own). `changed`'s window and world_id are ignored. Null outside build_world.
+  std::function<void(std::int64_t X, std::int64_t Z, WorldTile changed)> update;
+  int threads = 1;  // the build's thread count (the arena the algorithm runs in)
   std::function<bool()> cancelled;
   // The build's seed (WorldReport::seed: the recipe's, or the one drawn or reused), from which
   // stages seed their randomness with their index, as in a whole-map run (Context::seed).
@@ -179,6 +199,11 @@ struct WorldStageIO {
   // rivers.json and lakes.json: relief/world_flow.hpp); each put() is atomic. Null when the caller
   // runs the algorithm outside build_world.
   Output* out = nullptr;
+  // Points the stage makes (a volcano placed on land, features), in the order a whole-map run of
+  // the stage makes them; build_world writes them, merged with the points of the local stages in
+  // recipe order, as the whole map's props.json / features.json (relief/world_points.hpp). Called
+  // at most once per stage; null when the caller runs the algorithm outside build_world.
+  std::function<void(std::vector<Point> points)> points;
 };
 // Runs one global stage (`stage`, at `index` in the recipe) over the whole stored world.
 using WorldStageAlgorithm = std::function<void(const WorldStageIO& io, const RecipeStage& stage, int index)>;
@@ -289,12 +314,17 @@ Frame world_frame(const Recipe& r, std::int64_t nx, std::int64_t nz);
 
 // ---- depression filling over tiles ------------------------------------------------------------
 // fill_depressions_tiled: hydro::fill_depressions (relief/hydrology.hpp) of the whole world, bit for
-// bit, holding one tile and the samples on tile borders (about 2·(nx·tiles_z + nz·tiles_x) floats)
-// at a time. Each round solves every tile whose border levels changed (hydro::fill_depressions_tile,
-// seeded with the border levels known so far) and exchanges the new border levels; it stops when no
-// border level changes. `load(X, Z)` returns tile (X, Z)'s heights (window.nx × window.nz, as
-// WorldGrid::window); `store(X, Z, f)` receives its filled heights after each solve of it (the last
-// call per tile is final; earlier ones may hold +inf where no path was known yet).
+// bit, holding the tiles being solved and the samples on tile borders (about
+// 2·(nx·tiles_z + nz·tiles_x) floats). Each round visits the four classes of tiles (X mod 2,
+// Z mod 2) in turn and solves the tiles of the class that are waiting for new border levels
+// (hydro::fill_depressions_tile, seeded with the border levels known so far); tiles of one class
+// share no sample, so they are solved concurrently (tbb, on the calling task arena's threads), and
+// their new border levels are exchanged after the class, in tile order. It stops when no border
+// level changes. The schedule is fixed, so the stats and the sequence of calls per tile do not
+// depend on the thread count (the result is the least fixpoint anyway). `load(X, Z)` returns tile
+// (X, Z)'s heights (window.nx × window.nz, as WorldGrid::window); `store(X, Z, f)` receives its
+// filled heights after each solve of it (the last call per tile is final; earlier ones may hold
+// +inf where no path was known yet). Both may be called concurrently for different tiles.
 using TileLoad = std::function<std::vector<float>(std::int64_t X, std::int64_t Z)>;
 using TileStore = std::function<void(std::int64_t X, std::int64_t Z, std::vector<float> filled)>;
 struct TiledFillStats {
