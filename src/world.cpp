@@ -86,6 +86,29 @@ void remove_phase_folder(const fs::path& folder) {
   fs::remove(folder, ec);  // only when empty
 }
 
+// The tile files of an intermediate phase whose next phase is complete (its `complete` marker stays:
+// a resumed build skips the phase).
+void remove_phase_tiles(const fs::path& folder) {
+  std::error_code ec;
+  const std::regex tile_name(R"(x\d{4,}_z\d{4,}\.rtile)");
+  if (fs::is_directory(folder, ec))
+    for (const auto& e : fs::directory_iterator(folder, ec))
+      if (e.is_regular_file(ec) && std::regex_match(e.path().filename().string(), tile_name)) fs::remove(e.path(), ec);
+}
+
+// What the library's own world algorithms read and overwrite, for lean phase stores (relief/world.hpp,
+// "Phases"): a layer such an algorithm overwrites before anything reads it need not be kept for it.
+// Any other world algorithm, and every local stage, may read every layer.
+struct LayerUse {
+  std::set<std::string> reads, writes;
+};
+const LayerUse* library_layer_use(const std::string& stage) {
+  static const std::map<std::string, LayerUse> known = {{"fill", {{"height"}, {"height"}}},
+                                                        {"flow", {{"height"}, {"height", "flow", "water"}}}};
+  const auto it = known.find(stage);
+  return it == known.end() ? nullptr : &it->second;
+}
+
 void remove_old_world(const fs::path& dir) {
   std::error_code ec;
   for (const char* f : {"world.json", "overview.png", "report.json", "rivers.json", "lakes.json"}) fs::remove(dir / f, ec);
@@ -356,7 +379,27 @@ WorldReport build_world(WorldSettings s) {
   rep.overview_step = step;
   const int ow = int((grid.nx - 1) / step + 1), oh = int((grid.nz - 1) / step + 1);
 
-  // 2.-6. on rank 0; the other ranks learn the seed (or rank 0's error) from it.
+  // The phases (relief/world.hpp, "Phases"): runs of local stages and the global stages run by world
+  // algorithms, in recipe order; their folders, ids and lean layer sets are set below.
+  struct Phase {
+    bool global = false;
+    std::size_t first = 0, end = 0;  // stages [first, end) (a global phase: one stage)
+    fs::path folder;                 // where its tiles go
+    std::string id;                  // the world_id its tile headers carry
+    std::set<std::string> drop;      // layers its store leaves out (lean stores; none in the last phase)
+  };
+  std::vector<Phase> phases;
+  {
+    std::size_t first = 0;
+    for (std::size_t g : globals) {
+      if (g > first) phases.push_back({false, first, g, {}, {}, {}});
+      phases.push_back({true, g, g + 1, {}, {}, {}});
+      first = g + 1;
+    }
+    if (first < r.stages.size() || phases.empty()) phases.push_back({false, first, r.stages.size(), {}, {}, {}});
+  }
+
+  // 2.-6. on rank 0; the other ranks learn the seed and the phases' layers (or rank 0's error) from it.
   json resolved, manifest;
   const json started = agree(tr, [&]() -> json {
     // 2. The folder: the same world (resume), a different one (refuse unless forced), or none.
@@ -415,11 +458,14 @@ WorldReport build_world(WorldSettings s) {
       if (!same) remove_old_world(dir);
     }
 
-    // 3. The layers the recipe leaves: from a run on a small window (same names and channels).
-    {
+    // 3. The layers each phase leaves: from runs of the recipe up to the phase's end on a small
+    // window, or on a small whole map when the recipe has global stages (same names and channels).
+    std::vector<std::map<std::string, int>> after(phases.size());
+    for (std::size_t k = 0; k < phases.size(); ++k) {
       RunOptions probe;
       probe.threads = 1;
       Recipe small = r;
+      small.stages.resize(phases[k].end);
       if (globals.empty()) {
         probe.window = frame.window(0, 0, int(std::min<std::int64_t>(grid.nx, 5)), int(std::min<std::int64_t>(grid.nz, 5)));
       } else {  // global stages run on a small whole map
@@ -427,24 +473,55 @@ WorldReport build_world(WorldSettings s) {
         small.world.nz = int(std::min<std::int64_t>(grid.nz, 33));
       }
       const RunResult res = run(small, probe);
-      for (auto& [name, l] : res.terrain.layers) rep.layers.emplace_back(name, l.channels);
+      for (auto& [name, l] : res.terrain.layers) after[k][name] = l.channels;
     }
+    for (auto& [name, c] : after.back()) rep.layers.emplace_back(name, c);
     std::uint64_t channels = 0;
     for (auto& [name, c] : rep.layers) channels += std::uint64_t(c);
+    // Lean stores: a phase keeps the layers that a later phase reads before one of the library's
+    // world algorithms overwrites them, and those that reach the last store.
+    json drop = json::array();
+    std::vector<std::uint64_t> phase_channels(phases.size(), 0);
+    for (std::size_t k = 0; k < phases.size(); ++k) {
+      std::set<std::string> live, kept;
+      for (auto& [name, c] : after[k]) live.insert(name);
+      for (std::size_t j = k + 1; j < phases.size(); ++j) {
+        const std::string& name = r.stages[phases[j].first].def->name;
+        const LayerUse* use = phases[j].global && !callers_algorithms.count(name) ? library_layer_use(name) : nullptr;
+        if (!use) break;  // it may read anything that is left
+        for (const std::string& l : live)
+          if (use->reads.count(l)) kept.insert(l);
+        for (const std::string& l : use->writes) live.erase(l);
+      }
+      kept.insert(live.begin(), live.end());
+      std::set<std::string> dropped;
+      for (auto& [name, c] : after[k])
+        if (kept.count(name)) phase_channels[k] += std::uint64_t(c);
+        else dropped.insert(name);
+      drop.push_back(dropped);
+    }
 
     // 4. Disk: zlib's bound of every tile's raw floats, against the free space (plus tiles there).
+    // With phases, the largest two consecutive phase stores: phase K's tiles are removed once
+    // phase K+1 is complete.
     {
-      std::uint64_t need = 4096;  // world.json, report.json, overview.png beyond their sizes below
-      for (int kx = 0; kx < 2; ++kx)
-        for (int kz = 0; kz < 2; ++kz) {
-          // The four kinds of tile: full, clipped in x, clipped in z, the corner.
-          const std::int64_t cols = kx == 0 ? grid.tiles_x - 1 : 1, rows = kz == 0 ? grid.tiles_z - 1 : 1;
-          const WorldGrid::Window w = grid.window(kx == 0 ? 0 : grid.tiles_x - 1, kz == 0 ? 0 : grid.tiles_z - 1);
-          const std::uint64_t raw = std::uint64_t(w.nx) * std::uint64_t(w.nz) * channels * 4;
-          need += std::uint64_t(cols * rows) * (compressBound(uLong(raw)) + 1024);
-        }
-      need += std::uint64_t(grid.count()) * 64 + std::uint64_t(kWorldOverviewMax) * kWorldOverviewMax * 3;
-      need *= std::uint64_t(1 + 2 * globals.size());  // one store per phase until the build completes
+      auto store_bound = [&](std::uint64_t ch) {
+        std::uint64_t b = 0;
+        for (int kx = 0; kx < 2; ++kx)
+          for (int kz = 0; kz < 2; ++kz) {
+            // The four kinds of tile: full, clipped in x, clipped in z, the corner.
+            const std::int64_t cols = kx == 0 ? grid.tiles_x - 1 : 1, rows = kz == 0 ? grid.tiles_z - 1 : 1;
+            const WorldGrid::Window w = grid.window(kx == 0 ? 0 : grid.tiles_x - 1, kz == 0 ? 0 : grid.tiles_z - 1);
+            const std::uint64_t raw = std::uint64_t(w.nx) * std::uint64_t(w.nz) * ch * 4;
+            b += std::uint64_t(cols * rows) * (compressBound(uLong(raw)) + 1024);
+          }
+        return b;
+      };
+      std::uint64_t stores = store_bound(phase_channels[0]);
+      for (std::size_t k = 0; k + 1 < phases.size(); ++k)
+        stores = std::max(stores, store_bound(phase_channels[k]) + store_bound(phase_channels[k + 1]));
+      // world.json, report.json beyond their sizes below; the tiles' lines in world.json; overview.png
+      const std::uint64_t need = 4096 + stores + std::uint64_t(grid.count()) * 64 + std::uint64_t(kWorldOverviewMax) * kWorldOverviewMax * 3;
       rep.estimated_bytes = need;
       std::uint64_t present = 0;
       if (fs::is_directory(dir / "tiles", ec))
@@ -514,8 +591,9 @@ WorldReport build_world(WorldSettings s) {
     remove_dead_temporaries(dir.string());
     remove_dead_temporaries((dir / "tiles").string());
     write_or_throw(dir / "world.json", manifest.dump(2) + "\n", s.out_path);
-    return json{{"seed", rep.seed}, {"seed_reused", rep.seed_reused}};
+    return json{{"seed", rep.seed}, {"seed_reused", rep.seed_reused}, {"drop", drop}};
   });
+  for (std::size_t k = 0; k < phases.size(); ++k) phases[k].drop = started.at("drop").at(k).get<std::set<std::string>>();
   if (!root) {
     r.seed = started.at("seed").get<std::uint64_t>();
     rep.seed = *r.seed;
@@ -538,21 +616,7 @@ WorldReport build_world(WorldSettings s) {
   }
 
   // 7. The phases: local stages tile by tile, global stages by their world algorithms.
-  struct Phase {
-    bool global = false;
-    std::size_t first = 0, end = 0;  // stages [first, end) (a global phase: one stage)
-    fs::path folder;                 // where its tiles go
-    std::string id;                  // the world_id its tile headers carry
-  };
-  std::vector<Phase> phases;
   {
-    std::size_t first = 0;
-    for (std::size_t g : globals) {
-      if (g > first) phases.push_back({false, first, g, {}, {}});
-      phases.push_back({true, g, g + 1, {}, {}});
-      first = g + 1;
-    }
-    if (first < r.stages.size() || phases.empty()) phases.push_back({false, first, r.stages.size(), {}, {}});
     for (std::size_t k = 0; k < phases.size(); ++k) {
       const bool last = k + 1 == phases.size();
       phases[k].folder = last ? dir / "tiles" : dir / ("phase-" + std::to_string(k));
@@ -622,8 +686,10 @@ WorldReport build_world(WorldSettings s) {
   auto tile_file = [](const Phase& ph, std::int64_t X, std::int64_t Z) {
     return ph.folder / fs::path(world_tile_path(X, Z)).filename();
   };
-  // A valid tile of phase `ph` at (X, Z): its bytes (empty when missing, damaged or foreign).
-  auto existing = [&](const Phase& ph, std::int64_t X, std::int64_t Z, WorldTile* out) -> std::string {
+  // The bytes of a tile of phase `ph` at (X, Z) whose CRC-32, header and framing are valid and whose
+  // world_id and window are the phase's (empty when missing, damaged or foreign), parsed into
+  // `parts`; no plane is inflated.
+  auto parsed = [&](const Phase& ph, std::int64_t X, std::int64_t Z, detail::TileParts& parts) -> std::string {
     const fs::path path = tile_file(ph, X, Z);
     std::error_code e2;
     if (!fs::exists(path, e2)) return {};
@@ -631,35 +697,112 @@ WorldReport build_world(WorldSettings s) {
     std::string bytes = detail::read_file_bytes(path.string(), ok);
     if (!ok) return {};
     try {
-      WorldTile t = decode_world_tile(bytes, path.string());
+      parts = detail::parse_tile(bytes, path.string());
+      const WorldTile& t = parts.tile;
       const WorldGrid::Window w = grid.window(X, Z);
       if (t.world_id != ph.id || t.X != X || t.Z != Z || t.window.ix0 != w.ix0 || t.window.iz0 != w.iz0 || t.window.nx != w.nx ||
           t.window.nz != w.nz)
         return {};
+      return bytes;
+    } catch (const Error&) {
+      return {};
+    }
+  };
+  // A valid tile of phase `ph` at (X, Z), every layer decoded: its bytes (empty when missing, damaged
+  // or foreign).
+  auto existing = [&](const Phase& ph, std::int64_t X, std::int64_t Z, WorldTile* out) -> std::string {
+    detail::TileParts parts;
+    std::string bytes = parsed(ph, X, Z, parts);
+    if (bytes.empty()) return {};
+    try {
+      WorldTile t = parts.tile;
+      for (std::size_t k = 0; k < parts.parts.size(); ++k)
+        t.layers[parts.parts[k].name] = detail::decode_tile_part(bytes, parts, k, tile_file(ph, X, Z).string());
       if (out) *out = std::move(t);
       return bytes;
     } catch (const Error&) {
       return {};
     }
   };
-  auto load_tile = [&](const Phase& ph, std::int64_t X, std::int64_t Z) {
+  auto missing = [&](const Phase& ph, std::int64_t X, std::int64_t Z) {
+    return Error(s.out_path, "tile " + tile_file(ph, X, Z).string() + " is missing or damaged; run the build again");
+  };
+  // Tile (X, Z) of phase `ph`: every layer (names null) or only the named ones.
+  auto load_tile = [&](const Phase& ph, std::int64_t X, std::int64_t Z, const std::vector<std::string>* names = nullptr) {
     WorldTile t;
-    if (existing(ph, X, Z, &t).empty())
-      throw Error(s.out_path, "tile " + tile_file(ph, X, Z).string() + " is missing or damaged; run the build again");
+    if (!names) {
+      if (existing(ph, X, Z, &t).empty()) throw missing(ph, X, Z);
+      return t;
+    }
+    detail::TileParts parts;
+    const std::string bytes = parsed(ph, X, Z, parts);
+    if (bytes.empty()) throw missing(ph, X, Z);
+    t = parts.tile;
+    for (const std::string& name : *names) {
+      std::size_t k = 0;
+      while (k < parts.parts.size() && parts.parts[k].name != name) ++k;
+      if (k == parts.parts.size())
+        throw Error(s.out_path, "tile " + tile_file(ph, X, Z).string() + " has no layer " + quote(name));
+      try {
+        t.layers[name] = detail::decode_tile_part(bytes, parts, k, tile_file(ph, X, Z).string());
+      } catch (const Error&) {
+        throw missing(ph, X, Z);
+      }
+    }
     return t;
   };
   std::vector<std::unique_ptr<FileOutput>> outputs(phases.size());  // made when a phase starts
-  auto store_tile = [&](const Phase& ph, WorldTile t) {
-    t.world_id = ph.id;
-    const std::string bytes = detail::encode_tile(t);
+  auto put_tile = [&](const Phase& ph, std::int64_t X, std::int64_t Z, const std::string& bytes) {
     // Atomic (temporary file, rename) but not flushed: a tile that a power cut leaves empty or
     // damaged fails its CRC-32 on the next run and is rebuilt, so resuming stays exact.
     try {
-      outputs.at(std::size_t(&ph - phases.data()))->put(tile_file(ph, t.X, t.Z).filename().string(), bytes);
+      outputs.at(std::size_t(&ph - phases.data()))->put(tile_file(ph, X, Z).filename().string(), bytes);
     } catch (const Error& e) {
       throw Error(s.out_path, e.message());
     }
+  };
+  // Phase `ph`'s tile, without the layers it drops (lean stores).
+  auto store_tile = [&](const Phase& ph, WorldTile t) {
+    t.world_id = ph.id;
+    for (const std::string& name : ph.drop) t.layers.erase(name);
+    const std::string bytes = detail::encode_tile(t);
+    put_tile(ph, t.X, t.Z, bytes);
     return bytes;
+  };
+  // Phase `ph`'s tile (X, Z): the input phase's tile with the layers of `changed` replaced or added,
+  // the others' coded planes copied through (the bytes store_tile writes for the whole tile).
+  auto update_tile = [&](const Phase& ph, const Phase& in, std::int64_t X, std::int64_t Z, WorldTile changed) {
+    detail::TileParts parts;
+    const std::string bytes = parsed(in, X, Z, parts);
+    if (bytes.empty()) throw missing(in, X, Z);
+    const WorldGrid::Window w = grid.window(X, Z);
+    const std::size_t n = std::size_t(w.nx) * std::size_t(w.nz);
+    std::vector<const Layer*> coded_layers;
+    for (auto it = changed.layers.begin(); it != changed.layers.end();) {
+      if (ph.drop.count(it->first)) {
+        it = changed.layers.erase(it);
+        continue;
+      }
+      if (it->second.channels < 1 || it->second.data.size() != n * std::size_t(it->second.channels))
+        throw Error("tile", "layer '" + it->first + "' has " + std::to_string(it->second.data.size()) + " values, expected " +
+                                std::to_string(n) + " samples x " + std::to_string(it->second.channels) + " channels");
+      coded_layers.push_back(&it->second);
+      ++it;
+    }
+    const std::vector<std::string> coded = detail::encode_tile_parts(coded_layers, w.nx);
+    std::map<std::string, detail::RawPart> all;  // ascending names, as encode_tile orders them
+    for (const detail::TileParts::Part& p : parts.parts)
+      if (!ph.drop.count(p.name)) all[p.name] = {p.name, p.channels, std::string_view(bytes).substr(p.offset, p.size)};
+    std::size_t k = 0;
+    for (auto& [name, l] : changed.layers) all[name] = {name, l.channels, coded[k++]};
+    std::vector<detail::RawPart> list;
+    for (auto& [name, part] : all) list.push_back(part);
+    WorldTile head;
+    head.world_id = ph.id;
+    head.X = X;
+    head.Z = Z;
+    head.window = w;
+    put_tile(ph, X, Z, detail::assemble_tile(head, list));
   };
   // The layers of the window [ix0, ix0+nx) × [iz0, iz0+nz) from phase `ph`'s tiles.
   auto read_region = [&](const Phase& ph, std::int64_t ix0, std::int64_t iz0, int nx, int nz) {
@@ -727,7 +870,10 @@ WorldReport build_world(WorldSettings s) {
     // any rank writes in it).
     const json begun = agree(tr, [&]() -> json {
       std::error_code e2;
-      if (!last && fs::exists(ph.folder / "complete", e2)) return {{"skip", true}};
+      if (!last && fs::exists(ph.folder / "complete", e2)) {
+        if (pk > 0) remove_phase_tiles(phases[pk - 1].folder);  // left by a build stopped before it removed them
+        return {{"skip", true}};
+      }
       fs::create_directories(ph.folder, e2);
       if (e2) throw Error(s.out_path, "cannot create " + quote(ph.folder.string()) + ": " + e2.message());
       return {{"skip", false}};
@@ -765,12 +911,17 @@ WorldReport build_world(WorldSettings s) {
         io.grid = grid;
         io.world = frame;
         io.load = [&](std::int64_t X, std::int64_t Z) { return load_tile(in, X, Z); };
+        io.load_layers = [&](std::int64_t X, std::int64_t Z, const std::vector<std::string>& names) {
+          return load_tile(in, X, Z, &names);
+        };
         io.store = [&](std::int64_t X, std::int64_t Z, WorldTile t) {
           t.X = X;
           t.Z = Z;
           t.window = grid.window(X, Z);
           store_tile(ph, std::move(t));
         };
+        io.update = [&](std::int64_t X, std::int64_t Z, WorldTile t) { update_tile(ph, in, X, Z, std::move(t)); };
+        io.threads = threads;
         io.cancelled = s.cancelled;
         io.seed = rep.seed;
         // World files a stage makes (rivers.json, lakes.json) go into the world folder, atomically.
@@ -781,9 +932,13 @@ WorldReport build_world(WorldSettings s) {
           report(st.def->name, int(ph.first), 0.0);
         }
         const auto t0 = Clock::now();
-        s.algorithms.at(st.def->name)(io, st, int(ph.first));
+        tbb::task_arena arena(threads);  // the algorithm's tile work runs on the build's threads
+        arena.execute([&] { s.algorithms.at(st.def->name)(io, st, int(ph.first)); });
         stage_ms[ph.first] += ms_since(t0);
-        if (!last) write_or_throw(ph.folder / "complete", "", s.out_path);
+        if (!last) {
+          write_or_throw(ph.folder / "complete", "", s.out_path);
+          remove_phase_tiles(in.folder);  // no later phase reads them
+        }
         return json();
       });
       continue;
@@ -932,7 +1087,10 @@ WorldReport build_world(WorldSettings s) {
         peak_memory = std::max(peak_memory, o.value("peak_rss", std::uint64_t(0)));
         rethrow_outcome(o, int(k));
       }
-      if (!last) write_or_throw(ph.folder / "complete", "", s.out_path);
+      if (!last) {
+        write_or_throw(ph.folder / "complete", "", s.out_path);
+        if (in) remove_phase_tiles(in->folder);  // no later phase reads them
+      }
       return json();
     });
     if (last) final_done_in_memory = true;

@@ -15,8 +15,11 @@
 // convergence every sample satisfies the equation on both sides of every tile border.
 //
 // Unlike Barnes 2016, which solves a graph of tile-perimeter spill levels on one node and then
-// finishes each tile once, this exchanges border levels in rounds: simpler, the same in memory (one
-// tile and the border lines), and each tile is usually solved two or three times.
+// finishes each tile once, this exchanges border levels in rounds: simpler, the same in memory (the
+// tiles being solved and the border lines), and each tile is usually solved two or three times.
+// Each round visits the four classes of tiles (X mod 2, Z mod 2) in turn, like a red-black
+// Gauss-Seidel sweep: the tiles of one class share no sample, so they are solved concurrently, and
+// the levels one class finds reach the next class within the same round.
 #include <algorithm>
 #include <cstring>
 #include <limits>
@@ -24,6 +27,7 @@
 #include "relief/error.hpp"
 #include "relief/hydrology.hpp"
 #include "relief/world.hpp"
+#include "world_internal.hpp"
 
 namespace relief {
 namespace {
@@ -44,7 +48,7 @@ TiledFillStats fill_depressions_tiled(const WorldGrid& g, float sea, float epsil
   std::vector<float> vline(std::size_t(cols * g.nz), kInf), hline(std::size_t(rows * g.nx), kInf);
   auto col_index = [&](std::int64_t ix) { return ix == g.nx - 1 ? g.tiles_x : ix / step_n; };
   auto row_index = [&](std::int64_t iz) { return iz == g.nz - 1 ? g.tiles_z : iz / step_n; };
-  auto known = [&](std::int64_t ix, std::int64_t iz) -> float& {
+  auto known = [&](std::int64_t ix, std::int64_t iz) -> float {
     if (is_border_x(ix)) return vline[std::size_t(col_index(ix) * g.nz + iz)];
     return hline[std::size_t(row_index(iz) * g.nx + ix)];
   };
@@ -61,52 +65,65 @@ TiledFillStats fill_depressions_tiled(const WorldGrid& g, float sea, float epsil
     }
     return changed;
   };
-  std::vector<std::uint8_t> dirty(std::size_t(tiles), 1);
-  bool any = true;
-  while (any) {
-    any = false;
+  // Tiles waiting for a solve with new border levels; at first, every tile.
+  std::vector<std::uint8_t> pending(std::size_t(tiles), 1);
+  // One tile's solve: its heights filled from the border levels known now. Tiles of one class
+  // (X mod 2, Z mod 2) share no sample: while a class is solved, only the merges of the class's
+  // tiles change border levels, each those of its own samples, which no other tile of the class reads.
+  auto solve = [&](std::int64_t t) {
+    const std::int64_t X = t % g.tiles_x, Z = t / g.tiles_x;
+    const WorldGrid::Window w = g.window(X, Z);
+    std::vector<float> filled = load(X, Z);
+    const std::size_t n = std::size_t(w.nx) * std::size_t(w.nz);
+    if (filled.size() != n)
+      throw Error("world", "fill: tile " + std::to_string(X) + "," + std::to_string(Z) + " has " + std::to_string(filled.size()) +
+                               " heights, expected " + std::to_string(n));
+    std::vector<std::uint8_t> outlet(n);
+    std::vector<float> f(n, kInf);
+    for (int j = 0; j < w.nz; ++j)
+      for (int i = 0; i < w.nx; ++i) {
+        const std::int64_t ix = w.ix0 + i, iz = w.iz0 + j;
+        const std::size_t c = std::size_t(j) * std::size_t(w.nx) + std::size_t(i);
+        outlet[c] = ix == 0 || iz == 0 || ix == g.nx - 1 || iz == g.nz - 1 || filled[c] < sea;
+        if (i == 0 || j == 0 || i == w.nx - 1 || j == w.nz - 1) f[c] = known(ix, iz);
+      }
+    hydro::fill_depressions_tile<float>(filled.data(), w.nx, w.nz, outlet.data(), f.data(), epsilon);
+    return filled;
+  };
+  // After a solve, in tile order: new border levels wake the neighbours that share them.
+  auto merge = [&](std::int64_t t, std::vector<float> f) {
+    const std::int64_t X = t % g.tiles_x, Z = t / g.tiles_x;
+    const WorldGrid::Window w = g.window(X, Z);
+    ++st.tile_solves;
+    for (int j = 0; j < w.nz; ++j)
+      for (int i = 0; i < w.nx; ++i) {
+        if (!(i == 0 || j == 0 || i == w.nx - 1 || j == w.nz - 1)) continue;
+        const std::int64_t ix = w.ix0 + i, iz = w.iz0 + j;
+        if (!lower(ix, iz, f[std::size_t(j) * std::size_t(w.nx) + std::size_t(i)])) continue;
+        for (std::int64_t dz = -1; dz <= 1; ++dz)
+          for (std::int64_t dx = -1; dx <= 1; ++dx) {
+            const std::int64_t XX = X + dx, ZZ = Z + dz;
+            if ((dx == 0 && dz == 0) || XX < 0 || ZZ < 0 || XX >= g.tiles_x || ZZ >= g.tiles_z) continue;
+            const WorldGrid::Window o = g.window(XX, ZZ);
+            if (ix >= o.ix0 && ix < o.ix0 + o.nx && iz >= o.iz0 && iz < o.iz0 + o.nz) pending[std::size_t(ZZ * g.tiles_x + XX)] = 1;
+          }
+      }
+    if (store) store(X, Z, std::move(f));
+  };
+  // Rounds: the four classes in turn, each the pending tiles of the class in tile order (a fixed
+  // schedule: the same solves and calls for any thread count).
+  for (bool any = true; any;) {
     ++st.rounds;
-    std::vector<std::uint8_t> next_dirty(std::size_t(tiles), 0);
-    for (std::int64_t t = 0; t < tiles; ++t) {
-      if (!dirty[std::size_t(t)]) continue;
-      const std::int64_t X = t % g.tiles_x, Z = t / g.tiles_x;
-      const WorldGrid::Window w = g.window(X, Z);
-      const std::vector<float> z = load(X, Z);
-      const std::size_t n = std::size_t(w.nx) * std::size_t(w.nz);
-      std::vector<std::uint8_t> outlet(n);
-      std::vector<float> f(n, kInf);
-      for (int j = 0; j < w.nz; ++j)
-        for (int i = 0; i < w.nx; ++i) {
-          const std::int64_t ix = w.ix0 + i, iz = w.iz0 + j;
-          const std::size_t c = std::size_t(j) * std::size_t(w.nx) + std::size_t(i);
-          outlet[c] = ix == 0 || iz == 0 || ix == g.nx - 1 || iz == g.nz - 1 || z[c] < sea;
-          if (i == 0 || j == 0 || i == w.nx - 1 || j == w.nz - 1) f[c] = known(ix, iz);
+    for (int cls = 0; cls < 4; ++cls) {
+      std::vector<std::int64_t> batch;
+      for (std::int64_t t = 0; t < tiles; ++t)
+        if (pending[std::size_t(t)] && int((t % g.tiles_x) % 2 + 2 * ((t / g.tiles_x) % 2)) == cls) {
+          pending[std::size_t(t)] = 0;
+          batch.push_back(t);
         }
-      std::vector<float> filled = z;
-      hydro::fill_depressions_tile<float>(filled.data(), w.nx, w.nz, outlet.data(), f.data(), epsilon);
-      f = std::move(filled);
-      ++st.tile_solves;
-      // New border values wake the neighbours that share them.
-      for (int j = 0; j < w.nz; ++j)
-        for (int i = 0; i < w.nx; ++i) {
-          if (!(i == 0 || j == 0 || i == w.nx - 1 || j == w.nz - 1)) continue;
-          const std::int64_t ix = w.ix0 + i, iz = w.iz0 + j;
-          if (!lower(ix, iz, f[std::size_t(j) * std::size_t(w.nx) + std::size_t(i)])) continue;
-          any = true;
-          for (std::int64_t dz = -1; dz <= 1; ++dz)
-            for (std::int64_t dx = -1; dx <= 1; ++dx) {
-              const std::int64_t XX = X + dx, ZZ = Z + dz;
-              if ((dx == 0 && dz == 0) || XX < 0 || ZZ < 0 || XX >= g.tiles_x || ZZ >= g.tiles_z) continue;
-              const WorldGrid::Window o = g.window(XX, ZZ);
-              if (ix >= o.ix0 && ix < o.ix0 + o.nx && iz >= o.iz0 && iz < o.iz0 + o.nz) next_dirty[std::size_t(ZZ * g.tiles_x + XX)] = 1;
-            }
-        }
-      if (store) store(X, Z, std::move(f));
+      detail::ordered_tiles<std::vector<float>>(batch, solve, merge);
     }
-    // A tile solved this round whose own border did not change needs no other solve unless a
-    // neighbour changed one of its border samples (next_dirty).
-    dirty = std::move(next_dirty);
-    if (!any) break;
+    any = std::find(pending.begin(), pending.end(), std::uint8_t(1)) != pending.end();
   }
   return st;
 }
@@ -121,11 +138,20 @@ WorldStageAlgorithm world_fill() {
     // As the fill stage converts its parameter (src/stage_erosion.cpp).
     const float eps = float(p.value("epsilon_m", 0.0) / io.world.height_m);
     const float sea = float(io.world.sea_level);
+    // Only the height is decoded, and only it is coded again (io.update copies the other layers'
+    // coded bytes through), when the build gives those calls.
     const TileLoad load = [&](std::int64_t X, std::int64_t Z) {
       if (io.cancelled && io.cancelled()) throw Cancelled();
+      if (io.load_layers) return std::move(io.load_layers(X, Z, {"height"}).layers.at("height").data);
       return io.load(X, Z).layers.at("height").data;
     };
     const TileStore store = [&](std::int64_t X, std::int64_t Z, std::vector<float> f) {
+      if (io.update) {
+        WorldTile t;
+        t.layers["height"] = Layer{1, std::move(f)};
+        io.update(X, Z, std::move(t));
+        return;
+      }
       WorldTile t = io.load(X, Z);  // every other layer as the stages before left it
       t.layers.at("height").data = std::move(f);
       io.store(X, Z, std::move(t));

@@ -1,8 +1,17 @@
 #pragma once
-// Internals of the world builder shared by src/world.cpp and src/world_store.cpp.
+// Internals of the world builder shared by src/world.cpp, src/world_store.cpp and the world
+// algorithms (src/world_fill.cpp, src/world_flow.cpp).
+#include <tbb/parallel_pipeline.h>
+#include <tbb/task_arena.h>
+
+#include <algorithm>
 #include <cstdint>
+#include <exception>
+#include <memory>
+#include <optional>
 #include <string>
 #include <string_view>
+#include <vector>
 
 #include "relief/world.hpp"
 
@@ -16,4 +25,73 @@ std::string hex32(std::uint32_t v);                // 8 lower-case hex digits
 std::string hash_hex(std::string_view text);       // FNV-1a 64 as 16 hex digits
 std::string read_file_bytes(const std::string& path, bool& ok);
 std::string encode_tile(const WorldTile& t);       // the version-1 tile file (relief/world.hpp)
+
+// A tile file parsed without inflating or decoding its byte planes: the magic, CRC-32, header and
+// every plane's framing checked as decode_world_tile checks them (same errors). `tile` holds the
+// header's world_id, (X, Z) and window, and no layers.
+struct TileParts {
+  struct Part {
+    std::string name;
+    int channels = 1;
+    std::size_t offset = 0, size = 0;  // the layer's four framed planes in the file's bytes
+  };
+  WorldTile tile;
+  std::vector<Part> parts;  // in the file's order (ascending names)
+};
+TileParts parse_tile(std::string_view bytes, const std::string& origin);
+// Decodes part k of a parsed file (its zlib streams checked as decode_world_tile checks them).
+Layer decode_tile_part(std::string_view bytes, const TileParts& p, std::size_t k, const std::string& origin);
+// Each layer's four framed planes, as encode_tile writes them (planes coded concurrently); `nx` is
+// the tile's window width (the row length of the row delta).
+std::vector<std::string> encode_tile_parts(const std::vector<const Layer*>& layers, int nx);
+// A tile file from already framed parts: `parts` (name, channels, the layer's framed planes), in
+// ascending name order; world_id, X, Z and window from `t` (its layers are ignored). The bytes
+// encode_tile writes for the same layers.
+struct RawPart {
+  std::string name;
+  int channels = 1;
+  std::string_view planes;
+};
+std::string assemble_tile(const WorldTile& t, const std::vector<RawPart>& parts);
+
+// Tile work of the global world algorithms: compute(k) for every k of `items`, concurrently on the
+// calling task arena's threads (at most 2 per thread in flight, which bounds memory), and
+// merge(k, result) for each in the order of `items`, one at a time (it may overlap later computes).
+// An exception of compute(k) is rethrown at k's turn to merge, so the first failure in order is the
+// one thrown, whatever the thread count.
+template <class R, class Compute, class Merge>
+void ordered_tiles(const std::vector<std::int64_t>& items, Compute&& compute, Merge&& merge) {
+  struct Item {
+    std::int64_t k = 0;
+    std::optional<R> result;
+    std::exception_ptr error;
+  };
+  std::size_t next = 0;
+  const std::size_t tokens = std::size_t(2 * std::max(1, tbb::this_task_arena::max_concurrency()));
+  tbb::parallel_pipeline(
+      tokens,
+      tbb::make_filter<void, std::shared_ptr<Item>>(tbb::filter_mode::serial_in_order,
+                                                    [&](tbb::flow_control& fc) -> std::shared_ptr<Item> {
+                                                      if (next >= items.size()) {
+                                                        fc.stop();
+                                                        return nullptr;
+                                                      }
+                                                      auto it = std::make_shared<Item>();
+                                                      it->k = items[next++];
+                                                      return it;
+                                                    }) &
+          tbb::make_filter<std::shared_ptr<Item>, std::shared_ptr<Item>>(tbb::filter_mode::parallel,
+                                                                         [&](std::shared_ptr<Item> it) {
+                                                                           try {
+                                                                             it->result.emplace(compute(it->k));
+                                                                           } catch (...) {
+                                                                             it->error = std::current_exception();
+                                                                           }
+                                                                           return it;
+                                                                         }) &
+          tbb::make_filter<std::shared_ptr<Item>, void>(tbb::filter_mode::serial_in_order, [&](std::shared_ptr<Item> it) {
+            if (it->error) std::rethrow_exception(it->error);
+            merge(it->k, std::move(*it->result));
+          }));
+}
 }  // namespace relief::detail

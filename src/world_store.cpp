@@ -92,25 +92,17 @@ std::string read_file_bytes(const std::string& path, bool& ok) {
   return s.str();
 }
 
-std::string encode_tile(const WorldTile& t) {
-  json layers = json::array();
-  std::size_t raw = 0;
-  const std::size_t n = std::size_t(t.window.nx) * std::size_t(t.window.nz);
-  for (auto& [name, l] : t.layers) {
-    if (l.data.size() != n * std::size_t(l.channels))
-      throw Error("tile", "layer '" + name + "' has " + std::to_string(l.data.size()) + " values, expected " +
-                              std::to_string(n * std::size_t(l.channels)));
-    layers.push_back({{"name", name}, {"channels", l.channels}});
-    raw += l.data.size() * 4;
-  }
+std::vector<std::string> encode_tile_parts(const std::vector<const Layer*>& layers, int nx) {
   // Row-delta, byte-shuffled floats, layer after layer (see relief/world.hpp).
+  std::size_t raw = 0;
+  for (const Layer* l : layers) raw += l->data.size() * 4;
   std::string shuffled(raw, '\0');
   std::size_t at = 0;
   std::vector<std::uint32_t> d;
-  for (auto& [name, l] : t.layers) {
-    const std::size_t m = l.data.size(), c = std::size_t(l.channels), row = std::size_t(t.window.nx) * c;
+  for (const Layer* l : layers) {
+    const std::size_t m = l->data.size(), c = std::size_t(l->channels), row = std::size_t(nx) * c;
     d.resize(m);
-    std::memcpy(d.data(), l.data.data(), m * 4);
+    if (m) std::memcpy(d.data(), l->data.data(), m * 4);
     for (std::size_t r0 = 0; r0 < m; r0 += row)
       for (std::size_t k = r0 + row - 1; k >= r0 + c; --k) d[k] -= d[k - c];
     for (std::size_t b = 0; b < 4; ++b) {
@@ -123,8 +115,8 @@ std::string encode_tile(const WorldTile& t) {
   // Each byte plane on its own (see relief/world.hpp), concurrently: stored when a zlib pass over
   // its first 64 KiB saves less than 10 % (the noisy low bytes), else zlib RLE.
   std::vector<std::pair<std::size_t, std::size_t>> planes;  // (offset, size) in `shuffled`
-  for (auto& [name, l] : t.layers)
-    for (std::size_t b = 0; b < 4; ++b) planes.push_back({0, l.data.size()});
+  for (const Layer* l : layers)
+    for (std::size_t b = 0; b < 4; ++b) planes.push_back({0, l->data.size()});
   for (std::size_t k = 0, off = 0; k < planes.size(); ++k) {
     planes[k].first = off;
     off += planes[k].second;
@@ -143,8 +135,34 @@ std::string encode_tile(const WorldTile& t) {
     packed[k] = std::move(z);
     method[k] = 1;
   }); });
-  std::size_t payload = 0;
-  for (std::size_t k = 0; k < planes.size(); ++k) payload += 9 + (method[k] ? packed[k].size() : planes[k].second);
+  // Each layer's four planes, framed: u8 method, u64 length, bytes.
+  std::vector<std::string> out(layers.size());
+  for (std::size_t li = 0; li < layers.size(); ++li) {
+    std::string& o = out[li];
+    std::size_t size = 0;
+    for (std::size_t k = 4 * li; k < 4 * li + 4; ++k) size += 9 + (method[k] ? packed[k].size() : planes[k].second);
+    o.reserve(size);
+    for (std::size_t k = 4 * li; k < 4 * li + 4; ++k) {
+      o.push_back(char(method[k]));
+      const std::uint64_t len = method[k] ? packed[k].size() : planes[k].second;
+      for (int q = 0; q < 8; ++q) o.push_back(char((len >> (8 * q)) & 0xFF));
+      if (method[k]) o += packed[k];
+      else o.append(shuffled.data() + planes[k].first, planes[k].second);
+      packed[k] = std::string();
+    }
+  }
+  return out;
+}
+
+std::string assemble_tile(const WorldTile& t, const std::vector<RawPart>& parts) {
+  json layers = json::array();
+  std::size_t raw = 0, payload = 0;
+  const std::size_t n = std::size_t(t.window.nx) * std::size_t(t.window.nz);
+  for (const RawPart& p : parts) {
+    layers.push_back({{"name", p.name}, {"channels", p.channels}});
+    raw += n * std::size_t(p.channels) * 4;
+    payload += p.planes.size();
+  }
   const json header = {{"format", 1},
                        {"world_id", t.world_id},
                        {"tile", {t.X, t.Z}},
@@ -159,15 +177,136 @@ std::string encode_tile(const WorldTile& t) {
   out.append(kMagic, 8);
   put_u32(out, std::uint32_t(h.size()));
   out += h;
-  for (std::size_t k = 0; k < planes.size(); ++k) {
-    out.push_back(char(method[k]));
-    const std::uint64_t len = method[k] ? packed[k].size() : planes[k].second;
-    for (int q = 0; q < 8; ++q) out.push_back(char((len >> (8 * q)) & 0xFF));
-    if (method[k]) out += packed[k];
-    else out.append(shuffled.data() + planes[k].first, planes[k].second);
-  }
+  for (const RawPart& p : parts) out.append(p.planes.data(), p.planes.size());
   put_u32(out, crc32_of(out));
   return out;
+}
+
+std::string encode_tile(const WorldTile& t) {
+  const std::size_t n = std::size_t(t.window.nx) * std::size_t(t.window.nz);
+  std::vector<const Layer*> layers;
+  for (auto& [name, l] : t.layers) {
+    if (l.data.size() != n * std::size_t(l.channels))
+      throw Error("tile", "layer '" + name + "' has " + std::to_string(l.data.size()) + " values, expected " +
+                              std::to_string(n * std::size_t(l.channels)));
+    layers.push_back(&l);
+  }
+  const std::vector<std::string> coded = encode_tile_parts(layers, t.window.nx);
+  std::vector<RawPart> parts;
+  std::size_t k = 0;
+  for (auto& [name, l] : t.layers) parts.push_back({name, l.channels, coded[k++]});
+  return assemble_tile(t, parts);
+}
+
+TileParts parse_tile(std::string_view bytes, const std::string& origin) {
+  auto bad = [&](const std::string& why) { return Error("tile", origin + ": " + why); };
+  if (bytes.size() < 16 || std::memcmp(bytes.data(), kMagic, 8) != 0) throw bad("not a Relief tile file (bad magic)");
+  const auto* u = reinterpret_cast<const unsigned char*>(bytes.data());
+  const std::uint32_t stored = get_u32(u + bytes.size() - 4);
+  if (crc32_of(bytes.substr(0, bytes.size() - 4)) != stored) throw bad("CRC-32 mismatch (the file is damaged or incomplete)");
+  const std::uint32_t hlen = get_u32(u + 8);
+  if (std::uint64_t(hlen) + 16 > bytes.size()) throw bad("header length beyond the file");
+  const json h = json::parse(bytes.substr(12, hlen), nullptr, false);
+  if (!h.is_object() || h.value("format", 0) != 1 || !h.contains("window") || !h.contains("layers") || !h.contains("tile"))
+    throw bad("header is not a version-1 tile header");
+  TileParts p;
+  WorldTile& t = p.tile;
+  try {
+    t.world_id = h.at("world_id").get<std::string>();
+    t.X = h.at("tile").at(0).get<std::int64_t>();
+    t.Z = h.at("tile").at(1).get<std::int64_t>();
+    const json& w = h.at("window");
+    t.window.ix0 = w.at(0).get<std::int64_t>();
+    t.window.iz0 = w.at(1).get<std::int64_t>();
+    t.window.nx = w.at(2).get<int>();
+    t.window.nz = w.at(3).get<int>();
+    if (t.window.nx < 1 || t.window.nz < 1 || t.window.nx > kMaxWorldTile || t.window.nz > kMaxWorldTile)
+      throw bad("window size out of range");
+    const std::size_t n = std::size_t(t.window.nx) * std::size_t(t.window.nz);
+    std::size_t raw = 0;
+    if (!h.at("layers").is_array() || h.at("layers").size() > 256) throw bad("expected at most 256 layers");
+    for (const json& l : h.at("layers")) {
+      const int c = l.at("channels").get<int>();
+      if (c < 1 || c > 16) throw bad("layer channel count out of range");
+      if (!l.at("name").is_string()) throw bad("a layer name is not a string");
+      raw += n * std::size_t(c) * 4;
+    }
+    if (h.at("raw_bytes").get<std::uint64_t>() != raw) throw bad("raw_bytes does not match the layers");
+    if (h.value("encoding", "") != "float32le-rowdelta-shuffle-planes") throw bad("unknown encoding");
+    const std::uint64_t plen = h.at("payload_bytes").get<std::uint64_t>();
+    if (12 + std::uint64_t(hlen) + plen + 4 != bytes.size()) throw bad("payload_bytes does not match the file size");
+    // The byte planes: method (0 stored, 1 zlib), u64 length, bytes. Their framing is checked here,
+    // so that no header makes a decoder allocate more than the planes can hold: a stored plane
+    // holds its length, a zlib stream at most kZlibMaxRatio bytes per byte (deflate's limit is 1032:1).
+    const std::size_t end = 12 + hlen + plen;
+    std::size_t pos = 12 + hlen;
+    for (const json& l : h.at("layers")) {
+      const int c = l.at("channels").get<int>();
+      const std::uint64_t m = std::uint64_t(n) * std::uint64_t(c);
+      TileParts::Part part;
+      part.name = l.at("name").get<std::string>();
+      part.channels = c;
+      part.offset = pos;
+      for (int b = 0; b < 4; ++b) {
+        if (pos + 9 > end) throw bad("byte planes end early");
+        std::uint64_t len = 0;
+        for (int q = 0; q < 8; ++q) len |= std::uint64_t(u[pos + 1 + q]) << (8 * q);
+        pos += 9;
+        if (len > end - pos) throw bad("a byte plane runs past the payload");
+        if (u[pos - 9] == 0 ? len != m : (u[pos - 9] != 1 || m > len * kZlibMaxRatio + 64))
+          throw bad("a byte plane's length does not fit its layer (" + std::to_string(m) + " bytes from " + std::to_string(len) + ")");
+        pos += len;
+      }
+      part.size = pos - part.offset;
+      p.parts.push_back(std::move(part));
+    }
+    if (pos != end) throw bad("bytes left after the byte planes");
+  } catch (const json::exception& e) {
+    throw bad(std::string("malformed header: ") + e.what());
+  }
+  return p;
+}
+
+Layer decode_tile_part(std::string_view bytes, const TileParts& p, std::size_t k, const std::string& origin) {
+  auto bad = [&](const std::string& why) { return Error("tile", origin + ": " + why); };
+  const TileParts::Part& part = p.parts.at(k);
+  const auto* u = reinterpret_cast<const unsigned char*>(bytes.data());
+  const std::size_t n = std::size_t(p.tile.window.nx) * std::size_t(p.tile.window.nz);
+  const std::size_t m = n * std::size_t(part.channels);
+  // parse_tile checked the framing: four planes, each a stored plane of m bytes or a zlib stream.
+  std::string shuffled(4 * m, '\0');
+  std::size_t pos = part.offset;
+  for (int b = 0; b < 4; ++b) {
+    const unsigned char method = u[pos];
+    std::uint64_t len = 0;
+    for (int q = 0; q < 8; ++q) len |= std::uint64_t(u[pos + 1 + q]) << (8 * q);
+    pos += 9;
+    char* dst = shuffled.data() + std::size_t(b) * m;
+    if (method == 0) {
+      if (len != m) throw bad("a stored byte plane has the wrong size");
+      if (m) std::memcpy(dst, u + pos, m);
+    } else if (method == 1) {
+      uLongf got = uLongf(m);
+      if (uncompress(reinterpret_cast<Bytef*>(dst), &got, u + pos, uLong(len)) != Z_OK || got != m)
+        throw bad("a zlib byte plane does not decode to its size");
+    } else {
+      throw bad("unknown byte-plane method");
+    }
+    pos += len;
+  }
+  Layer layer;
+  layer.channels = part.channels;
+  layer.data.resize(m);
+  std::vector<std::uint32_t> d(m, 0);
+  for (std::size_t b = 0; b < 4; ++b) {
+    const unsigned char* src = reinterpret_cast<const unsigned char*>(shuffled.data()) + b * m;
+    for (std::size_t q = 0; q < m; ++q) d[q] |= std::uint32_t(src[q]) << (8 * b);
+  }
+  const std::size_t c = std::size_t(layer.channels), row = std::size_t(p.tile.window.nx) * c;
+  for (std::size_t r0 = 0; r0 < m; r0 += row)
+    for (std::size_t q = r0 + c; q < r0 + row; ++q) d[q] += d[q - c];
+  if (m) std::memcpy(layer.data.data(), d.data(), m * 4);
+  return layer;
 }
 
 }  // namespace detail
@@ -214,108 +353,9 @@ std::string world_tile_path(std::int64_t X, std::int64_t Z) {
 }
 
 WorldTile decode_world_tile(std::string_view bytes, const std::string& origin) {
-  auto bad = [&](const std::string& why) { return Error("tile", origin + ": " + why); };
-  if (bytes.size() < 16 || std::memcmp(bytes.data(), kMagic, 8) != 0) throw bad("not a Relief tile file (bad magic)");
-  const auto* u = reinterpret_cast<const unsigned char*>(bytes.data());
-  const std::uint32_t stored = get_u32(u + bytes.size() - 4);
-  if (detail::crc32_of(bytes.substr(0, bytes.size() - 4)) != stored) throw bad("CRC-32 mismatch (the file is damaged or incomplete)");
-  const std::uint32_t hlen = get_u32(u + 8);
-  if (std::uint64_t(hlen) + 16 > bytes.size()) throw bad("header length beyond the file");
-  const json h = json::parse(bytes.substr(12, hlen), nullptr, false);
-  if (!h.is_object() || h.value("format", 0) != 1 || !h.contains("window") || !h.contains("layers") || !h.contains("tile"))
-    throw bad("header is not a version-1 tile header");
-  WorldTile t;
-  try {
-    t.world_id = h.at("world_id").get<std::string>();
-    t.X = h.at("tile").at(0).get<std::int64_t>();
-    t.Z = h.at("tile").at(1).get<std::int64_t>();
-    const json& w = h.at("window");
-    t.window.ix0 = w.at(0).get<std::int64_t>();
-    t.window.iz0 = w.at(1).get<std::int64_t>();
-    t.window.nx = w.at(2).get<int>();
-    t.window.nz = w.at(3).get<int>();
-    if (t.window.nx < 1 || t.window.nz < 1 || t.window.nx > kMaxWorldTile || t.window.nz > kMaxWorldTile)
-      throw bad("window size out of range");
-    const std::size_t n = std::size_t(t.window.nx) * std::size_t(t.window.nz);
-    std::size_t raw = 0;
-    if (!h.at("layers").is_array() || h.at("layers").size() > 256) throw bad("expected at most 256 layers");
-    for (const json& l : h.at("layers")) {
-      const int c = l.at("channels").get<int>();
-      if (c < 1 || c > 16) throw bad("layer channel count out of range");
-      if (!l.at("name").is_string()) throw bad("a layer name is not a string");
-      raw += n * std::size_t(c) * 4;
-    }
-    if (h.at("raw_bytes").get<std::uint64_t>() != raw) throw bad("raw_bytes does not match the layers");
-    if (h.value("encoding", "") != "float32le-rowdelta-shuffle-planes") throw bad("unknown encoding");
-    const std::uint64_t plen = h.at("payload_bytes").get<std::uint64_t>();
-    if (12 + std::uint64_t(hlen) + plen + 4 != bytes.size()) throw bad("payload_bytes does not match the file size");
-    // The byte planes: method (0 stored, 1 zlib), u64 length, bytes. First their framing, so that
-    // no header makes us allocate more than the planes can hold: a stored plane holds its length,
-    // a zlib stream at most kZlibMaxRatio bytes per byte (deflate's limit is 1032:1).
-    const std::size_t end = 12 + hlen + plen;
-    {
-      std::size_t pos = 12 + hlen;
-      for (const json& l : h.at("layers")) {
-        const std::uint64_t m = std::uint64_t(n) * std::uint64_t(l.at("channels").get<int>());
-        for (int b = 0; b < 4; ++b) {
-          if (pos + 9 > end) throw bad("byte planes end early");
-          std::uint64_t len = 0;
-          for (int q = 0; q < 8; ++q) len |= std::uint64_t(u[pos + 1 + q]) << (8 * q);
-          pos += 9;
-          if (len > end - pos) throw bad("a byte plane runs past the payload");
-          if (u[pos - 9] == 0 ? len != m : (u[pos - 9] != 1 || m > len * kZlibMaxRatio + 64))
-            throw bad("a byte plane's length does not fit its layer (" + std::to_string(m) + " bytes from " + std::to_string(len) + ")");
-          pos += len;
-        }
-      }
-    }
-    std::string shuffled(raw, '\0');
-    std::size_t pos = 12 + hlen, out_at = 0;
-    for (const json& l : h.at("layers")) {
-      const std::size_t m = n * std::size_t(l.at("channels").get<int>());
-      for (int b = 0; b < 4; ++b) {
-        if (pos + 9 > end) throw bad("byte planes end early");
-        const unsigned char method = u[pos];
-        std::uint64_t len = 0;
-        for (int q = 0; q < 8; ++q) len |= std::uint64_t(u[pos + 1 + q]) << (8 * q);
-        pos += 9;
-        if (len > end - pos) throw bad("a byte plane runs past the payload");
-        if (method == 0) {
-          if (len != m) throw bad("a stored byte plane has the wrong size");
-          std::memcpy(shuffled.data() + out_at, u + pos, m);
-        } else if (method == 1) {
-          uLongf got = uLongf(m);
-          if (uncompress(reinterpret_cast<Bytef*>(shuffled.data() + out_at), &got, u + pos, uLong(len)) != Z_OK || got != m)
-            throw bad("a zlib byte plane does not decode to its size");
-        } else {
-          throw bad("unknown byte-plane method");
-        }
-        pos += len;
-        out_at += m;
-      }
-    }
-    if (pos != end) throw bad("bytes left after the byte planes");
-    std::size_t at = 0;
-    for (const json& l : h.at("layers")) {
-      Layer layer;
-      layer.channels = l.at("channels").get<int>();
-      const std::size_t m = n * std::size_t(layer.channels);
-      layer.data.resize(m);
-      std::vector<std::uint32_t> d(m, 0);
-      for (std::size_t b = 0; b < 4; ++b) {
-        const unsigned char* src = reinterpret_cast<const unsigned char*>(shuffled.data()) + at + b * m;
-        for (std::size_t k = 0; k < m; ++k) d[k] |= std::uint32_t(src[k]) << (8 * b);
-      }
-      const std::size_t c = std::size_t(layer.channels), row = std::size_t(t.window.nx) * c;
-      for (std::size_t r0 = 0; r0 < m; r0 += row)
-        for (std::size_t k = r0 + c; k < r0 + row; ++k) d[k] += d[k - c];
-      std::memcpy(layer.data.data(), d.data(), m * 4);
-      at += 4 * m;
-      t.layers[l.at("name").get<std::string>()] = std::move(layer);
-    }
-  } catch (const json::exception& e) {
-    throw bad(std::string("malformed header: ") + e.what());
-  }
+  const detail::TileParts p = detail::parse_tile(bytes, origin);
+  WorldTile t = p.tile;
+  for (std::size_t k = 0; k < p.parts.size(); ++k) t.layers[p.parts[k].name] = detail::decode_tile_part(bytes, p, k, origin);
   return t;
 }
 
