@@ -18,10 +18,12 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <tuple>
 #include <unordered_map>
 
 #include "relief/error.hpp"
 #include "relief/hydrology.hpp"
+#include "world_internal.hpp"
 #include "writer_defs.hpp"
 
 namespace relief {
@@ -133,6 +135,11 @@ struct Components {
   std::uint32_t find(std::uint32_t a) {
     while (parent[a] != a) a = parent[a] = parent[parent[a]];
     return a;
+  }
+  // After flatten(): every label's root in one step, without writing (tiles read it concurrently).
+  std::uint32_t root(std::uint32_t a) const { return parent[a]; }
+  void flatten() {
+    for (std::uint32_t l = 0; l < parent.size(); ++l) parent[l] = find(l);
   }
   void join(std::uint32_t a, std::uint32_t b) {
     a = find(a), b = find(b);
@@ -255,11 +262,11 @@ Solve prepare(const Ctx& c, Bands& bands, const TileLoad& load, std::int64_t X, 
 }
 
 // Marks the owned samples in kept lakes (after the components are joined).
-void mark_lakes(const Ctx& c, Components& comp, Solve& s, std::uint64_t tile) {
+void mark_lakes(const Ctx& c, const Components& comp, Solve& s, std::uint64_t tile) {
   s.lake.assign(s.rl.size(), 0);
   if (!c.p.lakes) return;
   for (std::size_t o = 0; o < s.rl.size(); ++o)
-    if (s.label[o] != kNone) s.lake[o] = comp.kept[comp.find(std::uint32_t(comp.base[tile] + s.label[o]))];
+    if (s.label[o] != kNone) s.lake[o] = comp.kept[comp.root(std::uint32_t(comp.base[tile] + s.label[o]))];
 }
 
 // Thrown by check_drains (an Error like any other to flow_tiled's callers; world_flow catches it
@@ -556,23 +563,35 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
     if (cancelled && cancelled()) throw Cancelled();
   };
 
+  // Every pass over the tiles runs their solves concurrently on the calling arena's threads and
+  // merges their results in tile order (detail::ordered_tiles), so the bits, the stats and the
+  // order of the store calls do not depend on the thread count.
+  const std::int64_t tiles = g.count();
+  std::vector<std::int64_t> all_tiles(static_cast<std::size_t>(tiles));
+  for (std::int64_t t = 0; t < tiles; ++t) all_tiles[std::size_t(t)] = t;
+
   // Pass 0: the bands of heights around inner tile borders.
   Bands bands(g);
-  for (std::int64_t Z = 0; Z < g.tiles_z; ++Z)
-    for (std::int64_t X = 0; X < g.tiles_x; ++X) {
-      check();
-      const WorldGrid::Window w = g.window(X, Z);
-      const std::vector<float> z = c.filled ? (*c.filled)(X, Z) : load(X, Z);
-      if (z.size() != std::size_t(w.nx) * std::size_t(w.nz)) throw Error("world", "flow: a tile has the wrong size");
-      for (int j = 0; j < w.nz; ++j)
-        for (int i = 0; i < w.nx; ++i) {
-          if (j > 1 && j < w.nz - 2 && i > 1 && i < w.nx - 2) {
-            i = w.nx - 3;  // skip the inside of the row
-            continue;
+  detail::ordered_tiles<std::vector<float>>(
+      all_tiles,
+      [&](std::int64_t t) {
+        check();
+        const WorldGrid::Window w = g.window(t % g.tiles_x, t / g.tiles_x);
+        std::vector<float> z = c.filled ? (*c.filled)(t % g.tiles_x, t / g.tiles_x) : load(t % g.tiles_x, t / g.tiles_x);
+        if (z.size() != std::size_t(w.nx) * std::size_t(w.nz)) throw Error("world", "flow: a tile has the wrong size");
+        return z;
+      },
+      [&](std::int64_t t, std::vector<float> z) {
+        const WorldGrid::Window w = g.window(t % g.tiles_x, t / g.tiles_x);
+        for (int j = 0; j < w.nz; ++j)
+          for (int i = 0; i < w.nx; ++i) {
+            if (j > 1 && j < w.nz - 2 && i > 1 && i < w.nx - 2) {
+              i = w.nx - 3;  // skip the inside of the row
+              continue;
+            }
+            if (bands.has(w.ix0 + i, w.iz0 + j)) bands.set(w.ix0 + i, w.iz0 + j, z[std::size_t(j) * std::size_t(w.nx) + std::size_t(i)]);
           }
-          if (bands.has(w.ix0 + i, w.iz0 + j)) bands.set(w.ix0 + i, w.iz0 + j, z[std::size_t(j) * std::size_t(w.nx) + std::size_t(i)]);
-        }
-    }
+      });
 
   // Pass A: local accumulation, perimeter links, components of raised samples.
   Nodes nd;
@@ -580,63 +599,77 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
   nd.base.assign(std::size_t(g.count()) + 1, 0);
   Components comp;
   comp.base.resize(std::size_t(g.count()) + 1, 0);
-  for (std::int64_t Z = 0; Z < g.tiles_z; ++Z)
-    for (std::int64_t X = 0; X < g.tiles_x; ++X) {
-      check();
-      Solve s = prepare(c, bands, load, X, Z);
-      ++st.tile_solves;
-      check_drains(c, s, path);
-      const std::size_t on = s.rl.size();
-      std::vector<std::uint32_t> np(on, kNone);  // next perimeter sample downstream inside the tile
-      for (std::size_t q = on; q-- > 0;) {
-        const std::uint32_t o = s.order[q], r = s.rl[o];
-        if (r != o) np[o] = s.perim(r) ? r : np[r];
-      }
-      const std::uint32_t t = std::uint32_t(Z * g.tiles_x + X);
-      nd.base[t] = nd.cell.size();
-      if (nd.cell.size() + 2 * std::size_t(s.onx + s.onz) >= kNone)
-        throw Error("world", "flow: too many tile perimeter samples (more than 2^32 - 1): use larger tiles");
-      const std::uint64_t base = comp.parent.size();
-      comp.base[t] = base;
-      if (base + s.labels >= kNone) throw Error("world", "flow: too many depressions (more than 2^32 - 1)");
-      for (std::uint32_t k = 0; k < s.labels; ++k) {
-        comp.parent.push_back(std::uint32_t(base + k));
-        comp.count.push_back(0);
-        comp.depth.push_back(0.0);
-      }
-      for (std::uint32_t o = 0; o < on; ++o) {
-        if (s.label[o] == kNone) continue;
-        const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
-        const std::size_t l = std::size_t(base + s.label[o]);
-        ++comp.count[l];
-        comp.depth[l] = std::max(comp.depth[l], (double(s.zg[s.grown(oi, oj)]) - s.eo[o]) * c.H);  // as apply_flow
-      }
-      for (std::uint32_t o = 0; o < on; ++o) {
-        if (!s.perim(o)) continue;
-        const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
-        const std::size_t gi = s.grown(oi, oj);
-        const std::int64_t wc = (s.w.iz0 + oj) * g.nx + s.w.ix0 + oi;
-        if (nd.find(wc) != nd.cell.size()) throw Error("world", "flow: internal error, perimeter numbering");
-        nd.cell.push_back(wc);
-        nd.tile.push_back(t);
-        nd.acc.push_back(s.acc[o]);
-        nd.z.push_back(s.zg[gi]);
-        nd.e.push_back(s.eo[o]);
-        nd.comp.push_back(s.label[o] == kNone ? kNone : std::uint32_t(base + s.label[o]));
-        const std::uint32_t rg = s.rec[gi];
-        if (rg != gi && owned_of(s, rg) == kNone) {
-          nd.cross.push_back(1);
-          nd.link_cell.push_back(world_index(c, s, rg));
-        } else if (np[o] != kNone) {
-          nd.cross.push_back(0);
-          const int ri = int(np[o] % std::uint32_t(s.onx)), rj = int(np[o] / std::uint32_t(s.onx));
-          nd.link_cell.push_back((s.w.iz0 + rj) * g.nx + s.w.ix0 + ri);
-        } else {
-          nd.cross.push_back(0);
-          nd.link_cell.push_back(-1);
+  struct LocalA {
+    Solve s;
+    std::vector<std::uint32_t> np;  // next perimeter sample downstream inside the tile
+  };
+  detail::ordered_tiles<LocalA>(
+      all_tiles,
+      [&](std::int64_t t) {
+        check();
+        LocalA r;
+        r.s = prepare(c, bands, load, t % g.tiles_x, t / g.tiles_x);
+        check_drains(c, r.s, path);
+        const Solve& s = r.s;
+        const std::size_t on = s.rl.size();
+        r.np.assign(on, kNone);
+        for (std::size_t q = on; q-- > 0;) {
+          const std::uint32_t o = s.order[q], rr = s.rl[o];
+          if (rr != o) r.np[o] = s.perim(rr) ? rr : r.np[rr];
         }
-      }
-    }
+        return r;
+      },
+      [&](std::int64_t tile, LocalA r) {
+        const std::int64_t X = tile % g.tiles_x, Z = tile / g.tiles_x;
+        Solve& s = r.s;
+        const std::vector<std::uint32_t>& np = r.np;
+        const std::size_t on = s.rl.size();
+        ++st.tile_solves;
+        const std::uint32_t t = std::uint32_t(Z * g.tiles_x + X);
+        nd.base[t] = nd.cell.size();
+        if (nd.cell.size() + 2 * std::size_t(s.onx + s.onz) >= kNone)
+          throw Error("world", "flow: too many tile perimeter samples (more than 2^32 - 1): use larger tiles");
+        const std::uint64_t base = comp.parent.size();
+        comp.base[t] = base;
+        if (base + s.labels >= kNone) throw Error("world", "flow: too many depressions (more than 2^32 - 1)");
+        for (std::uint32_t k = 0; k < s.labels; ++k) {
+          comp.parent.push_back(std::uint32_t(base + k));
+          comp.count.push_back(0);
+          comp.depth.push_back(0.0);
+        }
+        for (std::uint32_t o = 0; o < on; ++o) {
+          if (s.label[o] == kNone) continue;
+          const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
+          const std::size_t l = std::size_t(base + s.label[o]);
+          ++comp.count[l];
+          comp.depth[l] = std::max(comp.depth[l], (double(s.zg[s.grown(oi, oj)]) - s.eo[o]) * c.H);  // as apply_flow
+        }
+        for (std::uint32_t o = 0; o < on; ++o) {
+          if (!s.perim(o)) continue;
+          const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
+          const std::size_t gi = s.grown(oi, oj);
+          const std::int64_t wc = (s.w.iz0 + oj) * g.nx + s.w.ix0 + oi;
+          if (nd.find(wc) != nd.cell.size()) throw Error("world", "flow: internal error, perimeter numbering");
+          nd.cell.push_back(wc);
+          nd.tile.push_back(t);
+          nd.acc.push_back(s.acc[o]);
+          nd.z.push_back(s.zg[gi]);
+          nd.e.push_back(s.eo[o]);
+          nd.comp.push_back(s.label[o] == kNone ? kNone : std::uint32_t(base + s.label[o]));
+          const std::uint32_t rg = s.rec[gi];
+          if (rg != gi && owned_of(s, rg) == kNone) {
+            nd.cross.push_back(1);
+            nd.link_cell.push_back(world_index(c, s, rg));
+          } else if (np[o] != kNone) {
+            nd.cross.push_back(0);
+            const int ri = int(np[o] % std::uint32_t(s.onx)), rj = int(np[o] / std::uint32_t(s.onx));
+            nd.link_cell.push_back((s.w.iz0 + rj) * g.nx + s.w.ix0 + ri);
+          } else {
+            nd.cross.push_back(0);
+            nd.link_cell.push_back(-1);
+          }
+        }
+      });
 
   // Components across tiles: join raised perimeter samples with their raised neighbours in other
   // tiles (a sample next to an owned rectangle but outside it lies on another's perimeter).
@@ -653,6 +686,7 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
       comp.join(nd.comp[k], nd.comp[m]);
     }
   }
+  comp.flatten();  // from here on, tiles read roots concurrently (Components::root)
   comp.kept.assign(comp.parent.size(), 0);
   for (std::uint32_t l = 0; l < comp.parent.size(); ++l)
     if (comp.parent[l] == l)
@@ -712,64 +746,102 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
   auto strictly_inside = [](const Solve& s, std::int64_t ix, std::int64_t iz) {
     return ix > s.w.ix0 && iz > s.w.iz0 && ix < s.w.ix0 + s.onx - 1 && iz < s.w.iz0 + s.onz - 1;
   };
-  const std::int64_t tiles = g.count();
-  std::vector<std::uint8_t> dirty(std::size_t(tiles), 1);
-  for (bool any = true; any;) {
-    any = false;
-    ++st.rounds;
-    std::vector<std::uint8_t> next(std::size_t(tiles), 0);
-    for (std::int64_t t = 0; t < tiles; ++t) {
-      if (!dirty[std::size_t(t)]) continue;
-      check();
-      Solve s = prepare(c, bands, load, t % g.tiles_x, t / g.tiles_x);
-      ++st.tile_solves;
-      mark_lakes(c, comp, s, std::uint64_t(t));
-      finish(c, nd, s);
-      if (st.rounds == 1)
-        for (std::uint32_t o = 0; o < s.rl.size(); ++o) {
-          if (!s.ch[o] || s.lake[o]) continue;
-          const std::int64_t i = s.w.ix0 + o % std::uint32_t(s.onx), j = s.w.iz0 + o / std::uint32_t(s.onx);
-          each_cover(c, i, j, s.cnt[o], [&](std::int64_t a, std::int64_t b, float v, bool sea_test) {
-            if (!(v > 0) || strictly_inside(s, a, b)) return;
-            float& slot = (sea_test ? cover_sea : cover_any).try_emplace(b * g.nx + a, 0.0f).first->second;
-            slot = std::max(slot, v);
-          });
-        }
+  // Rounds as the tiled fill's (src/world_fill.cpp): the four classes of tiles (X mod 2, Z mod 2)
+  // in turn, each the class's tiles waiting for new perimeter values, solved concurrently. A
+  // tile's solve reads the perimeter nodes of its neighbours' owned rectangles and its merge writes
+  // those of its own; tiles of one class are never neighbours, so no solve reads what another
+  // merge of its class writes. Orders only rise and carved heights only fall, so the rounds end at
+  // the same values for any schedule; this one is fixed.
+  struct LocalS {
+    Solve s;
+    std::vector<std::pair<std::int64_t, float>> cover_sea, cover_any;  // first round: cover beyond the owned rectangle
+  };
+  std::vector<std::uint8_t> pending(std::size_t(tiles), 1);
+  auto solve_s = [&](std::int64_t t) {
+    check();
+    LocalS r;
+    Solve& s = r.s;
+    s = prepare(c, bands, load, t % g.tiles_x, t / g.tiles_x);
+    mark_lakes(c, comp, s, std::uint64_t(t));
+    finish(c, nd, s);
+    if (st.rounds == 1)
       for (std::uint32_t o = 0; o < s.rl.size(); ++o) {
-        st.max_count = std::max(st.max_count, s.cnt[o]);
-        if (!s.perim(o)) continue;
-        const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
-        const std::uint32_t k = nd.at((s.w.iz0 + oj) * g.nx + s.w.ix0 + oi);
-        nd.chd[k] = s.chd[o];
-        if (nd.cross[k] && nd.strahler[k] != s.str[o]) {
-          nd.strahler[k] = s.str[o];
-          next[nd.tile[nd.link[k]]] = 1, any = true;
-        }
-        if (std::memcmp(&nd.carved[k], &s.ec[o], 4) != 0) {
-          nd.carved[k] = s.ec[o];
-          for (std::uint32_t q = nd.dstart[k]; q < nd.dstart[k + 1]; ++q) next[nd.tile[nd.donors[q]]] = 1, any = true;
-        }
+        if (!s.ch[o] || s.lake[o]) continue;
+        const std::int64_t i = s.w.ix0 + o % std::uint32_t(s.onx), j = s.w.iz0 + o / std::uint32_t(s.onx);
+        each_cover(c, i, j, s.cnt[o], [&](std::int64_t a, std::int64_t b, float v, bool sea_test) {
+          if (!(v > 0) || strictly_inside(s, a, b)) return;
+          (sea_test ? r.cover_sea : r.cover_any).emplace_back(b * g.nx + a, v);
+        });
+      }
+    // What the merge needs (the solve's big arrays go now).
+    std::vector<std::uint32_t>().swap(s.rec);
+    std::vector<float>().swap(s.zg);
+    return r;
+  };
+  auto merge_s = [&](std::int64_t, LocalS r) {
+    const Solve& s = r.s;
+    ++st.tile_solves;
+    for (auto [cell, v] : r.cover_sea) {
+      float& slot = cover_sea.try_emplace(cell, 0.0f).first->second;
+      slot = std::max(slot, v);
+    }
+    for (auto [cell, v] : r.cover_any) {
+      float& slot = cover_any.try_emplace(cell, 0.0f).first->second;
+      slot = std::max(slot, v);
+    }
+    for (std::uint32_t o = 0; o < s.rl.size(); ++o) {
+      st.max_count = std::max(st.max_count, s.cnt[o]);
+      if (!s.perim(o)) continue;
+      const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
+      const std::uint32_t k = nd.at((s.w.iz0 + oj) * g.nx + s.w.ix0 + oi);
+      nd.chd[k] = s.chd[o];
+      if (nd.cross[k] && nd.strahler[k] != s.str[o]) {
+        nd.strahler[k] = s.str[o];
+        pending[nd.tile[nd.link[k]]] = 1;
+      }
+      if (std::memcmp(&nd.carved[k], &s.ec[o], 4) != 0) {
+        nd.carved[k] = s.ec[o];
+        for (std::uint32_t q = nd.dstart[k]; q < nd.dstart[k + 1]; ++q) pending[nd.tile[nd.donors[q]]] = 1;
       }
     }
-    dirty = std::move(next);
+  };
+  for (bool any = true; any;) {
+    ++st.rounds;
+    for (int cls = 0; cls < 4; ++cls) {
+      std::vector<std::int64_t> batch;
+      for (std::int64_t t = 0; t < tiles; ++t)
+        if (pending[std::size_t(t)] && int((t % g.tiles_x) % 2 + 2 * ((t / g.tiles_x) % 2)) == cls) {
+          pending[std::size_t(t)] = 0;
+          batch.push_back(t);
+        }
+      detail::ordered_tiles<LocalS>(batch, solve_s, merge_s);
+    }
+    any = std::find(pending.begin(), pending.end(), std::uint8_t(1)) != pending.end();
   }
 
   st.cover_cells = cover_sea.size() + cover_any.size();
 
-  // Final pass: each tile's layers (and the river pieces, the lakes' samples).
+  // Final pass: each tile's layers (and the river pieces, the lakes' samples), solved concurrently;
+  // stored and gathered in tile order.
   std::unordered_map<std::int64_t, Piece> pieces;
   std::unordered_map<std::uint32_t, std::unordered_map<std::int64_t, LakeSample>> lake_cells;  // by root
   std::vector<std::int64_t> starts;
-  for (std::int64_t t = 0; t < tiles; ++t) {
+  struct LocalF {
+    FlowTile out;
+    std::unordered_map<std::int64_t, Piece> pieces;
+    std::vector<std::int64_t> starts;
+    std::vector<std::tuple<std::uint32_t, std::int64_t, LakeSample>> lake;  // root, world sample, sample
+  };
+  auto solve_f = [&](std::int64_t t) {
     check();
+    LocalF r;
     const std::int64_t X = t % g.tiles_x, Z = t / g.tiles_x;
     Solve s = prepare(c, bands, load, X, Z);
-    ++st.tile_solves;
     mark_lakes(c, comp, s, std::uint64_t(t));
     finish(c, nd, s);
     const WorldGrid::Window& w = s.w;
     const std::size_t n = std::size_t(w.nx) * std::size_t(w.nz);
-    FlowTile out;
+    FlowTile& out = r.out;
     out.height.resize(n);
     out.flow.resize(n);
     out.water.assign(n, 0.0f);
@@ -809,26 +881,34 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
         if (auto it = cover_sea.find(wc); it != cover_sea.end() && !(out.height[m] < c.sea))
           out.water[m] = std::max(out.water[m], it->second);
       }
-    if (rivers) trace_pieces(c, nd, s, pieces, starts);
+    if (rivers) trace_pieces(c, nd, s, r.pieces, r.starts);
     if (lakes)
       for (std::uint32_t o = 0; o < s.rl.size(); ++o) {
         if (!s.lake[o]) continue;
         const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
-        const std::uint32_t root = comp.find(std::uint32_t(comp.base[std::size_t(t)] + s.label[o]));
+        const std::uint32_t root = comp.root(std::uint32_t(comp.base[std::size_t(t)] + s.label[o]));
         const std::size_t gi = s.grown(oi, oj);
         const std::uint32_t rg = s.rec[gi];
         bool same = false;
         if (const std::uint32_t ro = owned_of(s, rg); ro != kNone) {
-          same = s.lake[ro] && comp.find(std::uint32_t(comp.base[std::size_t(t)] + s.label[ro])) == root;
+          same = s.lake[ro] && comp.root(std::uint32_t(comp.base[std::size_t(t)] + s.label[ro])) == root;
         } else {
           const std::uint32_t k = nd.at(world_index(c, s, rg));
-          same = nd.lake[k] && comp.find(nd.comp[k]) == root;
+          same = nd.lake[k] && comp.root(nd.comp[k]) == root;
         }
         const std::int64_t wc = (w.iz0 + oj) * g.nx + w.ix0 + oi;
-        lake_cells[root].emplace(wc, LakeSample{s.zg[gi], s.eo[o], s.cnt[o], !same});
+        r.lake.emplace_back(root, wc, LakeSample{s.zg[gi], s.eo[o], s.cnt[o], !same});
       }
-    if (store) store(X, Z, std::move(out));
-  }
+    return r;
+  };
+  auto merge_f = [&](std::int64_t t, LocalF r) {
+    ++st.tile_solves;
+    for (auto& [at, pc] : r.pieces) pieces.emplace(at, std::move(pc));
+    starts.insert(starts.end(), r.starts.begin(), r.starts.end());
+    for (auto& [root, wc, ls] : r.lake) lake_cells[root].emplace(wc, ls);
+    if (store) store(t % g.tiles_x, t / g.tiles_x, std::move(r.out));
+  };
+  detail::ordered_tiles<LocalF>(all_tiles, solve_f, merge_f);
   if (lakes) {
     // Lakes in the order of their first sample (row-major), as apply_flow's scan numbers them.
     std::vector<std::pair<std::int64_t, std::uint32_t>> seeds;
@@ -872,13 +952,20 @@ WorldStageAlgorithm world_flow(WorldWaterSink water) {
   return [water](const WorldStageIO& io, const RecipeStage& st, int index) {
     const WorldFlowParams p = world_flow_params(st.stage->params());
     const WorldGrid& g = io.grid;
-    const TileLoad load = [&](std::int64_t X, std::int64_t Z) { return io.load(X, Z).layers.at("height").data; };
+    // Only the height is decoded, and only the layers the stage writes are coded (io.update copies
+    // the other layers' coded bytes through), when the build gives those calls.
+    const TileLoad load = [&](std::int64_t X, std::int64_t Z) {
+      if (io.load_layers) return std::move(io.load_layers(X, Z, {"height"}).layers.at("height").data);
+      return io.load(X, Z).layers.at("height").data;
+    };
     const FlowTileStore store = [&](std::int64_t X, std::int64_t Z, FlowTile ft) {
-      WorldTile t = io.load(X, Z);
-      t.layers.at("height").data = std::move(ft.height);
+      WorldTile t;
+      if (!io.update) t = io.load(X, Z);
+      t.layers["height"] = Layer{1, std::move(ft.height)};
       t.layers["flow"] = Layer{1, std::move(ft.flow)};
       t.layers["water"] = Layer{1, std::move(ft.water)};
-      io.store(X, Z, std::move(t));
+      if (io.update) io.update(X, Z, std::move(t));
+      else io.store(X, Z, std::move(t));
     };
     const std::string path = "stages[" + std::to_string(index) + "]";
     std::vector<River> rivers;

@@ -44,7 +44,12 @@
 //     priori, so no fixed halo).
 //   Final pass: each tile's layers, from its own solve, the perimeter nodes (shared samples it does
 //     not own) and the cover map.
-// Memory: one grown tile and its solve (about 40 bytes a sample), plus about 70 bytes per
+// Threads: every pass solves tiles concurrently on the calling task arena's threads (pass S and the
+// tiled fill by classes of tiles that are never neighbours, X mod 2 and Z mod 2) and merges their
+// results in a fixed order, so the bits, the stats and the order of the store calls are the same
+// for any thread count.
+// Memory: up to two tiles in flight per thread, each a grown tile and its solve (about 40 bytes a
+// sample), plus about 70 bytes per
 // perimeter sample of the owned rectangles (4·T per tile: 16.8 M samples, ~1.2 GB, for a 65537²
 // world in tiles of 1025), the height bands, the cover map (samples within a disc radius of tile
 // borders, ~40 bytes each), all river vertices and, with lakes, the samples of all kept lakes.
@@ -99,6 +104,8 @@ struct TiledFlowStats {
 // final pass. When `rivers` is not null it receives Terrain::rivers of the whole-map run, equal
 // field for field (whole polylines across tiles, in the same order); memory: all their vertices.
 // `filled` (optional): see "Input" above. `lakes` (optional) receives Terrain::lakes, likewise.
+// `load` and `filled` may be called concurrently for different tiles; `store` is called once per
+// tile, in tile order (row-major), from one thread at a time.
 // Throws Error(error_path, …) when the height does not already drain (see the top).
 // `cancelled` (optional) is checked between tiles: true throws relief::Cancelled.
 TiledFlowStats flow_tiled(const WorldGrid& grid, const Frame& world, const WorldFlowParams& params, const TileLoad& load,
@@ -111,7 +118,9 @@ TiledFlowStats flow_tiled(const WorldGrid& grid, const Frame& world, const World
 using WorldWaterSink = std::function<void(const Frame& world, std::vector<River> rivers, std::vector<Lake> lakes)>;
 
 // The world algorithm for build_world (default_world_algorithms()["flow"]): flow_tiled over the
-// stored tiles' "height", writing "height", "flow" and "water" into each tile; the rivers and lakes
+// stored tiles' "height" (WorldStageIO::load_layers when set: no other layer decoded), writing
+// "height", "flow" and "water" into each tile (WorldStageIO::update when set: the other layers'
+// coded bytes copied through); the rivers and lakes
 // go to `water` when given, else (WorldStageIO::out set, as build_world sets it) into the world
 // folder as rivers.json and lakes.json (write_world_water). When the height does not drain (no
 // fill stage before this one), it first fills it as apply_flow does: fill_depressions_tiled
