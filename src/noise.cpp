@@ -41,6 +41,7 @@
 #include <string>
 #include <utility>
 
+#include "noise_rows_simd.hpp"
 #include "noise_simd.hpp"
 #include "relief/error.hpp"
 #include "relief/random.hpp"
@@ -817,9 +818,18 @@ void Noise::row_reference(double z_m, std::int64_t i0, double dx_m, int n, float
     run(z_m, [=](int i) { return double(i0 + i) * dx_m; }, n, out);
 }
 
+// Rows long enough to pay for the per-row tables of noise_rows_tables_simd (Perlin builds 256 entries
+// per octave and lattice row); shorter ones, and whatever it declines, take noise_row_simd.
+constexpr std::int64_t kTableSamples = 128;
+inline bool table_basis(const detail::NoiseKernelArgs& a) {
+  return (a.basis == NoiseBasis::Perlin || a.basis == NoiseBasis::Cellular) && !a.warp;
+}
+
 void Noise::row(double z_m, std::int64_t i0, double dx_m, int n, float* out) const {
   if (n <= 0) return;
-  detail::noise_row_simd(state_->args, z_m, i0, dx_m, n, out);
+  const detail::NoiseKernelArgs& a = state_->args;
+  if (n >= kTableSamples && table_basis(a) && detail::noise_rows_tables_simd(a, &z_m, 1, i0, dx_m, n, out, n)) return;
+  detail::noise_row_simd(a, z_m, i0, dx_m, n, out);
 }
 
 NoiseColumns Noise::columns(std::int64_t i0, double dx_m, int n) const {
@@ -855,6 +865,9 @@ void Noise::rows(const double* z_m, int nrows, std::int64_t i0, double dx_m, int
   if (n <= 0 || nrows <= 0) return;
   const detail::NoiseKernelArgs a = state_->args;
   if (nrows == 1 || !detail::noise_columns_supported(a)) {
+    if (std::int64_t(n) * nrows >= kTableSamples && table_basis(a) &&
+        detail::noise_rows_tables_simd(a, z_m, nrows, i0, dx_m, n, out, stride))
+      return;
     for (int r = 0; r < nrows; ++r) row(z_m[r], i0, dx_m, n, out + r * stride);
     return;
   }

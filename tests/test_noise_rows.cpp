@@ -165,5 +165,94 @@ TEST(NoiseRows, EmptyBlocksWriteNothing) {
   EXPECT_FALSE(noise.columns(0, 1.0, 0).precomputed());
 }
 
+// Perlin and Cellular rows and blocks (the per-row table kernels of noise_rows_simd.cpp where the
+// target has them) against the scalar reference, bit for bit, on every forced target: every fractal,
+// periodic along x, z, both or neither, every cellular return at jitters 1, 0.6 and 0, in the windows
+// above and in windows of 2048 columns at 1 and 2.7 samples per cell (every table entry, cells
+// straddled by most vectors), rows far apart and rows sharing their lattice row.
+int reference_mismatches(const NoiseSettings& s, const std::string& what) {
+  const Noise noise(s);
+  struct W {
+    std::int64_t i0;
+    double dx;
+    int n;
+    double z0, dz;
+    int nrows;
+  };
+  std::vector<W> windows;
+  for (const Window& w : kWindows) windows.push_back({w.i0, w.dx, w.n, w.z0, w.dz, 5});
+  windows.push_back({-1000, 0.37, 2048, -3.0, 0.11, 9});
+  windows.push_back({77, 1.0 / 2.7, 2048, 12.0, 0.5, 4});
+  int bad = 0;
+  for (const W& w : windows) {
+    const std::ptrdiff_t stride = w.n + 3;
+    std::vector<double> z(std::size_t(w.nrows));
+    for (int r = 0; r < w.nrows; ++r) z[std::size_t(r)] = w.z0 + double(r * r) * w.dz;
+    std::vector<float> block(std::size_t(stride) * std::size_t(w.nrows), -5.0f), one(std::size_t(w.n), -6.0f),
+        ref(std::size_t(w.n), -7.0f);
+    noise.rows(z.data(), w.nrows, w.i0, w.dx, w.n, block.data(), stride);
+    for (int r = 0; r < w.nrows; ++r) {
+      noise.row_reference(z[std::size_t(r)], w.i0, w.dx, w.n, ref.data());
+      noise.row(z[std::size_t(r)], w.i0, w.dx, w.n, one.data());
+      const float* b = block.data() + r * stride;
+      const bool ok = same_bits(b, ref.data(), ref.size()) && same_bits(one.data(), ref.data(), ref.size()) &&
+                      b[w.n] == -5.0f && b[w.n + 1] == -5.0f && b[w.n + 2] == -5.0f;
+      if (!ok && bad++ == 0) {
+        for (int i = 0; i < w.n; ++i)
+          if (!same_bits(b + i, &ref[std::size_t(i)], 1) || !same_bits(&one[std::size_t(i)], &ref[std::size_t(i)], 1)) {
+            ADD_FAILURE() << what << ": n " << w.n << " dx " << w.dx << " row " << r << " i " << i << ": rows " << b[i]
+                          << " row() " << one[std::size_t(i)] << " reference " << ref[std::size_t(i)];
+            break;
+          }
+      }
+    }
+  }
+  return bad;
+}
+
+TEST(NoiseRows, PerlinAndCellularBitIdenticalToReferenceOnEveryTarget) {
+  const Fractal fractals[] = {Fractal::None, Fractal::Fbm, Fractal::Ridged, Fractal::Billow};
+  const CellularReturn returns[] = {CellularReturn::F1, CellularReturn::F2, CellularReturn::F2MinusF1,
+                                    CellularReturn::CellValue};
+  for (const auto& t : detail::noise_simd_targets()) {
+    ForceTarget f(t.bits);
+    int configs = 0;
+    for (NoiseBasis b : {NoiseBasis::Perlin, NoiseBasis::Cellular})
+      for (Fractal fr : fractals)
+        for (int period = 0; period < 4; ++period)
+          for (CellularReturn ret : returns)
+            for (double jitter : {1.0, 0.6, 0.0}) {
+              if (b == NoiseBasis::Perlin && (ret != CellularReturn::F1 || jitter != 1.0)) continue;
+              if (b == NoiseBasis::Cellular && jitter != 1.0 && (fr != Fractal::None || period != 1)) continue;
+              NoiseSettings s = gradient(fr, 4, 2.1);
+              s.basis = b;
+              s.cellular = ret;
+              s.jitter = jitter;
+              s.frequency = 1.0 / 13.0;
+              if (period == 1 || period == 3) s.period_x_m = 700.0;
+              if (period == 1 || period == 2) s.period_z_m = 450.0;
+              const std::string what = t.name + " basis " + std::to_string(int(b)) + " fractal " +
+                                       std::to_string(int(fr)) + " period " + std::to_string(period) + " return " +
+                                       std::to_string(int(ret)) + " jitter " + std::to_string(jitter);
+              EXPECT_EQ(reference_mismatches(s, what), 0) << what;
+              ++configs;
+            }
+    EXPECT_EQ(configs, 4 * 4 + 4 * 4 * 4 + 4 * 2);
+  }
+}
+
+// A period of one lattice cell along x at the Perlin table's last entry: every sample's right
+// neighbour wraps to cell 0 (the table's entry 256).
+TEST(NoiseRows, PerlinPeriodsOfFewCells) {
+  for (double period : {13.0, 3.0 * 13.0, 257.0 * 13.0}) {
+    NoiseSettings s = gradient(Fractal::Fbm, 3, 2.0);
+    s.basis = NoiseBasis::Perlin;
+    s.frequency = 1.0 / 13.0;
+    s.period_x_m = period;
+    s.period_z_m = period;
+    EXPECT_EQ(reference_mismatches(s, "period " + std::to_string(period)), 0) << period;
+  }
+}
+
 }  // namespace
 }  // namespace relief
