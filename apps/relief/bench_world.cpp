@@ -4,13 +4,27 @@
 //     windows alone, and the whole build into a tile store (zlib tiles, fsync, overview);
 //   * a river world of the river-island kind without its bounded erosion stages (noise, island,
 //     redistribute, fill, flow, color, hillshade): the whole build, and per stage class (pointwise,
-//     neighbourhood, exact global) the samples per second per core, whole map against tiled.
+//     neighbourhood, exact global) the samples per second per core, whole map against tiled;
+//   * the same river world built by `mpirun -n 1` and `-n 2` (`relief world` as a subprocess, one
+//     thread per rank), when mpirun is on the PATH: wall times and their ratio.
+// Opt-in large case: RELIEF_BENCH_WORLD_SIZE=N (e.g. 32769) runs only a river world of N² samples
+// (noise, island, redistribute, fill, flow; tiles of RELIEF_BENCH_WORLD_TILE, default 1025) into a
+// folder under RELIEF_BENCH_WORLD_DIR (default: the temp folder), printing the build's own disk
+// estimate first, then wall time, per-stage times, samples per second per core per stage class,
+// peak memory and store bytes; the folder is deleted after.
 // Registered by bench.cpp as the "world" group (void bench_world(const BenchSettings&, json&)).
-#include <filesystem>
-#include <map>
+#include <sys/wait.h>
 #include <unistd.h>
 
+#include <chrono>
+#include <cstdlib>
+#include <filesystem>
+#include <fstream>
+#include <map>
+#include <thread>
+
 #include "bench_common.hpp"
+#include "relief/error.hpp"
 #include "relief/world.hpp"
 
 namespace relief::cli {
@@ -18,12 +32,15 @@ namespace {
 
 // The river-island preset without its bounded stages (stream_power, hydraulic, thermal), with a
 // fill before the flow: every stage is exact in a world build.
-json river_world_doc(int n) {
+// Without colour and hillshade when `colour` is false (the large case: what the benchmark of issue
+// 18 names, noise, shaping, fill, flow and rivers).
+json river_world_doc(int n, bool colour = true) {
   json doc = preset_doc("river-island", n);
   json stages = json::array();
   for (const json& st : doc["stages"]) {
     const std::string name = st.value("stage", "");
     if (name == "stream_power" || name == "hydraulic" || name == "thermal") continue;
+    if (!colour && (name == "color" || name == "hillshade")) continue;
     if (name == "flow") stages.push_back({{"stage", "fill"}, {"epsilon_m", st.value("epsilon_m", 0.0)}});
     stages.push_back(st);
   }
@@ -103,9 +120,145 @@ void bench_world_rivers(const BenchSettings& s, json& entries, int n, const std:
   std::filesystem::remove_all(dir);
 }
 
+// `mpirun -n 1` against `-n 2` (one thread per rank) on the river world: `relief world` as a
+// subprocess (this executable), wall time per build, tiles each rank built, and the ratio.
+void bench_world_mpi(const BenchSettings& s, json& entries, int n, const std::filesystem::path& dir) {
+  namespace fs = std::filesystem;
+  if (std::system("command -v mpirun >/dev/null 2>&1") != 0) {
+    std::printf("world mpi: skipped (mpirun is not on the PATH)\n");
+    return;
+  }
+  std::error_code ec;
+  const fs::path exe = fs::read_symlink("/proc/self/exe", ec);
+  if (ec) {
+    std::printf("world mpi: skipped (cannot find this executable: %s)\n", ec.message().c_str());
+    return;
+  }
+  fs::create_directories(dir, ec);
+  const fs::path recipe = dir / "river-world.json";
+  std::ofstream(recipe) << river_world_doc(n).dump(2);
+  const int tile = n >= 2049 ? 257 : 129;
+  double ms[2] = {0, 0};
+  for (int ranks : {1, 2}) {
+    const fs::path out = dir / ("mpi-" + std::to_string(ranks));
+    const std::string cmd = "mpirun --oversubscribe --allow-run-as-root -n " + std::to_string(ranks) + " '" + exe.string() +
+                            "' world '" + recipe.string() + "' --size " + std::to_string(n) + " --tile " + std::to_string(tile) +
+                            " -j 1 -q -o '" + out.string() + "' >'" + (dir / "mpi.log").string() + "' 2>&1";
+    bool failed = false;
+    const Sample t = time_runs(
+        s.runs,
+        [&] {
+          const int rc = std::system(cmd.c_str());
+          failed = failed || rc != 0;
+        },
+        [&] { fs::remove_all(out, ec); });
+    if (failed) {
+      std::printf("world mpi: `mpirun -n %d relief world` failed; skipped (see %s)\n", ranks, (dir / "mpi.log").string().c_str());
+      return;
+    }
+    ms[ranks - 1] = t.median;
+    json e = timing_entry("world rivers mpi -n " + std::to_string(ranks), n, n, 1, t);
+    e["ranks"] = ranks;
+    e["tile"] = tile;
+    std::ifstream rf(out / "report.json");
+    const json report = json::parse(rf, nullptr, false);
+    if (report.is_object() && report.contains("tiles")) e["built_by_rank"] = report["tiles"].value("built_by_rank", json::array());
+    if (ranks == 2) e["ratio_to_1_rank"] = ms[1] / ms[0];
+    print_row(e);
+    if (ranks == 2) std::printf("  2 ranks take %.2fx the time of 1 (global stages run on rank 0)\n", ms[1] / ms[0]);
+    entries.push_back(e);
+  }
+}
+
+// The opt-in large case (RELIEF_BENCH_WORLD_SIZE): one build, reported once.
+void bench_world_large(const BenchSettings& s, json& entries, int n) {
+  namespace fs = std::filesystem;
+  const char* tile_env = std::getenv("RELIEF_BENCH_WORLD_TILE");
+  const int tile = tile_env ? std::atoi(tile_env) : 1025;
+  const char* dir_env = std::getenv("RELIEF_BENCH_WORLD_DIR");
+  const fs::path dir = fs::path(dir_env ? dir_env : fs::temp_directory_path().string()) / ("relief-bench-world-large-" + std::to_string(::getpid()));
+  const int threads = s.threads.empty() ? 0 : s.threads.back();
+  const Recipe r = parse_recipe(river_world_doc(n, false));
+  WorldSettings ws;
+  ws.recipe = r;
+  ws.tile = tile;
+  ws.out_dir = dir.string();
+  ws.threads = threads;
+  // The disk estimate first: the build's own check, asked with one free byte, refuses and says it.
+  std::error_code ec;
+  const fs::space_info sp = fs::space(fs::path(dir_env ? dir_env : fs::temp_directory_path().string()), ec);
+  {
+    WorldSettings probe = ws;
+    probe.disk_free_bytes = 1;
+    try {
+      build_world(probe);
+    } catch (const Error& e) {
+      std::printf("world large %d² (tiles of %d): the disk check says: %s\n", n, tile, e.message().c_str());
+    }
+    std::printf("  free here: %s\n", ec ? "?" : human_bytes(sp.available).c_str());
+  }
+  std::fflush(stdout);
+  int last_pct = -1;
+  ws.progress = [&](const WorldProgress& p) {
+    const int pct = int(p.fraction * 20) * 5;
+    if (pct == last_pct) return;
+    last_pct = pct;
+    std::fprintf(stderr, "  %3d%% (%lld of %lld tiles)\n", pct, (long long)p.tiles_done, (long long)p.tiles_total);
+  };
+  WorldReport rep;
+  try {
+    rep = build_world(ws);
+  } catch (...) {
+    fs::remove_all(dir, ec);
+    throw;
+  }
+  fs::remove_all(dir, ec);
+  const int used = rep.tiles_at_once > 1 ? rep.tiles_at_once : (threads > 0 ? threads : int(std::thread::hardware_concurrency()));
+  Sample t;
+  t.median = t.min = t.max = rep.total_ms;
+  json e = timing_entry("world rivers large " + std::to_string(tile), n, n, used, t);
+  e["peak_memory_bytes"] = rep.peak_memory_bytes;
+  e["store_bytes"] = rep.store_bytes;
+  e["estimated_store_bytes"] = rep.estimated_bytes;
+  e["tiles"] = rep.grid.count();
+  print_row(e);
+  const double samples = double(n) * double(n);
+  std::printf("  wall %.1f s, peak memory %s, store %s (estimate %s), %lld tiles of %d, %d threads\n", rep.total_ms / 1e3,
+              human_bytes(rep.peak_memory_bytes).c_str(), human_bytes(rep.store_bytes).c_str(), human_bytes(rep.estimated_bytes).c_str(),
+              (long long)rep.grid.count(), tile, used);
+  // Local stages' times are summed over the tiles (each tile on one thread when tiles are built
+  // concurrently): per core already. Global stages' times are wall times on `used` threads.
+  std::map<std::string, double> cls;  // class → core-seconds
+  json per_stage = json::array();
+  for (std::size_t i = 0; i < rep.timings.size(); ++i) {
+    const StageTiming& st = rep.timings[i];
+    const char* c = stage_class(*r.stages[i].def);
+    const bool global = r.stages[i].def->locality == Locality::Global;
+    const double core_s = st.ms / 1e3 * (global || rep.tiles_at_once == 1 ? used : 1);
+    cls[c] += core_s;
+    const double per_core = core_s > 0 ? samples / core_s : 0;
+    std::printf("  %-14s %-13s %9.1f s  %8.2f Msamples/s/core\n", (st.label.empty() ? st.name : st.label).c_str(), c, st.ms / 1e3,
+                per_core / 1e6);
+    per_stage.push_back({{"stage", st.name}, {"class", c}, {"ms", st.ms}, {"msamples_per_core_s", per_core / 1e6}});
+  }
+  json classes = json::object();
+  for (const auto& [c, core_s] : cls) {
+    classes[c] = {{"core_s", core_s}, {"msamples_per_core_s", core_s > 0 ? samples / core_s / 1e6 : 0.0}};
+    std::printf("  class %-13s %8.2f Msamples/s/core\n", c.c_str(), core_s > 0 ? samples / core_s / 1e6 : 0.0);
+  }
+  e["per_stage"] = per_stage;
+  e["classes"] = classes;
+  entries.push_back(e);
+}
+
 }  // namespace
 
 void bench_world(const BenchSettings& s, json& entries) {
+  if (const char* large = std::getenv("RELIEF_BENCH_WORLD_SIZE")) {
+    std::printf("RELIEF_BENCH_WORLD_SIZE=%s: only the large world case\n", large);
+    bench_world_large(s, entries, std::atoi(large));
+    return;
+  }
   const int n = s.preset_sizes.empty() ? 4097 : std::max(257, s.preset_sizes.back());
   const json doc = preset_doc("island", n);
   const Recipe r = parse_recipe(doc);
@@ -161,6 +314,8 @@ void bench_world(const BenchSettings& s, json& entries) {
   }
   std::filesystem::remove_all(dir);
   bench_world_rivers(s, entries, n, dir);
+  bench_world_mpi(s, entries, std::min(n, 2049), dir);
+  std::filesystem::remove_all(dir);
 }
 
 }  // namespace relief::cli
