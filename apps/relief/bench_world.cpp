@@ -178,9 +178,11 @@ void bench_world_large(const BenchSettings& s, json& entries, int n) {
   const char* dir_env = std::getenv("RELIEF_BENCH_WORLD_DIR");
   const fs::path dir = fs::path(dir_env ? dir_env : fs::temp_directory_path().string()) / ("relief-bench-world-large-" + std::to_string(::getpid()));
   const int threads = s.threads.empty() ? 0 : s.threads.back();
-  const Recipe r = parse_recipe(river_world_doc(n, false));
+  // The recipe at a size one map may have; the world's size is the build's (it may be larger).
+  const Recipe r = parse_recipe(river_world_doc(std::min(n, 1025), false));
   WorldSettings ws;
   ws.recipe = r;
+  ws.nx = ws.nz = n;
   ws.tile = tile;
   ws.out_dir = dir.string();
   ws.threads = threads;
