@@ -329,8 +329,47 @@ struct CellTables {
 
 constexpr double kK21 = kCell2m21;
 
-// kN vectors (fx[u]; lanes' entries e[u], or all e0 when broadcast) through the nine visits, their
-// chains interleaved.
+// One candidate feature point seen from kN vectors: dist = (p − fx)² + dy², folded into the
+// running F1 (d1), F2 (d2) or owner's cell value (h1) as the reference folds it.
+template <int kRet, int kN>
+HWY_INLINE void CellFold(const __m256d* p, const __m256d* dy2, const __m256d* cv, const __m256d* fx, __m256d* d1,
+                         __m256d* d2, __m256d* h1) {
+  for (int u = 0; u < kN; ++u) {
+    const __m256d ddx = _mm256_sub_pd(p[u], fx[u]);
+    const __m256d dist = _mm256_add_pd(_mm256_mul_pd(ddx, ddx), dy2[u]);
+    if constexpr (kRet == int(CellularReturn::F1)) {
+      d1[u] = _mm256_min_pd(dist, d1[u]);  // dist < d1 ? dist : d1 (NaN keeps d1, as the reference)
+    } else if constexpr (kRet == int(CellularReturn::CellValue)) {
+      const __m256d lt = _mm256_cmp_pd(dist, d1[u], _CMP_LT_OQ);
+      d1[u] = _mm256_blendv_pd(d1[u], dist, lt);
+      h1[u] = _mm256_blendv_pd(h1[u], cv[u], lt);
+    } else {
+      // The reference's "if (d < d1) {d2 = d1; d1 = d;} else if (d < d2) d2 = d;" as
+      // d2 = min(max(d, d1), d2), d1 = min(d, d1) (NaN d leaves both).
+      d2[u] = _mm256_min_pd(_mm256_max_pd(dist, d1[u]), d2[u]);
+      d1[u] = _mm256_min_pd(dist, d1[u]);
+    }
+  }
+}
+template <int kRet, int kN>
+HWY_INLINE void CellFinish(const __m256d* d1, const __m256d* d2, const __m256d* h1, __m256d* res) {
+  const __m256d one = _mm256_set1_pd(1.0), two = _mm256_set1_pd(2.0);
+  auto min1 = [&](__m256d v) { return _mm256_blendv_pd(v, one, _mm256_cmp_pd(one, v, _CMP_LT_OQ)); };  // std::min(v, 1.0)
+  for (int u = 0; u < kN; ++u) {
+    if constexpr (kRet == int(CellularReturn::F1)) {
+      res[u] = _mm256_sub_pd(_mm256_mul_pd(two, min1(_mm256_sqrt_pd(d1[u]))), one);
+    } else if constexpr (kRet == int(CellularReturn::F2)) {
+      res[u] = _mm256_sub_pd(_mm256_mul_pd(two, min1(_mm256_mul_pd(_mm256_sqrt_pd(d2[u]), _mm256_set1_pd(1.0 / 1.5)))), one);
+    } else if constexpr (kRet == int(CellularReturn::F2MinusF1)) {
+      res[u] = _mm256_sub_pd(_mm256_mul_pd(two, min1(_mm256_sub_pd(_mm256_sqrt_pd(d2[u]), _mm256_sqrt_pd(d1[u])))), one);
+    } else {
+      res[u] = h1[u];
+    }
+  }
+}
+
+// kN vectors (fx[u]; lanes' entries e[u], or all e0 when broadcast) through the nine visits in the
+// reference's order, their chains interleaved.
 template <int kRet, bool kGather, int kN>
 HWY_INLINE void CellVisitAll(const CellTables& t, std::int64_t e0, const __m128i* e, const __m256d* fx, __m256d* res) {
   const __m256d inf = _mm256_set1_pd(HUGE_VAL);
@@ -351,36 +390,29 @@ HWY_INLINE void CellVisitAll(const CellTables& t, std::int64_t e0, const __m128i
           if constexpr (kRet == int(CellularReturn::CellValue)) cv[u] = _mm256_broadcast_sd(t.cv[b] + e0 + a - 1);
         }
       }
-      for (int u = 0; u < kN; ++u) {
-        const __m256d ddx = _mm256_sub_pd(p[u], fx[u]);
-        const __m256d dist = _mm256_add_pd(_mm256_mul_pd(ddx, ddx), dy2[u]);
-        if constexpr (kRet == int(CellularReturn::F1)) {
-          d1[u] = _mm256_min_pd(dist, d1[u]);  // dist < d1 ? dist : d1 (NaN keeps d1, as the reference)
-        } else if constexpr (kRet == int(CellularReturn::CellValue)) {
-          const __m256d lt = _mm256_cmp_pd(dist, d1[u], _CMP_LT_OQ);
-          d1[u] = _mm256_blendv_pd(d1[u], dist, lt);
-          h1[u] = _mm256_blendv_pd(h1[u], cv[u], lt);
-        } else {
-          // The reference's "if (d < d1) {d2 = d1; d1 = d;} else if (d < d2) d2 = d;" as
-          // d2 = min(max(d, d1), d2), d1 = min(d, d1) (NaN d leaves both).
-          d2[u] = _mm256_min_pd(_mm256_max_pd(dist, d1[u]), d2[u]);
-          d1[u] = _mm256_min_pd(dist, d1[u]);
-        }
-      }
+      CellFold<kRet, kN>(p, dy2, cv, fx, d1, d2, h1);
     }
-  const __m256d one = _mm256_set1_pd(1.0), two = _mm256_set1_pd(2.0);
-  auto min1 = [&](__m256d v) { return _mm256_blendv_pd(v, one, _mm256_cmp_pd(one, v, _CMP_LT_OQ)); };  // std::min(v, 1.0)
-  for (int u = 0; u < kN; ++u) {
-    if constexpr (kRet == int(CellularReturn::F1)) {
-      res[u] = _mm256_sub_pd(_mm256_mul_pd(two, min1(_mm256_sqrt_pd(d1[u]))), one);
-    } else if constexpr (kRet == int(CellularReturn::F2)) {
-      res[u] = _mm256_sub_pd(_mm256_mul_pd(two, min1(_mm256_mul_pd(_mm256_sqrt_pd(d2[u]), _mm256_set1_pd(1.0 / 1.5)))), one);
-    } else if constexpr (kRet == int(CellularReturn::F2MinusF1)) {
-      res[u] = _mm256_sub_pd(_mm256_mul_pd(two, min1(_mm256_sub_pd(_mm256_sqrt_pd(d2[u]), _mm256_sqrt_pd(d1[u])))), one);
-    } else {
-      res[u] = h1[u];
+  CellFinish<kRet, kN>(d1, d2, h1, res);
+}
+
+// The same for vectors whose lanes all lie in cell e, through that cell's list of candidates that
+// can win somewhere in it (CellLists), in the reference's order.
+template <int kRet, int kN>
+HWY_INLINE void CellVisitList(const double* lp, const double* ld, const double* lc, int count, const __m256d* fx,
+                              __m256d* res) {
+  const __m256d inf = _mm256_set1_pd(HUGE_VAL);
+  __m256d d1[kN], d2[kN], h1[kN];
+  for (int u = 0; u < kN; ++u) d1[u] = d2[u] = inf, h1[u] = _mm256_set1_pd(-1.0);
+  for (int t = 0; t < count; ++t) {
+    __m256d p[kN], dy2[kN], cv[kN];
+    for (int u = 0; u < kN; ++u) {
+      p[u] = _mm256_broadcast_sd(lp + t);
+      dy2[u] = _mm256_broadcast_sd(ld + t);
+      if constexpr (kRet == int(CellularReturn::CellValue)) cv[u] = _mm256_broadcast_sd(lc + t);
     }
+    CellFold<kRet, kN>(p, dy2, cv, fx, d1, d2, h1);
   }
+  CellFinish<kRet, kN>(d1, d2, h1, res);
 }
 
 struct CellOctaveState {
@@ -392,7 +424,63 @@ struct CellOctaveState {
   double* py = nullptr;   // [b][R]
   double* cv = nullptr;   // [b][R]
   double* dy2 = nullptr;  // [b][R]
+  // Culling (rows of at least kCullSamples samples per cell): per cell e, the candidates that can
+  // give its F1 (or F2) somewhere in the cell, in visiting order: lp, ld, lc (px, dy², cell value)
+  // at e·9 + t, t < count[e].
+  bool cull = false;
+  double* lp = nullptr;
+  double* ld = nullptr;
+  double* lc = nullptr;
+  std::int32_t* count = nullptr;
 };
+
+constexpr int kCullSamples = 8;
+
+// The candidate lists of one row (after dy2). Candidate i is dist_i(fx) = (p_i − fx)² + dy²_i over
+// the cell, fx in [0, 1): at least LB_i = dy²_i + gap(p_i, [0, 1])², at most UB_i = dy²_i +
+// max(p_i², (p_i − 1)²). F1 is at most min UB everywhere in the cell, so a candidate with LB_i above
+// it (by a margin far beyond the rounding of dist, about 1e-15 here) is never the minimum, nor ties
+// it; F2 likewise with the second smallest UB (two candidates are below it everywhere). The kept
+// candidates include the ones attaining those bounds, so the fold over the list gives the same
+// d1, d2 and first owner as over all nine. Not finite bounds: all nine are kept.
+template <int kRet>
+void CellLists(CellOctaveState& s) {
+  constexpr bool kSecond = kRet == int(CellularReturn::F2) || kRet == int(CellularReturn::F2MinusF1);
+  constexpr double kMargin = 1e-9;
+  const int R = s.R;
+  for (int e = 1; e + 1 < R; ++e) {
+    double p[9], d[9], c[9], lb[9], ub[9];
+    bool finite = true;
+    double m1 = HUGE_VAL, m2 = HUGE_VAL;
+    for (int b = 0; b < 3; ++b)
+      for (int a = 0; a < 3; ++a) {
+        const int t = b * 3 + a, ee = e + a - 1;
+        p[t] = s.px[t * R + ee];
+        d[t] = s.dy2[b * R + ee];
+        c[t] = s.cv[b * R + ee];
+        const double g = p[t] < 0.0 ? -p[t] : p[t] > 1.0 ? p[t] - 1.0 : 0.0;
+        lb[t] = d[t] + g * g;
+        ub[t] = d[t] + std::max(p[t] * p[t], (p[t] - 1.0) * (p[t] - 1.0));
+        finite = finite && std::isfinite(lb[t]) && std::isfinite(ub[t]);
+        if (ub[t] < m1) {
+          m2 = m1;
+          m1 = ub[t];
+        } else if (ub[t] < m2) {
+          m2 = ub[t];
+        }
+      }
+    const double thr = (kSecond ? m2 : m1) + kMargin;
+    int k = 0;
+    for (int t = 0; t < 9; ++t)
+      if (!finite || lb[t] <= thr) {
+        s.lp[e * 9 + k] = p[t];
+        s.ld[e * 9 + k] = d[t];
+        s.lc[e * 9 + k] = c[t];
+        ++k;
+      }
+    s.count[e] = k;
+  }
+}
 
 void CellBuild(const NoiseOctave& o, double jitter, std::int64_t j, CellOctaveState& s) {
   std::uint64_t rk[3];
@@ -440,6 +528,7 @@ void CellularRows(const NoiseKernelArgs& a, const double* z, int nrows, std::int
         tabs[k].dy2[b] = dy2;
         tabs[k].cv[b] = s.cv + b * s.R;
       }
+      if (s.cull) CellLists<kRet>(s);
       amp[k] = _mm256_set1_pd(o.amp);
       f[k] = _mm256_set1_pd(o.freq_x);
       off[k] = _mm256_set1_pd(o.offset_x);
@@ -469,10 +558,34 @@ void CellularRows(const NoiseKernelArgs& a, const double* z, int nrows, std::int
           if (u == 0) e0 = _mm_cvtsi128_si32(e[0]);
           same = _mm_and_si128(same, _mm_cmpeq_epi32(e[u], _mm_set1_epi32(e0)));
         }
-        if (_mm_movemask_epi8(same) == 0xFFFF)
+        const CellOctaveState& s = mst[k];
+        if (s.cull) {
+          // Every lane in cell e0, or in e0 and e0 + 1 (a vector across one cell edge: both cells'
+          // lists, each lane taking its own cell's result), else gathered.
+          __m128i next = _mm_set1_epi32(-1);
+          for (int u = 0; u < kN; ++u) next = _mm_and_si128(next, _mm_or_si128(_mm_cmpeq_epi32(e[u], _mm_set1_epi32(e0)),
+                                                                             _mm_cmpeq_epi32(e[u], _mm_set1_epi32(e0 + 1))));
+          auto list = [&](int c, __m256d* res) {
+            CellVisitList<kRet, kN>(s.lp + c * 9, s.ld + c * 9, s.lc + c * 9, s.count[c], fx, res);
+          };
+          if (_mm_movemask_epi8(same) == 0xFFFF) {
+            list(e0, nk);
+          } else if (_mm_movemask_epi8(next) == 0xFFFF) {
+            __m256d n1[kN];
+            list(e0, nk);
+            list(e0 + 1, n1);
+            for (int u = 0; u < kN; ++u) {
+              const __m256d in1 = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm_cmpeq_epi32(e[u], _mm_set1_epi32(e0 + 1))));
+              nk[u] = _mm256_blendv_pd(nk[u], n1[u], in1);
+            }
+          } else {
+            CellVisitAll<kRet, true, kN>(tabs[k], e0, e, fx, nk);
+          }
+        } else if (_mm_movemask_epi8(same) == 0xFFFF) {
           CellVisitAll<kRet, false, kN>(tabs[k], e0, e, fx, nk);
-        else
+        } else {
           CellVisitAll<kRet, true, kN>(tabs[k], e0, e, fx, nk);
+        }
         for (int u = 0; u < kN; ++u) acc[u] = FoldV<kFr>(acc[u], amp[k], nk[u]);
       }
       for (int u = 0; u < kN; ++u) Store4(FinishV<kFr>(acc[u], inv), dst + i + 4 * u, n - i - 4 * u);
@@ -493,12 +606,18 @@ bool CellularPrepare(const NoiseKernelArgs& a, std::int64_t i0, double dx, int n
     const std::int64_t c0 = FloorI64(u0), c1 = FloorI64(u1);
     const std::int64_t lo = std::min(c0, c1), hi = std::max(c0, c1);
     if (hi - lo > 4 * std::int64_t(n) + 64) return false;
+    // The culling bounds take fx in [0, 1): positions within ±2⁵⁰ cells (far beyond any terrain).
+    if (!(std::fabs(u0) < 0x1p50 && std::fabs(u1) < 0x1p50)) return false;
     st[k].base = lo - 1;
     st[k].R = int(hi - lo + 3);
     st[k].built = false;
-    total += std::size_t(st[k].R) * 18;
+    st[k].cull = std::int64_t(st[k].R) * kCullSamples <= std::int64_t(n) + 2 * kCullSamples;
+    total += std::size_t(st[k].R) * (st[k].cull ? 45 : 18);
   }
   double* p = Grow(tls.d, total);
+  std::size_t ints = 0;
+  for (int k = 0; k < a.count; ++k) ints += st[k].cull ? std::size_t(st[k].R) : 0;
+  std::int32_t* q = Grow(tls.i, ints + 1);
   for (int k = 0; k < a.count; ++k) {
     const std::size_t R = std::size_t(st[k].R);
     st[k].px = p;
@@ -506,6 +625,14 @@ bool CellularPrepare(const NoiseKernelArgs& a, std::int64_t i0, double dx, int n
     st[k].cv = p + 12 * R;
     st[k].dy2 = p + 15 * R;
     p += 18 * R;
+    if (st[k].cull) {
+      st[k].lp = p;
+      st[k].ld = p + 9 * R;
+      st[k].lc = p + 18 * R;
+      p += 27 * R;
+      st[k].count = q;
+      q += R;
+    }
   }
   return true;
 }
