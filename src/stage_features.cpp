@@ -18,8 +18,11 @@
 // above sea level on average whatever the iteration count; a crater bowl is carved inside the rim.
 // The volcano (placement land) and the features need the whole map to choose a place on land:
 // global stages — their candidates are scored on the incoming heights anywhere in the window, so a
-// tile cannot know the choice without every other tile's heights (a world algorithm could: score
-// the candidates from the stored tiles, then apply the disk; not written yet). A volcano with
+// tile cannot know the choice without every other tile's heights. Their world algorithms
+// (relief/world_features.hpp, src/world_features.cpp) score the candidates from the stored tiles and
+// then apply the effects tile by tile, exactly: the decisions and per-sample effects live here once,
+// in detail::VolcanoPlan and detail::FeaturesPlan, which both the whole-map stages below and the
+// world algorithms run (positions in world metres, reads by world-grid index). A volcano with
 // placement fixed is a neighbourhood stage: a sample within radius_m of the centre depends on the
 // lava level, read from the heights at the rim (rim_radius_m from the centre) and the centre, so
 // on the input within radius_m + rim_radius_m of it; volcano_reach gives ceil of that in samples

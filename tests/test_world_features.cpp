@@ -15,6 +15,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <tuple>
 #include <vector>
 
 #include "relief/error.hpp"
@@ -332,4 +333,67 @@ TEST(WorldFeatures, VolcanoOnLandChosenInALaterTileAndFeaturesKeepClearOfIt) {
     const std::vector<Point> feats(with_features.points.begin() + 1, with_features.points.end());
     expect_same_points(feats, expect_world_stage_equals_whole(world_features(), f, 3, 17, with_volcano, with_features, tile));
   }
+}
+
+// ---- through build_world -------------------------------------------------------------------------
+
+namespace {
+
+// build_world of `r` at nx × nz in tiles of `tile` with the feature stages' world algorithms (the
+// volcano given the legend of the stages before it: the biomes stage's, taken from a small
+// whole-map run — it depends on the params only); their points are captured from io.points.
+std::map<std::string, std::vector<Point>> build_with_features(const Recipe& r, int nx, int nz, int tile, const std::string& dir) {
+  auto captured = std::make_shared<std::map<std::string, std::vector<Point>>>();
+  auto legend = std::make_shared<std::vector<BiomeInfo>>();
+  {
+    int iv = 0;
+    while (r.stages[std::size_t(iv)].def->name != "volcano") ++iv;
+    *legend = whole_states(r, 65, 65).at(iv - 1).biomes;
+  }
+  auto capture = [captured](std::string name, WorldStageAlgorithm algo) -> WorldStageAlgorithm {
+    return [captured, name, algo](const WorldStageIO& io, const RecipeStage& st, int index) {
+      WorldStageIO mine = io;
+      mine.points = [captured, name](std::vector<Point> p) { (*captured)[name] = std::move(p); };
+      algo(mine, st, index);
+    };
+  };
+  WorldSettings s = settings(r, nx, nz, tile, dir);
+  s.algorithms["volcano"] = capture("volcano", world_volcano(legend));
+  s.algorithms["features"] = capture("features", world_features());
+  build_world(s);
+  return *captured;
+}
+
+}  // namespace
+
+static void expect_world_equals_whole_map(const Recipe& r) {
+  for (auto [nx, nz, tile] : {std::tuple{513, 513, 65}, std::tuple{513, 513, 129}, std::tuple{500, 513, 129}}) {
+    SCOPED_TRACE(std::to_string(nx) + "x" + std::to_string(nz) + " tile " + std::to_string(tile));
+    const Terrain whole = whole_map(r, nx, nz);
+    relief::test::TempDir d("world-features");
+    const auto points = build_with_features(r, nx, nz, tile, d / "w");
+    expect_same_layers(whole, read_world_window(d / "w", 0, 0, nx, nz));
+    ASSERT_TRUE(points.count("volcano") && points.count("features"));
+    expect_same_points(points_of_kind(whole.points, {"volcano"}), points.at("volcano"));
+    expect_same_points(points_of_kind(whole.points, {"crater", "peak"}), points.at("features"));
+  }
+}
+
+// The preset without its props stage: the stages after the volcano and features (terrace, jiggle,
+// hillshade) then read no biome legend, which build_world's phases do not carry yet.
+TEST(WorldFeatures, VolcanicIslandWithoutPropsBuiltAsAWorldEqualsTheWholeMap) {
+  json doc = preset_doc("volcanic-island");
+  json stages = json::array();
+  for (const json& s : doc["stages"])
+    if (s["stage"] != "props") stages.push_back(s);
+  doc["stages"] = stages;
+  expect_world_equals_whole_map(recipe_of(doc, 11));
+}
+
+// The preset as shipped. Disabled: the props stage after the volcano's phase needs the biome legend
+// (its prop types name biomes), and build_world's resumed phases start from tiles that hold no
+// legend (src/world.cpp: the snapshot's Terrain::biomes is empty), so props throws "names biomes, but
+// there is no 'biome' layer". Enable once build_world carries the legend across phases.
+TEST(WorldFeatures, DISABLED_VolcanicIslandPresetBuiltAsAWorldEqualsTheWholeMap) {
+  expect_world_equals_whole_map(recipe_of(preset_doc("volcanic-island"), 11));
 }
