@@ -3,7 +3,11 @@
 // reading of an old world.json when it resumes or refuses a folder.
 //
 // Input: one byte choosing the mode (value modulo 3), then
-//   0: a tile file's bytes, given to decode_world_tile;
+//   0: a tile file's bytes, given to decode_world_tile, and to the partial readers world algorithms
+//      use (src/world_internal.hpp): parse_tile (no plane inflated), decode_tile_part of each layer
+//      alone (it must equal the whole decode's layer), and assemble_tile of the parsed parts, the
+//      file build_world's WorldStageIO::update writes from copied planes (it must decode to the
+//      same layers);
 //   1: two bytes L (little-endian), L bytes of world.json, then the bytes of tiles/x0000_z0000.rtile,
 //      written into a temporary folder that read_world_manifest, verify_world and
 //      read_world_window (a 2×2 window at the origin) then read;
@@ -17,6 +21,7 @@
 #include <cstdint>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <string>
@@ -24,8 +29,69 @@
 #include "relief/error.hpp"
 #include "relief/recipe.hpp"
 #include "relief/world.hpp"
+#include "../src/world_internal.hpp"
 
 namespace {
+
+[[noreturn]] void fail(const char* what) {
+  std::fprintf(stderr, "fuzz_world: %s\n", what);
+  std::abort();
+}
+
+bool same_layer(const relief::Layer& a, const relief::Layer& b) {
+  return a.channels == b.channels && a.data.size() == b.data.size() &&
+         (a.data.empty() || std::memcmp(a.data.data(), b.data.data(), a.data.size() * 4) == 0);
+}
+
+// The partial readers agree with decode_world_tile: each part alone decodes to the whole decode's
+// layer, and a tile assembled from the parts' coded planes decodes to the same layers.
+void check_parts(std::string_view bytes) {
+  relief::WorldTile whole;
+  bool whole_ok = true;
+  try {
+    whole = relief::decode_world_tile(bytes, "input");
+  } catch (const relief::Error&) {
+    whole_ok = false;
+  }
+  relief::detail::TileParts parts;
+  try {
+    parts = relief::detail::parse_tile(bytes, "input");
+  } catch (const relief::Error&) {
+    if (whole_ok) fail("parse_tile refused a file decode_world_tile read");
+    return;
+  }
+  bool unique = true;  // a header may name a layer twice; the whole decode then keeps the last
+  for (std::size_t a = 0; a < parts.parts.size(); ++a)
+    for (std::size_t b = a + 1; b < parts.parts.size(); ++b) unique = unique && parts.parts[a].name != parts.parts[b].name;
+  bool all_parts = true;
+  for (std::size_t k = 0; k < parts.parts.size(); ++k) {
+    const relief::detail::TileParts::Part& p = parts.parts[k];
+    if (p.offset < 12 || p.offset + p.size > bytes.size() - 4) fail("a part lies outside the payload");
+    try {
+      const relief::Layer l = relief::detail::decode_tile_part(bytes, parts, k, "input");
+      if (whole_ok && unique && (!whole.layers.count(p.name) || !same_layer(l, whole.layers.at(p.name))))
+        fail("a part decoded alone differs from the whole decode's layer");
+    } catch (const relief::Error&) {
+      if (whole_ok) fail("decode_tile_part refused a part decode_world_tile read");
+      all_parts = false;
+    }
+  }
+  if (!whole_ok || !all_parts || !unique) return;
+  // Spliced: the parts' coded planes copied into a new file, in ascending name order.
+  std::vector<relief::detail::RawPart> raw;
+  for (const auto& p : parts.parts) raw.push_back({p.name, p.channels, bytes.substr(p.offset, p.size)});
+  std::sort(raw.begin(), raw.end(), [](const auto& a, const auto& b) { return a.name < b.name; });
+  const std::string spliced = relief::detail::assemble_tile(parts.tile, raw);
+  relief::WorldTile again;
+  try {
+    again = relief::decode_world_tile(spliced, "spliced");
+  } catch (const relief::Error&) {
+    fail("a tile assembled from valid parts does not decode");
+  }
+  if (again.layers.size() != whole.layers.size()) fail("the spliced tile has other layers");
+  for (const auto& [name, l] : whole.layers)
+    if (!again.layers.count(name) || !same_layer(l, again.layers.at(name))) fail("the spliced tile decodes to other values");
+}
 
 void check_tile(const relief::WorldTile& t) {
   const std::size_t n = std::size_t(t.window.nx) * std::size_t(t.window.nz);
@@ -57,6 +123,7 @@ extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size
       check_tile(relief::decode_world_tile(bytes, "input"));
     } catch (const relief::Error&) {
     }
+    check_parts(bytes);
     return 0;
   }
   if (bytes.size() < 2) return 0;
