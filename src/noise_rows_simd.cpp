@@ -431,6 +431,8 @@ struct CellOctaveState {
   double* lp = nullptr;
   double* ld = nullptr;
   double* lc = nullptr;
+  double* cg = nullptr;  // [b][a][R]: the bounds' terms of px (CellLists)
+  double* cm = nullptr;
   std::int32_t* count = nullptr;
 };
 
@@ -442,26 +444,22 @@ constexpr int kCullSamples = 8;
 // it (by a margin far beyond the rounding of dist, about 1e-15 here) is never the minimum, nor ties
 // it; F2 likewise with the second smallest UB (two candidates are below it everywhere). The kept
 // candidates include the ones attaining those bounds, so the fold over the list gives the same
-// d1, d2 and first owner as over all nine. Not finite bounds: all nine are kept.
+// d1, d2 and first owner as over all nine. A row at a non-finite fy keeps all nine.
 template <int kRet>
-void CellLists(CellOctaveState& s) {
+void CellLists(CellOctaveState& s, double fy) {
   constexpr bool kSecond = kRet == int(CellularReturn::F2) || kRet == int(CellularReturn::F2MinusF1);
   constexpr double kMargin = 1e-9;
   const int R = s.R;
+  const bool finite = std::isfinite(fy);  // then every dy² and bound is finite
   for (int e = 1; e + 1 < R; ++e) {
-    double p[9], d[9], c[9], lb[9], ub[9];
-    bool finite = true;
+    double d[9], lb[9], ub[9];
     double m1 = HUGE_VAL, m2 = HUGE_VAL;
     for (int b = 0; b < 3; ++b)
       for (int a = 0; a < 3; ++a) {
         const int t = b * 3 + a, ee = e + a - 1;
-        p[t] = s.px[t * R + ee];
         d[t] = s.dy2[b * R + ee];
-        c[t] = s.cv[b * R + ee];
-        const double g = p[t] < 0.0 ? -p[t] : p[t] > 1.0 ? p[t] - 1.0 : 0.0;
-        lb[t] = d[t] + g * g;
-        ub[t] = d[t] + std::max(p[t] * p[t], (p[t] - 1.0) * (p[t] - 1.0));
-        finite = finite && std::isfinite(lb[t]) && std::isfinite(ub[t]);
+        lb[t] = d[t] + s.cg[t * R + ee];
+        ub[t] = d[t] + s.cm[t * R + ee];
         if (ub[t] < m1) {
           m2 = m1;
           m1 = ub[t];
@@ -473,9 +471,10 @@ void CellLists(CellOctaveState& s) {
     int k = 0;
     for (int t = 0; t < 9; ++t)
       if (!finite || lb[t] <= thr) {
-        s.lp[e * 9 + k] = p[t];
+        const int b = t / 3, ee = e + t % 3 - 1;
+        s.lp[e * 9 + k] = s.px[t * R + ee];
         s.ld[e * 9 + k] = d[t];
-        s.lc[e * 9 + k] = c[t];
+        s.lc[e * 9 + k] = s.cv[b * R + ee];
         ++k;
       }
     s.count[e] = k;
@@ -490,7 +489,15 @@ void CellBuild(const NoiseOctave& o, double jitter, std::int64_t j, CellOctaveSt
     for (int b = 0; b < 3; ++b) {
       const std::uint64_t h = mix64(rk[b] + xw);
       const double ux = double(h >> 43) * kK21 - 0.5, uy = double((h >> 22) & 0x1FFFFF) * kK21 - 0.5;
-      for (int a = 0; a < 3; ++a) s.px[(b * 3 + a) * s.R + e] = double(a - 1) + 0.5 + jitter * ux;
+      for (int a = 0; a < 3; ++a) {
+        const double p = double(a - 1) + 0.5 + jitter * ux;
+        s.px[(b * 3 + a) * s.R + e] = p;
+        if (s.cull) {  // CellLists' bounds: gap(p, [0, 1])² and max(p², (p − 1)²)
+          const double g = p < 0.0 ? -p : p > 1.0 ? p - 1.0 : 0.0;
+          s.cg[(b * 3 + a) * s.R + e] = g * g;
+          s.cm[(b * 3 + a) * s.R + e] = std::max(p * p, (p - 1.0) * (p - 1.0));
+        }
+      }
       s.py[b * s.R + e] = double(b - 1) + 0.5 + jitter * uy;
       s.cv[b * s.R + e] = double(h & 0x3FFFFF) * kK21 - 1.0;
     }
@@ -528,7 +535,7 @@ void CellularRows(const NoiseKernelArgs& a, const double* z, int nrows, std::int
         tabs[k].dy2[b] = dy2;
         tabs[k].cv[b] = s.cv + b * s.R;
       }
-      if (s.cull) CellLists<kRet>(s);
+      if (s.cull) CellLists<kRet>(s, fy);
       amp[k] = _mm256_set1_pd(o.amp);
       f[k] = _mm256_set1_pd(o.freq_x);
       off[k] = _mm256_set1_pd(o.offset_x);
@@ -612,7 +619,7 @@ bool CellularPrepare(const NoiseKernelArgs& a, std::int64_t i0, double dx, int n
     st[k].R = int(hi - lo + 3);
     st[k].built = false;
     st[k].cull = std::int64_t(st[k].R) * kCullSamples <= std::int64_t(n) + 2 * kCullSamples;
-    total += std::size_t(st[k].R) * (st[k].cull ? 45 : 18);
+    total += std::size_t(st[k].R) * (st[k].cull ? 63 : 18);
   }
   double* p = Grow(tls.d, total);
   std::size_t ints = 0;
@@ -629,7 +636,9 @@ bool CellularPrepare(const NoiseKernelArgs& a, std::int64_t i0, double dx, int n
       st[k].lp = p;
       st[k].ld = p + 9 * R;
       st[k].lc = p + 18 * R;
-      p += 27 * R;
+      st[k].cg = p + 27 * R;
+      st[k].cm = p + 36 * R;
+      p += 45 * R;
       st[k].count = q;
       q += R;
     }
