@@ -164,6 +164,13 @@ std::vector<double> heights_at(const Frame& fr, const Layer& h, const std::vecto
   return e;
 }
 
+// The distance from (x, z) to the rectangle of a window's sample positions, in metres.
+double distance_to_window(const Frame& w, double x, double z) {
+  const double dx = std::max({0.0, w.x0_m() - x, x - w.x_m(w.nx - 1)});
+  const double dz = std::max({0.0, w.z0_m() - z, z - w.z_m(w.nz - 1)});
+  return std::hypot(dx, dz);
+}
+
 // ===================================================================================== volcano
 
 enum class VolcanoPlacement { Land, Fixed };
@@ -690,6 +697,10 @@ std::vector<XZ> VolcanoPlan::lava_probes() const { return impl_->lava_probes(); 
 void VolcanoPlan::shape(Terrain& window) const { impl_->shape(window); }
 void VolcanoPlan::set_lava(const std::vector<double>& heights) { impl_->set_lava(heights); }
 void VolcanoPlan::apply(Terrain& window) const { impl_->colour(window, impl_->shape(window)); }
+bool VolcanoPlan::touches(const Frame& w) const {
+  // shape and colour change samples with d < radius_m only.
+  return stages::distance_to_window(w, impl_->cx, impl_->cz) <= impl_->p.radius_m + w.cell_m();
+}
 Point VolcanoPlan::point() const { return impl_->point(); }
 
 FeaturesPlan::FeaturesPlan(const json& params, const Frame& frame, const Context& ctx, const std::string& path, bool volcano_layer) {
@@ -715,6 +726,12 @@ XZ FeaturesPlan::base_probe(int f) const {
 }
 void FeaturesPlan::set_base(int f, double height) { impl_->base.at(std::size_t(f)) = height; }
 void FeaturesPlan::apply(Terrain& window, int f) const { impl_->apply(window, f); }
+bool FeaturesPlan::touches(const Frame& w, int f) const {
+  // A crater changes samples with d < 3 R; a peak's circles lie within 0.2 R of its centre with
+  // radii ≤ R, so it lifts samples within 1.2 R only.
+  const stages::Feature& F = impl_->placed.at(std::size_t(f));
+  return stages::distance_to_window(w, F.x, F.z) <= (F.crater ? 3.0 : 1.2) * F.r + w.cell_m();
+}
 std::vector<Point> FeaturesPlan::points() const { return impl_->points(); }
 
 }  // namespace detail

@@ -147,14 +147,22 @@ class Probes {
 
 // Every tile, in row-major order: the named layers loaded, transformed by `f`, and the tile stored
 // once with the layers `f` left (the loaded ones and any it made) in place of the input's; the
-// other layers pass through unchanged (update when the build gives it, else load and store).
-void each_tile(const WorldStageIO& io, const std::vector<std::string>& names, const std::function<void(Terrain&)>& f) {
+// other layers pass through unchanged (update when the build gives it, else load and store). A tile
+// that `touches` says `f` would leave unchanged loads no layer: `untouched` gets it empty (to add
+// what `f` would create there) and only what it adds is stored in place.
+void each_tile(const WorldStageIO& io, const std::vector<std::string>& names, const std::function<void(Terrain&)>& f,
+               const std::function<bool(const Frame&)>& touches, const std::function<void(Terrain&)>& untouched) {
   for (std::int64_t Z = 0; Z < io.grid.tiles_z; ++Z)
     for (std::int64_t X = 0; X < io.grid.tiles_x; ++X) {
       check_cancelled(io);
-      WorldTile wt = load_some(io, X, Z, names);
+      const WorldGrid::Window w = io.grid.window(X, Z);
+      const bool touched = touches(io.world.window(w.ix0, w.iz0, w.nx, w.nz));
+      WorldTile wt = load_some(io, X, Z, touched ? names : std::vector<std::string>{});
       Terrain t = as_terrain(io, wt);
-      f(t);
+      if (touched)
+        f(t);
+      else
+        untouched(t);
       if (io.update) {
         wt.layers = std::move(t.layers);
         io.update(X, Z, std::move(wt));
@@ -208,11 +216,18 @@ WorldStageAlgorithm world_volcano(std::shared_ptr<std::vector<BiomeInfo>> legend
     // 3. Every tile, shaped and coloured; the legend grows as the whole map's does (the same ids in
     // every tile).
     std::vector<BiomeInfo> biomes = legend ? *legend : std::vector<BiomeInfo>{};
-    each_tile(io, layers, [&](Terrain& t) {
-      t.biomes = biomes;
-      plan.apply(t);
-      biomes = std::move(t.biomes);
-    });
+    const bool has_mask = std::find(layers.begin(), layers.end(), "volcano") != layers.end();
+    each_tile(
+        io, layers,
+        [&](Terrain& t) {
+          t.biomes = biomes;
+          plan.apply(t);
+          biomes = std::move(t.biomes);
+        },
+        [&](const Frame& w) { return plan.touches(w); },
+        [&](Terrain& t) {
+          if (!has_mask) t.layer("volcano", 1);  // the footprint the volcano creates everywhere: 0 here
+        });
     if (legend) *legend = std::move(biomes);
     if (io.points) io.points({plan.point()});
   };
@@ -303,9 +318,17 @@ WorldStageAlgorithm world_features() {
     // 3. Every tile, every feature in order.
     std::vector<std::string> changed = layers;  // height and albedo: what the features change
     std::erase(changed, std::string("volcano"));
-    each_tile(io, changed, [&](Terrain& t) {
-      for (int f = 0; f < n; ++f) plan.apply(t, f);
-    });
+    each_tile(
+        io, changed,
+        [&](Terrain& t) {
+          for (int f = 0; f < n; ++f) plan.apply(t, f);
+        },
+        [&](const Frame& w) {
+          for (int f = 0; f < n; ++f)
+            if (plan.touches(w, f)) return true;
+          return false;
+        },
+        [](Terrain&) {});
     if (io.points) io.points(plan.points());
   };
 }

@@ -18,10 +18,10 @@
 //   2. the lava level reads the heights after the volcano's shape (foundation, lift, crater) at 64
 //      rim points and the centre: every tile holding one of those 2 × 2 blocks is loaded, shaped in
 //      memory (not stored) and read;
-//   3. every tile is loaded, shaped and coloured (heights, the "volcano" footprint layer — created
-//      in every tile, 0 outside the volcano, as the whole map creates it —, albedo, biome) and
-//      stored; tiles away from the volcano are stored with their layers unchanged but for the new
-//      zero footprint;
+//   3. every tile is stored once: the tiles within radius_m (+ a cell) of the centre are loaded
+//      (height, albedo, biome, volcano), shaped and coloured; the others get only the "volcano"
+//      footprint layer (created in every tile, 0 outside the volcano, as the whole map creates it),
+//      their other layers passed through undecoded (WorldStageIO::update);
 //   4. the volcano's point is handed to io.points (one point).
 // world_features() (the "features" stage, either placement):
 //   1. placement runs the whole map's sequential loop (detail::FeaturesPlan::place); the predicates
@@ -32,7 +32,9 @@
 //   2. each feature's point height reads the heights (bilinear) at its centre after the features
 //      before it: the tiles holding those blocks are loaded, the features applied in order in memory
 //      and read before each one's own effect;
-//   3. every tile is loaded, every feature's effect applied in order (heights, albedo) and stored;
+//   3. every tile is stored once: those within a feature's reach (3 R of a crater, 1.2 R of a peak,
+//      + a cell) loaded (height, albedo) with every feature's effect applied in order, the others
+//      passed through unchanged;
 //   4. the features' points, in placement order (craters, then peaks), are handed to io.points.
 // Every tile is stored exactly once (the phase machinery requires it: relief/world.hpp, "Phases").
 // The arithmetic is the whole-map stage's own (one definition in src/stage_features.cpp): positions
@@ -44,7 +46,7 @@
 // × 2 sizes × 54 probes × ~40 bytes ≈ 18 MB at the largest batch; a few hundred KB for the shipped
 // presets) and the plan (circles: iterations × 32 bytes). Tile loads: the tiles holding probes
 // (at most 96 × 49 for the volcano's choice), the tiles holding the lava or base probes (a few), then
-// every tile once.
+// the tiles the effects reach; every tile is written once.
 //
 // The biome legend. The volcano writes its biome ids ("volcano", "lava") into the "biome" layer when
 // the tiles have one; the whole map numbers them in Terrain::biomes, the legend of the stages before
@@ -113,6 +115,9 @@ class VolcanoPlan {
   void set_lava(const std::vector<double>& heights_after_shape);
   // shape, then the colours (albedo, biome: ids numbered in window.biomes, appended when missing).
   void apply(Terrain& window) const;
+  // False when no sample of `window` lies within radius_m of the centre (with a cell's margin): apply
+  // then changes nothing there but creating the zero "volcano" layer.
+  bool touches(const Frame& window) const;
   Point point() const;
   struct Impl;
 
@@ -143,6 +148,9 @@ class FeaturesPlan {
   XZ base_probe(int f) const;                  // bilinear height after features [0, f)
   void set_base(int f, double height);
   void apply(Terrain& window, int f) const;    // feature f's effect on any window (height, albedo)
+  // False when feature f changes no sample of `window` (farther than its reach, 3 R for a crater and
+  // 1.2 R for a peak, plus a cell, from the centre).
+  bool touches(const Frame& window, int f) const;
   std::vector<Point> points() const;           // in placement order
   struct Impl;
 
