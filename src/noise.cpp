@@ -818,17 +818,24 @@ void Noise::row_reference(double z_m, std::int64_t i0, double dx_m, int n, float
     run(z_m, [=](int i) { return double(i0 + i) * dx_m; }, n, out);
 }
 
-// Rows long enough to pay for the per-row tables of noise_rows_tables_simd (Perlin builds 256 entries
-// per octave and lattice row); shorter ones, and whatever it declines, take noise_row_simd.
-constexpr std::int64_t kTableSamples = 128;
-inline bool table_basis(const detail::NoiseKernelArgs& a) {
-  return (a.basis == NoiseBasis::Perlin || a.basis == NoiseBasis::Cellular) && !a.warp;
+// Whether noise_rows_tables_simd is worth trying for `samples` samples: rows long enough to pay for
+// its per-row tables (Perlin builds 256 entries per octave and lattice row; Cellular its lattice
+// row's cells; Simplex only a strip of x terms). Shorter ones, and whatever it declines, take
+// noise_row_simd.
+inline bool table_rows(const detail::NoiseKernelArgs& a, std::int64_t samples) {
+  if (a.warp) return false;
+  switch (a.basis) {
+    case NoiseBasis::Perlin: return samples >= 128;
+    case NoiseBasis::Cellular: return samples >= 32;
+    case NoiseBasis::Simplex: return samples >= 16;
+    default: return false;
+  }
 }
 
 void Noise::row(double z_m, std::int64_t i0, double dx_m, int n, float* out) const {
   if (n <= 0) return;
   const detail::NoiseKernelArgs& a = state_->args;
-  if (n >= kTableSamples && table_basis(a) && detail::noise_rows_tables_simd(a, &z_m, 1, i0, dx_m, n, out, n)) return;
+  if (table_rows(a, n) && detail::noise_rows_tables_simd(a, &z_m, 1, i0, dx_m, n, out, n)) return;
   detail::noise_row_simd(a, z_m, i0, dx_m, n, out);
 }
 
@@ -865,8 +872,7 @@ void Noise::rows(const double* z_m, int nrows, std::int64_t i0, double dx_m, int
   if (n <= 0 || nrows <= 0) return;
   const detail::NoiseKernelArgs a = state_->args;
   if (nrows == 1 || !detail::noise_columns_supported(a)) {
-    if (std::int64_t(n) * nrows >= kTableSamples && table_basis(a) &&
-        detail::noise_rows_tables_simd(a, z_m, nrows, i0, dx_m, n, out, stride))
+    if (table_rows(a, std::int64_t(n) * nrows) && detail::noise_rows_tables_simd(a, z_m, nrows, i0, dx_m, n, out, stride))
       return;
     for (int r = 0; r < nrows; ++r) row(z_m[r], i0, dx_m, n, out + r * stride);
     return;

@@ -9,9 +9,10 @@
 namespace relief::detail {
 
 // Rows r in [0, nrows) at z_m[r] into out + r·stride, each out[i], i in [0, n), the value of
-// noise_row_simd(a, z_m[r], i0, dx, n, ·) bit for bit, by the per-row table kernels of
+// noise_row_simd(a, z_m[r], i0, dx, n, ·) bit for bit, by the block kernels of
 // src/noise_rows_simd.cpp (Perlin: the corner hashes of a lattice row looked up once per cell;
-// Cellular: the feature points of a lattice row computed once per cell). Returns false, having
+// Cellular: the feature points of a lattice row computed once per cell; Simplex: x terms once per
+// strip of columns for the whole block). Returns false, having
 // written nothing, when the dispatched target has no such kernel (only AVX2 has them), for other
 // bases, with domain warp, for sample indices of 2⁵² and more, and for cellular windows sparser than
 // about 4 cells per sample: the caller then uses noise_row_simd.

@@ -165,8 +165,8 @@ TEST(NoiseRows, EmptyBlocksWriteNothing) {
   EXPECT_FALSE(noise.columns(0, 1.0, 0).precomputed());
 }
 
-// Perlin and Cellular rows and blocks (the per-row table kernels of noise_rows_simd.cpp where the
-// target has them) against the scalar reference, bit for bit, on every forced target: every fractal,
+// Perlin, Cellular and Simplex rows and blocks (the kernels of noise_rows_simd.cpp where the target
+// has them) against the scalar reference, bit for bit, on every forced target: every fractal,
 // periodic along x, z, both or neither, every cellular return at jitters 1, 0.6 and 0, in the windows
 // above and in windows of 2048 columns at 1 and 2.7 samples per cell (every table entry, cells
 // straddled by most vectors), rows far apart and rows sharing their lattice row.
@@ -210,19 +210,20 @@ int reference_mismatches(const NoiseSettings& s, const std::string& what) {
   return bad;
 }
 
-TEST(NoiseRows, PerlinAndCellularBitIdenticalToReferenceOnEveryTarget) {
+TEST(NoiseRows, PerlinCellularAndSimplexBitIdenticalToReferenceOnEveryTarget) {
   const Fractal fractals[] = {Fractal::None, Fractal::Fbm, Fractal::Ridged, Fractal::Billow};
   const CellularReturn returns[] = {CellularReturn::F1, CellularReturn::F2, CellularReturn::F2MinusF1,
                                     CellularReturn::CellValue};
   for (const auto& t : detail::noise_simd_targets()) {
     ForceTarget f(t.bits);
     int configs = 0;
-    for (NoiseBasis b : {NoiseBasis::Perlin, NoiseBasis::Cellular})
+    for (NoiseBasis b : {NoiseBasis::Perlin, NoiseBasis::Cellular, NoiseBasis::Simplex})
       for (Fractal fr : fractals)
         for (int period = 0; period < 4; ++period)
           for (CellularReturn ret : returns)
             for (double jitter : {1.0, 0.6, 0.0}) {
-              if (b == NoiseBasis::Perlin && (ret != CellularReturn::F1 || jitter != 1.0)) continue;
+              if (b != NoiseBasis::Cellular && (ret != CellularReturn::F1 || jitter != 1.0)) continue;
+              if (b == NoiseBasis::Simplex && period != 0) continue;  // simplex has no period
               if (b == NoiseBasis::Cellular && jitter != 1.0 && (fr != Fractal::None || period != 1)) continue;
               NoiseSettings s = gradient(fr, 4, 2.1);
               s.basis = b;
@@ -237,7 +238,7 @@ TEST(NoiseRows, PerlinAndCellularBitIdenticalToReferenceOnEveryTarget) {
               EXPECT_EQ(reference_mismatches(s, what), 0) << what;
               ++configs;
             }
-    EXPECT_EQ(configs, 4 * 4 + 4 * 4 * 4 + 4 * 2);
+    EXPECT_EQ(configs, 4 * 4 + 4 * 4 * 4 + 4 * 2 + 4);
   }
 }
 
