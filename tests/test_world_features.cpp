@@ -367,7 +367,7 @@ std::map<std::string, std::vector<Point>> build_with_features(const Recipe& r, i
 }  // namespace
 
 static void expect_world_equals_whole_map(const Recipe& r) {
-  for (auto [nx, nz, tile] : {std::tuple{513, 513, 65}, std::tuple{513, 513, 129}, std::tuple{500, 513, 129}}) {
+  for (auto [nx, nz, tile] : {std::tuple{513, 513, 65}, std::tuple{500, 513, 129}}) {
     SCOPED_TRACE(std::to_string(nx) + "x" + std::to_string(nz) + " tile " + std::to_string(tile));
     const Terrain whole = whole_map(r, nx, nz);
     relief::test::TempDir d("world-features");
