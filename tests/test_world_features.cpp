@@ -333,6 +333,12 @@ TEST(WorldFeatures, VolcanoOnLandChosenInALaterTileAndFeaturesKeepClearOfIt) {
     const std::vector<Point> feats(with_features.points.begin() + 1, with_features.points.end());
     expect_same_points(feats, expect_world_stage_equals_whole(world_features(), f, 3, 17, with_volcano, with_features, tile));
   }
+  // Placement anywhere: no land probes, only the volcano's footprint keeps them off it.
+  const RecipeStage g = stage_of("features", {{"placement", "anywhere"}, {"craters", 5}, {"peaks", 2}, {"attempts", 300}}, 3);
+  const Terrain anywhere = applied(with_volcano, g, 3, 17);
+  ASSERT_GE(anywhere.points.size(), 5u);
+  const std::vector<Point> feats(anywhere.points.begin() + 1, anywhere.points.end());
+  expect_same_points(feats, expect_world_stage_equals_whole(world_features(), g, 3, 17, with_volcano, anywhere, 65));
 }
 
 // ---- through build_world -------------------------------------------------------------------------
