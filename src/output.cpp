@@ -367,7 +367,7 @@ FileOutput::~FileOutput() {
   for (Pending& p : pending_) discard(p.fd, p.tmp);
   // A run that made no file visible leaves no directory it created (fs::remove only removes
   // empty directories: a file someone else put there keeps it).
-  if (written_.empty()) {
+  if (written_.empty() && !any_written_) {
     std::error_code ec;
     for (const std::string& d : made_dirs_) fs::remove(d, ec);
   }
@@ -405,7 +405,10 @@ void FileOutput::finished(Pending p) {
   if (mode_ == Mode::Immediate) {
     finish_now(p.fd, p.tmp, p.path, sync_ == Sync::Durable);
     std::lock_guard<std::mutex> lock(mutex_);
-    written_.push_back(p.path);
+    if (listing_)
+      written_.push_back(p.path);
+    else
+      any_written_ = true;
     bytes_ += p.bytes;
     return;
   }

@@ -26,6 +26,7 @@
 #include <functional>
 #include <memory>
 #include <mutex>
+#include <optional>
 #include <regex>
 #include <set>
 
@@ -34,7 +35,9 @@
 #include "relief/file_output.hpp"
 #include "relief/generate.hpp"
 #include "relief/world.hpp"
+#include "relief/world_points.hpp"
 #include "world_internal.hpp"
+#include "world_overview.hpp"
 #include "world_transport.hpp"
 
 namespace relief {
@@ -111,7 +114,23 @@ const LayerUse* library_layer_use(const std::string& stage) {
 
 void remove_old_world(const fs::path& dir) {
   std::error_code ec;
-  for (const char* f : {"world.json", "overview.png", "report.json", "rivers.json", "lakes.json"}) fs::remove(dir / f, ec);
+  for (const char* f : {"world.json", "overview.png", "report.json", "rivers.json", "lakes.json", "props.json", "props.csv", "features.json"})
+    fs::remove(dir / f, ec);
+  // points/: p{K}.json and p{K}/x…_z….json (the point files of relief/world.hpp), then the folders if empty.
+  const std::regex point_phase(R"(p\d+)"), point_global(R"(p\d+\.json)"), point_tile(R"(x\d{4,}_z\d{4,}\.json)");
+  if (fs::is_directory(dir / "points", ec)) {
+    for (const auto& e : fs::directory_iterator(dir / "points", ec)) {
+      const std::string name = e.path().filename().string();
+      if (e.is_regular_file(ec) && std::regex_match(name, point_global)) {
+        fs::remove(e.path(), ec);
+      } else if (e.is_directory(ec) && std::regex_match(name, point_phase)) {
+        for (const auto& f : fs::directory_iterator(e.path(), ec))
+          if (f.is_regular_file(ec) && std::regex_match(f.path().filename().string(), point_tile)) fs::remove(f.path(), ec);
+        fs::remove(e.path(), ec);
+      }
+    }
+    fs::remove(dir / "points", ec);
+  }
   const std::regex tile_name(R"(x\d{4,}_z\d{4,}\.rtile)");
   if (fs::is_directory(dir / "tiles", ec))
     for (const auto& e : fs::directory_iterator(dir / "tiles", ec))
@@ -119,52 +138,6 @@ void remove_old_world(const fs::path& dir) {
   const std::regex phase_name(R"(phase-\d+)");
   for (const auto& e : fs::directory_iterator(dir, ec))
     if (e.is_directory(ec) && std::regex_match(e.path().filename().string(), phase_name)) remove_phase_folder(e.path());
-}
-
-// overview.png: height coloured by a hypsometric ramp (sea below sea_level), hillshaded by Lambert
-// n·l from the north-west at 45°, computed on the overview grid itself (cell = step · spacing).
-std::string overview_png(const std::vector<float>& h, int w, int hgt, double cell_m, double height_m, double sea) {
-  std::vector<std::uint8_t> rgb(std::size_t(w) * std::size_t(hgt) * 3);
-  const double az = 315.0 * M_PI / 180.0, alt = 45.0 * M_PI / 180.0;
-  const double lx = std::cos(alt) * std::sin(az), ly = std::sin(alt), lz = -std::cos(alt) * std::cos(az);
-  struct Stop {
-    double t, r, g, b;
-  };
-  static const Stop land[] = {{0.0, 70, 130, 60}, {0.35, 150, 160, 90}, {0.7, 130, 100, 70}, {1.0, 245, 245, 245}};
-  auto at = [&](int i, int j) {
-    i = std::clamp(i, 0, w - 1);
-    j = std::clamp(j, 0, hgt - 1);
-    return double(h[std::size_t(j) * std::size_t(w) + std::size_t(i)]);
-  };
-  for (int j = 0; j < hgt; ++j)
-    for (int i = 0; i < w; ++i) {
-      const double e = at(i, j);
-      const int i0 = std::max(0, i - 1), i1 = std::min(w - 1, i + 1), j0 = std::max(0, j - 1), j1 = std::min(hgt - 1, j + 1);
-      const double dx = i1 > i0 ? (at(i1, j) - at(i0, j)) * height_m / ((i1 - i0) * cell_m) : 0.0;
-      const double dz = j1 > j0 ? (at(i, j1) - at(i, j0)) * height_m / ((j1 - j0) * cell_m) : 0.0;
-      const double len = std::sqrt(dx * dx + dz * dz + 1.0);
-      const double shade = std::max(0.0, (-dx * lx + ly - dz * lz) / len);
-      double r, g, b, k;
-      if (e < sea) {
-        const double t = sea > 0 ? std::clamp(e / sea, 0.0, 1.0) : 1.0;
-        r = 10 + 50 * t, g = 40 + 80 * t, b = 90 + 90 * t;
-        k = 0.8 + 0.2 * shade;
-      } else {
-        const double t = sea < 1 ? std::clamp((e - sea) / (1 - sea), 0.0, 1.0) : 0.0;
-        int s = 0;
-        while (s < 2 && t > land[s + 1].t) ++s;
-        const double u = (t - land[s].t) / (land[s + 1].t - land[s].t);
-        r = land[s].r + (land[s + 1].r - land[s].r) * u;
-        g = land[s].g + (land[s + 1].g - land[s].g) * u;
-        b = land[s].b + (land[s + 1].b - land[s].b) * u;
-        k = 0.35 + 0.65 * shade;
-      }
-      std::uint8_t* p = rgb.data() + (std::size_t(j) * std::size_t(w) + std::size_t(i)) * 3;
-      p[0] = std::uint8_t(std::clamp(std::lround(r * k), 0L, 255L));
-      p[1] = std::uint8_t(std::clamp(std::lround(g * k), 0L, 255L));
-      p[2] = std::uint8_t(std::clamp(std::lround(b * k), 0L, 255L));
-    }
-  return encode_png_rgb8(rgb.data(), w, hgt);
 }
 
 void write_or_throw(const fs::path& p, std::string_view bytes, const std::string& out_path) {
@@ -547,7 +520,7 @@ WorldReport build_world(WorldSettings s) {
       const std::uint64_t raw = std::uint64_t(grid.tile) * std::uint64_t(grid.tile) * channels * 4;
       const std::uint64_t per_tile = estimate_memory_bytes(grown, false) + 2 * raw + compressBound(uLong(raw));
       const int step = int((std::max(grid.nx, grid.nz) - 1 + kWorldOverviewMax - 2) / (kWorldOverviewMax - 1));
-      const std::uint64_t overview = std::uint64_t((grid.nx - 1) / std::max(1, step) + 1) * std::uint64_t((grid.nz - 1) / std::max(1, step) + 1) * 7;
+      const std::uint64_t overview = detail::WorldOverview::memory_bytes((grid.nx - 1) / std::max(1, step) + 1, (grid.nz - 1) / std::max(1, step) + 1);
       rep.tile_memory_bytes = std::uint64_t(at_once) * per_tile + overview + std::uint64_t(grid.count()) * 16;
       const std::uint64_t budget = s.memory_budget_bytes ? s.memory_budget_bytes : memory_budget_bytes();
       if (budget && rep.tile_memory_bytes > budget)
@@ -628,7 +601,15 @@ WorldReport build_world(WorldSettings s) {
   const std::int64_t total = grid.count() * local_phases;
   std::vector<std::uint32_t> crcs(std::size_t(grid.count()), 0);
   std::vector<std::uint64_t> sizes(std::size_t(grid.count()), 0);
-  std::vector<float> overview(root ? std::size_t(ow) * std::size_t(oh) : 0, 0.0f);  // rank 0 only
+  // Rank 0 only: the overview's samples, kept in a temporary file of the world folder.
+  std::unique_ptr<detail::WorldOverview> overview;
+  if (root) {
+    try {
+      overview = std::make_unique<detail::WorldOverview>(dir.string(), ow, oh);
+    } catch (const Error& e) {
+      throw Error(s.out_path, e.message());
+    }
+  }
   std::vector<double> stage_ms(r.stages.size(), 0.0);
   std::vector<bool> fused(r.stages.size(), false);
   std::mutex m;  // progress, timings, counters
@@ -678,10 +659,24 @@ WorldReport build_world(WorldSettings s) {
     overview_points(t.window, [&](std::size_t, std::size_t at) { v.push_back(it->second.data[at * c]); });
     return v;
   };
+  // Rank 0: a tile's overview samples (overview_of's order) into the overview, in runs along rows.
+  auto put_overview = [&](const WorldGrid::Window& w, const std::vector<float>& v) {
+    std::size_t n = 0, first = 0, start = 0, len = 0;
+    overview_points(w, [&](std::size_t at, std::size_t) {
+      if (n >= v.size()) return;
+      if (len > 0 && at == first + len) {
+        ++len;
+      } else {
+        if (len > 0) overview->set_run(first, v.data() + start, len);
+        first = at, start = n, len = 1;
+      }
+      ++n;
+    });
+    if (len > 0) overview->set_run(first, v.data() + start, len);
+  };
   auto take_overview = [&](const WorldTile& t) {  // rank 0
     const std::vector<float> v = overview_of(t);
-    std::size_t n = 0;
-    if (!v.empty()) overview_points(t.window, [&](std::size_t at, std::size_t) { overview[at] = v[n++]; });
+    put_overview(t.window, v);
   };
   auto tile_file = [](const Phase& ph, std::int64_t X, std::int64_t Z) {
     return ph.folder / fs::path(world_tile_path(X, Z)).filename();
@@ -752,6 +747,37 @@ WorldReport build_world(WorldSettings s) {
     return t;
   };
   std::vector<std::unique_ptr<FileOutput>> outputs(phases.size());  // made when a phase starts
+  // Points (relief/world_points.hpp): a local phase whose stages make points writes, before each
+  // tile file, the points the tile owns into points/p{K}/x…_z….json; a global stage's points go to
+  // points/p{K}.json. Kept after the build (a rerun of a complete build skips every tile and still
+  // needs them); rank 0 merges them into props.json / features.json at the end.
+  const fs::path points_dir = dir / "points";
+  auto phase_makes_points = [&](const Phase& ph) {
+    if (ph.global) return false;
+    for (std::size_t i = ph.first; i < ph.end; ++i) {
+      const std::string& name = r.stages[i].def->name;
+      if (name == "props" || name == "volcano" || name == "features") return true;
+    }
+    return false;
+  };
+  auto points_folder = [&](std::size_t pk) { return points_dir / ("p" + std::to_string(pk)); };
+  auto points_file = [&](std::size_t pk, std::int64_t X, std::int64_t Z) {
+    return points_folder(pk) / (fs::path(world_tile_path(X, Z)).stem().string() + ".json");
+  };
+  // The points tile (X, Z) owns after phase pk, or nullopt when its file is missing or stale.
+  auto read_tile_points = [&](std::size_t pk, std::int64_t X, std::int64_t Z) -> std::optional<std::vector<Point>> {
+    bool ok = false;
+    const fs::path f = points_file(pk, X, Z);
+    const std::string bytes = detail::read_file_bytes(f.string(), ok);
+    if (!ok) return std::nullopt;
+    try {
+      return decode_world_points(bytes, phases[pk].id, X, Z, f.string());
+    } catch (const Error&) {
+      return std::nullopt;
+    }
+  };
+  std::vector<std::unique_ptr<FileOutput>> point_outputs(phases.size());
+  std::map<int, std::vector<Point>> global_points;  // rank 0: stage index → a world algorithm's points
   auto put_tile = [&](const Phase& ph, std::int64_t X, std::int64_t Z, const std::string& bytes) {
     // Atomic (temporary file, rename) but not flushed: a tile that a power cut leaves empty or
     // damaged fails its CRC-32 on the next run and is rebuilt, so resuming stays exact.
@@ -840,11 +866,7 @@ WorldReport build_world(WorldSettings s) {
       crcs[std::size_t(t.k)] = t.crc;
       sizes[std::size_t(t.k)] = t.bytes;
       const WorldGrid::Window w = grid.window(t.k % grid.tiles_x, t.k / grid.tiles_x);
-      std::size_t n = 0;
-      if (!t.overview.empty())
-        overview_points(w, [&](std::size_t at, std::size_t) {
-          if (n < t.overview.size()) overview[at] = t.overview[n++];
-        });
+      put_overview(w, t.overview);
     }
     for (std::size_t i = 0; i < t.ms.size() && t.first + i < stage_ms.size(); ++i) {
       stage_ms[t.first + i] += t.ms[i];
@@ -890,6 +912,11 @@ WorldReport build_world(WorldSettings s) {
       std::exception_ptr opened;
       try {
         outputs[pk] = std::make_unique<FileOutput>(ph.folder.string(), FileOutput::Mode::Immediate, FileOutput::Sync::Atomic);
+        outputs[pk]->forget_written();  // a path per tile would grow with the world
+        if (phase_makes_points(ph)) {
+          point_outputs[pk] = std::make_unique<FileOutput>(points_folder(pk).string(), FileOutput::Mode::Immediate, FileOutput::Sync::Atomic);
+          point_outputs[pk]->forget_written();
+        }
       } catch (const Error& e) {
         opened = std::make_exception_ptr(Error(s.out_path, e.message()));
       } catch (...) {
@@ -902,6 +929,7 @@ WorldReport build_world(WorldSettings s) {
       agree(tr, [&]() -> json {
         try {
           outputs[pk] = std::make_unique<FileOutput>(ph.folder.string(), FileOutput::Mode::Immediate, FileOutput::Sync::Atomic);
+          outputs[pk]->forget_written();  // a path per tile would grow with the world
         } catch (const Error& e) {
           throw Error(s.out_path, e.message());
         }
@@ -927,6 +955,12 @@ WorldReport build_world(WorldSettings s) {
         // World files a stage makes (rivers.json, lakes.json) go into the world folder, atomically.
         FileOutput world_files(dir.string(), FileOutput::Mode::Immediate, FileOutput::Sync::Atomic);
         io.out = &world_files;
+        io.points = [&](std::vector<Point> pts) {  // kept on disk too, for a resumed build
+          std::error_code e2;
+          fs::create_directories(points_dir, e2);
+          write_or_throw(points_dir / ("p" + std::to_string(pk) + ".json"), encode_world_points(ph.id, -1, -1, pts), s.out_path);
+          global_points[int(ph.first)] = std::move(pts);
+        };
         {
           std::lock_guard<std::mutex> lock(m);
           report(st.def->name, int(ph.first), 0.0);
@@ -954,6 +988,7 @@ WorldReport build_world(WorldSettings s) {
       if (re.locality == Locality::Neighbourhood) phalo += std::max(0, re.halo);
     }
     const Phase* in = pk > 0 ? &phases[pk - 1] : nullptr;
+    const bool makes_points = phase_makes_points(ph);
     auto do_tile = [&](std::int64_t k) {
       if (cancelled()) throw Cancelled();
       const std::int64_t X = k % grid.tiles_x, Z = k / grid.tiles_x;
@@ -965,7 +1000,7 @@ WorldReport build_world(WorldSettings s) {
       {
         WorldTile t;
         const std::string bytes = existing(ph, X, Z, last ? &t : nullptr);
-        if (!bytes.empty()) {
+        if (!bytes.empty() && (!makes_points || read_tile_points(pk, X, Z))) {
           if (last) {
             res.overview = overview_of(t);
             res.crc = detail::tile_checksum(bytes);
@@ -1009,6 +1044,14 @@ WorldReport build_world(WorldSettings s) {
       t.X = X;
       t.Z = Z;
       t.window = w;
+      if (makes_points) {  // written before the tile, so that a tile on disk always has its points
+        const std::vector<Point> owned = owned_world_points(run_res.terrain, grid, X, Z);
+        try {
+          point_outputs[pk]->put(points_file(pk, X, Z).filename().string(), encode_world_points(ph.id, X, Z, owned));
+        } catch (const Error& e) {
+          throw Error(s.out_path, e.message());
+        }
+      }
       t.layers = std::move(run_res.terrain.layers);
       run_res.terrain = Terrain();
       if (last) res.overview = overview_of(t);
@@ -1114,9 +1157,48 @@ WorldReport build_world(WorldSettings s) {
     rep.timings.push_back({r.stages[i].def->name, r.stages[i].label, stage_ms[i], fused[i]});
   for (std::uint64_t b : sizes) rep.store_bytes += b;
 
-  // 8. Overview, report, then the manifest marks the build complete.
-  write_or_throw(dir / "overview.png", overview_png(overview, ow, oh, frame.spacing_m * step, frame.height_m, frame.sea_level),
-                 s.out_path);
+  // 8. Points, overview, report, then the manifest marks the build complete.
+  {
+    std::vector<std::vector<Point>> tile_points;
+    bool any = false;
+    for (std::size_t pk = 0; pk < phases.size(); ++pk) {
+      const Phase& ph = phases[pk];
+      if (ph.global) {
+        if (global_points.count(int(ph.first))) continue;
+        bool ok = false;
+        const fs::path f = points_dir / ("p" + std::to_string(pk) + ".json");
+        const std::string bytes = detail::read_file_bytes(f.string(), ok);
+        if (ok) {
+          try {
+            global_points[int(ph.first)] = decode_world_points(bytes, ph.id, -1, -1, f.string());
+          } catch (const Error&) {  // another world's: this one's stage made no points
+          }
+        }
+        continue;
+      }
+      if (!phase_makes_points(ph)) continue;
+      any = true;
+      for (std::int64_t k = 0; k < grid.count(); ++k) {
+        std::optional<std::vector<Point>> p = read_tile_points(pk, k % grid.tiles_x, k / grid.tiles_x);
+        if (!p) throw Error(s.out_path, "the points of tile " + std::to_string(k) + " (" + points_file(pk, k % grid.tiles_x, k / grid.tiles_x).string() +
+                                            ") are missing or damaged; run the build again");
+        if (!p->empty()) tile_points.push_back(std::move(*p));
+      }
+    }
+    if (any || !global_points.empty()) {
+      try {
+        FileOutput point_files(dir.string(), FileOutput::Mode::Immediate, FileOutput::Sync::Durable);
+        rep.point_files = write_world_points(merge_world_points(r, tile_points, global_points), frame, point_files);
+      } catch (const Error& e) {
+        throw Error(s.out_path, e.message());
+      }
+    }
+  }
+  try {
+    overview->write_png(dir.string(), frame.spacing_m * step, frame.height_m, frame.sea_level);
+  } catch (const Error& e) {
+    throw Error(s.out_path, e.message());
+  }
   rep.peak_memory_bytes = std::max(peak_rss_bytes(), peak_memory);  // the largest of any rank
   rep.total_ms = ms_since(t_start);
   json st = json::array();
@@ -1152,23 +1234,36 @@ WorldReport build_world(WorldSettings s) {
     throw std::logic_error("world.json: the tiles array is not last");
   text.resize(text.size() - 3);  // up to and including "tiles": [
   text += "\n";
-  for (std::int64_t k = 0; k < grid.count(); ++k) {
-    const std::int64_t X = k % grid.tiles_x, Z = k / grid.tiles_x;
-    const WorldGrid::Window w = grid.window(X, Z);
-    const json one = {{"tile", {X, Z}},
-                      {"window", {w.ix0, w.iz0, w.nx, w.nz}},
-                      {"crc32", detail::hex32(crcs[std::size_t(k)])},
-                      {"bytes", sizes[std::size_t(k)]}};
-    const std::string body = one.dump(1);  // indented by two levels below
-    text += "  ";
-    for (char c : body) {
-      text += c;
-      if (c == '\n') text += "  ";
+  // Streamed into the file (temporary, fsync, rename) in pieces of about 64 KiB: the listing of a
+  // world of many tiles (about 200 bytes each) is never whole in memory.
+  try {
+    FileOutput out(dir.string(), FileOutput::Mode::Immediate, FileOutput::Sync::Durable);
+    std::unique_ptr<OutputStream> file = out.open("world.json");
+    for (std::int64_t k = 0; k < grid.count(); ++k) {
+      const std::int64_t X = k % grid.tiles_x, Z = k / grid.tiles_x;
+      const WorldGrid::Window w = grid.window(X, Z);
+      const json one = {{"tile", {X, Z}},
+                        {"window", {w.ix0, w.iz0, w.nx, w.nz}},
+                        {"crc32", detail::hex32(crcs[std::size_t(k)])},
+                        {"bytes", sizes[std::size_t(k)]}};
+      const std::string body = one.dump(1);  // indented by two levels below
+      text += "  ";
+      for (char c : body) {
+        text += c;
+        if (c == '\n') text += "  ";
+      }
+      text += k + 1 < grid.count() ? ",\n" : "\n";
+      if (text.size() >= 65536) {
+        file->write(text);
+        text.clear();
+      }
     }
-    text += k + 1 < grid.count() ? ",\n" : "\n";
+    text += " ]\n}\n";
+    file->write(text);
+    file->close();
+  } catch (const Error& e) {
+    throw Error(s.out_path, e.message());
   }
-  text += " ]\n}\n";
-  write_or_throw(dir / "world.json", text, s.out_path);
   for (std::size_t k = 0; k + 1 < phases.size(); ++k) remove_phase_folder(phases[k].folder);
   return rep;
 }

@@ -49,8 +49,10 @@ std::map<std::string, WorldStageAlgorithm> default_world_algorithms() {
 WorldGuarantee world_guarantee(const StageDef& d) {
   for (const WorldAlgorithmEntry& e : world_algorithm_entries())
     if (d.name == e.stage) return {e.guarantee, e.how};
-  // Local stages whose points are not yet merged into world files (world_points.hpp has the merge).
-  const std::string points = d.name == "props" ? "; its points (props.json, props.csv) are not written by world builds yet" : "";
+  // Stages that make points: each tile keeps the points it owns, merged into the world's files.
+  const std::string points = d.name == "props" || d.name == "volcano"
+                                 ? "; its points are those each tile owns, merged into the whole map's files in its order"
+                                 : "";
   switch (d.locality) {
     case Locality::Pointwise:
       return {"exact", "pointwise: each tile computes its own samples" + points};

@@ -544,6 +544,7 @@ int cmd_world(const CliWorld& w) {
     std::string files = "world.json, overview.png, report.json";
     for (const auto& st : rep.recipe.value("stages", json::array()))
       if (st.value("stage", "") == "flow") files += ", rivers.json, lakes.json";
+    for (const std::string& f : rep.point_files) files += ", " + f;
     std::printf("world %lldx%lld in %lldx%lld tiles of %d: %lld built, %lld resumed; %s in %s (%s)\n", (long long)rep.grid.nx,
                 (long long)rep.grid.nz, (long long)rep.grid.tiles_x, (long long)rep.grid.tiles_z, rep.grid.tile,
                 (long long)rep.tiles_built, (long long)rep.tiles_skipped, human_bytes(rep.store_bytes).c_str(), s.out_dir.c_str(),

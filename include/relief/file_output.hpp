@@ -64,6 +64,15 @@ class FileOutput final : public Output {
   void prepare() override;
   void publish() override;
   const std::vector<std::string>& written() const { return written_; }  // visible paths, in order
+  // Immediate mode: stop listing the written paths (written() stays empty; bytes_written() still
+  // counts), so that an output writing very many files (a world's tile store) keeps flat memory.
+  void forget_written() {
+    std::lock_guard<std::mutex> lock(mutex_);
+    listing_ = false;
+    any_written_ = any_written_ || !written_.empty();
+    written_.clear();
+    written_.shrink_to_fit();
+  }
   std::uint64_t bytes_written() const { return bytes_; }
 
   // A finished temporary file waiting for commit(): its descriptor stays open until then.
@@ -88,6 +97,8 @@ class FileOutput final : public Output {
   bool created_ = false;
   std::vector<std::string> made_dirs_;  // directories create_directory() made, deepest first
   std::vector<std::string> written_;
+  bool listing_ = true;       // written_ is kept (forget_written turns it off)
+  bool any_written_ = false;  // a file was made visible while not listing
   std::uint64_t bytes_ = 0;
 };
 

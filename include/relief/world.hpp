@@ -40,7 +40,9 @@
 //   tiles/x{X}_z{Z}.rtile   one file per tile (X, Z zero-padded to 4+ digits), format below;
 //   overview.png        the whole world, point-sampled every `overview_step` samples so that it is
 //                       at most 2048 px per side, coloured by height (sea below sea_level) and
-//                       hillshaded (8-bit RGB);
+//                       hillshaded (8-bit RGB); its samples are kept as 16-bit fixed point in an
+//                       unnamed temporary file while building and encoded row by row, so that
+//                       memory does not grow with the world (src/world_overview.hpp);
 //   report.json         per-stage time (summed over the tiles built), tiles built and skipped,
 //                       peak memory, threads, bytes of the store.
 //
@@ -87,8 +89,8 @@
 //
 // Threads: tiles are built concurrently, each tile's run on one thread, when there are at least
 // twice as many tiles as threads; otherwise one tile at a time with every thread. Bytes never
-// depend on it. Peak memory is about (tiles at once) × (one grown tile's run) + the overview
-// (≤ 2048² floats) + 8 bytes per tile.
+// depend on it. Peak memory is about (tiles at once) × (one grown tile's run) + three overview
+// rows + 12 bytes per tile (checksums and sizes) + the points (rank 0, at the end).
 //
 // Phases (experimental, for global stages that have a world algorithm: WorldSettings::algorithms).
 // The recipe is cut at each such stage: a phase of local stages [a, g) builds every tile as above;
@@ -108,9 +110,13 @@
 // largest two consecutive phase stores (each from its own layers), not their sum over all phases.
 //
 // Also in the folder: rivers.json and lakes.json when the recipe has a flow stage (its world
-// algorithm writes them through WorldStageIO::out). Not stored (yet): points (props.json: the
-// props stage's points are not merged across tiles; relief/world_points.hpp has the merge), the
-// tilemap, volumes.
+// algorithm writes them through WorldStageIO::out); props.json, props.csv and features.json when the
+// recipe has stages that make points (props, volcano, features): byte for byte the whole-map files
+// (relief/world_points.hpp: each tile keeps the points it owns, merged in the whole map's order).
+// Their per-tile sources stay in points/ (points/p{K}/x…_z….json for local phase K, written before
+// the tile file and checked with it on resume; points/p{K}.json for a global stage's points): a rerun
+// of a complete build needs them. Rank 0 holds every point in memory at the end. Not stored (yet):
+// the tilemap, volumes.
 #include <cstdint>
 #include <functional>
 #include <map>
@@ -285,6 +291,9 @@ struct WorldReport {
   // the report covers every rank (tiles_built: all ranks', peak_memory_bytes: the largest); on the
   // others only seed, seed_reused, world_id, grid, recipe, rank, ranks and tiles_built (its own).
   int rank = 0, ranks = 1;
+  // Rank 0: the point files written beside the tiles (props.json, props.csv, features.json) when
+  // the recipe has stages that make points; empty otherwise.
+  std::vector<std::string> point_files;
 };
 
 // Builds (or resumes) the world as described at the top of this file. Throws relief::Error for bad

@@ -19,7 +19,9 @@
 // keeps it. A resumed run (RunOptions::resume, the phases of relief/world.hpp) makes only the points
 // of the stages it runs: collect each local phase's owned points.
 #include <cstdint>
+#include <map>
 #include <string>
+#include <string_view>
 #include <vector>
 
 #include "relief/output_interface.hpp"
@@ -54,6 +56,24 @@ std::vector<Point> owned_world_points(const Terrain& tile, const WorldGrid& grid
 // `tiles` may be in any order, each list as owned_world_points returned it). `recipe` gives the
 // stage order. Memory: the points themselves.
 std::vector<Point> merge_world_points(const Recipe& recipe, const std::vector<std::vector<Point>>& tiles);
+
+// The world's points in the whole-map order from the local stages' points (`tiles`, as above) and
+// the global stages' points (`global`: recipe stage index → the list its world algorithm gave,
+// WorldStageIO::points, already in whole-map order): stage by stage in recipe order, a global
+// stage's list where it stands, the local stages' kinds as merge_world_points orders them where
+// the first stage making each kind stands; kinds no stage names come last.
+std::vector<Point> merge_world_points(const Recipe& recipe, const std::vector<std::vector<Point>>& tiles,
+                                      const std::map<int, std::vector<Point>>& global);
+
+// A world build's point files (relief/world.hpp: points/): the points tile (X, Z) owns after a
+// local phase, or a global stage's points (X = Z = −1), with the phase's id, as JSON
+//   {"format": 1, "phase": "<id>", "tile": [X, Z], "points": [[kind, type, x_m, y_m, z_m, rotation_deg, scale], …]}
+// (numbers printed so that they read back as the same doubles).
+std::string encode_world_points(const std::string& phase_id, std::int64_t X, std::int64_t Z, const std::vector<Point>& points);
+// Reads a point file. Throws Error("points", …) naming `origin` when it is not such a file, or is
+// one of another phase or tile (a stale file: the caller rebuilds).
+std::vector<Point> decode_world_points(std::string_view bytes, const std::string& phase_id, std::int64_t X, std::int64_t Z,
+                                       const std::string& origin);
 
 // Writes the world's points with the whole-map writers: props.json and props.csv (the "props"
 // writer) when any point is a prop, features.json (the "features" writer) when any is not; `world`
