@@ -2,7 +2,7 @@
 // folder: decode_world_tile, read_world_manifest, verify_world, read_world_window, and build_world's
 // reading of an old world.json when it resumes or refuses a folder.
 //
-// Input: one byte choosing the mode (value modulo 3), then
+// Input: one byte choosing the mode (value modulo 4), then
 //   0: a tile file's bytes, given to decode_world_tile, and to the partial readers world algorithms
 //      use (src/world_internal.hpp): parse_tile (no plane inflated), decode_tile_part of each layer
 //      alone (it must equal the whole decode's layer), and assemble_tile of the parsed parts, the
@@ -12,7 +12,9 @@
 //      written into a temporary folder that read_world_manifest, verify_world and
 //      read_world_window (a 2×2 window at the origin) then read;
 //   2: the same folder, then build_world of a small noise world (9×9 samples, tiles of 5) into it:
-//      it must resume, refuse the folder or rebuild, never crash.
+//      it must resume, refuse the folder or rebuild, never crash;
+//   3: a point file's bytes (points/p{K}/x…_z….json, relief/world_points.hpp), given to
+//      decode_world_points; points it reads must encode and read back to the same values.
 // Passes when each call succeeds or throws relief::Error; a decoded tile must hold window.nx ·
 // window.nz · channels values per layer. Anything else is a bug.
 #include <unistd.h>
@@ -28,6 +30,7 @@
 
 #include "relief/error.hpp"
 #include "relief/recipe.hpp"
+#include "relief/world_points.hpp"
 #include "relief/world.hpp"
 #include "../src/world_internal.hpp"
 
@@ -116,8 +119,26 @@ struct TempDir {  // this process's folder, removed at exit
 
 extern "C" int LLVMFuzzerTestOneInput(const std::uint8_t* data, std::size_t size) {
   if (size < 1) return 0;
-  const int mode = data[0] % 3;
+  const int mode = data[0] % 4;
   const std::string_view bytes(reinterpret_cast<const char*>(data + 1), size - 1);
+  if (mode == 3) {
+    try {
+      const std::vector<relief::Point> pts = relief::decode_world_points(bytes, "fuzz-p0", 0, 0, "input");
+      const std::vector<relief::Point> again =
+          relief::decode_world_points(relief::encode_world_points("fuzz-p0", 0, 0, pts), "fuzz-p0", 0, 0, "again");
+      bool same = again.size() == pts.size();
+      for (std::size_t i = 0; same && i < pts.size(); ++i)
+        same = again[i].kind == pts[i].kind && again[i].type == pts[i].type && again[i].x_m == pts[i].x_m &&
+               again[i].y_m == pts[i].y_m && again[i].z_m == pts[i].z_m && again[i].rotation_deg == pts[i].rotation_deg &&
+               again[i].scale == pts[i].scale;
+      if (!same) {
+        std::fprintf(stderr, "fuzz_world: a point file does not read back to the same points\n");
+        std::abort();
+      }
+    } catch (const relief::Error&) {
+    }
+    return 0;
+  }
   if (mode == 0) {
     try {
       check_tile(relief::decode_world_tile(bytes, "input"));
