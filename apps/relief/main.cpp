@@ -653,7 +653,9 @@ std::vector<std::string> wrap(const std::string& text, std::size_t width) {
     line.push_back(c);
     if (c == ' ' || c == ',' || c == '|') last_break = line.size();
     if (line.size() > width && last_break != std::string::npos && last_break < line.size()) {
-      lines.push_back(line.substr(0, last_break));
+      std::string head = line.substr(0, last_break);
+      while (head.size() > 1 && head.back() == ' ') head.pop_back();  // no trailing space at a break
+      lines.push_back(head);
       line = line.substr(last_break);
       last_break = std::string::npos;
     }
