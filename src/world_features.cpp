@@ -23,6 +23,7 @@
 #include <vector>
 
 #include "relief/error.hpp"
+#include "relief/pipeline.hpp"
 
 namespace relief {
 namespace {
@@ -331,6 +332,16 @@ WorldStageAlgorithm world_features() {
         [](Terrain&) {});
     if (io.points) io.points(plan.points());
   };
+}
+
+std::vector<BiomeInfo> world_legend(const Recipe& r, std::size_t stages) {
+  Recipe q = r;
+  q.stages.resize(std::min(stages, q.stages.size()));
+  q.world.nx = q.world.nz = 65;
+  if (!q.seed) q.seed = 0;  // the legend depends on no seed either; run() would draw one
+  RunOptions opt;
+  opt.threads = 1;
+  return run(q, opt).terrain.biomes;
 }
 
 }  // namespace relief

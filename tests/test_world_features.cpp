@@ -346,16 +346,13 @@ TEST(WorldFeatures, VolcanoOnLandChosenInALaterTileAndFeaturesKeepClearOfIt) {
 namespace {
 
 // build_world of `r` at nx × nz in tiles of `tile` with the feature stages' world algorithms (the
-// volcano given the legend of the stages before it: the biomes stage's, taken from a small
-// whole-map run — it depends on the params only); their points are captured from io.points.
+// volcano given the legend of the stages before it: world_legend); their points are captured from
+// io.points.
 std::map<std::string, std::vector<Point>> build_with_features(const Recipe& r, int nx, int nz, int tile, const std::string& dir) {
   auto captured = std::make_shared<std::map<std::string, std::vector<Point>>>();
-  auto legend = std::make_shared<std::vector<BiomeInfo>>();
-  {
-    int iv = 0;
-    while (r.stages[std::size_t(iv)].def->name != "volcano") ++iv;
-    *legend = whole_states(r, 65, 65).at(iv - 1).biomes;
-  }
+  std::size_t iv = 0;
+  while (r.stages[iv].def->name != "volcano") ++iv;
+  auto legend = std::make_shared<std::vector<BiomeInfo>>(world_legend(r, iv));
   auto capture = [captured](std::string name, WorldStageAlgorithm algo) -> WorldStageAlgorithm {
     return [captured, name, algo](const WorldStageIO& io, const RecipeStage& st, int index) {
       WorldStageIO mine = io;
@@ -402,4 +399,22 @@ TEST(WorldFeatures, VolcanicIslandWithoutPropsBuiltAsAWorldEqualsTheWholeMap) {
 // there is no 'biome' layer". Enable once build_world carries the legend across phases.
 TEST(WorldFeatures, DISABLED_VolcanicIslandPresetBuiltAsAWorldEqualsTheWholeMap) {
   expect_world_equals_whole_map(recipe_of(preset_doc("volcanic-island"), 11));
+}
+
+// ---- the legend -------------------------------------------------------------------------------
+
+TEST(WorldFeatures, WorldLegendEqualsTheWholeMapsAfterEveryStage) {
+  for (const char* preset : {"volcanic-island", "archipelago"}) {
+    SCOPED_TRACE(preset);
+    const Recipe r = recipe_of(preset_doc(preset), 11);
+    const std::map<int, Terrain> whole = whole_states(r, 257, 257);
+    bool some = false;
+    for (auto& [i, t] : whole) {
+      SCOPED_TRACE("after stage " + std::to_string(i));
+      expect_same_legend(t.biomes, world_legend(r, std::size_t(i) + 1));
+      some = some || !t.biomes.empty();
+    }
+    EXPECT_TRUE(some);
+    EXPECT_TRUE(world_legend(r, 0).empty());
+  }
 }

@@ -60,6 +60,7 @@
 #include <string>
 #include <vector>
 
+#include "relief/recipe.hpp"
 #include "relief/stage.hpp"
 #include "relief/terrain.hpp"
 #include "relief/world.hpp"
@@ -70,6 +71,14 @@ namespace relief {
 WorldStageAlgorithm world_volcano(std::shared_ptr<std::vector<BiomeInfo>> legend = nullptr);
 // The world algorithm of the features stage (above).
 WorldStageAlgorithm world_features();
+
+// The biome legend (Terrain::biomes) a whole-map run of `r` has after its first `stages` stages, at
+// any size: every stage that writes the legend (biomes, climate, volcano) builds it from its params
+// alone, never from the terrain, so it is taken from a run of those stages on a 65² world of the
+// same recipe (a few milliseconds). For world builds, which store no legend in their tiles: the
+// legend before a global stage (world_volcano's `legend`) and the one a resumed phase starts from.
+// Throws what run() throws.
+std::vector<BiomeInfo> world_legend(const Recipe& r, std::size_t stages);
 
 namespace detail {
 
