@@ -613,7 +613,8 @@ void CellularRows(const NoiseKernelArgs& a, const double* z, int nrows, std::int
 }
 
 // The cell range of every octave over the row window; false when a table would be much larger than
-// the window (fewer than a sample per few cells: the per-sample kernel is cheaper).
+// the window (more than about a cell per sample: up to 144 bytes of tables per sample otherwise,
+// for little gain over the per-sample kernel).
 bool CellularPrepare(const NoiseKernelArgs& a, std::int64_t i0, double dx, int n, CellOctaveState* st) {
   std::size_t total = 0;
   for (int k = 0; k < a.count; ++k) {
@@ -621,7 +622,7 @@ bool CellularPrepare(const NoiseKernelArgs& a, std::int64_t i0, double dx, int n
     const double u0 = double(i0) * dx * o.freq_x + o.offset_x, u1 = double(i0 + n - 1) * dx * o.freq_x + o.offset_x;
     const std::int64_t c0 = FloorI64(u0), c1 = FloorI64(u1);
     const std::int64_t lo = std::min(c0, c1), hi = std::max(c0, c1);
-    if (hi - lo > 4 * std::int64_t(n) + 64) return false;
+    if (hi - lo > std::int64_t(n) + 64) return false;
     // The culling bounds take fx in [0, 1): positions within ±2⁵⁰ cells (far beyond any terrain).
     if (!(std::fabs(u0) < 0x1p50 && std::fabs(u1) < 0x1p50)) return false;
     st[k].base = lo - 1;

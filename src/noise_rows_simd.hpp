@@ -14,8 +14,10 @@ namespace relief::detail {
 // Cellular: the feature points of a lattice row computed once per cell; Simplex: x terms once per
 // strip of columns for the whole block). Returns false, having
 // written nothing, when the dispatched target has no such kernel (only AVX2 has them), for other
-// bases, with domain warp, for sample indices of 2⁵² and more, and for cellular windows sparser than
-// about 4 cells per sample: the caller then uses noise_row_simd.
+// bases, with domain warp, for sample indices of 2⁵² and more, and for cellular windows of more than
+// about a cell per sample or positions beyond 2⁵⁰ cells: the caller then uses noise_row_simd. Scratch memory: per thread, reused;
+// at most about 150 bytes per sample of n (cellular) and 30 bytes per column and octave of a strip
+// of up to 1024 columns (perlin).
 bool noise_rows_tables_simd(const NoiseKernelArgs& a, const double* z_m, int nrows, std::int64_t i0, double dx, int n,
                             float* out, std::ptrdiff_t stride);
 
