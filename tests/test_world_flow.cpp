@@ -3,6 +3,7 @@
 // included), rivers crossing tile corners, carving on and off; build_world with the algorithm
 // registered equals the whole-map run.
 #include <gtest/gtest.h>
+#include <tbb/task_arena.h>
 
 #include <cstring>
 #include <filesystem>
@@ -384,6 +385,77 @@ TEST(FlowTiled, LakesAcrossTilesGiveTheWholeMapsLayersAndRivers) {
       }
       expect_same_rivers(whole, rivers, lakes);
     }
+  }
+}
+
+// flow_tiled's passes solve tiles on the calling arena's threads: on one and two threads the
+// layers, rivers, lakes, stats and the order of the store calls are the same (lakes and carving
+// across tiles of 33, so that pass S takes rounds).
+TEST(FlowTiled, OneAndTwoThreadsGiveTheSameResultsAndStoreOrder) {
+  json doc = island_flow_doc(20.0, false);
+  json flow = doc["stages"][4];
+  flow["lake_min_depth_m"] = 0.5;
+  flow["lake_min_area_m2"] = 2000.0;
+  doc["stages"] = json::array({doc["stages"][0], doc["stages"][1], doc["stages"][2], flow});
+  Recipe r = recipe_of(doc, 12);
+  const int nx = 257, nz = 230;
+  r.world.nx = nx, r.world.nz = nz;
+  Recipe before = r;
+  before.stages.resize(3);
+  const std::vector<float> h = run(before).terrain.get("height").data;
+  std::vector<float> filled = h;
+  const WorldFlowParams p = world_flow_params(r.stages[3].stage->params());
+  hydro::fill_depressions<float>(filled.data(), nx, nz, float(r.world.sea_level), float(p.epsilon_m / r.world.height_m));
+  const WorldGrid g = world_grid(nx, nz, 33);
+  struct Out {
+    std::vector<float> layers;  // every tile's height, flow, water in store order
+    std::vector<std::int64_t> order;
+    std::vector<River> rivers;
+    std::vector<Lake> lakes;
+    TiledFlowStats st;
+  };
+  auto tile_of = [&](const std::vector<float>& src, std::int64_t X, std::int64_t Z) {
+    const WorldGrid::Window w = g.window(X, Z);
+    std::vector<float> v(std::size_t(w.nx) * std::size_t(w.nz));
+    for (int j = 0; j < w.nz; ++j)
+      for (int i = 0; i < w.nx; ++i) v[std::size_t(j) * w.nx + i] = src[std::size_t(w.iz0 + j) * std::size_t(nx) + std::size_t(w.ix0 + i)];
+    return v;
+  };
+  auto on = [&](int threads) {
+    Out o;
+    tbb::task_arena arena(threads);
+    arena.execute([&] {
+      o.st = flow_tiled(
+          g, world_frame(r, nx, nz), p, [&](std::int64_t X, std::int64_t Z) { return tile_of(h, X, Z); },
+          [&](std::int64_t X, std::int64_t Z, FlowTile t) {
+            o.order.push_back(Z * g.tiles_x + X);
+            for (auto* v : {&t.height, &t.flow, &t.water}) o.layers.insert(o.layers.end(), v->begin(), v->end());
+          },
+          &o.rivers, {}, "height", [&](std::int64_t X, std::int64_t Z) { return tile_of(filled, X, Z); }, &o.lakes);
+    });
+    return o;
+  };
+  const Out one = on(1), two = on(2);
+  EXPECT_GT(one.st.rounds, 1);
+  EXPECT_GE(one.lakes.size(), 3u);
+  EXPECT_EQ(one.order, two.order);
+  ASSERT_EQ(one.layers.size(), two.layers.size());
+  EXPECT_EQ(std::memcmp(one.layers.data(), two.layers.data(), one.layers.size() * 4), 0);
+  EXPECT_EQ(one.st.rounds, two.st.rounds);
+  EXPECT_EQ(one.st.tile_solves, two.st.tile_solves);
+  EXPECT_EQ(one.st.cover_cells, two.st.cover_cells);
+  EXPECT_EQ(one.st.max_count, two.st.max_count);
+  ASSERT_EQ(one.rivers.size(), two.rivers.size());
+  for (std::size_t k = 0; k < one.rivers.size(); ++k) {
+    ASSERT_EQ(one.rivers[k].vertices.size(), two.rivers[k].vertices.size()) << "river " << k;
+    EXPECT_EQ(one.rivers[k].end, two.rivers[k].end);
+    for (std::size_t v = 0; v < one.rivers[k].vertices.size(); ++v)
+      EXPECT_EQ(std::memcmp(&one.rivers[k].vertices[v], &two.rivers[k].vertices[v], sizeof(RiverVertex)), 0) << "river " << k;
+  }
+  ASSERT_EQ(one.lakes.size(), two.lakes.size());
+  for (std::size_t k = 0; k < one.lakes.size(); ++k) {
+    EXPECT_EQ(std::memcmp(&one.lakes[k].volume_m3, &two.lakes[k].volume_m3, sizeof(double)), 0) << "lake " << k;
+    EXPECT_EQ(one.lakes[k].samples, two.lakes[k].samples);
   }
 }
 
