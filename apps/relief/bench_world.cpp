@@ -20,6 +20,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <fstream>
+#include <iterator>
 #include <map>
 #include <thread>
 
@@ -153,7 +154,10 @@ void bench_world_mpi(const BenchSettings& s, json& entries, int n, const std::fi
         },
         [&] { fs::remove_all(out, ec); });
     if (failed) {
-      std::printf("world mpi: `mpirun -n %d relief world` failed; skipped (see %s)\n", ranks, (dir / "mpi.log").string().c_str());
+      std::ifstream log(dir / "mpi.log");
+      const std::string text((std::istreambuf_iterator<char>(log)), std::istreambuf_iterator<char>());
+      std::printf("world mpi: `mpirun -n %d relief world` failed; skipped. Its output:\n%s\n", ranks,
+                  text.substr(text.size() > 2000 ? text.size() - 2000 : 0).c_str());
       return;
     }
     ms[ranks - 1] = t.median;
