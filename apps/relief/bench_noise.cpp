@@ -36,7 +36,8 @@ double noise_target(const NoiseCase& c) {
 constexpr double kGradientPeerTarget = 50.0;  // gradient fBm's speed over libnoise's, at least
 
 // Prints, for each noise case of one thread count, its wall and CPU time as a ratio to the gradient
-// case with the same fractal (cellular: 1 octave) in the same run, its target and whether the
+// case with the same fractal (cellular: 1 octave) in the same run (from paired runs when the entry
+// has them: "paired_ratio", "paired_cpu_ratio"; else from the cases' medians), its target and whether the
 // target is missed, and records them in the cases' JSON entries ("gradient_ratio",
 // "gradient_cpu_ratio", "gradient_target", "target_met"); then gradient fBm's speed over its libnoise
 // peer against issue 17's floor.
@@ -48,7 +49,7 @@ void print_noise_ratios(const std::vector<NoiseCase>& cases, json& all, std::siz
       if (cases[i].basis == NoiseBasis::Gradient && cases[i].fractal == f) return &entry(i);
     return nullptr;
   };
-  std::printf("noise ratios to gradient with the same fractal (same run, %d thread(s)):\n",
+  std::printf("noise ratios to gradient with the same fractal (same run, paired runs, %d thread(s)):\n",
               entry(0)["threads"].get<int>());
   std::printf("  %-22s %8s %8s %8s\n", "case", "wall", "cpu", "target");
   for (std::size_t i = 0; i < cases.size(); ++i) {
@@ -57,8 +58,12 @@ void print_noise_ratios(const std::vector<NoiseCase>& cases, json& all, std::siz
     const json* g = find_gradient(c.basis == NoiseBasis::Cellular ? Fractal::None : c.fractal);
     if (!g) continue;
     json& e = entry(i);
-    const double r = e["median_ms"].get<double>() / (*g)["median_ms"].get<double>();
-    const double rc = e["cpu_median_ms"].get<double>() / (*g)["cpu_median_ms"].get<double>();
+    // Paired runs (the gradient case timed again beside this one, run by run) when there are.
+    const double r = e.contains("paired_ratio") ? e["paired_ratio"].get<double>()
+                                                : e["median_ms"].get<double>() / (*g)["median_ms"].get<double>();
+    const double rc = e.contains("paired_cpu_ratio")
+                          ? e["paired_cpu_ratio"].get<double>()
+                          : e["cpu_median_ms"].get<double>() / (*g)["cpu_median_ms"].get<double>();
     const double target = noise_target(c);
     e["gradient_ratio"] = r;
     e["gradient_cpu_ratio"] = rc;
@@ -216,6 +221,57 @@ void bench_noise(const BenchSettings& s, json& entries) {
       e["peak_memory_bytes"] = peak_rss_bytes();
       print_row(e);
       entries.push_back(e);
+    }
+    // The ratios to gradient from paired runs: each case timed again right after the gradient case
+    // with the same fractal (cellular: 1 octave), `runs` times, the ratio the median of the pairs'
+    // ratios ("paired_ratio", "paired_cpu_ratio"). On a shared machine the load drifts over the
+    // minutes between the cases above; within a pair it barely does.
+    {
+      auto run_rows = [&](const Noise& noise) {
+        arena.execute([&] {
+          parallel_rows((n + 15) / 16, [&](int b) {
+            const int j0 = b * 16, m = std::min(16, n - j0);
+            double z[16];
+            for (int r = 0; r < m; ++r) z[r] = double(j0 + r);
+            noise.rows(z, m, 0, 1.0, n, buf.data() + std::size_t(j0) * n, n);
+          }, 1);
+        });
+      };
+      auto settings = [](const NoiseCase& c) {
+        NoiseSettings ns;
+        ns.basis = c.basis;
+        ns.cellular = c.cellular;
+        ns.fractal = c.fractal;
+        ns.octaves = c.octaves;
+        ns.frequency = 1.0 / 64.0;
+        ns.seed = 1;
+        return ns;
+      };
+      for (std::size_t i = 0; i < cases.size(); ++i) {
+        const NoiseCase& c = cases[i];
+        if (c.basis == NoiseBasis::Gradient || noise_target(c) <= 0.0) continue;
+        const Fractal gf = c.basis == NoiseBasis::Cellular ? Fractal::None : c.fractal;
+        const NoiseCase* gc = nullptr;
+        for (const NoiseCase& g : cases)
+          if (g.basis == NoiseBasis::Gradient && g.fractal == gf) gc = &g;
+        if (!gc) continue;
+        const Noise noise(settings(c)), grad(settings(*gc));
+        std::vector<double> ratio, cpu_ratio;
+        for (int r = 0; r < s.runs; ++r) {
+          const double c0 = cpu_ms();
+          const auto t0 = std::chrono::steady_clock::now();
+          run_rows(grad);
+          const double c1 = cpu_ms();
+          const auto t1 = std::chrono::steady_clock::now();
+          run_rows(noise);
+          const double c2 = cpu_ms();
+          const auto t2 = std::chrono::steady_clock::now();
+          ratio.push_back(std::chrono::duration<double>(t2 - t1).count() / std::chrono::duration<double>(t1 - t0).count());
+          cpu_ratio.push_back((c2 - c1) / (c1 - c0));
+        }
+        entries[first + i]["paired_ratio"] = median_of(ratio);
+        entries[first + i]["paired_cpu_ratio"] = median_of(cpu_ratio);
+      }
     }
     print_noise_ratios(cases, entries, first);
 
