@@ -35,6 +35,7 @@
 #include "relief/file_output.hpp"
 #include "relief/generate.hpp"
 #include "relief/world.hpp"
+#include "relief/world_features.hpp"
 #include "relief/world_points.hpp"
 #include "world_internal.hpp"
 #include "world_overview.hpp"
@@ -374,6 +375,10 @@ WorldReport build_world(WorldSettings s) {
 
   // 2.-6. on rank 0; the other ranks learn the seed and the phases' layers (or rank 0's error) from it.
   json resolved, manifest;
+  // Rank 0: the folder holds this world, complete and intact (world.json says so and every tile
+  // matches its checksum): a rerun skips every phase before the last (their stores are gone) and a
+  // last phase that is a world algorithm; a last local phase still checks each tile.
+  bool was_complete = false;
   const json started = agree(tr, [&]() -> json {
     // 2. The folder: the same world (resume), a different one (refuse unless forced), or none.
     json old;
@@ -429,6 +434,13 @@ WorldReport build_world(WorldSettings s) {
                                     "or pass " + s.force_name + " to replace it");
       }
       if (!same) remove_old_world(dir);
+      if (same && old_string("status") == "complete") {
+        try {
+          was_complete = verify_world(dir.string()).empty();
+        } catch (const Error&) {
+          was_complete = false;
+        }
+      }
     }
 
     // 3. The layers each phase leaves: from runs of the recipe up to the phase's end on a small
@@ -892,7 +904,7 @@ WorldReport build_world(WorldSettings s) {
     // any rank writes in it).
     const json begun = agree(tr, [&]() -> json {
       std::error_code e2;
-      if (!last && fs::exists(ph.folder / "complete", e2)) {
+      if ((was_complete && (!last || ph.global)) || (!last && fs::exists(ph.folder / "complete", e2))) {
         if (pk > 0) remove_phase_tiles(phases[pk - 1].folder);  // left by a build stopped before it removed them
         return {{"skip", true}};
       }
@@ -952,6 +964,7 @@ WorldReport build_world(WorldSettings s) {
         io.threads = threads;
         io.cancelled = s.cancelled;
         io.seed = rep.seed;
+        io.legend = world_legend(r, ph.first);
         // World files a stage makes (rivers.json, lakes.json) go into the world folder, atomically.
         FileOutput world_files(dir.string(), FileOutput::Mode::Immediate, FileOutput::Sync::Atomic);
         io.out = &world_files;
@@ -989,6 +1002,7 @@ WorldReport build_world(WorldSettings s) {
     }
     const Phase* in = pk > 0 ? &phases[pk - 1] : nullptr;
     const bool makes_points = phase_makes_points(ph);
+    const std::vector<BiomeInfo> legend = in ? world_legend(r, ph.first) : std::vector<BiomeInfo>();
     auto do_tile = [&](std::int64_t k) {
       if (cancelled()) throw Cancelled();
       const std::int64_t X = k % grid.tiles_x, Z = k / grid.tiles_x;
@@ -1036,6 +1050,7 @@ WorldReport build_world(WorldSettings s) {
         grow(w.iz0, w.nz, grid.nz, gz0, gnz);
         const bool whole = w.ix0 == 0 && w.iz0 == 0 && w.nx == grid.nx && w.nz == grid.nz;
         snapshot = whole ? read_region(*in, 0, 0, w.nx, w.nz) : read_region(*in, gx0, gz0, gnx, gnz);
+        snapshot.biomes = legend;  // tiles store no legend: the one the stages before leave (params alone)
         opt.resume = Resume{&snapshot, int(ph.first)};
       }
       RunResult run_res = run(rp, opt);

@@ -6,6 +6,7 @@
 
 #include "relief/world.hpp"
 #include "relief/world_bounded.hpp"
+#include "relief/world_features.hpp"
 #include "relief/world_flow.hpp"
 
 namespace relief {
@@ -32,6 +33,15 @@ const std::vector<WorldAlgorithmEntry>& world_algorithm_entries() {
        "droplets defined by world position; each tile eroded on its window grown by a droplet's longest path, the "
        "strip after each seam blended with the neighbour's run; seam error measured against one whole-map build "
        "(tests/test_world_bounded.cpp)"},
+      {"volcano", [] { return world_volcano(); }, "exact",
+       "placed on land: the 96 candidates' land probes read from the stored tiles, the best chosen as on the whole "
+       "map, the lava level read from the shaped tiles at the rim, then every tile within the radius shaped and "
+       "coloured (relief/world_features.hpp); placed fixed: neighbourhood (each tile on its window grown by "
+       "ceil((radius_m + rim_radius_m) / cell) + 2 samples); its point is the whole map's"},
+      {"features", [] { return world_features(); }, "exact",
+       "candidates tried in the whole map's attempt order, their land and volcano probes read from the stored tiles "
+       "in batches; each feature's height read after the features before it; every tile within a feature's reach "
+       "changed in order (relief/world_features.hpp); its points are the whole map's, in order"},
       {"stream_power", [] { return world_stream_power(); }, "bounded",
        "solved once over the whole world on a grid of at most 2049 samples per axis (exact when the world is no "
        "larger), the change interpolated into every tile; drainage stays continuous across tiles"},
@@ -50,9 +60,8 @@ WorldGuarantee world_guarantee(const StageDef& d) {
   for (const WorldAlgorithmEntry& e : world_algorithm_entries())
     if (d.name == e.stage) return {e.guarantee, e.how};
   // Stages that make points: each tile keeps the points it owns, merged into the world's files.
-  const std::string points = d.name == "props" || d.name == "volcano"
-                                 ? "; its points are those each tile owns, merged into the whole map's files in its order"
-                                 : "";
+  const std::string points =
+      d.name == "props" ? "; its points are those each tile owns, merged into the whole map's files in its order" : "";
   switch (d.locality) {
     case Locality::Pointwise:
       return {"exact", "pointwise: each tile computes its own samples" + points};

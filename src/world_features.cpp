@@ -199,9 +199,11 @@ WorldStageAlgorithm world_volcano(std::shared_ptr<std::vector<BiomeInfo>> legend
     const std::string path = "stages[" + std::to_string(index) + "]";
     detail::VolcanoPlan plan(st.stage->params(), io.world, context_of(io, index), path);
     const std::vector<std::string> layers = stored_layers(io, {"height", "volcano", "albedo", "biome"});
-    if (!legend && std::find(layers.begin(), layers.end(), "biome") != layers.end())
+    // The legend before the stage: the caller's, else the one build_world gives (WorldStageIO::legend).
+    const std::vector<BiomeInfo>& before = legend ? *legend : io.legend;
+    if (before.empty() && std::find(layers.begin(), layers.end(), "biome") != layers.end())
       throw Error(path, "the volcano numbers its biomes in the legend of the stages before it, which this world build "
-                        "does not carry across phases (world_volcano(legend), relief/world_features.hpp)");
+                        "does not give (WorldStageIO::legend, or world_volcano(legend), relief/world_features.hpp)");
     // 1. The place: the candidates' land probes.
     if (plan.on_land()) {
       Probes probes(io, path);
@@ -216,7 +218,7 @@ WorldStageAlgorithm world_volcano(std::shared_ptr<std::vector<BiomeInfo>> legend
     }
     // 3. Every tile, shaped and coloured; the legend grows as the whole map's does (the same ids in
     // every tile).
-    std::vector<BiomeInfo> biomes = legend ? *legend : std::vector<BiomeInfo>{};
+    std::vector<BiomeInfo> biomes = before;
     const bool has_mask = std::find(layers.begin(), layers.end(), "volcano") != layers.end();
     each_tile(
         io, layers,

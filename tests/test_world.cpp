@@ -294,13 +294,15 @@ TEST(WorldResume, WithoutASeedTheFolderSeedIsReused) {
 // ---- refusals -------------------------------------------------------------------------------------
 
 TEST(WorldErrors, GlobalStagesAreRefusedUpFront) {
-  const Recipe r = recipe_of(preset_doc("volcanic-island"));  // noise, island, biomes, volcano (placed on land), …
+  json doc = preset_doc("island");  // noise, island, …, then a tilemap: global, with no world algorithm
+  doc["stages"].push_back({{"stage", "tilemap"}});
+  const Recipe r = recipe_of(doc);
   TempDir d("world-global");
   try {
     build_world(settings(r, 257, 257, 65, d / "w"));
     ADD_FAILURE() << "a global stage was accepted";
   } catch (const Error& e) {
-    EXPECT_EQ(e.path(), "stages[3]");
+    EXPECT_EQ(e.path(), "stages[" + std::to_string(r.stages.size() - 1) + "]");
     EXPECT_NE(e.message().find("no world support yet"), std::string::npos) << e.what();
   }
   EXPECT_FALSE(fs::exists(d.path / "w"));  // nothing written
@@ -379,7 +381,14 @@ TEST(WorldCli, BuildsAStoreAndRefusesBadInputWithExitCode2) {
   expect_same_layers(whole_map(recipe_of(preset_doc("island"), 4), 129, 129), read_world_window(out, 0, 0, 129, 129));
   relief::test::expect_cli_error("world island --size 257 --tile 64 -o " + (d / "a"), "--tile: expected a tile size of 2^n+1");
   relief::test::expect_cli_error("world island --size 257 --tile 513 -o " + (d / "a"), "larger than the world");
-  relief::test::expect_cli_error("world volcanic-island --size 257 --tile 65 -o " + (d / "a"), "stages[3]: 'volcano' has no world support yet");
+  {  // a stage with no world algorithm: the tilemap (its grid stretches over the whole map)
+    json doc = preset_doc("island");
+    doc["stages"].push_back({{"stage", "tilemap"}});
+    relief::test::write_text(d / "tilemap.json", doc.dump());
+    relief::test::expect_cli_error("world " + (d / "tilemap.json") + " --size 257 --tile 65 -o " + (d / "a"),
+                                   "stages[" + std::to_string(doc["stages"].size() - 1) + "]: 'tilemap' has no world support yet");
+    EXPECT_FALSE(fs::exists(d / "a"));
+  }
   relief::test::expect_cli_error("world island --size 129 --tile 33 --seed 5 -q -o " + out, "--out: the folder");
   relief::test::expect_cli_error("world island --size 1048577 --tile 8193 -o " + (d / "a"), "on disk");
   relief::test::expect_cli_error("world island --size 1048578 --tile 33 -o " + (d / "a"), "--size");

@@ -393,11 +393,10 @@ TEST(WorldFeatures, VolcanicIslandWithoutPropsBuiltAsAWorldEqualsTheWholeMap) {
   expect_world_equals_whole_map(recipe_of(doc, 11));
 }
 
-// The preset as shipped. Disabled: the props stage after the volcano's phase needs the biome legend
-// (its prop types name biomes), and build_world's resumed phases start from tiles that hold no
-// legend (src/world.cpp: the snapshot's Terrain::biomes is empty), so props throws "names biomes, but
-// there is no 'biome' layer". Enable once build_world carries the legend across phases.
-TEST(WorldFeatures, DISABLED_VolcanicIslandPresetBuiltAsAWorldEqualsTheWholeMap) {
+// The preset as shipped: the props stage after the volcano's and features' phases names biomes, so
+// the resumed phase must start from the legend the stages before it leave (build_world gives it:
+// world_legend), and the volcano numbers its biomes in the legend WorldStageIO::legend gives.
+TEST(WorldFeatures, VolcanicIslandPresetBuiltAsAWorldEqualsTheWholeMap) {
   expect_world_equals_whole_map(recipe_of(preset_doc("volcanic-island"), 11));
 }
 

@@ -186,3 +186,21 @@ TEST(WorldFiles, OverviewIsTheWorldDownsampledAndShaded) {
   // No temporary file is left in the folder.
   for (const auto& e : fs::directory_iterator(w)) EXPECT_EQ(e.path().filename().string().find(".overview"), std::string::npos);
 }
+
+TEST(WorldFiles, TheVolcanicIslandPresetsFeaturesAndPropsAreTheWholeMaps) {
+  // The volcano (placed on land) and the features are world algorithms: their points reach the
+  // world's features.json through WorldStageIO::points, in recipe order before the props.
+  TempDir d("world-volcanic-files");
+  generate_whole("volcanic-island", "513", d / "whole");
+  const auto r = relief_cli("world volcanic-island --size 513 --tile 129 --seed 7 -j 2 -q -o " + (d / "w"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  const std::string features = slurp(fs::path(d / "w") / "features.json");
+  EXPECT_NE(features.find("volcano"), std::string::npos);
+  EXPECT_NE(features.find("crater"), std::string::npos);
+  EXPECT_EQ(features, slurp(fs::path(d / "whole") / "features.json"));
+  EXPECT_EQ(slurp(fs::path(d / "w") / "props.json"), slurp(fs::path(d / "whole") / "props.json"));
+  // A rerun of the complete build (every phase skipped) writes the same files from points/.
+  ASSERT_EQ(relief_cli("world volcanic-island --size 513 --tile 129 --seed 7 -j 2 -q -o " + (d / "w")).code, 0);
+  EXPECT_EQ(report_of(fs::path(d / "w"))["tiles"]["built"], 0);
+  EXPECT_EQ(slurp(fs::path(d / "w") / "features.json"), features);
+}

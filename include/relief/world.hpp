@@ -22,12 +22,13 @@
 //            and thread count (tests/test_world.cpp checks it against run()).
 //   exact    the global stages whose world algorithm is exact (default_world_algorithms(), or
 //            WorldSettings::algorithms): `fill` (tiles solved and their border levels exchanged
-//            until nothing changes, src/world_fill.cpp) and `flow` (drainage, rivers, lakes,
-//            relief/world_flow.hpp). Each runs as a phase of its own over the stored tiles (see
+//            until nothing changes, src/world_fill.cpp), `flow` (drainage, rivers, lakes,
+//            relief/world_flow.hpp), a volcano placed on land and `features`
+//            (relief/world_features.hpp). Each runs as a phase of its own over the stored tiles (see
 //            "Phases"), bit for bit as on the whole map.
 //   bounded  `hydraulic` and `stream_power` (relief/world_bounded.hpp): approximations whose seam
 //            error against a whole-map build is measured (tests/test_world_bounded.cpp).
-//   refused  the other global stages (tilemap, features, a volcano placed on land): build_world
+//   refused  the other global stages (today: tilemap): build_world
 //            throws Error("stages[i]", …) before any work, saying the stage has no world support yet.
 // world_guarantee(stage) says which, and how; world.json and `relief explain` print it.
 //
@@ -210,6 +211,10 @@ struct WorldStageIO {
   // recipe order, as the whole map's props.json / features.json (relief/world_points.hpp). Called
   // at most once per stage; null when the caller runs the algorithm outside build_world.
   std::function<void(std::vector<Point> points)> points;
+  // The biome legend (Terrain::biomes) a whole-map run has before this stage (world_legend of
+  // relief/world_features.hpp: the legend depends on the stages' params alone). Tiles store no
+  // legend; a stage that numbers biomes (the volcano's "volcano" and "lava") reads it here.
+  std::vector<BiomeInfo> legend;
 };
 // Runs one global stage (`stage`, at `index` in the recipe) over the whole stored world.
 using WorldStageAlgorithm = std::function<void(const WorldStageIO& io, const RecipeStage& stage, int index)>;

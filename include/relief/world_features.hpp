@@ -50,11 +50,12 @@
 //
 // The biome legend. The volcano writes its biome ids ("volcano", "lava") into the "biome" layer when
 // the tiles have one; the whole map numbers them in Terrain::biomes, the legend of the stages before
-// it, appending them when missing. Tiles do not store the legend and WorldStageIO does not carry it
-// (yet), so world_volcano takes it: `legend` is the legend before the stage (in) and receives the
-// legend after it (out: "volcano" and "lava" appended as the whole map appends them). Without one
-// (null) a world whose tiles hold a "biome" layer is refused: Error("stages[i]", …) naming the
-// missing legend, before any tile is stored.
+// it, appending them when missing. Tiles do not store the legend: build_world gives the legend
+// before the stage in WorldStageIO::legend (world_legend below), and a resumed local phase starts from
+// world_legend of its first stage. A caller may pass its own: `legend` is then the legend before the
+// stage (in) and receives the legend after it (out: "volcano" and "lava" appended as the whole map
+// appends them). With neither (null and an empty io.legend) a world whose tiles hold a "biome" layer
+// is refused: Error("stages[i]", …) naming the missing legend, before any tile is stored.
 #include <functional>
 #include <memory>
 #include <string>

@@ -14,7 +14,9 @@
 // Order of a whole-map run's points: by stage, in recipe order (volcano, features, props); within
 // `props`, by position: z, then x (stage_props.cpp emits them so); a volcano stage makes one point.
 // Limits: two stages making points of the same kind (two props stages) are merged into one group
-// ordered by position (the whole map keeps them apart); `features` is global (not in world builds);
+// ordered by position (the whole map keeps them apart); `features` and a volcano placed on land are
+// world algorithms that hand their points over in whole-map order (WorldStageIO::points; merged by
+// stage below);
 // a point outside the world (a volcano fixed outside it) is owned by no tile, while a whole-map run
 // keeps it. A resumed run (RunOptions::resume, the phases of relief/world.hpp) makes only the points
 // of the stages it runs: collect each local phase's owned points.
