@@ -1,7 +1,8 @@
 // World builds at the size (label `slow`): a 2049² world built in tiles of 257, 513 and
 // 1025 equals the whole-map build byte for byte, for a recipe whose every stage is exact in world
 // builds: the river-island kind with fill, flow and rivers (noise, island, redistribute, fill,
-// flow, color, hillshade).
+// flow, color, hillshade), and the volcanic-island preset as shipped (a volcano placed on land,
+// features, props naming biomes).
 #include <gtest/gtest.h>
 
 #include "relief/world.hpp"
@@ -33,6 +34,28 @@ TEST(WorldExactAtScale, RiverWorld2049InTilesOf257_513_1025EqualsTheWholeMap) {
     for (const json& st : m["stages"]) EXPECT_EQ(st.value("world", ""), "exact") << st.dump();
     // The world's rivers and lakes: whole polylines and lakes, the bytes of the whole map's files.
     for (const char* f : {"rivers.json", "lakes.json"})
+      EXPECT_TRUE(relief::test::slurp(d.path / "w" / f) == relief::test::slurp(g.path / f)) << f << " differs from the whole map's";
+  }
+}
+
+TEST(WorldExactAtScale, VolcanicIsland2049InTilesOf257_513_1025EqualsTheWholeMap) {
+  const Recipe r = recipe_of(preset_doc("volcanic-island"), 5);
+  const int n = 2049;
+  const Terrain whole = whole_map(r, n, n);
+  ASSERT_TRUE(whole.has("volcano"));
+  TempDir g("world-exact-volcanic-generate");
+  const auto gen = relief::test::relief_cli("generate volcanic-island --size " + std::to_string(n) +
+                                            " --seed 5 -q -f features,props -o " + g.path.string());
+  ASSERT_EQ(gen.code, 0) << gen.out;
+  for (int tile : {257, 513, 1025}) {
+    SCOPED_TRACE("tile " + std::to_string(tile));
+    TempDir d("world-exact-volcanic-" + std::to_string(tile));
+    build_world(settings(r, n, n, tile, d / "w"));
+    expect_same_layers(whole, read_world_window(d / "w", 0, 0, n, n));
+    const json m = read_world_manifest(d / "w");
+    for (const json& st : m["stages"]) EXPECT_EQ(st.value("world", ""), "exact") << st.dump();
+    // The volcano's and the features' points (world algorithms) and the props (per tile), merged.
+    for (const char* f : {"features.json", "props.json", "props.csv"})
       EXPECT_TRUE(relief::test::slurp(d.path / "w" / f) == relief::test::slurp(g.path / f)) << f << " differs from the whole map's";
   }
 }
