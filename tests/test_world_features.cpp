@@ -29,20 +29,6 @@ using namespace relief::test::world;
 
 namespace {
 
-void expect_same_points(const std::vector<Point>& a, const std::vector<Point>& b) {
-  ASSERT_EQ(a.size(), b.size());
-  for (std::size_t k = 0; k < a.size(); ++k) {
-    SCOPED_TRACE("point " + std::to_string(k));
-    EXPECT_EQ(a[k].kind, b[k].kind);
-    EXPECT_EQ(a[k].type, b[k].type);
-    EXPECT_EQ(std::memcmp(&a[k].x_m, &b[k].x_m, 8), 0);
-    EXPECT_EQ(std::memcmp(&a[k].y_m, &b[k].y_m, 8), 0);
-    EXPECT_EQ(std::memcmp(&a[k].z_m, &b[k].z_m, 8), 0);
-    EXPECT_EQ(a[k].rotation_deg, b[k].rotation_deg);
-    EXPECT_EQ(a[k].scale, b[k].scale);
-  }
-}
-
 void expect_same_legend(const std::vector<BiomeInfo>& a, const std::vector<BiomeInfo>& b) {
   ASSERT_EQ(a.size(), b.size());
   for (std::size_t k = 0; k < a.size(); ++k) {

@@ -20,24 +20,6 @@ using relief::test::TempDir;
 
 namespace {
 
-// volcanic-island with the volcano at a fixed place and no features: every stage local, and both a
-// volcano point (features.json) and props (props.json).
-json volcanic_fixed_doc() {
-  json doc = load_preset("volcanic-island");
-  json stages = json::array();
-  for (json s : doc["stages"]) {
-    if (s["stage"] == "features") continue;
-    if (s["stage"] == "volcano") {
-      s["placement"] = "fixed";
-      s["x_m"] = 2150.0;
-      s["z_m"] = 1900.0;
-    }
-    stages.push_back(s);
-  }
-  doc["stages"] = stages;
-  return doc;
-}
-
 // `relief generate` of the whole map into `dir`; the point files are compared with the world's.
 void generate_whole(const std::string& recipe, const std::string& size, const std::string& dir) {
   const auto r = relief_cli("generate " + recipe + " --size " + size + " --seed 7 -q -o " + dir);

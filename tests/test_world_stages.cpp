@@ -27,24 +27,6 @@ using relief::test::TempDir;
 
 namespace {
 
-// volcanic-island with the stages a world build can run: the volcano at a fixed place (the island's
-// middle) and no features (global: their places are chosen on the whole map's land).
-json volcanic_local_doc() {
-  json doc = load_preset("volcanic-island");
-  json stages = json::array();
-  for (json s : doc["stages"]) {
-    if (s["stage"] == "features") continue;
-    if (s["stage"] == "volcano") {
-      s["placement"] = "fixed";
-      s["x_m"] = 2150.0;
-      s["z_m"] = 1900.0;
-    }
-    stages.push_back(s);
-  }
-  doc["stages"] = stages;
-  return doc;
-}
-
 int halo_of(const Recipe& r, const std::string& stage, int nx) {
   Recipe q = r;
   q.world.nx = q.world.nz = nx;
@@ -87,21 +69,6 @@ const WriterDef& writer(const std::string& name) {
   throw std::runtime_error("no writer " + name);
 }
 
-void expect_same_points(const std::vector<Point>& a, const std::vector<Point>& b) {
-  ASSERT_EQ(a.size(), b.size());
-  for (std::size_t k = 0; k < a.size(); ++k) {
-    SCOPED_TRACE("point " + std::to_string(k));
-    EXPECT_EQ(a[k].kind, b[k].kind);
-    EXPECT_EQ(a[k].type, b[k].type);
-    EXPECT_EQ(std::memcmp(&a[k].x_m, &b[k].x_m, 8), 0);
-    EXPECT_EQ(std::memcmp(&a[k].y_m, &b[k].y_m, 8), 0);
-    EXPECT_EQ(std::memcmp(&a[k].z_m, &b[k].z_m, 8), 0);
-    EXPECT_EQ(a[k].rotation_deg, b[k].rotation_deg);
-    EXPECT_EQ(a[k].scale, b[k].scale);
-    if (::testing::Test::HasFailure()) return;
-  }
-}
-
 }  // namespace
 
 // ---- layers: world stores against the whole map ------------------------------------------------
@@ -127,7 +94,7 @@ TEST(WorldStages, ArchipelagoClippedWorldEqualsTheWholeMap) {
 }
 
 TEST(WorldStages, VolcanicIslandWithAFixedVolcanoTilesEqualTheWholeMap) {
-  const Recipe r = recipe_of(volcanic_local_doc());
+  const Recipe r = recipe_of(volcanic_fixed_doc());
   EXPECT_GT(halo_of(r, "biomes", 513), 0);
   EXPECT_GT(halo_of(r, "volcano", 513), 0);
   const Terrain whole = whole_map(r, 513, 513);
@@ -178,7 +145,7 @@ TEST(WorldStages, ArchipelagoPropsMergedFromTilesEqualTheWholeMapsFiles) {
 }
 
 TEST(WorldStages, VolcanoPointAndPropsOfTheFixedVolcanoIslandMergeInRecipeOrder) {
-  const Recipe r = recipe_of(volcanic_local_doc(), 5);
+  const Recipe r = recipe_of(volcanic_fixed_doc(), 5);
   const Terrain whole = whole_map(r, 513, 513);
   ASSERT_FALSE(whole.points.empty());
   EXPECT_EQ(whole.points.front().kind, "volcano");

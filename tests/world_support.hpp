@@ -7,6 +7,7 @@
 #include <filesystem>
 #include <map>
 #include <string>
+#include <vector>
 
 #include "relief/pipeline.hpp"
 #include "relief/recipe.hpp"
@@ -93,6 +94,41 @@ inline json river_world_doc() {
   doc["stages"] = stages;
   doc["name"] = "river-world";
   return doc;
+}
+
+// volcanic-island with every stage local: the volcano at a fixed place (the island's middle) and no
+// features (a volcano placed on land and features are world algorithms: test_world_features.cpp).
+// Both a volcano point (features.json) and props (props.json).
+inline json volcanic_fixed_doc() {
+  json doc = load_preset("volcanic-island");
+  json stages = json::array();
+  for (json s : doc["stages"]) {
+    if (s["stage"] == "features") continue;
+    if (s["stage"] == "volcano") {
+      s["placement"] = "fixed";
+      s["x_m"] = 2150.0;
+      s["z_m"] = 1900.0;
+    }
+    stages.push_back(s);
+  }
+  doc["stages"] = stages;
+  return doc;
+}
+
+// The same points in the same order, bit for bit (positions compared as bytes).
+inline void expect_same_points(const std::vector<Point>& a, const std::vector<Point>& b) {
+  ASSERT_EQ(a.size(), b.size());
+  for (std::size_t k = 0; k < a.size(); ++k) {
+    SCOPED_TRACE("point " + std::to_string(k));
+    EXPECT_EQ(a[k].kind, b[k].kind);
+    EXPECT_EQ(a[k].type, b[k].type);
+    EXPECT_EQ(std::memcmp(&a[k].x_m, &b[k].x_m, 8), 0);
+    EXPECT_EQ(std::memcmp(&a[k].y_m, &b[k].y_m, 8), 0);
+    EXPECT_EQ(std::memcmp(&a[k].z_m, &b[k].z_m, 8), 0);
+    EXPECT_EQ(a[k].rotation_deg, b[k].rotation_deg);
+    EXPECT_EQ(a[k].scale, b[k].scale);
+    if (::testing::Test::HasFailure()) return;
+  }
 }
 
 }  // namespace relief::test::world
