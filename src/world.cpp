@@ -1157,14 +1157,44 @@ WorldReport build_world(WorldSettings s) {
   // Rank 0 finishes the store: the other ranks' tiles are written and their results are here.
   if (!root) return rep;
   if (!final_done_in_memory) {  // the last phase was a world algorithm: checksums and overview from its tiles
-    for (std::int64_t k = 0; k < grid.count(); ++k) {
-      WorldTile t;
-      const std::string bytes = existing(phases.back(), k % grid.tiles_x, k / grid.tiles_x, &t);
-      if (bytes.empty()) throw Error(s.out_path, "the world algorithm of the last stage left tile " + std::to_string(k) + " missing");
-      take_overview(t);
-      crcs[std::size_t(k)] = detail::tile_checksum(bytes);
-      sizes[std::size_t(k)] = bytes.size();
-    }
+    // Read on the build's threads; only the height (the overview's) is decoded, every file's CRC-32
+    // and framing checked.
+    struct Final {
+      std::uint32_t crc = 0;
+      std::uint64_t bytes = 0;
+      WorldTile tile;
+    };
+    std::vector<std::int64_t> all(static_cast<std::size_t>(grid.count()));
+    for (std::int64_t k = 0; k < grid.count(); ++k) all[std::size_t(k)] = k;
+    tbb::task_arena arena(threads);
+    arena.execute([&] {
+      detail::ordered_tiles<Final>(
+          all,
+          [&](std::int64_t k) {
+            const std::int64_t X = k % grid.tiles_x, Z = k / grid.tiles_x;
+            detail::TileParts parts;
+            const std::string bytes = parsed(phases.back(), X, Z, parts);
+            if (bytes.empty()) throw Error(s.out_path, "the world algorithm of the last stage left tile " + std::to_string(k) + " missing");
+            Final f;
+            f.crc = detail::tile_checksum(bytes);
+            f.bytes = bytes.size();
+            f.tile = parts.tile;
+            for (std::size_t q = 0; q < parts.parts.size(); ++q)
+              if (parts.parts[q].name == "height") {
+                try {
+                  f.tile.layers["height"] = detail::decode_tile_part(bytes, parts, q, tile_file(phases.back(), X, Z).string());
+                } catch (const Error&) {
+                  throw Error(s.out_path, "the world algorithm of the last stage left tile " + std::to_string(k) + " damaged");
+                }
+              }
+            return f;
+          },
+          [&](std::int64_t k, Final f) {
+            take_overview(f.tile);
+            crcs[std::size_t(k)] = f.crc;
+            sizes[std::size_t(k)] = f.bytes;
+          });
+    });
   }
   rep.tiles_built = built;
   rep.tiles_skipped = skipped;
