@@ -772,7 +772,14 @@ WorldReport build_world(WorldSettings s) {
     }
     return false;
   };
-  auto points_folder = [&](std::size_t pk) { return points_dir / ("p" + std::to_string(pk)); };
+  // "p{K}" and "p{K}.json" (built by append: GCC 12 warns falsely, -Wrestrict, on "p" + std::string).
+  auto phase_name = [](std::size_t pk, const char* suffix) {
+    std::string n = "p";
+    n += std::to_string(pk);
+    n += suffix;
+    return n;
+  };
+  auto points_folder = [&](std::size_t pk) { return points_dir / phase_name(pk, ""); };
   auto points_file = [&](std::size_t pk, std::int64_t X, std::int64_t Z) {
     return points_folder(pk) / (fs::path(world_tile_path(X, Z)).stem().string() + ".json");
   };
@@ -971,7 +978,7 @@ WorldReport build_world(WorldSettings s) {
         io.points = [&](std::vector<Point> pts) {  // kept on disk too, for a resumed build
           std::error_code e2;
           fs::create_directories(points_dir, e2);
-          write_or_throw(points_dir / ("p" + std::to_string(pk) + ".json"), encode_world_points(ph.id, -1, -1, pts), s.out_path);
+          write_or_throw(points_dir / phase_name(pk, ".json"), encode_world_points(ph.id, -1, -1, pts), s.out_path);
           global_points[int(ph.first)] = std::move(pts);
         };
         {
@@ -1211,7 +1218,7 @@ WorldReport build_world(WorldSettings s) {
       if (ph.global) {
         if (global_points.count(int(ph.first))) continue;
         bool ok = false;
-        const fs::path f = points_dir / ("p" + std::to_string(pk) + ".json");
+        const fs::path f = points_dir / phase_name(pk, ".json");
         const std::string bytes = detail::read_file_bytes(f.string(), ok);
         if (ok) {
           try {

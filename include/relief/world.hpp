@@ -338,7 +338,8 @@ Frame world_frame(const Recipe& r, std::int64_t nx, std::int64_t nz);
 // depend on the thread count (the result is the least fixpoint anyway). `load(X, Z)` returns tile
 // (X, Z)'s heights (window.nx × window.nz, as WorldGrid::window); `store(X, Z, f)` receives its
 // filled heights after each solve of it (the last call per tile is final; earlier ones may hold
-// +inf where no path was known yet). Both may be called concurrently for different tiles.
+// +inf where no path was known yet). `load` may be called concurrently for different tiles; `store`
+// is called from one thread at a time, in the fixed order of the schedule.
 using TileLoad = std::function<std::vector<float>(std::int64_t X, std::int64_t Z)>;
 using TileStore = std::function<void(std::int64_t X, std::int64_t Z, std::vector<float> filled)>;
 struct TiledFillStats {
