@@ -653,9 +653,7 @@ std::vector<std::string> wrap(const std::string& text, std::size_t width) {
     line.push_back(c);
     if (c == ' ' || c == ',' || c == '|') last_break = line.size();
     if (line.size() > width && last_break != std::string::npos && last_break < line.size()) {
-      std::string head = line.substr(0, last_break);
-      while (head.size() > 1 && head.back() == ' ') head.pop_back();  // no trailing space at a break
-      lines.push_back(head);
+      lines.push_back(line.substr(0, last_break));
       line = line.substr(last_break);
       last_break = std::string::npos;
     }
@@ -687,7 +685,9 @@ void print_params(const std::vector<ParamInfo>& ps, int indent = 4) {
 // What the stage guarantees in `relief world` builds (world.hpp, world_guarantee), one wrapped line.
 void print_world_guarantee(const StageDef& d, int indent = 4) {
   const WorldGuarantee g = world_guarantee(d);
-  const auto lines = wrap("world builds: " + g.guarantee + " — " + g.how, 100);
+  auto lines = wrap("world builds: " + g.guarantee + " — " + g.how, 100);
+  for (std::string& l : lines)  // prose: no trailing space where it was broken (defaults keep theirs)
+    while (l.size() > 1 && l.back() == ' ') l.pop_back();
   for (std::size_t k = 0; k < lines.size(); ++k) std::printf("%*s%s%s\n", indent, "", k == 0 ? "" : "  ", lines[k].c_str());
 }
 
