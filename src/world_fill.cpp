@@ -115,12 +115,7 @@ TiledFillStats fill_depressions_tiled(const WorldGrid& g, float sea, float epsil
   for (bool any = true; any;) {
     ++st.rounds;
     for (int cls = 0; cls < 4; ++cls) {
-      std::vector<std::int64_t> batch;
-      for (std::int64_t t = 0; t < tiles; ++t)
-        if (pending[std::size_t(t)] && int((t % g.tiles_x) % 2 + 2 * ((t / g.tiles_x) % 2)) == cls) {
-          pending[std::size_t(t)] = 0;
-          batch.push_back(t);
-        }
+      const std::vector<std::int64_t> batch = detail::take_tile_class(pending, g.tiles_x, cls);
       detail::ordered_tiles<std::vector<float>>(batch, solve, merge);
     }
     any = std::find(pending.begin(), pending.end(), std::uint8_t(1)) != pending.end();

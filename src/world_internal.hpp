@@ -59,6 +59,18 @@ std::string assemble_tile(const WorldTile& t, const std::vector<RawPart>& parts)
 // merge(k, result) for each in the order of `items`, one at a time (it may overlap later computes).
 // An exception of compute(k) is rethrown at k's turn to merge, so the first failure in order is the
 // one thrown, whatever the thread count.
+// The pending tiles of class `cls` (X mod 2 + 2·(Z mod 2): tiles of one class are never
+// neighbours, so they can be solved at once), in tile order; their flags are cleared.
+inline std::vector<std::int64_t> take_tile_class(std::vector<std::uint8_t>& pending, std::int64_t tiles_x, int cls) {
+  std::vector<std::int64_t> batch;
+  for (std::int64_t t = 0; t < std::int64_t(pending.size()); ++t)
+    if (pending[std::size_t(t)] && int((t % tiles_x) % 2 + 2 * ((t / tiles_x) % 2)) == cls) {
+      pending[std::size_t(t)] = 0;
+      batch.push_back(t);
+    }
+  return batch;
+}
+
 template <class R, class Compute, class Merge>
 void ordered_tiles(const std::vector<std::int64_t>& items, Compute&& compute, Merge&& merge) {
   struct Item {

@@ -148,26 +148,31 @@ void bench_noise(const BenchSettings& s, json& entries) {
   for (int threads : s.threads) {
     tbb::task_arena arena(threads);
     const std::size_t first = entries.size();
-    for (auto& c : cases) {
+    // The case's noise at 64 samples per first-octave cycle, and one evaluation of the n × n grid
+    // in blocks of 16 rows (Noise::rows computes the x-only terms once per block and strip).
+    auto settings = [](const NoiseCase& c) {
       NoiseSettings ns;
       ns.basis = c.basis;
       ns.cellular = c.cellular;
       ns.fractal = c.fractal;
       ns.octaves = c.octaves;
-      ns.frequency = 1.0 / 64.0;  // 64 samples per first-octave cycle
+      ns.frequency = 1.0 / 64.0;
       ns.seed = 1;
-      Noise noise(ns);
-      Sample t = time_runs(s.runs, [&] {
-        arena.execute([&] {
-          // Blocks of 16 rows: Noise::rows computes the x-only terms once per block and strip.
-          parallel_rows((n + 15) / 16, [&](int b) {
-            const int j0 = b * 16, m = std::min(16, n - j0);
-            double z[16];
-            for (int r = 0; r < m; ++r) z[r] = double(j0 + r);
-            noise.rows(z, m, 0, 1.0, n, buf.data() + std::size_t(j0) * n, n);
-          }, 1);
-        });
+      return ns;
+    };
+    auto run_rows = [&](const Noise& noise) {
+      arena.execute([&] {
+        parallel_rows((n + 15) / 16, [&](int b) {
+          const int j0 = b * 16, m = std::min(16, n - j0);
+          double z[16];
+          for (int r = 0; r < m; ++r) z[r] = double(j0 + r);
+          noise.rows(z, m, 0, 1.0, n, buf.data() + std::size_t(j0) * n, n);
+        }, 1);
       });
+    };
+    for (auto& c : cases) {
+      const Noise noise(settings(c));
+      Sample t = time_runs(s.runs, [&] { run_rows(noise); });
       json e = timing_entry(c.name, n, n, threads, t);
       e["simd_target"] = noise_simd_target();
       if (c.peer) {
@@ -227,26 +232,6 @@ void bench_noise(const BenchSettings& s, json& entries) {
     // ratios ("paired_ratio", "paired_cpu_ratio"). On a shared machine the load drifts over the
     // minutes between the cases above; within a pair it barely does.
     {
-      auto run_rows = [&](const Noise& noise) {
-        arena.execute([&] {
-          parallel_rows((n + 15) / 16, [&](int b) {
-            const int j0 = b * 16, m = std::min(16, n - j0);
-            double z[16];
-            for (int r = 0; r < m; ++r) z[r] = double(j0 + r);
-            noise.rows(z, m, 0, 1.0, n, buf.data() + std::size_t(j0) * n, n);
-          }, 1);
-        });
-      };
-      auto settings = [](const NoiseCase& c) {
-        NoiseSettings ns;
-        ns.basis = c.basis;
-        ns.cellular = c.cellular;
-        ns.fractal = c.fractal;
-        ns.octaves = c.octaves;
-        ns.frequency = 1.0 / 64.0;
-        ns.seed = 1;
-        return ns;
-      };
       for (std::size_t i = 0; i < cases.size(); ++i) {
         const NoiseCase& c = cases[i];
         if (c.basis == NoiseBasis::Gradient || noise_target(c) <= 0.0) continue;
