@@ -190,7 +190,7 @@ struct WorldStageIO {
   std::function<void(std::int64_t X, std::int64_t Z, WorldTile tile)> store;
   // Tile (X, Z) as load() gives it, but holding only the named layers: the others' byte planes are
   // neither inflated nor decoded (the file's CRC-32 and framing are still checked). Throws
-  // Error("output", …) naming the tile and the layer when one is missing. Null outside build_world.
+  // Error(WorldSettings::out_path, …) naming the tile and layer when one is missing. Null outside build_world.
   std::function<WorldTile(std::int64_t X, std::int64_t Z, const std::vector<std::string>& layers)> load_layers;
   // Stores tile (X, Z) as the input tile (load's) with the layers of `changed` replaced or added:
   // the other layers' encoded bytes are copied through, neither decoded nor encoded again. The
