@@ -5,6 +5,7 @@
 #include <tbb/task_arena.h>
 
 #include <algorithm>
+#include <atomic>
 #include <cstdint>
 #include <exception>
 #include <memory>
@@ -54,11 +55,6 @@ struct RawPart {
 };
 std::string assemble_tile(const WorldTile& t, const std::vector<RawPart>& parts);
 
-// Tile work of the global world algorithms: compute(k) for every k of `items`, concurrently on the
-// calling task arena's threads (at most 2 per thread in flight, which bounds memory), and
-// merge(k, result) for each in the order of `items`, one at a time (it may overlap later computes).
-// An exception of compute(k) is rethrown at k's turn to merge, so the first failure in order is the
-// one thrown, whatever the thread count.
 // The pending tiles of class `cls` (X mod 2 + 2·(Z mod 2): tiles of one class are never
 // neighbours, so they can be solved at once), in tile order; their flags are cleared.
 inline std::vector<std::int64_t> take_tile_class(std::vector<std::uint8_t>& pending, std::int64_t tiles_x, int cls) {
@@ -71,6 +67,13 @@ inline std::vector<std::int64_t> take_tile_class(std::vector<std::uint8_t>& pend
   return batch;
 }
 
+// Tile work of the global world algorithms: compute(k) for every k of `items`, concurrently on the
+// calling task arena's threads (at most 2 per thread in flight, which bounds memory), and
+// merge(k, result) for each in the order of `items`, one at a time (it may overlap later computes).
+// An exception of compute(k) is rethrown at k's turn to merge, so the first failure in order is the
+// one thrown, whatever the thread count. No exception crosses the pipeline: a failure is kept, the
+// pipeline drains (no new item starts, computes not yet begun are skipped) and the failure is
+// rethrown after it; an exception thrown through tbb::parallel_pipeline leaks the items in flight.
 template <class R, class Compute, class Merge>
 void ordered_tiles(const std::vector<std::int64_t>& items, Compute&& compute, Merge&& merge) {
   struct Item {
@@ -79,12 +82,14 @@ void ordered_tiles(const std::vector<std::int64_t>& items, Compute&& compute, Me
     std::exception_ptr error;
   };
   std::size_t next = 0;
+  std::exception_ptr failure;      // the first in order; written by the last (serial) stage only
+  std::atomic<bool> failed{false};  // read by the other stages
   const std::size_t tokens = std::size_t(2 * std::max(1, tbb::this_task_arena::max_concurrency()));
   tbb::parallel_pipeline(
       tokens,
       tbb::make_filter<void, std::shared_ptr<Item>>(tbb::filter_mode::serial_in_order,
                                                     [&](tbb::flow_control& fc) -> std::shared_ptr<Item> {
-                                                      if (next >= items.size()) {
+                                                      if (next >= items.size() || failed.load()) {
                                                         fc.stop();
                                                         return nullptr;
                                                       }
@@ -94,6 +99,7 @@ void ordered_tiles(const std::vector<std::int64_t>& items, Compute&& compute, Me
                                                     }) &
           tbb::make_filter<std::shared_ptr<Item>, std::shared_ptr<Item>>(tbb::filter_mode::parallel,
                                                                          [&](std::shared_ptr<Item> it) {
+                                                                           if (failed.load()) return it;
                                                                            try {
                                                                              it->result.emplace(compute(it->k));
                                                                            } catch (...) {
@@ -102,8 +108,15 @@ void ordered_tiles(const std::vector<std::int64_t>& items, Compute&& compute, Me
                                                                            return it;
                                                                          }) &
           tbb::make_filter<std::shared_ptr<Item>, void>(tbb::filter_mode::serial_in_order, [&](std::shared_ptr<Item> it) {
-            if (it->error) std::rethrow_exception(it->error);
-            merge(it->k, std::move(*it->result));
+            if (failure) return;
+            try {
+              if (it->error) std::rethrow_exception(it->error);
+              merge(it->k, std::move(*it->result));
+            } catch (...) {
+              failure = std::current_exception();
+              failed.store(true);
+            }
           }));
+  if (failure) std::rethrow_exception(failure);
 }
 }  // namespace relief::detail
