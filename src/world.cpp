@@ -466,7 +466,7 @@ WorldReport build_world(WorldSettings s) {
     // Lean stores: a phase keeps the layers that a later phase reads before one of the library's
     // world algorithms overwrites them, and those that reach the last store.
     json drop = json::array();
-    std::vector<std::uint64_t> phase_channels(phases.size(), 0);
+    std::vector<std::map<std::string, int>> phase_layers(phases.size());  // the layers each store holds
     for (std::size_t k = 0; k < phases.size(); ++k) {
       std::set<std::string> live, kept;
       for (auto& [name, c] : after[k]) live.insert(name);
@@ -481,32 +481,84 @@ WorldReport build_world(WorldSettings s) {
       kept.insert(live.begin(), live.end());
       std::set<std::string> dropped;
       for (auto& [name, c] : after[k])
-        if (kept.count(name)) phase_channels[k] += std::uint64_t(c);
+        if (kept.count(name)) phase_layers[k][name] = c;
         else dropped.insert(name);
       drop.push_back(dropped);
     }
 
-    // 4. Disk: zlib's bound of every tile's raw floats, against the free space (plus tiles there).
-    // With phases, the largest two consecutive phase stores: phase K's tiles are removed once
-    // phase K+1 is complete.
+    // 4. Disk: each layer's coded bytes per sample, measured (see "Disk and memory" in
+    // relief/world.hpp), against the free space (plus the tiles there). With phases, the largest
+    // two consecutive phase stores: phase K's tiles are removed once phase K+1 is complete.
     {
-      auto store_bound = [&](std::uint64_t ch) {
+      std::map<std::string, std::pair<std::uint64_t, std::uint64_t>> coded;  // layer → (bytes, samples)
+      auto measure = [&](const Terrain& t, bool only_new) {
+        std::vector<const Layer*> ls;
+        std::vector<std::string> names;
+        for (auto& [name, l] : t.layers)
+          if (!only_new || !coded.count(name)) ls.push_back(&l), names.push_back(name);
+        if (ls.empty()) return;
+        const std::vector<std::string> parts = detail::encode_tile_parts(ls, t.frame.nx);
+        for (std::size_t k = 0; k < ls.size(); ++k) {
+          auto& [bytes, samples] = coded[names[k]];
+          bytes += parts[k].size();
+          samples += std::uint64_t(t.frame.nx) * std::uint64_t(t.frame.nz);
+        }
+      };
+      constexpr int kSample = 129;  // samples per side of a sample window and of the small whole map
+      if (!phases[0].global) {
+        Recipe first = r;
+        first.stages.resize(phases[0].end);
+        std::set<std::int64_t> xs{0, grid.tiles_x / 2, grid.tiles_x - 1}, zs{0, grid.tiles_z / 2, grid.tiles_z - 1};
+        for (std::int64_t Z : zs)
+          for (std::int64_t X : xs) {
+            const WorldGrid::Window w = grid.window(X, Z);
+            RunOptions opt;
+            opt.threads = threads;
+            opt.window = frame.window(w.ix0, w.iz0, std::min(w.nx, kSample), std::min(w.nz, kSample));
+            measure(run(first, opt).terrain, false);
+          }
+      }
+      bool missing = false;  // a layer that only a later phase makes
+      for (const auto& layers : phase_layers)
+        for (auto& [name, c] : layers) missing = missing || !coded.count(name);
+      if (missing) {
+        Recipe small = r;
+        small.world.nx = int(std::min<std::int64_t>(grid.nx, kSample));
+        small.world.nz = int(std::min<std::int64_t>(grid.nz, kSample));
+        RunOptions opt;
+        opt.threads = threads;
+        measure(run(small, opt).terrain, true);
+      }
+      auto store_estimate = [&](const std::map<std::string, int>& layers) {
+        double per_sample = 0;  // coded bytes per sample of every layer, with the margin
+        std::uint64_t ch = 0;
+        for (auto& [name, c] : layers) {
+          ch += std::uint64_t(c);
+          const auto it = coded.find(name);
+          per_sample += it != coded.end() && it->second.second ? 2.0 * double(it->second.first) / double(it->second.second) : 4.0 * c;
+        }
         std::uint64_t b = 0;
         for (int kx = 0; kx < 2; ++kx)
           for (int kz = 0; kz < 2; ++kz) {
             // The four kinds of tile: full, clipped in x, clipped in z, the corner.
             const std::int64_t cols = kx == 0 ? grid.tiles_x - 1 : 1, rows = kz == 0 ? grid.tiles_z - 1 : 1;
             const WorldGrid::Window w = grid.window(kx == 0 ? 0 : grid.tiles_x - 1, kz == 0 ? 0 : grid.tiles_z - 1);
-            const std::uint64_t raw = std::uint64_t(w.nx) * std::uint64_t(w.nz) * ch * 4;
-            b += std::uint64_t(cols * rows) * (compressBound(uLong(raw)) + 1024);
+            const std::uint64_t n = std::uint64_t(w.nx) * std::uint64_t(w.nz);
+            const std::uint64_t est = std::min<std::uint64_t>(compressBound(uLong(n * ch * 4)), std::uint64_t(std::ceil(per_sample * double(n))));
+            b += std::uint64_t(cols * rows) * (est + 1024);
           }
         return b;
       };
-      std::uint64_t stores = store_bound(phase_channels[0]);
+      std::uint64_t stores = store_estimate(phase_layers[0]);
       for (std::size_t k = 0; k + 1 < phases.size(); ++k)
-        stores = std::max(stores, store_bound(phase_channels[k]) + store_bound(phase_channels[k + 1]));
-      // world.json, report.json beyond their sizes below; the tiles' lines in world.json; overview.png
-      const std::uint64_t need = 4096 + stores + std::uint64_t(grid.count()) * 64 + std::uint64_t(kWorldOverviewMax) * kWorldOverviewMax * 3;
+        stores = std::max(stores, store_estimate(phase_layers[k]) + store_estimate(phase_layers[k + 1]));
+      rep.estimated_store_bytes = store_estimate(phase_layers.back());
+      // world.json and report.json (beyond their sizes below), the tiles' lines in world.json,
+      // overview.png (3 bytes per pixel).
+      const std::int64_t ostep = (std::max(grid.nx, grid.nz) - 1 + kWorldOverviewMax - 2) / (kWorldOverviewMax - 1);
+      const std::uint64_t opx = std::uint64_t((grid.nx - 1) / std::max<std::int64_t>(1, ostep) + 1) *
+                                std::uint64_t((grid.nz - 1) / std::max<std::int64_t>(1, ostep) + 1);
+      const std::uint64_t need = 4096 + stores + std::uint64_t(grid.count()) * 64 + opx * 3;
       rep.estimated_bytes = need;
       std::uint64_t present = 0;
       if (fs::is_directory(dir / "tiles", ec))
@@ -519,9 +571,9 @@ WorldReport build_world(WorldSettings s) {
       }
       if (need > free_bytes + present)
         throw Error(s.size_path, "a " + std::to_string(grid.nx) + "x" + std::to_string(grid.nz) + " world with " +
-                                     std::to_string(channels) + " float channels needs up to " + human_bytes(need) +
-                                     " on disk, but " + quote(s.out_dir) + " has " + human_bytes(free_bytes) +
-                                     " free; choose a smaller size or free some space");
+                                     std::to_string(channels) + " float channels needs about " + human_bytes(need) +
+                                     " on disk (estimated from coded sample windows, with a margin of 2), but " + quote(s.out_dir) +
+                                     " has " + human_bytes(free_bytes) + " free; choose a smaller size or free some space");
     }
 
     // 5. Memory: the tiles built at once, each a run on the grown tile, plus its encoding.
@@ -611,6 +663,10 @@ WorldReport build_world(WorldSettings s) {
   std::int64_t local_phases = 0;
   for (const Phase& ph : phases) local_phases += ph.global ? 0 : 1;
   const std::int64_t total = grid.count() * local_phases;
+  // Progress: each global phase counts as one pass over the tiles (WorldProgress::fraction).
+  const double units_total = double(std::max<std::int64_t>(1, grid.count() * std::int64_t(phases.size())));
+  std::int64_t global_done = 0;  // tiles' worth of the global phases finished or skipped
+  double phase_fraction = -1;     // the running global phase's share (−1: none running)
   std::vector<std::uint32_t> crcs(std::size_t(grid.count()), 0);
   std::vector<std::uint64_t> sizes(std::size_t(grid.count()), 0);
   // Rank 0 only: the overview's samples, kept in a temporary file of the world folder.
@@ -639,8 +695,10 @@ WorldReport build_world(WorldSettings s) {
     p.stage = stage;
     p.stages = int(r.stages.size());
     p.stage_name = stage_name;
-    last_fraction = std::max(last_fraction, std::min(1.0, (double(done) + tile_fraction) / double(total)));
+    const double global_units = double(global_done) + (phase_fraction > 0 ? phase_fraction * double(grid.count()) : 0.0);
+    last_fraction = std::max(last_fraction, std::min(1.0, (double(done) + global_units + tile_fraction) / units_total));
     p.fraction = last_fraction;
+    p.phase_fraction = phase_fraction;
     const double units = built_units + tile_fraction;
     if (units > 0.05) {
       const double elapsed = std::chrono::duration<double>(Clock::now() - t_tiles).count();
@@ -920,10 +978,12 @@ WorldReport build_world(WorldSettings s) {
       return {{"skip", false}};
     });
     if (begun.at("skip").get<bool>()) {
+      std::lock_guard<std::mutex> lock(m);
       if (!ph.global) {
-        std::lock_guard<std::mutex> lock(m);
         done += grid.count();
         skipped += grid.count();
+      } else {
+        global_done += grid.count();
       }
       continue;
     }
@@ -981,14 +1041,31 @@ WorldReport build_world(WorldSettings s) {
           write_or_throw(points_dir / phase_name(pk, ".json"), encode_world_points(ph.id, -1, -1, pts), s.out_path);
           global_points[int(ph.first)] = std::move(pts);
         };
+        if (s.progress)
+          io.progress = [&](double f) {  // the algorithm's share, kept from decreasing
+            std::lock_guard<std::mutex> lock(m);
+            if (!(f > phase_fraction)) return;
+            phase_fraction = std::min(1.0, f);
+            report(st.def->name, int(ph.first), 0.0);
+          };
         {
           std::lock_guard<std::mutex> lock(m);
+          phase_fraction = 0;
           report(st.def->name, int(ph.first), 0.0);
         }
         const auto t0 = Clock::now();
         tbb::task_arena arena(threads);  // the algorithm's tile work runs on the build's threads
         arena.execute([&] { s.algorithms.at(st.def->name)(io, st, int(ph.first)); });
         stage_ms[ph.first] += ms_since(t0);
+        {
+          std::lock_guard<std::mutex> lock(m);
+          if (phase_fraction < 1) {
+            phase_fraction = 1;
+            report(st.def->name, int(ph.first), 0.0);
+          }
+          phase_fraction = -1;
+          global_done += grid.count();
+        }
         if (!last) {
           write_or_throw(ph.folder / "complete", "", s.out_path);
           remove_phase_tiles(in.folder);  // no later phase reads them

@@ -150,9 +150,13 @@ class Probes {
 // once with the layers `f` left (the loaded ones and any it made) in place of the input's; the
 // other layers pass through unchanged (update when the build gives it, else load and store). A tile
 // that `touches` says `f` would leave unchanged loads no layer: `untouched` gets it empty (to add
-// what `f` would create there) and only what it adds is stored in place.
+// what `f` would create there) and only what it adds is stored in place. Progress
+// (WorldStageIO::progress): from `from` (reported first: the work before this pass) to 1, a step
+// per tile stored.
 void each_tile(const WorldStageIO& io, const std::vector<std::string>& names, const std::function<void(Terrain&)>& f,
-               const std::function<bool(const Frame&)>& touches, const std::function<void(Terrain&)>& untouched) {
+               const std::function<bool(const Frame&)>& touches, const std::function<void(Terrain&)>& untouched, double from) {
+  if (io.progress) io.progress(from);
+  std::int64_t stored = 0;
   for (std::int64_t Z = 0; Z < io.grid.tiles_z; ++Z)
     for (std::int64_t X = 0; X < io.grid.tiles_x; ++X) {
       check_cancelled(io);
@@ -172,6 +176,7 @@ void each_tile(const WorldStageIO& io, const std::vector<std::string>& names, co
         for (auto& [name, l] : t.layers) full.layers[name] = std::move(l);
         io.store(X, Z, std::move(full));
       }
+      if (io.progress) io.progress(from + (1.0 - from) * double(++stored) / double(io.grid.count()));
     }
 }
 
@@ -230,7 +235,8 @@ WorldStageAlgorithm world_volcano(std::shared_ptr<std::vector<BiomeInfo>> legend
         [&](const Frame& w) { return plan.touches(w); },
         [&](Terrain& t) {
           if (!has_mask) t.layer("volcano", 1);  // the footprint the volcano creates everywhere: 0 here
-        });
+        },
+        0.1);  // the probes before: a few tiles' reads
     if (legend) *legend = std::move(biomes);
     if (io.points) io.points({plan.point()});
   };
@@ -331,7 +337,7 @@ WorldStageAlgorithm world_features() {
             if (plan.touches(w, f)) return true;
           return false;
         },
-        [](Terrain&) {});
+        [](Terrain&) {}, 0.3);  // the placement's and bases' probes before
     if (io.points) io.points(plan.points());
   };
 }

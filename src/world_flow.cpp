@@ -550,9 +550,19 @@ WorldFlowParams world_flow_params(const json& j) {
   return p;
 }
 
-TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowParams& p, const TileLoad& load,
-                          const FlowTileStore& store, std::vector<River>* rivers, const std::function<bool()>& cancelled,
-                          const std::string& path, const TileLoad& filled, std::vector<Lake>* lakes) {
+namespace {
+// flow_tiled with progress (WorldStageIO::progress): the passes over every tile take fixed spans of
+// [0, 1] (pass 0 [0, 0.1), pass A [0.1, 0.35), pass S [0.35, 0.7), the final pass [0.7, 1]), each
+// split by the tiles it has merged; pass S's rounds split its span as fill_depressions_tiled's
+// rounds split [0, 1] (round r: [1 − 2^(1−r), 1 − 2^(−r)) of the span), since their count is not
+// known in advance. Reported from the merges (one thread at a time), never decreasing, 1 at the end.
+TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, const WorldFlowParams& p, const TileLoad& load,
+                                        const FlowTileStore& store, std::vector<River>* rivers,
+                                        const std::function<bool()>& cancelled, const std::string& path, const TileLoad& filled,
+                                        std::vector<Lake>* lakes, const std::function<void(double)>& progress) {
+  auto report = [&](double lo, double hi, std::int64_t done, std::int64_t of) {
+    if (progress) progress(lo + (hi - lo) * double(std::min(done, of)) / double(std::max<std::int64_t>(1, of)));
+  };
   TiledFlowStats st;
   st.tiles = g.count();
   Ctx c{g, f, p, float(f.sea_level), f.height_m, f.cell_m(), 0, 0, 0, g.tile - 1, filled ? &filled : nullptr};
@@ -571,6 +581,7 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
   for (std::int64_t t = 0; t < tiles; ++t) all_tiles[std::size_t(t)] = t;
 
   // Pass 0: the bands of heights around inner tile borders.
+  std::int64_t merged = 0;  // tiles merged in the current pass (progress)
   Bands bands(g);
   detail::ordered_tiles<std::vector<float>>(
       all_tiles,
@@ -591,9 +602,11 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
             }
             if (bands.has(w.ix0 + i, w.iz0 + j)) bands.set(w.ix0 + i, w.iz0 + j, z[std::size_t(j) * std::size_t(w.nx) + std::size_t(i)]);
           }
+        report(0.0, 0.1, ++merged, tiles);
       });
 
   // Pass A: local accumulation, perimeter links, components of raised samples.
+  merged = 0;
   Nodes nd;
   nd.nx = g.nx, nd.nz = g.nz, nd.t1 = c.t1, nd.tx = g.tiles_x, nd.tz = g.tiles_z;
   nd.base.assign(std::size_t(g.count()) + 1, 0);
@@ -669,6 +682,7 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
             nd.link_cell.push_back(-1);
           }
         }
+        report(0.1, 0.35, ++merged, tiles);
       });
 
   // Components across tiles: join raised perimeter samples with their raised neighbours in other
@@ -778,9 +792,12 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
     std::vector<float>().swap(s.zg);
     return r;
   };
+  double round_lo = 0.35, round_span = 0.175;  // pass S's round (progress)
+  std::int64_t round_tiles = 1;
   auto merge_s = [&](std::int64_t, LocalS r) {
     const Solve& s = r.s;
     ++st.tile_solves;
+    report(round_lo, round_lo + round_span, ++merged, round_tiles);
     for (auto [cell, v] : r.cover_sea) {
       float& slot = cover_sea.try_emplace(cell, 0.0f).first->second;
       slot = std::max(slot, v);
@@ -807,6 +824,9 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
   };
   for (bool any = true; any;) {
     ++st.rounds;
+    if (st.rounds > 1) round_lo += round_span, round_span *= 0.5;
+    round_tiles = std::max<std::int64_t>(1, std::count(pending.begin(), pending.end(), std::uint8_t(1)));
+    merged = 0;
     for (int cls = 0; cls < 4; ++cls) {
       const std::vector<std::int64_t> batch = detail::take_tile_class(pending, g.tiles_x, cls);
       detail::ordered_tiles<LocalS>(batch, solve_s, merge_s);
@@ -902,7 +922,9 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
     starts.insert(starts.end(), r.starts.begin(), r.starts.end());
     for (auto& [root, wc, ls] : r.lake) lake_cells[root].emplace(wc, ls);
     if (store) store(t % g.tiles_x, t / g.tiles_x, std::move(r.out));
+    report(0.7, 1.0, ++merged, tiles);
   };
+  merged = 0;
   detail::ordered_tiles<LocalF>(all_tiles, solve_f, merge_f);
   if (lakes) {
     // Lakes in the order of their first sample (row-major), as apply_flow's scan numbers them.
@@ -940,7 +962,15 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
     }
     st.river_pieces = pieces.size();
   }
+  if (progress) progress(1.0);
   return st;
+}
+}  // namespace
+
+TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowParams& p, const TileLoad& load,
+                          const FlowTileStore& store, std::vector<River>* rivers, const std::function<bool()>& cancelled,
+                          const std::string& path, const TileLoad& filled, std::vector<Lake>* lakes) {
+  return flow_tiled_with_progress(g, f, p, load, store, rivers, cancelled, path, filled, lakes, {});
 }
 
 WorldStageAlgorithm world_flow(WorldWaterSink water) {
@@ -967,9 +997,21 @@ WorldStageAlgorithm world_flow(WorldWaterSink water) {
     std::vector<Lake> lakes;
     // The world's rivers and lakes go to the sink, else into the world folder (rivers.json, lakes.json).
     const bool want_water = water || io.out;
+    // Progress: the first attempt spans [0, 1]; when it finds a height that does not drain, the
+    // fill and the second attempt share what is left after the largest share it reported.
+    double reached = 0;
+    auto span = [&](double lo, double hi) -> std::function<void(double)> {
+      if (!io.progress) return {};
+      return [&io, &reached, lo, hi](double x) {
+        reached = std::max(reached, lo + (hi - lo) * x);
+        io.progress(reached);
+      };
+    };
     try {
-      flow_tiled(g, io.world, p, load, store, want_water ? &rivers : nullptr, io.cancelled, path, {}, want_water ? &lakes : nullptr);
+      flow_tiled_with_progress(g, io.world, p, load, store, want_water ? &rivers : nullptr, io.cancelled, path, {},
+                               want_water ? &lakes : nullptr, span(0.0, 1.0));
     } catch (const NotDraining&) {
+      const double from = reached, mid = reached + (1.0 - reached) * 0.4;
       // No fill stage before this one: fill as apply_flow does (fill_depressions_tiled gives the
       // whole world's hydro::fill_depressions). Only each tile's final border levels are kept; a
       // tile's filled heights are then one tile solve seeded with them (the solve that stored it).
@@ -986,9 +1028,10 @@ WorldStageAlgorithm world_flow(WorldWaterSink water) {
         if (io.cancelled && io.cancelled()) throw Cancelled();
         return load(X, Z);
       };
-      fill_depressions_tiled(g, sea, eps, fill_load, [&](std::int64_t X, std::int64_t Z, std::vector<float> f) {
-        rings[std::size_t(Z * g.tiles_x + X)] = ring_of(g.window(X, Z), f);
-      });
+      fill_depressions_tiled(
+          g, sea, eps, fill_load,
+          [&](std::int64_t X, std::int64_t Z, std::vector<float> f) { rings[std::size_t(Z * g.tiles_x + X)] = ring_of(g.window(X, Z), f); },
+          span(from, mid));
       const TileLoad filled = [&](std::int64_t X, std::int64_t Z) {
         const WorldGrid::Window w = g.window(X, Z);
         std::vector<float> z = load(X, Z);
@@ -1007,8 +1050,8 @@ WorldStageAlgorithm world_flow(WorldWaterSink water) {
         hydro::fill_depressions_tile<float>(z.data(), w.nx, w.nz, outlet.data(), seed.data(), eps);
         return z;
       };
-      flow_tiled(g, io.world, p, load, store, want_water ? &rivers : nullptr, io.cancelled, path, filled,
-                 want_water ? &lakes : nullptr);
+      flow_tiled_with_progress(g, io.world, p, load, store, want_water ? &rivers : nullptr, io.cancelled, path, filled,
+                               want_water ? &lakes : nullptr, span(mid, 1.0));
     }
     if (water) water(io.world, std::move(rivers), std::move(lakes));
     else if (io.out) write_world_water(io.world, rivers, lakes, *io.out);

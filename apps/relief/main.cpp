@@ -515,7 +515,10 @@ int cmd_world(const CliWorld& w) {
     char left[48] = "";
     if (p.seconds_left >= 0) std::snprintf(left, sizeof left, ", %.0f s left", p.seconds_left);
     char stage[96] = "";
-    if (!p.stage_name.empty())
+    if (!p.stage_name.empty() && p.phase_fraction >= 0)  // a global stage running over the stored tiles
+      std::snprintf(stage, sizeof stage, ", stage %d/%d %.*s %d%%", p.stage + 1, p.stages, int(p.stage_name.size()), p.stage_name.data(),
+                    int(p.phase_fraction * 100));
+    else if (!p.stage_name.empty())
       std::snprintf(stage, sizeof stage, ", stage %d/%d %.*s", p.stage + 1, p.stages, int(p.stage_name.size()), p.stage_name.data());
     std::snprintf(line, sizeof line, "tiles %lld/%lld%s%s%s", (long long)p.tiles_done, (long long)p.tiles_total,
                   p.tiles_skipped ? (" (" + std::to_string(p.tiles_skipped) + " resumed)").c_str() : "", stage, left);

@@ -81,10 +81,21 @@
 // seed and the folder holds a world of the same recipe otherwise, that world's seed is reused, so
 // that a rerun without --seed resumes; else a random seed is drawn (WorldReport::seed).
 //
-// Disk and memory are checked before any work: the store's size is estimated (zlib's worst-case
-// bound of every tile's raw floats; with phases, the largest two consecutive phase stores, each
-// from the layers it holds) and a world that the output's file system cannot hold
-// (minus the tiles already there) is refused (Error naming `size_path`); so is a tile whose run
+// Disk and memory are checked before any work: the store's size is estimated and a world that the
+// output's file system cannot hold (minus the tiles already there) is refused (Error naming
+// `size_path`, saying the bytes needed and free). The estimate is made from real compressed sizes,
+// not from zlib's worst case: before anything is written, the first local phase is run on up to 9
+// sample windows (at most 129² samples each, at the world's spacing: windows at the corner of the
+// tiles on a 3 × 3 lattice spread over the tile grid, a fixed choice) and each of its layers is
+// coded as a tile file codes it; the layers that only later phases make (or when the first phase is
+// a world algorithm: every layer) are measured the same way on a small whole-map run (129² samples)
+// of the recipe up to that phase's end. Each layer's bytes per sample, times 2 (the safety margin:
+// windows are not the whole world, and a global stage may make a layer less compressible than the
+// samples show), plus 1 KiB per tile (header and framing), never more than zlib's bound of the raw
+// floats, gives each phase store's size; the stores that coexist are the largest two consecutive
+// phase stores (each from its own layers); world.json, report.json and overview.png are added at
+// their sizes (the overview at 3 bytes per pixel). WorldReport::estimated_bytes is the whole need,
+// ::estimated_store_bytes the last store's part (comparable with ::store_bytes). So is a tile whose run
 // (estimate_memory_bytes of the grown tile, times the tiles built at once) exceeds the memory budget
 // (Error naming `tile_path`), and a grid of more than kMaxWorldTiles tiles.
 //
@@ -167,6 +178,13 @@ struct WorldProgress {
   std::string_view stage_name;     // "" between tiles
   double fraction = 0;             // 0..1 of the whole build
   double seconds_left = -1;        // estimate from the tiles built so far (−1 before the first)
+  // While a global stage's world algorithm runs (a phase of its own, see "Phases"): the share of
+  // that phase done, 0..1, never decreasing within the phase, and 1 when it ends; stage and
+  // stage_name name the stage ("fill", "flow", …). −1 while tiles are being built. The algorithm
+  // reports it through WorldStageIO::progress; the library's algorithms report after each tile
+  // solve they merge. Their rounds run until a fixpoint, so the share is an estimate (see
+  // WorldStageIO::progress). `fraction` counts each global phase as one pass over the tiles.
+  double phase_fraction = -1;
 };
 
 struct WorldTile {
@@ -215,6 +233,14 @@ struct WorldStageIO {
   // relief/world_features.hpp: the legend depends on the stages' params alone). Tiles store no
   // legend; a stage that numbers biomes (the volcano's "volcano" and "lava") reads it here.
   std::vector<BiomeInfo> legend;
+  // The algorithm's progress: the share of its work done, 0..1 (build_world keeps the largest value
+  // seen, so a late smaller estimate never moves the bar back, and reports 1 when the algorithm
+  // returns). Called from one thread at a time (the library's algorithms call it from their
+  // in-order merges). Null when nobody listens. The library's algorithms: fill (rounds until no
+  // border level changes: round r spans [1 − 2^(1−r), 1 − 2^(−r)), split by the tiles solved in the
+  // round), flow (its passes over every tile take fixed spans; its Strahler/carving rounds split
+  // their span as fill's rounds do), volcano and features (a step per tile they store, in order).
+  std::function<void(double fraction)> progress;
 };
 // Runs one global stage (`stage`, at `index` in the recipe) over the whole stored world.
 using WorldStageAlgorithm = std::function<void(const WorldStageIO& io, const RecipeStage& stage, int index)>;
@@ -287,7 +313,8 @@ struct WorldReport {
   double total_ms = 0;
   std::uint64_t peak_memory_bytes = 0;
   std::uint64_t store_bytes = 0;        // tile files, as written or found
-  std::uint64_t estimated_bytes = 0;    // the disk check's bound
+  std::uint64_t estimated_bytes = 0;    // the disk check's estimate of the whole need (see "Disk and memory")
+  std::uint64_t estimated_store_bytes = 0;  // its part for the last store (tiles/), comparable with store_bytes
   std::uint64_t tile_memory_bytes = 0;  // the memory check's estimate for the tiles built at once
   int tiles_at_once = 1;
   int overview_step = 1;  // overview.png samples every this many world samples
@@ -339,7 +366,9 @@ Frame world_frame(const Recipe& r, std::int64_t nx, std::int64_t nz);
 // (X, Z)'s heights (window.nx × window.nz, as WorldGrid::window); `store(X, Z, f)` receives its
 // filled heights after each solve of it (the last call per tile is final; earlier ones may hold
 // +inf where no path was known yet). `load` may be called concurrently for different tiles; `store`
-// is called from one thread at a time, in the fixed order of the schedule.
+// is called from one thread at a time, in the fixed order of the schedule. `progress` (optional) is
+// called after each merge with the estimate of WorldStageIO::progress (round r spans
+// [1 − 2^(1−r), 1 − 2^(−r))), increasing, from the same thread as `store`; then 1 at the end.
 using TileLoad = std::function<std::vector<float>(std::int64_t X, std::int64_t Z)>;
 using TileStore = std::function<void(std::int64_t X, std::int64_t Z, std::vector<float> filled)>;
 struct TiledFillStats {
@@ -347,6 +376,6 @@ struct TiledFillStats {
   std::int64_t tile_solves = 0;  // tile solves in all
 };
 TiledFillStats fill_depressions_tiled(const WorldGrid& grid, float sea, float epsilon, const TileLoad& load,
-                                     const TileStore& store);
+                                     const TileStore& store, const std::function<void(double)>& progress = {});
 
 }  // namespace relief
