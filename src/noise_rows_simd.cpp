@@ -11,8 +11,10 @@
 // p[p[A + y]] & 15 of lattice column c (A = p[c], B = p[c + 1]) depend on c alone: once per
 // lattice row and octave, a table of 256 entries (257 with a period along x: the last cell's right
 // neighbour wraps to 0) holds them, each corner's two gradient coefficients (−1, +1, +0 or −0, the
-// reference's kGrad2 entries) packed as 3-bit permute indices. Per 4 samples: one 64-bit gather of
-// the packed entry, then per corner two in-register permutes (vpermps) give grad.x and
+// reference's kGrad2 entries) packed as 3-bit permute indices. The entries of a strip's columns
+// are looked up in it once per table and strip (not gathered per row: an octave's lattice row
+// spans many sample rows). Per 4 samples: one load of the packed entries, then per corner two
+// in-register permutes (vpermps) give grad.x and
 // grad.y·fy (the latter from a 4-entry table of the products, computed once per row), one
 // multiply and one add. The x-only terms (cell index, fx, fx − 1, fade(fx)) are computed once per
 // strip of columns for the whole block of rows. Same IEEE operations as the reference (the
@@ -253,7 +255,12 @@ void PerlinRows(const NoiseKernelArgs& a, const double* z, int nrows, std::int64
   // row it was built for.
   std::int32_t* ci = Grow(tls.i, std::size_t(count) * strip);
   double* cd = Grow(tls.d, std::size_t(count) * strip * 3);
-  std::uint64_t* tab = Grow(tls.q, std::size_t(count) * 257);
+  // Per octave the 257-entry table, then the strip's columns' entries looked up in it (tab[ci]):
+  // these change only when the table does (a new lattice row) or the strip does, so the row loop
+  // loads them instead of gathering them for every row (at 64 samples per first-octave cell, the
+  // first octave's table changes once per 64 rows).
+  std::uint64_t* tab = Grow(tls.q, std::size_t(count) * (257 + strip));
+  std::uint64_t* qcol = tab + std::size_t(count) * 257;
   int built[kMaxOctaves][2];
   for (int k = 0; k < count; ++k) built[k][0] = -1;
   const __m256 tx = _mm256_castpd_ps(_mm256_setr_pd(1.0, -1.0, 0.0, -0.0));
@@ -264,6 +271,7 @@ void PerlinRows(const NoiseKernelArgs& a, const double* z, int nrows, std::int64
       double* d = cd + std::size_t(k) * strip * 3;
       PerlinColumns(a.octaves[k], i0 + c0, dx, m4, ci + std::size_t(k) * strip, d, d + strip, d + 2 * strip);
     }
+    bool looked_up[kMaxOctaves] = {};  // qcol holds this strip's entries of octave k's table
     for (int r = 0; r < nrows; ++r) {
       __m256 ty0[kMaxOctaves], ty1[kMaxOctaves];
       __m256d sy[kMaxOctaves], amp[kMaxOctaves];
@@ -274,6 +282,14 @@ void PerlinRows(const NoiseKernelArgs& a, const double* z, int nrows, std::int64
           PerlinTable(o, rt.y0, rt.y1, tab + std::size_t(k) * 257);
           built[k][0] = rt.y0;
           built[k][1] = rt.y1;
+          looked_up[k] = false;
+        }
+        if (!looked_up[k]) {
+          const std::uint64_t* tk = tab + std::size_t(k) * 257;
+          const std::int32_t* cik = ci + std::size_t(k) * strip;
+          std::uint64_t* qk = qcol + std::size_t(k) * strip;
+          for (int c = 0; c < m4; ++c) qk[c] = tk[cik[c]];
+          looked_up[k] = true;
         }
         // grad.y · fy for the four coefficient codes, by the reference's multiplies.
         ty0[k] = _mm256_castpd_ps(_mm256_setr_pd(1.0 * rt.fy, -1.0 * rt.fy, 0.0 * rt.fy, -0.0 * rt.fy));
@@ -292,12 +308,11 @@ void PerlinRows(const NoiseKernelArgs& a, const double* z, int nrows, std::int64
         for (int u = 0; u < kN; ++u) acc[u] = _mm256_setzero_pd();
         for (int k = 0; k < count; ++k) {
           const double* d = cd + std::size_t(k) * strip * 3 + i;
-          const std::int32_t* cik = ci + std::size_t(k) * strip + i;
-          const long long* tk = reinterpret_cast<const long long*>(tab + std::size_t(k) * 257);
+          const std::uint64_t* qk = qcol + std::size_t(k) * strip + i;
           __m256i q[kN];
           __m256d g00[kN], g10[kN], g01[kN], g11[kN], fx[kN], fx1[kN];
           for (int u = 0; u < kN; ++u)
-            q[u] = _mm256_i32gather_epi64(tk, _mm_loadu_si128(reinterpret_cast<const __m128i*>(cik + 4 * u)), 8);
+            q[u] = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(qk + 4 * u));
           for (int u = 0; u < kN; ++u) {
             fx[u] = _mm256_loadu_pd(d + 4 * u);
             fx1[u] = _mm256_loadu_pd(d + strip + 4 * u);
