@@ -298,8 +298,9 @@ void PerlinRows(const NoiseKernelArgs& a, const double* z, int nrows, std::int64
         amp[k] = _mm256_set1_pd(o.amp);
       }
       float* dst = out + r * stride + c0;
-      // kU vectors per step, their stages interleaved: each vector is one long dependency chain
-      // (gather, permutes, three lerps, fold); independent chains side by side fill the pipes.
+      // kU vectors per step, octave by octave: each vector is one long dependency chain (load,
+      // permutes, three lerps, fold) and the core overlaps the independent chains; written vector
+      // after vector, their temporaries fit the 16 registers (interleaved by hand, they spilled).
       constexpr int kU = 4;
       int i = 0;
       auto step = [&](auto U, int i) {
@@ -309,21 +310,15 @@ void PerlinRows(const NoiseKernelArgs& a, const double* z, int nrows, std::int64
         for (int k = 0; k < count; ++k) {
           const double* d = cd + std::size_t(k) * strip * 3 + i;
           const std::uint64_t* qk = qcol + std::size_t(k) * strip + i;
-          __m256i q[kN];
-          __m256d g00[kN], g10[kN], g01[kN], g11[kN], fx[kN], fx1[kN];
-          for (int u = 0; u < kN; ++u)
-            q[u] = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(qk + 4 * u));
           for (int u = 0; u < kN; ++u) {
-            fx[u] = _mm256_loadu_pd(d + 4 * u);
-            fx1[u] = _mm256_loadu_pd(d + strip + 4 * u);
-          }
-          for (int u = 0; u < kN; ++u) g00[u] = _mm256_add_pd(_mm256_mul_pd(Pick4(tx, q[u]), fx[u]), Pick4(ty0[k], _mm256_srli_epi64(q[u], 3)));
-          for (int u = 0; u < kN; ++u) g10[u] = _mm256_add_pd(_mm256_mul_pd(Pick4(tx, _mm256_srli_epi64(q[u], 6)), fx1[u]), Pick4(ty0[k], _mm256_srli_epi64(q[u], 9)));
-          for (int u = 0; u < kN; ++u) g01[u] = _mm256_add_pd(_mm256_mul_pd(Pick4(tx, _mm256_srli_epi64(q[u], 12)), fx[u]), Pick4(ty1[k], _mm256_srli_epi64(q[u], 15)));
-          for (int u = 0; u < kN; ++u) g11[u] = _mm256_add_pd(_mm256_mul_pd(Pick4(tx, _mm256_srli_epi64(q[u], 18)), fx1[u]), Pick4(ty1[k], _mm256_srli_epi64(q[u], 21)));
-          for (int u = 0; u < kN; ++u) {
+            const __m256i q = _mm256_loadu_si256(reinterpret_cast<const __m256i*>(qk + 4 * u));
+            const __m256d fx = _mm256_loadu_pd(d + 4 * u), fx1 = _mm256_loadu_pd(d + strip + 4 * u);
+            const __m256d g00 = _mm256_add_pd(_mm256_mul_pd(Pick4(tx, q), fx), Pick4(ty0[k], _mm256_srli_epi64(q, 3)));
+            const __m256d g10 = _mm256_add_pd(_mm256_mul_pd(Pick4(tx, _mm256_srli_epi64(q, 6)), fx1), Pick4(ty0[k], _mm256_srli_epi64(q, 9)));
+            const __m256d g01 = _mm256_add_pd(_mm256_mul_pd(Pick4(tx, _mm256_srli_epi64(q, 12)), fx), Pick4(ty1[k], _mm256_srli_epi64(q, 15)));
+            const __m256d g11 = _mm256_add_pd(_mm256_mul_pd(Pick4(tx, _mm256_srli_epi64(q, 18)), fx1), Pick4(ty1[k], _mm256_srli_epi64(q, 21)));
             const __m256d sx = _mm256_loadu_pd(d + 2 * strip + 4 * u);
-            acc[u] = FoldV<kFr>(acc[u], amp[k], LerpV(sy[k], LerpV(sx, g00[u], g10[u]), LerpV(sx, g01[u], g11[u])));
+            acc[u] = FoldV<kFr>(acc[u], amp[k], LerpV(sy[k], LerpV(sx, g00, g10), LerpV(sx, g01, g11)));
           }
         }
         for (int u = 0; u < kN; ++u) Store4(FinishV<kFr>(acc[u], inv), dst + i + 4 * u, m - i - 4 * u);
