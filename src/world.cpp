@@ -667,6 +667,8 @@ WorldReport build_world(WorldSettings s) {
   const double units_total = double(std::max<std::int64_t>(1, grid.count() * std::int64_t(phases.size())));
   std::int64_t global_done = 0;  // tiles' worth of the global phases finished or skipped
   double phase_fraction = -1;     // the running global phase's share (−1: none running)
+  double global_seconds = 0;      // time spent in global phases (for the pace of the tiles)
+  Clock::time_point t_phase;      // the running global phase's start
   std::vector<std::uint32_t> crcs(std::size_t(grid.count()), 0);
   std::vector<std::uint64_t> sizes(std::size_t(grid.count()), 0);
   // Rank 0 only: the overview's samples, kept in a temporary file of the world folder.
@@ -699,11 +701,16 @@ WorldReport build_world(WorldSettings s) {
     last_fraction = std::max(last_fraction, std::min(1.0, (double(done) + global_units + tile_fraction) / units_total));
     p.fraction = last_fraction;
     p.phase_fraction = phase_fraction;
+    // Time left: the tiles left at the pace of the tiles built so far (the global phases' time
+    // apart), plus the running global phase's rest at its own pace so far.
+    const auto now = Clock::now();
+    const double in_phase = phase_fraction >= 0 ? std::chrono::duration<double>(now - t_phase).count() : 0.0;
     const double units = built_units + tile_fraction;
     if (units > 0.05) {
-      const double elapsed = std::chrono::duration<double>(Clock::now() - t_tiles).count();
+      const double elapsed = std::max(0.0, std::chrono::duration<double>(now - t_tiles).count() - global_seconds - in_phase);
       p.seconds_left = elapsed / units * std::max(0.0, double(total - done) - tile_fraction);
     }
+    if (phase_fraction > 0.01) p.seconds_left = std::max(0.0, p.seconds_left) + in_phase * (1.0 - phase_fraction) / phase_fraction;
     s.progress(p);
   };
   auto cancelled = [&] { return s.cancelled && s.cancelled(); };
@@ -1051,6 +1058,7 @@ WorldReport build_world(WorldSettings s) {
         {
           std::lock_guard<std::mutex> lock(m);
           phase_fraction = 0;
+          t_phase = Clock::now();
           report(st.def->name, int(ph.first), 0.0);
         }
         const auto t0 = Clock::now();
@@ -1065,6 +1073,7 @@ WorldReport build_world(WorldSettings s) {
           }
           phase_fraction = -1;
           global_done += grid.count();
+          global_seconds += std::chrono::duration<double>(Clock::now() - t_phase).count();
         }
         if (!last) {
           write_or_throw(ph.folder / "complete", "", s.out_path);

@@ -28,13 +28,13 @@ namespace {
 
 struct Seen {
   std::string stage;
-  double phase = -1, fraction = 0;
+  double phase = -1, fraction = 0, seconds_left = -1;
 };
 
 std::vector<Seen> build_watching(const Recipe& r, const fs::path& dir, int threads, WorldReport* rep = nullptr) {
   std::vector<Seen> seen;
   WorldSettings s = settings(r, 257, 257, 65, dir.string(), threads);
-  s.progress = [&](const WorldProgress& p) { seen.push_back({std::string(p.stage_name), p.phase_fraction, p.fraction}); };
+  s.progress = [&](const WorldProgress& p) { seen.push_back({std::string(p.stage_name), p.phase_fraction, p.fraction, p.seconds_left}); };
   const WorldReport got = build_world(s);
   if (rep) *rep = got;
   return seen;
@@ -64,6 +64,7 @@ TEST(WorldProgress, GlobalPhasesReportTheirShareAsTheyGo) {
       EXPECT_GE(in[k]->phase, in[k - 1]->phase) << stage << " " << k;
       EXPECT_GE(in[k]->fraction, in[k - 1]->fraction) << stage << " " << k;
       inside += in[k]->phase > 0 && in[k]->phase < 1;
+      if (in[k]->phase > 0.01) EXPECT_GE(in[k]->seconds_left, 0.0) << stage << " " << k;  // the phase's own pace
     }
     EXPECT_GE(inside, 4) << stage;
     // The build's fraction moves during the phase (each global phase counts as a pass over the tiles).

@@ -177,7 +177,10 @@ struct WorldProgress {
   int stage = 0, stages = 0;       // the stage a tile is running now (0-based) and the recipe's count
   std::string_view stage_name;     // "" between tiles
   double fraction = 0;             // 0..1 of the whole build
-  double seconds_left = -1;        // estimate from the tiles built so far (−1 before the first)
+  // Estimate: the tiles left at the pace of the tiles built so far (time in global phases apart),
+  // plus, in a global phase, its rest at its own pace so far (later global phases not counted);
+  // −1 before anything can be estimated.
+  double seconds_left = -1;
   // While a global stage's world algorithm runs (a phase of its own, see "Phases"): the share of
   // that phase done, 0..1, never decreasing within the phase, and 1 when it ends; stage and
   // stage_name name the stage ("fill", "flow", …). −1 while tiles are being built. The algorithm
