@@ -9,6 +9,7 @@
 #include <cstdint>
 #include <exception>
 #include <memory>
+#include <new>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -73,45 +74,54 @@ inline std::vector<std::int64_t> take_tile_class(std::vector<std::uint8_t>& pend
 // An exception of compute(k) is rethrown at k's turn to merge, so the first failure in order is the
 // one thrown, whatever the thread count. No exception crosses the pipeline: a failure is kept, the
 // pipeline drains (no new item starts, computes not yet begun are skipped) and the failure is
-// rethrown after it; an exception thrown through tbb::parallel_pipeline leaks the items in flight.
+// rethrown after it. (oneTBB leaks the heap-held tokens of items in flight when an exception or a
+// cancellation ends a pipeline; these tokens are indices, held in place.)
 template <class R, class Compute, class Merge>
 void ordered_tiles(const std::vector<std::int64_t>& items, Compute&& compute, Merge&& merge) {
   struct Item {
-    std::int64_t k = 0;
     std::optional<R> result;
     std::exception_ptr error;
   };
+  // The pipeline passes plain indices (stored in its tokens without allocation); results live in
+  // `slots`, which owns them even if the pipeline is cancelled from outside, and each is freed at
+  // its merge.
+  std::vector<std::unique_ptr<Item>> slots(items.size());
   std::size_t next = 0;
-  std::exception_ptr failure;      // the first in order; written by the last (serial) stage only
+  std::exception_ptr failure;       // the first in order; written by the last (serial) stage only
   std::atomic<bool> failed{false};  // read by the other stages
   const std::size_t tokens = std::size_t(2 * std::max(1, tbb::this_task_arena::max_concurrency()));
   tbb::parallel_pipeline(
       tokens,
-      tbb::make_filter<void, std::shared_ptr<Item>>(tbb::filter_mode::serial_in_order,
-                                                    [&](tbb::flow_control& fc) -> std::shared_ptr<Item> {
-                                                      if (next >= items.size() || failed.load()) {
-                                                        fc.stop();
-                                                        return nullptr;
-                                                      }
-                                                      auto it = std::make_shared<Item>();
-                                                      it->k = items[next++];
-                                                      return it;
-                                                    }) &
-          tbb::make_filter<std::shared_ptr<Item>, std::shared_ptr<Item>>(tbb::filter_mode::parallel,
-                                                                         [&](std::shared_ptr<Item> it) {
-                                                                           if (failed.load()) return it;
-                                                                           try {
-                                                                             it->result.emplace(compute(it->k));
-                                                                           } catch (...) {
-                                                                             it->error = std::current_exception();
-                                                                           }
-                                                                           return it;
-                                                                         }) &
-          tbb::make_filter<std::shared_ptr<Item>, void>(tbb::filter_mode::serial_in_order, [&](std::shared_ptr<Item> it) {
+      tbb::make_filter<void, std::size_t>(tbb::filter_mode::serial_in_order,
+                                          [&](tbb::flow_control& fc) -> std::size_t {
+                                            if (next >= items.size() || failed.load()) {
+                                              fc.stop();
+                                              return 0;
+                                            }
+                                            return next++;
+                                          }) &
+          tbb::make_filter<std::size_t, std::size_t>(tbb::filter_mode::parallel,
+                                                     [&](std::size_t i) {
+                                                       if (failed.load()) return i;
+                                                       try {
+                                                         auto it = std::make_unique<Item>();
+                                                         try {
+                                                           it->result.emplace(compute(items[i]));
+                                                         } catch (...) {
+                                                           it->error = std::current_exception();
+                                                         }
+                                                         slots[i] = std::move(it);
+                                                       } catch (...) {  // no memory for the Item
+                                                       }
+                                                       return i;
+                                                     }) &
+          tbb::make_filter<std::size_t, void>(tbb::filter_mode::serial_in_order, [&](std::size_t i) {
+            std::unique_ptr<Item> it = std::move(slots[i]);
             if (failure) return;
             try {
+              if (!it) throw std::bad_alloc();
               if (it->error) std::rethrow_exception(it->error);
-              merge(it->k, std::move(*it->result));
+              merge(items[i], std::move(*it->result));
             } catch (...) {
               failure = std::current_exception();
               failed.store(true);

@@ -407,7 +407,9 @@ void write_obj(const Terrain& t, const WriteContext& ctx, Output& out) {
 
   // Each block is encoded on any thread into a buffer from a small pool; the in-order stage writes
   // it and returns the buffer. At most `tokens` blocks are in flight (bounded memory). `buffers`
-  // owns every buffer (also those in flight when an Error cancels the pipeline).
+  // owns every buffer (also those in flight when an Error cancels the pipeline). The pipeline's
+  // tokens are block indices (held in place: oneTBB leaks heap-held tokens of a cancelled pipeline);
+  // `text_of[blk]` is the buffer holding block blk's text between the two stages.
   const std::size_t tokens = 4 * std::size_t(std::max(1, tbb::this_task_arena::max_concurrency()));
   std::vector<std::unique_ptr<TextBuffer>> buffers;
   std::vector<TextBuffer*> free_buffers;
@@ -415,7 +417,7 @@ void write_obj(const Terrain& t, const WriteContext& ctx, Output& out) {
   std::size_t next = 0;
   const double total_rows = 3.0 * nz + (nz - 1);
   double rows_written = 0, reported = 0;
-  using Item = std::pair<std::size_t, TextBuffer*>;  // block index, its text
+  std::vector<TextBuffer*> text_of(blocks.size(), nullptr);
   tbb::parallel_pipeline(
       tokens,
       tbb::make_filter<void, std::size_t>(tbb::filter_mode::serial_in_order,
@@ -423,7 +425,7 @@ void write_obj(const Terrain& t, const WriteContext& ctx, Output& out) {
                                             if (next == blocks.size()) fc.stop();
                                             return next++;
                                           }) &
-          tbb::make_filter<std::size_t, Item>(tbb::filter_mode::parallel,
+          tbb::make_filter<std::size_t, std::size_t>(tbb::filter_mode::parallel,
                                                [&](std::size_t blk) {
                                                  TextBuffer* tb;
                                                  {
@@ -436,15 +438,16 @@ void write_obj(const Terrain& t, const WriteContext& ctx, Output& out) {
                                                    free_buffers.pop_back();
                                                  }
                                                  encode(blocks[blk], *tb);
-                                                 return Item(blk, tb);
+                                                 text_of[blk] = tb;
+                                                 return blk;
                                                }) &
-          tbb::make_filter<Item, void>(tbb::filter_mode::serial_in_order, [&](Item item) {
-            const Block& blk = blocks[item.first];
+          tbb::make_filter<std::size_t, void>(tbb::filter_mode::serial_in_order, [&](std::size_t at) {
+            const Block& blk = blocks[at];
             if (blk.section == 3 && blk.j0 == 0) stream->write("usemtl terrain\n");
-            stream->write(item.second->view());
+            stream->write(text_of[at]->view());
             {
               std::lock_guard<std::mutex> lock(pool_mutex);
-              free_buffers.push_back(item.second);
+              free_buffers.push_back(text_of[at]);
             }
             rows_written += blk.j1 - blk.j0;
             if (rows_written / total_rows - reported >= 0.02) {
