@@ -144,6 +144,7 @@ WorldStageAlgorithm world_hydraulic(std::uint64_t seed) {
         }
         own.layers.at("height").data = std::move(out);
         io.store(X, Z, std::move(own));
+        if (io.progress) io.progress(double(Z * g.tiles_x + X + 1) / double(g.count()));
       }
   };
 }
@@ -179,11 +180,15 @@ WorldStageAlgorithm world_stream_power(int coarse_max) {
                 h[std::size_t(iz - w.iz0) * std::size_t(w.nx) + std::size_t(ix - w.ix0)];
           }
         }
+        // Progress: the gathering pass spans [0, 0.3), the coarse solve [0.3, 0.4), the pass that
+        // writes the tiles back [0.4, 1] (a step per tile in each pass).
+        if (io.progress) io.progress(0.3 * double(Z * g.tiles_x + X + 1) / double(g.count()));
       }
     const std::vector<float> before = e;
     Context ctx;
     ctx.stage_index = index;  // stream power draws no random numbers
     st.stage->apply(t, ctx);
+    if (io.progress) io.progress(0.4);
     const std::vector<float>& after = t.get("height").data;
     std::vector<float> delta;
     if (s > 1) {
@@ -222,6 +227,7 @@ WorldStageAlgorithm world_stream_power(int coarse_max) {
           }
         }
         io.store(X, Z, std::move(tile));
+        if (io.progress) io.progress(0.4 + 0.6 * double(Z * g.tiles_x + X + 1) / double(g.count()));
       }
   };
 }

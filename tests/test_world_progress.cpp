@@ -64,7 +64,9 @@ TEST(WorldProgress, GlobalPhasesReportTheirShareAsTheyGo) {
       EXPECT_GE(in[k]->phase, in[k - 1]->phase) << stage << " " << k;
       EXPECT_GE(in[k]->fraction, in[k - 1]->fraction) << stage << " " << k;
       inside += in[k]->phase > 0 && in[k]->phase < 1;
-      if (in[k]->phase > 0.01) EXPECT_GE(in[k]->seconds_left, 0.0) << stage << " " << k;  // the phase's own pace
+      if (in[k]->phase > 0.01) {
+        EXPECT_GE(in[k]->seconds_left, 0.0) << stage << " " << k;  // the phase's own pace
+      }
     }
     EXPECT_GE(inside, 4) << stage;
     // The build's fraction moves during the phase (each global phase counts as a pass over the tiles).
@@ -73,7 +75,9 @@ TEST(WorldProgress, GlobalPhasesReportTheirShareAsTheyGo) {
   }
   // Local phases report no phase share.
   for (const Seen& s : seen)
-    if (s.stage == "noise" || s.stage == "hillshade") EXPECT_EQ(s.phase, -1.0);
+    if (s.stage == "noise" || s.stage == "hillshade") {
+      EXPECT_EQ(s.phase, -1.0);
+    }
 }
 
 // A flow stage with no fill before it fills first (world_flow): its share still never decreases
@@ -93,6 +97,37 @@ TEST(WorldProgress, FlowWithoutFillStillReportsAnIncreasingShare) {
   ASSERT_GE(flow.size(), 8u);
   EXPECT_TRUE(std::is_sorted(flow.begin(), flow.end()));
   EXPECT_EQ(flow.back(), 1.0);
+}
+
+// The bounded erosion stages report their share too: hydraulic a step per tile, stream power its
+// gathering pass, coarse solve and writing pass (the eroded-mountains preset's stages up to
+// hydraulic, at 513² in tiles of 129).
+TEST(WorldProgress, BoundedErosionPhasesReportTheirShare) {
+  json doc = load_preset("eroded-mountains");
+  json stages = json::array();
+  for (const json& st : doc["stages"]) {
+    json c = st;
+    if (c.value("stage", "") == "stream_power") c["steps"] = 5;
+    stages.push_back(c);
+    if (c.value("stage", "") == "hydraulic") break;
+  }
+  doc["stages"] = stages;
+  const Recipe r = recipe_of(doc, 5);
+  TempDir d("world-progress-bounded");
+  std::vector<Seen> seen;
+  WorldSettings s = settings(r, 513, 513, 129, d / "w", 2);
+  s.progress = [&](const WorldProgress& p) { seen.push_back({std::string(p.stage_name), p.phase_fraction, p.fraction, p.seconds_left}); };
+  build_world(s);
+  for (const char* stage : {"stream_power", "hydraulic"}) {
+    std::vector<double> in;
+    for (const Seen& x : seen)
+      if (x.phase >= 0 && x.stage == stage) in.push_back(x.phase);
+    ASSERT_FALSE(in.empty()) << stage;
+    EXPECT_TRUE(std::is_sorted(in.begin(), in.end())) << stage;
+    EXPECT_EQ(in.back(), 1.0) << stage;
+    // 16 tiles (4 × 4): reports strictly inside the phase, not only its start and end.
+    EXPECT_GE(std::count_if(in.begin(), in.end(), [](double f) { return f > 0 && f < 1; }), 4) << stage;
+  }
 }
 
 // Listening changes no byte: a build with a callback equals one without, for 1 and 2 threads.

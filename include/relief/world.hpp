@@ -242,7 +242,8 @@ struct WorldStageIO {
   // in-order merges). Null when nobody listens. The library's algorithms: fill (rounds until no
   // border level changes: round r spans [1 − 2^(1−r), 1 − 2^(−r)), split by the tiles solved in the
   // round), flow (its passes over every tile take fixed spans; its Strahler/carving rounds split
-  // their span as fill's rounds do), volcano and features (a step per tile they store, in order).
+  // their span as fill's rounds do), volcano, features and hydraulic (a step per tile they store,
+  // in order), stream power (its gathering pass [0, 0.3), coarse solve to 0.4, writing pass [0.4, 1]).
   std::function<void(double fraction)> progress;
 };
 // Runs one global stage (`stage`, at `index` in the recipe) over the whole stored world.
