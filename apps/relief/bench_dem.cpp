@@ -72,8 +72,9 @@ GDALDatasetH mem_dataset(const GdalDem& g, const std::vector<float>& metres, int
   GDALDatasetH ds = g.GDALCreate(mem, "", n, n, 1, GDT_Float32, nullptr);
   double gt[6] = {0, cell, 0, 0, 0, -cell};
   g.GDALSetGeoTransform(ds, gt);
-  (void)g.GDALRasterIO(g.GDALGetRasterBand(ds, 1), GF_Write, 0, 0, n, n, const_cast<float*>(metres.data()), n, n,
-                       GDT_Float32, 0, 0);
+  if (g.GDALRasterIO(g.GDALGetRasterBand(ds, 1), GF_Write, 0, 0, n, n, const_cast<float*>(metres.data()), n, n,
+                       GDT_Float32, 0, 0) != CE_None)
+    throw Error("bench", "GDAL could not write the heights into its in-memory dataset");
   return ds;
 }
 
