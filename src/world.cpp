@@ -1061,10 +1061,9 @@ WorldReport build_world(WorldSettings s) {
           t_phase = Clock::now();
           report(st.def->name, int(ph.first), 0.0);
         }
-        const auto t0 = Clock::now();
         tbb::task_arena arena(threads);  // the algorithm's tile work runs on the build's threads
         arena.execute([&] { s.algorithms.at(st.def->name)(io, st, int(ph.first)); });
-        stage_ms[ph.first] += ms_since(t0);
+        stage_ms[ph.first] += ms_since(t_phase);
         {
           std::lock_guard<std::mutex> lock(m);
           if (phase_fraction < 1) {
@@ -1073,7 +1072,7 @@ WorldReport build_world(WorldSettings s) {
           }
           phase_fraction = -1;
           global_done += grid.count();
-          global_seconds += std::chrono::duration<double>(Clock::now() - t_phase).count();
+          global_seconds += ms_since(t_phase) / 1e3;
         }
         if (!last) {
           write_or_throw(ph.folder / "complete", "", s.out_path);

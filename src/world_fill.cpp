@@ -37,11 +37,7 @@ constexpr float kInf = std::numeric_limits<float>::infinity();
 TiledFillStats fill_depressions_tiled(const WorldGrid& g, float sea, float epsilon, const TileLoad& load, const TileStore& store,
                                       const std::function<void(double)>& progress) {
   TiledFillStats st;
-  // Progress (relief/world.hpp): the rounds' count is not known in advance; round r spans
-  // [1 − 2^(1−r), 1 − 2^(−r)), split evenly among the tiles pending when it starts (a tile woken
-  // within the round by an earlier class adds a solve but no share: the share never decreases).
-  double round_lo = 0, round_span = 0.5;
-  std::int64_t round_tiles = 1, round_done = 0;
+  detail::RoundProgress rounds(0.0, 1.0);  // progress (relief/world.hpp)
   const std::int64_t tiles = g.count();
   // Known values of the samples on tile borders, per tile perimeter (shared between neighbours by
   // world position): one map from world sample index to value, for border samples only.
@@ -115,15 +111,13 @@ TiledFillStats fill_depressions_tiled(const WorldGrid& g, float sea, float epsil
           }
       }
     if (store) store(X, Z, std::move(f));
-    if (progress) progress(round_lo + round_span * double(std::min(++round_done, round_tiles)) / double(round_tiles));
+    if (progress) progress(rounds.step());
   };
   // Rounds: the four classes in turn, each the pending tiles of the class in tile order (a fixed
   // schedule: the same solves and calls for any thread count).
   for (bool any = true; any;) {
     ++st.rounds;
-    if (st.rounds > 1) round_lo += round_span, round_span *= 0.5;
-    round_tiles = std::max<std::int64_t>(1, std::count(pending.begin(), pending.end(), std::uint8_t(1)));
-    round_done = 0;
+    rounds.start(st.rounds, pending);
     for (int cls = 0; cls < 4; ++cls) {
       const std::vector<std::int64_t> batch = detail::take_tile_class(pending, g.tiles_x, cls);
       detail::ordered_tiles<std::vector<float>>(batch, solve, merge);

@@ -792,12 +792,11 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
     std::vector<float>().swap(s.zg);
     return r;
   };
-  double round_lo = 0.35, round_span = 0.175;  // pass S's round (progress)
-  std::int64_t round_tiles = 1;
+  detail::RoundProgress rounds(0.35, 0.35);  // pass S's rounds (progress)
   auto merge_s = [&](std::int64_t, LocalS r) {
     const Solve& s = r.s;
     ++st.tile_solves;
-    report(round_lo, round_lo + round_span, ++merged, round_tiles);
+    if (progress) progress(rounds.step());
     for (auto [cell, v] : r.cover_sea) {
       float& slot = cover_sea.try_emplace(cell, 0.0f).first->second;
       slot = std::max(slot, v);
@@ -824,9 +823,7 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
   };
   for (bool any = true; any;) {
     ++st.rounds;
-    if (st.rounds > 1) round_lo += round_span, round_span *= 0.5;
-    round_tiles = std::max<std::int64_t>(1, std::count(pending.begin(), pending.end(), std::uint8_t(1)));
-    merged = 0;
+    rounds.start(st.rounds, pending);
     for (int cls = 0; cls < 4; ++cls) {
       const std::vector<std::int64_t> batch = detail::take_tile_class(pending, g.tiles_x, cls);
       detail::ordered_tiles<LocalS>(batch, solve_s, merge_s);

@@ -9,7 +9,6 @@
 #include <cstdint>
 #include <exception>
 #include <memory>
-#include <new>
 #include <optional>
 #include <string>
 #include <string_view>
@@ -85,7 +84,7 @@ void ordered_tiles(const std::vector<std::int64_t>& items, Compute&& compute, Me
   // The pipeline passes plain indices (stored in its tokens without allocation); results live in
   // `slots`, which owns them even if the pipeline is cancelled from outside, and each is freed at
   // its merge.
-  std::vector<std::unique_ptr<Item>> slots(items.size());
+  std::vector<Item> slots(items.size());
   std::size_t next = 0;
   std::exception_ptr failure;       // the first in order; written by the last (serial) stage only
   std::atomic<bool> failed{false};  // read by the other stages
@@ -104,24 +103,19 @@ void ordered_tiles(const std::vector<std::int64_t>& items, Compute&& compute, Me
                                                      [&](std::size_t i) {
                                                        if (failed.load()) return i;
                                                        try {
-                                                         auto it = std::make_unique<Item>();
-                                                         try {
-                                                           it->result.emplace(compute(items[i]));
-                                                         } catch (...) {
-                                                           it->error = std::current_exception();
-                                                         }
-                                                         slots[i] = std::move(it);
-                                                       } catch (...) {  // no memory for the Item
+                                                         slots[i].result.emplace(compute(items[i]));
+                                                       } catch (...) {
+                                                         slots[i].error = std::current_exception();
                                                        }
                                                        return i;
                                                      }) &
           tbb::make_filter<std::size_t, void>(tbb::filter_mode::serial_in_order, [&](std::size_t i) {
-            std::unique_ptr<Item> it = std::move(slots[i]);
+            Item it = std::move(slots[i]);
+            slots[i].result.reset();
             if (failure) return;
             try {
-              if (!it) throw std::bad_alloc();
-              if (it->error) std::rethrow_exception(it->error);
-              merge(items[i], std::move(*it->result));
+              if (it.error) std::rethrow_exception(it.error);
+              merge(items[i], std::move(*it.result));
             } catch (...) {
               failure = std::current_exception();
               failed.store(true);
@@ -129,4 +123,22 @@ void ordered_tiles(const std::vector<std::int64_t>& items, Compute&& compute, Me
           }));
   if (failure) std::rethrow_exception(failure);
 }
+
+// Progress over rounds that run until a fixpoint (their count unknown in advance), within the span
+// [lo, lo + span) of a phase: round r takes [1 − 2^(1−r), 1 − 2^(−r)) of it, split evenly among the
+// tiles pending when the round starts (a tile woken within the round adds a solve but no share: the
+// share never decreases).
+struct RoundProgress {
+  double lo = 0, span = 0.5;  // the current round's part; the first round takes half the phase's span
+  std::int64_t tiles = 1, done = 0;
+  RoundProgress(double phase_lo, double phase_span) : lo(phase_lo), span(0.5 * phase_span) {}
+  // Before round `round` (1-based), with `pending` its tiles' flags.
+  void start(int round, const std::vector<std::uint8_t>& pending) {
+    if (round > 1) lo += span, span *= 0.5;
+    tiles = std::max<std::int64_t>(1, std::count(pending.begin(), pending.end(), std::uint8_t(1)));
+    done = 0;
+  }
+  // The share after one more tile merged.
+  double step() { return lo + span * double(std::min(++done, tiles)) / double(tiles); }
+};
 }  // namespace relief::detail
