@@ -20,6 +20,7 @@
 #include <chrono>
 #include <cmath>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
 #include <cstring>
 #include <filesystem>
@@ -482,6 +483,25 @@ void remove_live_temporaries() noexcept {
   live_temps().clear();
 }
 
+namespace {
+// Whether process `pid` can still write: it exists and is not a zombie (a process killed whose
+// parent has not reaped it yet, e.g. an MPI rank whose mpirun was killed: kill(pid, 0) still
+// succeeds for it, but it will never rename or remove its temporary files).
+bool process_alive(long pid) {
+  if (::kill(pid_t(pid), 0) != 0 && errno == ESRCH) return false;
+  char path[48];
+  std::snprintf(path, sizeof path, "/proc/%ld/stat", pid);
+  FILE* f = std::fopen(path, "r");
+  if (!f) return true;  // no /proc: trust kill()
+  char buf[512];
+  const std::size_t n = std::fread(buf, 1, sizeof buf - 1, f);
+  std::fclose(f);
+  buf[n] = 0;
+  const char* close = std::strrchr(buf, ')');  // "pid (comm) state …": comm may hold ')'
+  return !(close && close[1] == ' ' && (close[2] == 'Z' || close[2] == 'X'));
+}
+}  // namespace
+
 std::size_t remove_dead_temporaries(const std::string& dir) {
   std::size_t removed = 0;
   std::error_code ec;
@@ -498,7 +518,7 @@ std::size_t remove_dead_temporaries(const std::string& dir) {
     if (pid_text.find_first_not_of("0123456789") != std::string::npos) continue;
     const long pid = std::stol(pid_text);
     if (pid <= 0 || pid == long(::getpid())) continue;
-    if (::kill(pid_t(pid), 0) == 0 || errno != ESRCH) continue;  // alive (or not ours to ask): in use
+    if (process_alive(pid)) continue;  // alive, or not ours to ask: in use
     std::error_code st;
     if (!fs::is_regular_file(fs::symlink_status(it->path(), st))) continue;
     if (fs::remove(it->path(), st)) ++removed;

@@ -68,6 +68,8 @@ void expect_same_store(const fs::path& ref, const fs::path& got) {
     EXPECT_TRUE(bytes == it->second) << name << " differs";
     tiles += name.ends_with(".rtile");
   }
+  for (auto& [name, bytes] : b)
+    if (!a.count(name)) ADD_FAILURE() << name << " is not in the reference store";
   EXPECT_GT(tiles, 0u);
   EXPECT_TRUE(relief::verify_world(got.string()).empty());
   // The manifest's tile checksums (compared whole above) describe complete tiles.
