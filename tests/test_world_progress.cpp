@@ -115,7 +115,7 @@ TEST(WorldProgress, BoundedErosionPhasesReportTheirShare) {
   const Recipe r = recipe_of(doc, 5);
   TempDir d("world-progress-bounded");
   std::vector<Seen> seen;
-  WorldSettings s = settings(r, 513, 513, 129, d / "w", 2);
+  WorldSettings s = settings(r, 257, 257, 65, d / "w", 2);
   s.progress = [&](const WorldProgress& p) { seen.push_back({std::string(p.stage_name), p.phase_fraction, p.fraction, p.seconds_left}); };
   build_world(s);
   for (const char* stage : {"stream_power", "hydraulic"}) {
