@@ -18,6 +18,8 @@
 #include <cmath>
 #include <cstring>
 #include <limits>
+#include <memory>
+#include <mutex>
 #include <tuple>
 #include <unordered_map>
 
@@ -151,7 +153,9 @@ struct Components {
   }
 };
 
-// One tile's grown window, its receivers and its local flow order over the owned rectangle.
+// One tile's grown window, its receivers and its local flow order over the owned rectangle. Solves
+// are reused (SolvePool): every array is sized and written anew by prepare() and finish(), so a
+// reused solve keeps only its capacity (no page faults and no zeroing of fresh memory per solve).
 struct Solve {
   std::int64_t X = 0, Z = 0;
   WorldGrid::Window w;
@@ -163,18 +167,77 @@ struct Solve {
   std::vector<std::uint8_t> raised, lake;  // owned: raised by the fill; in a kept lake
   std::vector<std::uint32_t> label;        // owned: local component of raised samples (kNone: not raised)
   std::uint32_t labels = 0;
+  bool land = false;       // some owned sample is at or above the sea (filled height)
+  std::uint32_t max_acc = 0;  // largest local count
   std::vector<std::uint32_t> rec;                 // grown, hydro::d8_receivers
   std::vector<std::uint32_t> rl, order, acc;      // owned: local receivers (self at exits), order, count
+  std::vector<std::uint32_t> perimeter;           // owned indices of the perimeter, row-major (node order)
   // finished (pass S and later)
   std::vector<std::uint64_t> cnt;
   std::vector<std::uint8_t> ch, str, chd, cross_chd;  // channel, Strahler, channel donors (of them in other tiles)
   std::vector<float> ec;
+  // scratch
+  std::vector<float> z;             // the loaded tile
+  std::vector<std::uint64_t> b;     // inflow from other tiles through each sample
+  std::vector<std::uint8_t> top, donors;
+  std::vector<std::uint32_t> stack;
 
   std::size_t grown(int oi, int oj) const { return std::size_t(oj + oz0) * std::size_t(gnx) + std::size_t(oi + ox0); }
+  std::size_t grown_of(std::uint32_t o) const { return grown(int(o % std::uint32_t(onx)), int(o / std::uint32_t(onx))); }
   bool perim(std::uint32_t o) const {
     const int oi = int(o % std::uint32_t(onx)), oj = int(o / std::uint32_t(onx));
     return oi == 0 || oj == 0 || oi == onx - 1 || oj == onz - 1;
   }
+};
+
+// Solves kept for reuse: at most as many as were in flight at once (ordered_tiles bounds those).
+class SolvePool {
+ public:
+  std::unique_ptr<Solve> take() {
+    {
+      std::lock_guard<std::mutex> lock(m_);
+      if (!free_.empty()) {
+        std::unique_ptr<Solve> s = std::move(free_.back());
+        free_.pop_back();
+        return s;
+      }
+    }
+    return std::make_unique<Solve>();
+  }
+  void give(std::unique_ptr<Solve> s) {
+    if (!s) return;
+    std::lock_guard<std::mutex> lock(m_);
+    free_.push_back(std::move(s));
+  }
+
+ private:
+  std::mutex m_;
+  std::vector<std::unique_ptr<Solve>> free_;
+};
+
+// A solve taken from a pool, given back when this handle goes (also when a result is dropped by
+// an exception).
+class SolveRef {
+ public:
+  explicit SolveRef(SolvePool& pool) : pool_(&pool), s_(pool.take()) {}
+  SolveRef(SolveRef&& o) noexcept : pool_(o.pool_), s_(std::move(o.s_)) {}
+  SolveRef& operator=(SolveRef&& o) noexcept {
+    if (this != &o) {
+      release();
+      pool_ = o.pool_, s_ = std::move(o.s_);
+    }
+    return *this;
+  }
+  ~SolveRef() { release(); }
+  Solve& operator*() const { return *s_; }
+  Solve* operator->() const { return s_.get(); }
+
+ private:
+  void release() {
+    if (s_ && pool_) pool_->give(std::move(s_));
+  }
+  SolvePool* pool_;
+  std::unique_ptr<Solve> s_;
 };
 
 std::int64_t world_index(const Ctx& c, const Solve& s, std::uint32_t gi) {
@@ -189,11 +252,41 @@ std::uint32_t owned_of(const Solve& s, std::uint32_t gi) {
   return std::uint32_t(j) * std::uint32_t(s.onx) + std::uint32_t(i);
 }
 
-Solve prepare(const Ctx& c, Bands& bands, const TileLoad& load, std::int64_t X, std::int64_t Z) {
-  Solve s;
+// hydro::flow_order's order and counts (the same algorithm: chains followed downstream from the
+// sources), with the donor counts in the solve's scratch instead of a fresh array.
+void local_order(Solve& s) {
+  const std::size_t n = s.rl.size();
+  const std::uint32_t* rec = s.rl.data();
+  s.donors.assign(n, 0);
+  std::uint8_t* donors = s.donors.data();
+  for (std::size_t c = 0; c < n; ++c)
+    if (rec[c] != c) ++donors[rec[c]];
+  s.acc.assign(n, 1);
+  std::uint32_t* count = s.acc.data();
+  s.order.resize(n);
+  std::uint32_t* order = s.order.data();
+  std::size_t w = 0;
+  for (std::size_t c = 0; c < n; ++c) {
+    if (donors[c] != 0) continue;
+    std::uint32_t x = std::uint32_t(c);
+    for (;;) {
+      donors[x] = 0xFF;
+      order[w++] = x;
+      const std::uint32_t r = rec[x];
+      if (r == x) break;
+      count[r] += count[x];
+      if (--donors[r] != 0) break;
+      x = r;
+    }
+  }
+  if (w != n) throw Error("world", "flow: internal error, a tile's flow graph has a cycle");
+}
+
+void prepare(const Ctx& c, Bands& bands, const TileLoad& load, std::int64_t X, std::int64_t Z, Solve& s) {
   s.X = X, s.Z = Z;
   s.w = c.g.window(X, Z);
-  const std::vector<float> z = c.filled ? (*c.filled)(X, Z) : load(X, Z);
+  s.z = c.filled ? (*c.filled)(X, Z) : load(X, Z);
+  const std::vector<float>& z = s.z;
   if (z.size() != std::size_t(s.w.nx) * std::size_t(s.w.nz))
     throw Error("world", "flow: tile " + std::to_string(X) + "," + std::to_string(Z) + " has " + std::to_string(z.size()) +
                              " heights, expected " + std::to_string(std::size_t(s.w.nx) * std::size_t(s.w.nz)));
@@ -203,15 +296,19 @@ Solve prepare(const Ctx& c, Bands& bands, const TileLoad& load, std::int64_t X, 
   const std::int64_t gz1 = s.w.iz0 + s.w.nz + (s.w.iz0 + s.w.nz < c.g.nz ? 1 : 0);
   s.gnx = int(gx1 - s.gx0), s.gnz = int(gz1 - s.gz0);
   s.zg.resize(std::size_t(s.gnx) * std::size_t(s.gnz));
-  for (int j = 0; j < s.gnz; ++j)
-    for (int i = 0; i < s.gnx; ++i) {
-      const std::int64_t ix = s.gx0 + i, iz = s.gz0 + j;
-      const std::int64_t wi = ix - s.w.ix0, wj = iz - s.w.iz0;
-      float v;
-      if (wi >= 0 && wj >= 0 && wi < s.w.nx && wj < s.w.nz) v = z[std::size_t(wj) * std::size_t(s.w.nx) + std::size_t(wi)];
-      else v = bands.get(ix, iz);
-      s.zg[std::size_t(j) * std::size_t(s.gnx) + std::size_t(i)] = v;
+  // The window's rows copied whole; the grown ring (outside the window) from the bands.
+  const int wx = int(s.w.ix0 - s.gx0);  // window's first column in the grown window
+  for (int j = 0; j < s.gnz; ++j) {
+    const std::int64_t iz = s.gz0 + j, wj = iz - s.w.iz0;
+    float* row = s.zg.data() + std::size_t(j) * std::size_t(s.gnx);
+    if (wj >= 0 && wj < s.w.nz) {
+      std::memcpy(row + wx, z.data() + std::size_t(wj) * std::size_t(s.w.nx), std::size_t(s.w.nx) * sizeof(float));
+      for (int i = 0; i < wx; ++i) row[i] = bands.get(s.gx0 + i, iz);
+      for (int i = wx + s.w.nx; i < s.gnx; ++i) row[i] = bands.get(s.gx0 + i, iz);
+    } else {
+      for (int i = 0; i < s.gnx; ++i) row[i] = bands.get(s.gx0 + i, iz);
     }
+  }
   const std::int64_t ox1 = X == c.g.tiles_x - 1 ? c.g.nx : s.w.ix0 + c.t1;
   const std::int64_t oz1 = Z == c.g.tiles_z - 1 ? c.g.nz : s.w.iz0 + c.t1;
   s.ox0 = int(s.w.ix0 - s.gx0), s.oz0 = int(s.w.iz0 - s.gz0);
@@ -220,27 +317,59 @@ Solve prepare(const Ctx& c, Bands& bands, const TileLoad& load, std::int64_t X, 
   hydro::d8_receivers<float>(s.zg.data(), s.gnx, s.gnz, c.sea, s.rec.data());
   const std::size_t on = std::size_t(s.onx) * std::size_t(s.onz);
   s.rl.resize(on);
-  s.acc.resize(on);
-  for (int oj = 0; oj < s.onz; ++oj)
+  // Local receivers: a receiver is one of the 8 neighbours (or the sample itself); those outside
+  // the owned rectangle make the sample an exit (its own local receiver).
+  const std::int64_t gnx = s.gnx;
+  s.land = false;
+  for (int oj = 0; oj < s.onz; ++oj) {
+    const std::size_t g0 = s.grown(0, oj);
+    const std::uint32_t o0 = std::uint32_t(oj) * std::uint32_t(s.onx);
     for (int oi = 0; oi < s.onx; ++oi) {
-      const std::uint32_t o = std::uint32_t(oj) * std::uint32_t(s.onx) + std::uint32_t(oi);
-      const std::uint32_t r = owned_of(s, s.rec[s.grown(oi, oj)]);
-      s.rl[o] = r == kNone ? o : r;
+      const std::size_t gi = g0 + std::size_t(oi);
+      const std::uint32_t o = o0 + std::uint32_t(oi);
+      s.land |= !(s.zg[gi] < c.sea);
+      const std::int64_t d = std::int64_t(s.rec[gi]) - std::int64_t(gi);
+      if (d == 0) {
+        s.rl[o] = o;
+        continue;
+      }
+      const int dj = d > 1 ? 1 : (d < -1 ? -1 : 0);
+      const int di = int(d - dj * gnx);
+      const int ri = oi + di, rj = oj + dj;
+      s.rl[o] = ri < 0 || rj < 0 || ri >= s.onx || rj >= s.onz ? o : std::uint32_t(rj) * std::uint32_t(s.onx) + std::uint32_t(ri);
     }
-  hydro::flow_order(s.rl.data(), on, s.order, s.acc.data());
+  }
+  local_order(s);
+  s.max_acc = on ? *std::max_element(s.acc.begin(), s.acc.end()) : 0;
+  s.perimeter.clear();
+  for (int oj = 0; oj < s.onz; ++oj) {
+    const std::uint32_t o0 = std::uint32_t(oj) * std::uint32_t(s.onx);
+    if (oj == 0 || oj == s.onz - 1) {
+      for (int oi = 0; oi < s.onx; ++oi) s.perimeter.push_back(o0 + std::uint32_t(oi));
+    } else {
+      s.perimeter.push_back(o0);
+      s.perimeter.push_back(o0 + std::uint32_t(s.onx - 1));
+    }
+  }
   // The input heights and the components of raised samples (apply_flow's lake search, per tile).
   s.eo.resize(on);
   s.raised.assign(on, 0);
   s.label.assign(on, kNone);
-  const std::vector<float> raw = c.filled ? load(X, Z) : std::vector<float>();
+  s.labels = 0;
+  if (!c.filled) {
+    for (int oj = 0; oj < s.onz; ++oj)
+      std::memcpy(s.eo.data() + std::size_t(oj) * std::size_t(s.onx), s.zg.data() + s.grown(0, oj), std::size_t(s.onx) * sizeof(float));
+    return;  // nothing raised
+  }
+  const std::vector<float> raw = load(X, Z);
   for (int oj = 0; oj < s.onz; ++oj)
     for (int oi = 0; oi < s.onx; ++oi) {
       const std::uint32_t o = std::uint32_t(oj) * std::uint32_t(s.onx) + std::uint32_t(oi);
       const float f = s.zg[s.grown(oi, oj)];
-      s.eo[o] = c.filled ? raw[std::size_t(oj) * std::size_t(s.w.nx) + std::size_t(oi)] : f;
+      s.eo[o] = raw[std::size_t(oj) * std::size_t(s.w.nx) + std::size_t(oi)];
       s.raised[o] = f > s.eo[o];
     }
-  std::vector<std::uint32_t> stack;
+  std::vector<std::uint32_t>& stack = s.stack;
   for (std::uint32_t o0 = 0; o0 < on; ++o0) {
     if (!s.raised[o0] || s.label[o0] != kNone) continue;
     s.label[o0] = s.labels;
@@ -258,7 +387,6 @@ Solve prepare(const Ctx& c, Bands& bands, const TileLoad& load, std::int64_t X, 
     }
     ++s.labels;
   }
-  return s;
 }
 
 // Marks the owned samples in kept lakes (after the components are joined).
@@ -304,34 +432,41 @@ double width(const Ctx& c, std::uint64_t count) {
 // graph as known now. Returns nothing; fills s.cnt, s.ch, s.str, s.ec.
 void finish(const Ctx& c, const Nodes& nd, Solve& s) {
   const std::size_t on = s.rl.size();
-  std::vector<std::uint64_t> b(on, 0);
-  auto node_of = [&](std::uint32_t o) {
-    const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
-    return nd.at((s.w.iz0 + oj) * c.g.nx + s.w.ix0 + oi);
-  };
-  for (std::uint32_t o = 0; o < on; ++o)
-    if (s.perim(o)) b[o] = nd.ext[node_of(o)];
+  const std::uint64_t node0 = nd.base[std::size_t(s.Z * c.g.tiles_x + s.X)];  // perimeter[k] is node node0 + k
+  s.b.assign(on, 0);
+  std::uint64_t* b = s.b.data();
+  for (std::size_t k = 0; k < s.perimeter.size(); ++k) b[s.perimeter[k]] = nd.ext[node0 + k];
   for (std::uint32_t o : s.order)
     if (s.rl[o] != o) b[s.rl[o]] += b[o];
   s.cnt.resize(on);
-  s.ch.assign(on, 0);
-  for (std::uint32_t o = 0; o < on; ++o) {
-    s.cnt[o] = std::uint64_t(s.acc[o]) + b[o];
-    const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
-    s.ch[o] = double(s.cnt[o]) >= c.threshold_cells && (s.lake[o] ? s.eo[o] : s.zg[s.grown(oi, oj)]) >= c.sea;
+  s.ch.resize(on);
+  s.ec.resize(on);
+  for (int oj = 0; oj < s.onz; ++oj) {
+    const std::size_t o0 = std::size_t(oj) * std::size_t(s.onx);
+    const float* zrow = s.zg.data() + s.grown(0, oj);
+    for (int oi = 0; oi < s.onx; ++oi) {
+      const std::size_t o = o0 + std::size_t(oi);
+      s.cnt[o] = std::uint64_t(s.acc[o]) + b[o];
+      // lake floors stay under their water (and are the channel test's height)
+      const float e = s.lake[o] ? s.eo[o] : zrow[oi];
+      s.ec[o] = e;
+      s.ch[o] = double(s.cnt[o]) >= c.threshold_cells && e >= c.sea;
+    }
   }
   // Strahler orders (donors first), with channel donors in other tiles as known so far.
   s.str.assign(on, 0);
   s.chd.assign(on, 0);
   s.cross_chd.assign(on, 0);
-  std::vector<std::uint8_t> top(on, 0);
+  s.top.assign(on, 0);
+  std::uint8_t* top = s.top.data();
   auto add = [&](std::uint32_t r, std::uint8_t sd) {
     if (sd > s.str[r]) s.str[r] = sd, top[r] = 1;
     else if (sd == s.str[r]) ++top[r];
   };
-  for (std::uint32_t o = 0; o < on; ++o) {
-    if (!s.perim(o) || !s.ch[o]) continue;
-    const std::uint32_t p = node_of(o);
+  for (std::size_t q = 0; q < s.perimeter.size(); ++q) {
+    const std::uint32_t o = s.perimeter[q];
+    if (!s.ch[o]) continue;
+    const std::uint64_t p = node0 + q;
     for (std::uint32_t k = nd.dstart[p]; k < nd.dstart[p + 1]; ++k) {
       const std::uint32_t d = nd.donors[k];
       if (!nd.channel[d]) continue;
@@ -348,19 +483,13 @@ void finish(const Ctx& c, const Nodes& nd, Solve& s) {
     ++s.chd[r];
     add(r, s.str[o]);
   }
-  // Carving, receivers first, with carved receivers in other tiles as known so far.
-  s.ec.resize(on);
-  for (std::uint32_t o = 0; o < on; ++o) {
-    const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
-    s.ec[o] = s.lake[o] ? s.eo[o] : s.zg[s.grown(oi, oj)];  // lake floors stay under their water
-  }
   if (c.p.carve_depth_coeff > 0) {
     for (std::size_t q = on; q-- > 0;) {
       const std::uint32_t o = s.order[q];
-      const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
-      const std::size_t gi = s.grown(oi, oj);
+      if (!s.ch[o] || s.lake[o]) continue;
+      const std::size_t gi = s.grown_of(o);
       const std::uint32_t rg = s.rec[gi];
-      if (!s.ch[o] || s.lake[o] || rg == gi) continue;
+      if (rg == gi) continue;
       const double depth = c.p.carve_depth_coeff * std::pow(discharge(c, s.cnt[o]), 0.4);
       const std::uint32_t ro = owned_of(s, rg);
       float below;  // a lake's surface, else the carved receiver
@@ -612,76 +741,101 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
   nd.base.assign(std::size_t(g.count()) + 1, 0);
   Components comp;
   comp.base.resize(std::size_t(g.count()) + 1, 0);
+  // A tile's pass-A result: its perimeter nodes (row-major over its owned rectangle's perimeter,
+  // the node order) and its components of raised samples; the solve itself goes back to the pool
+  // before the merge.
   struct LocalA {
-    Solve s;
-    std::vector<std::uint32_t> np;  // next perimeter sample downstream inside the tile
+    std::vector<std::int64_t> cell, link_cell;  // world samples: the node, its link (-1: none)
+    std::vector<std::uint32_t> acc, comp;       // local count; local component (kNone: not raised)
+    std::vector<float> z, e;                    // filled and input heights
+    std::vector<std::uint8_t> cross;            // the link is an exit into another tile
+    std::vector<std::uint64_t> comp_count;      // per local component: samples, max depth (m)
+    std::vector<double> comp_depth;
+    bool land = false;
+    std::uint32_t max_acc = 0;
   };
+  SolvePool pool;
+  std::vector<std::uint8_t> tile_land(std::size_t(tiles), 0);
+  std::vector<std::uint32_t> tile_max_acc(std::size_t(tiles), 0);
   detail::ordered_tiles<LocalA>(
       all_tiles,
       [&](std::int64_t t) {
         check();
         LocalA r;
-        r.s = prepare(c, bands, load, t % g.tiles_x, t / g.tiles_x);
-        check_drains(c, r.s, path);
-        const Solve& s = r.s;
+        SolveRef sr(pool);
+        Solve& s = *sr;
+        prepare(c, bands, load, t % g.tiles_x, t / g.tiles_x, s);
+        check_drains(c, s, path);
         const std::size_t on = s.rl.size();
-        r.np.assign(on, kNone);
+        // np: the next perimeter sample downstream inside the tile (kNone: none), receivers first.
+        s.top.assign(on, 0);
+        for (const std::uint32_t o : s.perimeter) s.top[o] = 1;
+        std::vector<std::uint32_t>& np = s.stack;
+        np.assign(on, kNone);
         for (std::size_t q = on; q-- > 0;) {
           const std::uint32_t o = s.order[q], rr = s.rl[o];
-          if (rr != o) r.np[o] = s.perim(rr) ? rr : r.np[rr];
+          if (rr != o) np[o] = s.top[rr] ? rr : np[rr];
+        }
+        r.land = s.land;
+        r.max_acc = s.max_acc;
+        r.comp_count.assign(s.labels, 0);
+        r.comp_depth.assign(s.labels, 0.0);
+        if (s.labels > 0)
+          for (std::uint32_t o = 0; o < on; ++o) {
+            if (s.label[o] == kNone) continue;
+            const std::size_t l = s.label[o];
+            ++r.comp_count[l];
+            r.comp_depth[l] = std::max(r.comp_depth[l], (double(s.zg[s.grown_of(o)]) - s.eo[o]) * c.H);  // as apply_flow
+          }
+        const std::size_t pn = s.perimeter.size();
+        r.cell.resize(pn), r.link_cell.resize(pn), r.acc.resize(pn), r.comp.resize(pn), r.z.resize(pn), r.e.resize(pn);
+        r.cross.resize(pn);
+        for (std::size_t k = 0; k < pn; ++k) {
+          const std::uint32_t o = s.perimeter[k];
+          const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
+          const std::size_t gi = s.grown(oi, oj);
+          r.cell[k] = (s.w.iz0 + oj) * g.nx + s.w.ix0 + oi;
+          r.acc[k] = s.acc[o];
+          r.z[k] = s.zg[gi];
+          r.e[k] = s.eo[o];
+          r.comp[k] = s.label[o];
+          const std::uint32_t rg = s.rec[gi];
+          r.cross[k] = 0;
+          if (rg != gi && owned_of(s, rg) == kNone) {
+            r.cross[k] = 1;
+            r.link_cell[k] = world_index(c, s, rg);
+          } else if (np[o] != kNone) {
+            const int ri = int(np[o] % std::uint32_t(s.onx)), rj = int(np[o] / std::uint32_t(s.onx));
+            r.link_cell[k] = (s.w.iz0 + rj) * g.nx + s.w.ix0 + ri;
+          } else {
+            r.link_cell[k] = -1;
+          }
         }
         return r;
       },
-      [&](std::int64_t tile, LocalA r) {
-        const std::int64_t X = tile % g.tiles_x, Z = tile / g.tiles_x;
-        Solve& s = r.s;
-        const std::vector<std::uint32_t>& np = r.np;
-        const std::size_t on = s.rl.size();
+      [&](std::int64_t t, LocalA r) {
         ++st.tile_solves;
-        const std::uint32_t t = std::uint32_t(Z * g.tiles_x + X);
-        nd.base[t] = nd.cell.size();
-        if (nd.cell.size() + 2 * std::size_t(s.onx + s.onz) >= kNone)
+        tile_land[std::size_t(t)] = r.land;
+        tile_max_acc[std::size_t(t)] = r.max_acc;
+        nd.base[std::size_t(t)] = nd.cell.size();
+        if (nd.cell.size() + r.cell.size() >= kNone)
           throw Error("world", "flow: too many tile perimeter samples (more than 2^32 - 1): use larger tiles");
         const std::uint64_t base = comp.parent.size();
-        comp.base[t] = base;
-        if (base + s.labels >= kNone) throw Error("world", "flow: too many depressions (more than 2^32 - 1)");
-        for (std::uint32_t k = 0; k < s.labels; ++k) {
-          comp.parent.push_back(std::uint32_t(base + k));
-          comp.count.push_back(0);
-          comp.depth.push_back(0.0);
-        }
-        for (std::uint32_t o = 0; o < on; ++o) {
-          if (s.label[o] == kNone) continue;
-          const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
-          const std::size_t l = std::size_t(base + s.label[o]);
-          ++comp.count[l];
-          comp.depth[l] = std::max(comp.depth[l], (double(s.zg[s.grown(oi, oj)]) - s.eo[o]) * c.H);  // as apply_flow
-        }
-        for (std::uint32_t o = 0; o < on; ++o) {
-          if (!s.perim(o)) continue;
-          const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
-          const std::size_t gi = s.grown(oi, oj);
-          const std::int64_t wc = (s.w.iz0 + oj) * g.nx + s.w.ix0 + oi;
-          if (nd.find(wc) != nd.cell.size()) throw Error("world", "flow: internal error, perimeter numbering");
-          nd.cell.push_back(wc);
-          nd.tile.push_back(t);
-          nd.acc.push_back(s.acc[o]);
-          nd.z.push_back(s.zg[gi]);
-          nd.e.push_back(s.eo[o]);
-          nd.comp.push_back(s.label[o] == kNone ? kNone : std::uint32_t(base + s.label[o]));
-          const std::uint32_t rg = s.rec[gi];
-          if (rg != gi && owned_of(s, rg) == kNone) {
-            nd.cross.push_back(1);
-            nd.link_cell.push_back(world_index(c, s, rg));
-          } else if (np[o] != kNone) {
-            nd.cross.push_back(0);
-            const int ri = int(np[o] % std::uint32_t(s.onx)), rj = int(np[o] / std::uint32_t(s.onx));
-            nd.link_cell.push_back((s.w.iz0 + rj) * g.nx + s.w.ix0 + ri);
-          } else {
-            nd.cross.push_back(0);
-            nd.link_cell.push_back(-1);
-          }
-        }
+        comp.base[std::size_t(t)] = base;
+        const std::size_t labels = r.comp_count.size();
+        if (base + labels >= kNone) throw Error("world", "flow: too many depressions (more than 2^32 - 1)");
+        for (std::uint32_t k = 0; k < labels; ++k) comp.parent.push_back(std::uint32_t(base + k));
+        comp.count.insert(comp.count.end(), r.comp_count.begin(), r.comp_count.end());
+        comp.depth.insert(comp.depth.end(), r.comp_depth.begin(), r.comp_depth.end());
+        if (!r.cell.empty() && nd.find(r.cell[0]) != nd.cell.size()) throw Error("world", "flow: internal error, perimeter numbering");
+        nd.cell.insert(nd.cell.end(), r.cell.begin(), r.cell.end());
+        nd.tile.insert(nd.tile.end(), r.cell.size(), std::uint32_t(t));
+        nd.acc.insert(nd.acc.end(), r.acc.begin(), r.acc.end());
+        nd.z.insert(nd.z.end(), r.z.begin(), r.z.end());
+        nd.e.insert(nd.e.end(), r.e.begin(), r.e.end());
+        for (const std::uint32_t l : r.comp) nd.comp.push_back(l == kNone ? kNone : std::uint32_t(base + l));
+        nd.cross.insert(nd.cross.end(), r.cross.begin(), r.cross.end());
+        nd.link_cell.insert(nd.link_cell.end(), r.link_cell.begin(), r.link_cell.end());
         report(0.1, 0.35, ++merged, tiles);
       });
 
@@ -753,6 +907,17 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
   nd.carved.resize(nn);
   for (std::size_t k = 0; k < nn; ++k) nd.carved[k] = nd.lake[k] ? nd.e[k] : nd.z[k];
 
+  // Tiles where a channel may be: some land, and a count that may reach the threshold (the largest
+  // local count plus all inflow from other tiles bounds every count). The others have no channel
+  // whatever their neighbours do: no Strahler order, no carving, no cover, their perimeter values
+  // stay the initial ones; pass S never solves them.
+  std::vector<std::uint64_t> ext_sum(std::size_t(tiles), 0);
+  for (std::size_t k = 0; k < nn; ++k) ext_sum[nd.tile[k]] += nd.ext[k];
+  std::vector<std::uint8_t> may_channel(std::size_t(tiles), 0);
+  for (std::size_t t = 0; t < std::size_t(tiles); ++t)
+    may_channel[t] = tile_land[t] && double(std::uint64_t(tile_max_acc[t]) + ext_sum[t]) >= c.threshold_cells;
+  std::vector<std::uint64_t>().swap(ext_sum);
+
   // Pass S: Strahler orders downstream and carved heights upstream, until nothing changes. The
   // first round (every tile) also gathers the river cover that reaches beyond the owned rectangle
   // of its channel sample ("pass W"): it depends on counts, channels and lakes only, all known now.
@@ -766,16 +931,23 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
   // those of its own; tiles of one class are never neighbours, so no solve reads what another
   // merge of its class writes. Orders only rise and carved heights only fall, so the rounds end at
   // the same values for any schedule; this one is fixed.
+  // A tile's pass-S result: the values of its perimeter nodes (node order) and, in the first
+  // round, its cover beyond its owned rectangle.
   struct LocalS {
-    Solve s;
+    std::vector<std::uint8_t> chd, str;
+    std::vector<float> ec;
     std::vector<std::pair<std::int64_t, float>> cover_sea, cover_any;  // first round: cover beyond the owned rectangle
   };
-  std::vector<std::uint8_t> pending(std::size_t(tiles), 1);
+  std::vector<std::uint8_t> pending(may_channel);
+  auto wake = [&](std::uint32_t t) {
+    if (may_channel[t]) pending[t] = 1;
+  };
   auto solve_s = [&](std::int64_t t) {
     check();
     LocalS r;
-    Solve& s = r.s;
-    s = prepare(c, bands, load, t % g.tiles_x, t / g.tiles_x);
+    SolveRef sr(pool);
+    Solve& s = *sr;
+    prepare(c, bands, load, t % g.tiles_x, t / g.tiles_x, s);
     mark_lakes(c, comp, s, std::uint64_t(t));
     finish(c, nd, s);
     if (st.rounds == 1)
@@ -787,14 +959,16 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
           (sea_test ? r.cover_sea : r.cover_any).emplace_back(b * g.nx + a, v);
         });
       }
-    // What the merge needs (the solve's big arrays go now).
-    std::vector<std::uint32_t>().swap(s.rec);
-    std::vector<float>().swap(s.zg);
+    const std::size_t pn = s.perimeter.size();
+    r.chd.resize(pn), r.str.resize(pn), r.ec.resize(pn);
+    for (std::size_t k = 0; k < pn; ++k) {
+      const std::uint32_t o = s.perimeter[k];
+      r.chd[k] = s.chd[o], r.str[k] = s.str[o], r.ec[k] = s.ec[o];
+    }
     return r;
   };
   detail::RoundProgress rounds(0.35, 0.35);  // pass S's rounds (progress)
-  auto merge_s = [&](std::int64_t, LocalS r) {
-    const Solve& s = r.s;
+  auto merge_s = [&](std::int64_t t, LocalS r) {
     ++st.tile_solves;
     if (progress) progress(rounds.step());
     for (auto [cell, v] : r.cover_sea) {
@@ -805,19 +979,17 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
       float& slot = cover_any.try_emplace(cell, 0.0f).first->second;
       slot = std::max(slot, v);
     }
-    for (std::uint32_t o = 0; o < s.rl.size(); ++o) {
-      st.max_count = std::max(st.max_count, s.cnt[o]);
-      if (!s.perim(o)) continue;
-      const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
-      const std::uint32_t k = nd.at((s.w.iz0 + oj) * g.nx + s.w.ix0 + oi);
-      nd.chd[k] = s.chd[o];
-      if (nd.cross[k] && nd.strahler[k] != s.str[o]) {
-        nd.strahler[k] = s.str[o];
-        pending[nd.tile[nd.link[k]]] = 1;
+    const std::uint64_t node0 = nd.base[std::size_t(t)];
+    for (std::size_t q = 0; q < r.chd.size(); ++q) {
+      const std::uint64_t k = node0 + q;
+      nd.chd[k] = r.chd[q];
+      if (nd.cross[k] && nd.strahler[k] != r.str[q]) {
+        nd.strahler[k] = r.str[q];
+        wake(nd.tile[nd.link[k]]);
       }
-      if (std::memcmp(&nd.carved[k], &s.ec[o], 4) != 0) {
-        nd.carved[k] = s.ec[o];
-        for (std::uint32_t q = nd.dstart[k]; q < nd.dstart[k + 1]; ++q) pending[nd.tile[nd.donors[q]]] = 1;
+      if (std::memcmp(&nd.carved[k], &r.ec[q], 4) != 0) {
+        nd.carved[k] = r.ec[q];
+        for (std::uint32_t d = nd.dstart[k]; d < nd.dstart[k + 1]; ++d) wake(nd.tile[nd.donors[d]]);
       }
     }
   };
@@ -832,6 +1004,30 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
   }
 
   st.cover_cells = cover_sea.size() + cover_any.size();
+  // The cover map by tile: each entry goes to every tile whose window holds its sample (up to 4:
+  // windows share their borders), so that a tile reads its entries only.
+  struct CoverEntry {
+    std::int64_t cell;
+    float v;
+    bool sea_test;
+  };
+  std::vector<std::vector<CoverEntry>> cover_of(static_cast<std::size_t>(tiles));
+  auto bucket = [&](const std::unordered_map<std::int64_t, float>& m, bool sea_test) {
+    for (const auto& [cell, v] : m) {
+      const std::int64_t ix = cell % g.nx, iz = cell / g.nx;
+      const std::int64_t X1 = std::min(ix / c.t1, g.tiles_x - 1), Z1 = std::min(iz / c.t1, g.tiles_z - 1);
+      for (std::int64_t Z = std::max<std::int64_t>(0, Z1 - 1); Z <= Z1; ++Z)
+        for (std::int64_t X = std::max<std::int64_t>(0, X1 - 1); X <= X1; ++X) {
+          const WorldGrid::Window w = g.window(X, Z);
+          if (ix >= w.ix0 && iz >= w.iz0 && ix < w.ix0 + w.nx && iz < w.iz0 + w.nz)
+            cover_of[std::size_t(Z * g.tiles_x + X)].push_back({cell, v, sea_test});
+        }
+    }
+  };
+  bucket(cover_any, false);
+  bucket(cover_sea, true);
+  std::unordered_map<std::int64_t, float>().swap(cover_any);
+  std::unordered_map<std::int64_t, float>().swap(cover_sea);
 
   // Final pass: each tile's layers (and the river pieces, the lakes' samples), solved concurrently;
   // stored and gathered in tile order.
@@ -840,6 +1036,7 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
   std::vector<std::int64_t> starts;
   struct LocalF {
     FlowTile out;
+    std::uint64_t max_count = 0;
     std::unordered_map<std::int64_t, Piece> pieces;
     std::vector<std::int64_t> starts;
     std::vector<std::tuple<std::uint32_t, std::int64_t, LakeSample>> lake;  // root, world sample, sample
@@ -848,9 +1045,12 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
     check();
     LocalF r;
     const std::int64_t X = t % g.tiles_x, Z = t / g.tiles_x;
-    Solve s = prepare(c, bands, load, X, Z);
+    SolveRef sr(pool);
+    Solve& s = *sr;
+    prepare(c, bands, load, X, Z, s);
     mark_lakes(c, comp, s, std::uint64_t(t));
     finish(c, nd, s);
+    if (!s.cnt.empty()) r.max_count = *std::max_element(s.cnt.begin(), s.cnt.end());
     const WorldGrid::Window& w = s.w;
     const std::size_t n = std::size_t(w.nx) * std::size_t(w.nz);
     FlowTile& out = r.out;
@@ -885,14 +1085,11 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
       });
     }
     // Cover from channel samples of other tiles (discs may reach deep into this one).
-    for (int j = 0; j < w.nz && st.cover_cells > 0; ++j)
-      for (int i = 0; i < w.nx; ++i) {
-        const std::size_t m = std::size_t(j) * std::size_t(w.nx) + std::size_t(i);
-        const std::int64_t wc = (w.iz0 + j) * g.nx + w.ix0 + i;
-        if (auto it = cover_any.find(wc); it != cover_any.end()) out.water[m] = std::max(out.water[m], it->second);
-        if (auto it = cover_sea.find(wc); it != cover_sea.end() && !(out.height[m] < c.sea))
-          out.water[m] = std::max(out.water[m], it->second);
-      }
+    for (const CoverEntry& ce : cover_of[std::size_t(t)]) {
+      const std::size_t m = std::size_t(ce.cell / g.nx - w.iz0) * std::size_t(w.nx) + std::size_t(ce.cell % g.nx - w.ix0);
+      if (ce.sea_test && out.height[m] < c.sea) continue;
+      out.water[m] = std::max(out.water[m], ce.v);
+    }
     if (rivers) trace_pieces(c, nd, s, r.pieces, r.starts);
     if (lakes)
       for (std::uint32_t o = 0; o < s.rl.size(); ++o) {
@@ -915,6 +1112,8 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
   };
   auto merge_f = [&](std::int64_t t, LocalF r) {
     ++st.tile_solves;
+    st.max_count = std::max(st.max_count, r.max_count);
+    std::vector<CoverEntry>().swap(cover_of[std::size_t(t)]);
     for (auto& [at, pc] : r.pieces) pieces.emplace(at, std::move(pc));
     starts.insert(starts.end(), r.starts.begin(), r.starts.end());
     for (auto& [root, wc, ls] : r.lake) lake_cells[root].emplace(wc, ls);
