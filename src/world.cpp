@@ -38,6 +38,7 @@
 #include "relief/world_features.hpp"
 #include "relief/world_points.hpp"
 #include "world_internal.hpp"
+#include "world_farm.hpp"
 #include "world_overview.hpp"
 #include "world_transport.hpp"
 
@@ -945,6 +946,7 @@ WorldReport build_world(WorldSettings s) {
   const int run_threads = at_once > 1 ? 1 : threads;
   // What rank 0 keeps of a finished tile (built here, by another rank, or found finished).
   std::vector<std::int64_t> built_by_rank(std::size_t(tr.size()), 0);  // rank 0: tiles each rank built
+  std::vector<std::int64_t> global_by_rank(std::size_t(tr.size()), 0);  // rank 0: global phases' tile solves each rank ran
   auto apply_result = [&](TileResult&& t, bool last, int from) {  // under m
     if (last) {
       crcs[std::size_t(t.k)] = t.crc;
@@ -1011,16 +1013,19 @@ WorldReport build_world(WorldSettings s) {
       agree_all(tr, opened, nullptr);
     }
     if (ph.global) {
-      // The world algorithm runs on rank 0; the other ranks wait for its outcome.
-      agree(tr, [&]() -> json {
+      // The world algorithm runs on rank 0; the other ranks run the tile solves it hands out
+      // (src/world_farm.hpp: the fill algorithm's), then wait for its outcome.
+      const RecipeStage& st = r.stages[ph.first];
+      const Phase& in = phases[pk - 1];
+      auto open_phase = [&] {
         try {
           outputs[pk] = std::make_unique<FileOutput>(ph.folder.string(), FileOutput::Mode::Immediate, FileOutput::Sync::Atomic);
           outputs[pk]->forget_written();  // a path per tile would grow with the world
         } catch (const Error& e) {
           throw Error(s.out_path, e.message());
         }
-        const RecipeStage& st = r.stages[ph.first];
-        const Phase& in = phases[pk - 1];
+      };
+      auto stage_io = [&] {  // what every rank's tile work reads and writes
         WorldStageIO io;
         io.grid = grid;
         io.world = frame;
@@ -1039,6 +1044,35 @@ WorldReport build_world(WorldSettings s) {
         io.cancelled = s.cancelled;
         io.seed = rep.seed;
         io.legend = world_legend(r, ph.first);
+        return io;
+      };
+      if (!root) {
+        std::exception_ptr opened;  // a kernel here fails with it (rank 0 stops the phase)
+        try {
+          open_phase();
+        } catch (...) {
+          opened = std::current_exception();
+        }
+        const WorldStageIO io = stage_io();
+        detail::TileFarm::serve(tr, threads, [&](const std::string& kernel) {
+          if (opened) std::rethrow_exception(opened);
+          return detail::make_farm_kernel(kernel, io, st);
+        });
+      }
+      agree(tr, [&]() -> json {
+        detail::TileFarm farm(tr);  // first: whatever happens, its end releases the other ranks
+        struct Tally {  // the farm's tasks per rank, kept when the algorithm ends in any way
+          detail::TileFarm& f;
+          std::vector<std::int64_t>& by_rank;
+          ~Tally() {
+            f.end();
+            const std::vector<std::int64_t> n = f.tasks_by_rank();
+            for (std::size_t k = 0; k < n.size() && k < by_rank.size(); ++k) by_rank[k] += n[k];
+          }
+        } tally{farm, global_by_rank};
+        open_phase();
+        WorldStageIO io = stage_io();
+        io.farm = &farm;
         // World files a stage makes (rivers.json, lakes.json) go into the world folder, atomically.
         FileOutput world_files(dir.string(), FileOutput::Mode::Immediate, FileOutput::Sync::Atomic);
         io.out = &world_files;
@@ -1349,7 +1383,7 @@ WorldReport build_world(WorldSettings s) {
       {"seed", rep.seed},
       {"size", {grid.nx, grid.nz}},
       {"tile", grid.tile},
-      {"tiles", {{"total", grid.count()}, {"phases", phases.size()}, {"built", built}, {"skipped", skipped}, {"at_once", at_once}, {"built_by_rank", built_by_rank}}},
+      {"tiles", {{"total", grid.count()}, {"phases", phases.size()}, {"built", built}, {"skipped", skipped}, {"at_once", at_once}, {"built_by_rank", built_by_rank}, {"global_solves_by_rank", global_by_rank}}},
       {"performance",
        {{"threads", threads},
         {"ranks", tr.size()},

@@ -196,19 +196,33 @@ TEST(WorldMpi, MoreRanksThanTilesStillBuildTheWorld) {
   expect_ranks(d.path / "p5", 5, 2);
 }
 
-// The CLI with the `fill` stage between local phases: fill runs by its world algorithm on rank 0
-// over the tiles the ranks wrote, then every rank builds the next phase's tiles from them. Skipped
-// while the library has no default world algorithm for fill (default_world_algorithms()).
+// The tile solves of global phases each rank ran (report.json), and their sum.
+std::vector<std::int64_t> global_solves(const fs::path& dir, std::int64_t& sum) {
+  const relief::json rep = report_of(dir);
+  std::vector<std::int64_t> v = rep["tiles"]["global_solves_by_rank"].get<std::vector<std::int64_t>>();
+  sum = 0;
+  for (std::int64_t n : v) sum += n;
+  return v;
+}
+
+// The CLI with the `fill` stage between local phases: fill runs by its world algorithm, rank 0
+// keeping the border levels and handing out the tile solves of each round to every rank
+// (src/world_farm.hpp), over the tiles the ranks wrote; then every rank builds the next phase's
+// tiles from them.
 TEST(WorldMpi, TheCliWithTheFillStageIsTheSameOnTwoAndFourRanks) {
   REQUIRE_MPI();
   TempDir d("world-mpi-fill");
   relief::test::write_text(d.path / "fill.json", fill_doc(true).dump());
-  const std::string args = "world " + (d / "fill.json") + " --size 129 --tile 33 --seed 3 -q -j 1";
+  // Tiles of 65: a solve takes long enough (about a millisecond) that the other ranks get some.
+  const std::string args = "world " + (d / "fill.json") + " --size 257 --tile 65 --seed 3 -q -j 1";
   const Shell ref = relief::test::relief_cli(args + " -o " + (d / "ref"));
   if (ref.code == 2 && ref.out.find("no world support") != std::string::npos)
     GTEST_SKIP() << "this relief has no world algorithm for fill yet: " << ref.out;
   ASSERT_EQ(ref.code, 0) << ref.out;
   ASSERT_EQ(relief::read_world_manifest(d / "ref")["stages"][3]["locality"], "global");  // run by a world algorithm
+  std::int64_t solves = 0;
+  EXPECT_EQ(global_solves(d.path / "ref", solves).size(), 1u);
+  EXPECT_GE(solves, 16);  // every tile once at least, all in this process
   for (int ranks : {2, 4}) {
     SCOPED_TRACE(std::to_string(ranks) + " ranks");
     const std::string out = d / ("p" + std::to_string(ranks));
@@ -217,6 +231,12 @@ TEST(WorldMpi, TheCliWithTheFillStageIsTheSameOnTwoAndFourRanks) {
     expect_same_store(d.path / "ref", out);
     EXPECT_FALSE(fs::exists(fs::path(out) / "phase-0"));  // intermediate phase removed
     expect_ranks(out, ranks, 2 * 16);                      // two local phases of 16 tiles
+    // The same solves (a fixed schedule), spread: ranks other than 0 ran some of them.
+    std::int64_t sum = 0;
+    const std::vector<std::int64_t> by_rank = global_solves(out, sum);
+    ASSERT_EQ(by_rank.size(), std::size_t(ranks));
+    EXPECT_EQ(sum, solves);
+    EXPECT_GT(sum - by_rank[0], 0);
   }
 }
 

@@ -141,6 +141,9 @@
 #include "relief/recipe.hpp"
 
 namespace relief {
+namespace detail {
+class TileFarm;  // src/world_farm.hpp
+}
 
 constexpr std::int64_t kMaxWorldSize = 1048577;  // 2^20 + 1 samples per axis
 constexpr int kMaxWorldTile = 8193;             // largest tile, samples per axis
@@ -245,6 +248,9 @@ struct WorldStageIO {
   // their span as fill's rounds do), volcano, features and hydraulic (a step per tile they store,
   // in order), stream power (its gathering pass [0, 0.3), coarse solve to 0.4, writing pass [0.4, 1]).
   std::function<void(double fraction)> progress;
+  // Distributed builds: the ranks that run the phase's tile solves with this one (src/world_farm.hpp;
+  // the fill algorithm uses it). Null outside build_world; one rank without MPI.
+  detail::TileFarm* farm = nullptr;
 };
 // Runs one global stage (`stage`, at `index` in the recipe) over the whole stored world.
 using WorldStageAlgorithm = std::function<void(const WorldStageIO& io, const RecipeStage& stage, int index)>;

@@ -1,0 +1,89 @@
+#pragma once
+// The tile work of a global phase spread over the ranks of a distributed world build (issue 18:
+// "exchanges perimeters for the exact global stages"). Rank 0 runs the world algorithm and keeps its
+// global state (border levels, perimeter graphs); the tile solves of each batch (a fill round's class
+// of tiles, ...) run on every rank: rank 0 sends a solve's input (the perimeter values it reads, a
+// few kilobytes), the rank that runs it loads the tile from the shared store, solves it, writes what
+// the tile stores itself and sends back the small result (the perimeter values it found), and rank 0
+// merges the results in the batch's order. So the bytes are those of a build in one process for any
+// rank count, and only perimeters cross the transport.
+//
+// A kernel is a pure function of (tile, input bytes): the same code runs a solve on rank 0 and on the
+// other ranks. The other ranks know no algorithm state: they make kernels from the stage and their own
+// WorldStageIO (make_farm_kernel, by the name in each task) and run what rank 0 sends until it ends
+// the phase.
+//
+// Protocol (tags 3 and 4 of WorldTransport; WorkHandout uses 1 and 2):
+//   rank r > 0 → 0 (tag 3): "C" + u32 lanes (once, when it starts serving: its credit), then for every
+//     task "R" + i64 task + u8 ok + (ok: result bytes | error: u8 kind, u32 path length, path, message);
+//   rank 0 → r (tag 4): "T" + i64 task + u32 kernel-name length + name + input bytes, or "E" (the
+//     phase is over: rank 0 sends it once every task it gave r has come back and r's "C" has arrived).
+// Rank 0 keeps at most `lanes` tasks at each rank, and hands out tasks in the batch's order to
+// whichever lane (its own or a rank's) is free, within a window of the batch that bounds the results
+// waiting for their turn to merge.
+#include <atomic>
+#include <condition_variable>
+#include <cstdint>
+#include <exception>
+#include <functional>
+#include <mutex>
+#include <string>
+#include <string_view>
+#include <thread>
+#include <vector>
+
+#include "relief/world.hpp"
+#include "world_transport.hpp"
+
+namespace relief::detail {
+
+// Runs task `k` (a tile index, as the algorithm numbers them) from `input`; returns its result. May
+// throw (relief::Error keeps its path across ranks; relief::Cancelled; anything else by its message).
+using FarmKernel = std::function<std::string(std::int64_t k, std::string_view input)>;
+
+class TileFarm {
+ public:
+  // Rank 0 (the one that runs the algorithm). `t.size()` = 1: run() computes every task here.
+  explicit TileFarm(WorldTransport& t);
+  ~TileFarm();  // end()
+  TileFarm(const TileFarm&) = delete;
+  TileFarm& operator=(const TileFarm&) = delete;
+
+  int ranks() const { return t_.size(); }
+  // For every k of `items`: result = kernel(k, input(k)), on this rank's task arena (kernel `local`)
+  // or on another rank (the kernel named `kernel` there), and merge(k, result) in the order of
+  // `items`, one at a time, on one of this rank's threads. input() is called under the same lock as
+  // merge(), so it may read what merges write. The first failure in order (a kernel's or a merge's)
+  // is rethrown once every task handed out has come back; no task starts after it.
+  void run(const std::string& kernel, const std::vector<std::int64_t>& items, const std::function<std::string(std::int64_t)>& input,
+           const FarmKernel& local, const std::function<void(std::int64_t, std::string)>& merge);
+  // Tasks each rank ran (index: rank), over every run().
+  std::vector<std::int64_t> tasks_by_rank() const;
+  // Ends the phase for the other ranks (their serve() returns). Called by the destructor too.
+  void end();
+
+  // A rank > 0, during a global phase: runs the tasks rank 0 sends on `lanes` threads (a task arena
+  // of its own), with kernels from `make(name)` (each made once), until rank 0 ends the phase.
+  static void serve(WorldTransport& t, int lanes, const std::function<FarmKernel(const std::string& name)>& make);
+
+ private:
+  struct Batch;
+  void server();
+  WorldTransport& t_;
+  std::mutex m_;  // everything below and the current batch
+  std::condition_variable cv_;
+  Batch* batch_ = nullptr;
+  std::vector<int> credit_;       // free lanes per rank (-1: its "C" has not arrived)
+  std::vector<int> outstanding_;  // tasks at each rank
+  std::vector<std::int64_t> tasks_by_rank_;
+  bool ending_ = false;
+  std::exception_ptr server_error_;
+  std::thread server_;
+};
+
+// The kernel `name` of a distributed world algorithm, made from the stage and a rank's own io (the
+// library's: "fill", src/world_fill.cpp). Throws for an unknown name.
+FarmKernel make_farm_kernel(const std::string& name, const WorldStageIO& io, const RecipeStage& stage);
+FarmKernel fill_farm_kernel(const WorldStageIO& io, const RecipeStage& stage);  // "fill" (src/world_fill.cpp)
+
+}  // namespace relief::detail
