@@ -470,8 +470,18 @@ void run_batch(const Kernel& k, const TileJob* jobs, std::size_t njobs, std::ato
 }
 }  // namespace kernel
 
+int hydraulic_reach_cells(const HydraulicSettings& s, double cell) {
+  const double r = std::max(s.brush_radius_m, 1.5 * cell);
+  return int(std::ceil(s.lifetime * s.step_m / cell)) + int(std::ceil(r / cell)) + 2;
+}
+
 HydraulicStats hydraulic_erosion(float* e, const Frame& f, const HydraulicSettings& s, std::uint64_t seed,
                                  const std::function<void(double)>& progress) {
+  return hydraulic_erosion_part(e, f, s, seed, HydraulicPart{}, progress);
+}
+
+HydraulicStats hydraulic_erosion_part(float* e, const Frame& f, const HydraulicSettings& s, std::uint64_t seed,
+                                      const HydraulicPart& part, const std::function<void(double)>& progress) {
   HydraulicStats total;
   if (f.nx < 2 || f.nz < 2) return total;
   const double cell = f.cell_m();
@@ -530,7 +540,7 @@ HydraulicStats hydraulic_erosion(float* e, const Frame& f, const HydraulicSettin
   // cells around its start (it moves step_m per step and erodes within the brush radius), so blocks
   // of one checkerboard colour never touch the same cells. A window's blocks are the world's blocks
   // cut by the window (still disjoint).
-  const int reach = int(std::ceil(s.lifetime * s.step_m / cell)) + radius_c + 2;
+  const int reach = int(std::ceil(s.lifetime * s.step_m / cell)) + radius_c + 2;  // hydraulic_reach_cells()
   const std::int64_t B = 2 * std::int64_t(reach);
   const std::int64_t bx0 = f.ix0 / B, bz0 = f.iz0 / B;
   const int ntx = int((f.ix0 + f.nx - 2) / B - bx0 + 1), ntz = int((f.iz0 + f.nz - 2) / B - bz0 + 1);
@@ -538,6 +548,10 @@ HydraulicStats hydraulic_erosion(float* e, const Frame& f, const HydraulicSettin
   // Each block's droplets: start positions in window cells (x, z interleaved), sorted by their order
   // key; round r holds [start[r], start[r + 1]) (in droplets).
   constexpr int kRounds = 4;
+  const int pass0 = std::clamp(part.first_pass, 0, 4 * kRounds);
+  const int pass1 = std::clamp(part.first_pass + std::max(0, part.passes), pass0, 4 * kRounds);
+  unsigned rounds_wanted = 0, phases_wanted = 0;  // bit masks
+  for (int p = pass0; p < pass1; ++p) rounds_wanted |= 1u << (p / 4), phases_wanted |= 1u << (p % 4);
   struct Block {
     std::vector<float> pos;
     std::uint32_t start[kRounds + 1] = {};
@@ -552,6 +566,13 @@ HydraulicStats hydraulic_erosion(float* e, const Frame& f, const HydraulicSettin
     const int j1 = int(std::min<std::int64_t>(f.nz - 1, (bz0 + tz + 1) * B - f.iz0));
     // Block coordinates: window cell (i, j) is at (i − ox, j − oz); the block's cells at reach .. reach + B.
     const std::int64_t ox = (bx0 + tx) * B - reach - f.ix0, oz = (bz0 + tz) * B - reach - f.iz0;
+    Block& bl = blocks[t];
+    bl.ox = std::int32_t(ox), bl.oz = std::int32_t(oz);
+    // Blocks and droplets that no selected pass runs are skipped (HydraulicPart).
+    const std::int64_t wbx = bx0 + tx, wbz = bz0 + tz;
+    if (wbx < part.bx0 || wbx >= part.bx1 || wbz < part.bz0 || wbz >= part.bz1 ||
+        !((phases_wanted >> (int(wbx & 1) + 2 * int(wbz & 1))) & 1))
+      return;
     struct Start {
       std::uint64_t key;
       int j, i, k;
@@ -565,11 +586,13 @@ HydraulicStats hydraulic_erosion(float* e, const Frame& f, const HydraulicSettin
         const int n = int(lambda_whole) + (unit_double(hash64(base, 0x6e)) < lambda_frac ? 1 : 0);
         for (int d = 0; d < n; ++d) {
           const std::uint64_t hk = hash64(base, std::uint64_t(d));
+          const std::uint64_t key = hash64(hk, 0x6f);
+          if (!((rounds_wanted >> int(key >> 62)) & 1)) continue;
           // Below the cell's far corner (float rounding could reach it).
           const float xe = float(i + 1 - ox), ze = float(j + 1 - oz);
           const float px = std::min(float(double(i - ox) + unit_double(hash64(hk, 0x78))), std::nextafter(xe, 0.0f));
           const float pz = std::min(float(double(j - oz) + unit_double(hash64(hk, 0x7a))), std::nextafter(ze, 0.0f));
-          starts.push_back({hash64(hk, 0x6f), j, i, d, px, pz});
+          starts.push_back({key, j, i, d, px, pz});
         }
       }
     // The order key's top two bits are the round; the rest shuffles the block's droplets. Ties
@@ -580,8 +603,6 @@ HydraulicStats hydraulic_erosion(float* e, const Frame& f, const HydraulicSettin
       if (a.i != b.i) return a.i < b.i;
       return a.k < b.k;
     });
-    Block& bl = blocks[t];
-    bl.ox = std::int32_t(ox), bl.oz = std::int32_t(oz);
     bl.pos.resize(2 * starts.size());
     int r = 0;
     for (std::size_t q = 0; q < starts.size(); ++q) {
@@ -597,8 +618,9 @@ HydraulicStats hydraulic_erosion(float* e, const Frame& f, const HydraulicSettin
   // from a shared counter, the largest first so that lanes run out of work together.
   const int workers = std::max(1, tbb::this_task_arena::max_concurrency());
   std::vector<kernel::TileJob> jobs;
-  for (int round = 0; round < kRounds; ++round)
-    for (int phase = 0; phase < 4; ++phase) {
+  for (int pass = pass0; pass < pass1; ++pass) {
+    const int round = pass / 4, phase = pass % 4;
+    {
       jobs.clear();
       for (int tz = 0; tz < ntz; ++tz)
         for (int tx = 0; tx < ntx; ++tx) {
@@ -611,8 +633,9 @@ HydraulicStats hydraulic_erosion(float* e, const Frame& f, const HydraulicSettin
       std::stable_sort(jobs.begin(), jobs.end(), [](const kernel::TileJob& a, const kernel::TileJob& b) { return a.n > b.n; });
       std::atomic<std::size_t> next{0};
       tbb::parallel_for(0, workers, [&](int) { kernel::run_batch(k, jobs.data(), jobs.size(), &next); });
-      if (progress) progress(double(round * 4 + phase + 1) / (4.0 * kRounds));
+      if (progress) progress(double(pass - pass0 + 1) / double(pass1 - pass0));
     }
+  }
   for (const auto& st : per_tile) {
     total.eroded_m3 += st.eroded_m3;
     total.deposited_m3 += st.deposited_m3;

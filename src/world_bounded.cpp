@@ -9,10 +9,16 @@
 //   onto the fine input.
 #include "relief/world_bounded.hpp"
 
+#include <unistd.h>
+
 #include <algorithm>
+#include <cerrno>
 #include <cmath>
+#include <cstdio>
+#include <cstring>
 #include <string>
 
+#include "relief/erosion.hpp"
 #include "relief/error.hpp"
 #include "relief/stage.hpp"
 
@@ -23,128 +29,146 @@ void check_cancelled(const WorldStageIO& io) {
   if (io.cancelled && io.cancelled()) throw Cancelled();
 }
 
-// The tiles of `g` whose windows intersect the columns [x0, x1) (or rows): first and last index.
-std::pair<std::int64_t, std::int64_t> tiles_touching(std::int64_t a0, std::int64_t a1, std::int64_t tiles, int tile) {
-  const std::int64_t step = tile - 1;
-  // Tile k covers [k·step, k·step + tile); the last one may be clipped.
-  std::int64_t lo = a0 >= tile ? (a0 - tile) / step + 1 : 0;
-  std::int64_t hi = (a1 - 1) / step;
-  lo = std::clamp<std::int64_t>(lo, 0, tiles - 1);
-  hi = std::clamp<std::int64_t>(hi, 0, tiles - 1);
-  return {lo, hi};
-}
-
-// 1 at d = 0, 0 at d = b, smoothstep in between: the neighbour's weight in a blend strip.
-float neighbour_weight(int d, int b) {
-  const double t = double(d) / double(b);
-  return float(1.0 - t * t * (3.0 - 2.0 * t));
-}
-
 }  // namespace
 
 WorldStageAlgorithm world_hydraulic() {
   return [](const WorldStageIO& io, const RecipeStage& st, int index) { world_hydraulic(io.seed)(io, st, index); };
 }
 
-WorldStageAlgorithm world_hydraulic(std::uint64_t seed) {
-  return [seed](const WorldStageIO& io, const RecipeStage& st, int index) {
+namespace {
+
+// The stage's resolved params (Stage::params(): every field of erosion::HydraulicSettings under its
+// own name, see stage_erosion.cpp's table).
+erosion::HydraulicSettings hydraulic_settings(const json& p) {
+  erosion::HydraulicSettings s;
+  s.droplets_per_km2 = p.at("droplets_per_km2").get<double>();
+  s.lifetime = p.at("lifetime").get<int>();
+  s.step_m = p.at("step_m").get<double>();
+  s.brush_radius_m = p.at("brush_radius_m").get<double>();
+  s.inertia = p.at("inertia").get<double>();
+  s.capacity = p.at("capacity").get<double>();
+  s.min_capacity = p.at("min_capacity").get<double>();
+  s.erode = p.at("erode").get<double>();
+  s.deposit = p.at("deposit").get<double>();
+  s.evaporate = p.at("evaporate").get<double>();
+  s.gravity = p.at("gravity").get<double>();
+  return s;
+}
+
+// The world's heights between the passes: one float per sample, row-major, in an anonymous temporary
+// file (tmpfile(3): removed when closed, or when the process ends, killed or not).
+class Scratch {
+ public:
+  Scratch(std::int64_t nx, std::int64_t nz) : nx_(nx) {
+    f_ = std::tmpfile();
+    if (!f_) throw Error("hydraulic", "could not create a temporary file for the world's heights: " + std::string(std::strerror(errno)));
+    if (::ftruncate(::fileno(f_), off_t(nx * nz * 4)) != 0) fail("size");
+  }
+  ~Scratch() { std::fclose(f_); }
+  Scratch(const Scratch&) = delete;
+  Scratch& operator=(const Scratch&) = delete;
+  // Rows [z0, z0 + nz) × columns [x0, x0 + nx) to or from `data` (nx × nz, row-major).
+  void read(std::int64_t x0, std::int64_t z0, int nx, int nz, float* data) const {
+    for (int j = 0; j < nz; ++j) io(false, x0, z0 + j, nx, data + std::size_t(j) * std::size_t(nx));
+  }
+  void write(std::int64_t x0, std::int64_t z0, int nx, int nz, const float* data) const {
+    for (int j = 0; j < nz; ++j) io(true, x0, z0 + j, nx, const_cast<float*>(data + std::size_t(j) * std::size_t(nx)));
+  }
+
+ private:
+  void io(bool write, std::int64_t x0, std::int64_t z, int n, float* p) const {
+    char* b = reinterpret_cast<char*>(p);
+    std::size_t left = std::size_t(n) * 4;
+    off_t at = off_t((z * nx_ + x0) * 4);
+    while (left > 0) {
+      const ssize_t got = write ? ::pwrite(::fileno(f_), b, left, at) : ::pread(::fileno(f_), b, left, at);
+      if (got < 0 && errno == EINTR) continue;
+      if (got <= 0) fail(write ? "write" : "read");
+      b += got, left -= std::size_t(got), at += got;
+    }
+  }
+  [[noreturn]] static void fail(const char* what) {
+    throw Error("hydraulic", std::string("could not ") + what + " the temporary file of the world's heights: " +
+                                 std::strerror(errno));
+  }
+  std::FILE* f_ = nullptr;
+  std::int64_t nx_ = 0;
+};
+
+}  // namespace
+
+WorldStageAlgorithm world_hydraulic(std::uint64_t seed, int group_blocks) {
+  if (group_blocks < 0)
+    throw Error("group_blocks", "expected 0 (automatic) or at least 1 block, got " + std::to_string(group_blocks));
+  return [seed, group_blocks](const WorldStageIO& io, const RecipeStage& st, int index) {
     const WorldGrid& g = io.grid;
     const Frame& W = io.world;
-    const int halo = std::max(0, st.stage->reach(W).halo);
+    const erosion::HydraulicSettings s = hydraulic_settings(st.stage->params());
     Context ctx;
     ctx.seed = seed;
     ctx.stage_index = index;
-    // From the tile to the left: its run over this tile's first columns (w.nz × b) and its final
-    // right column; from the row above, per column of tiles: its run over the first rows (b × w.nx)
-    // and its final bottom row.
-    std::vector<float> left_strip, left_col;
-    int left_b = 0;
-    std::vector<std::vector<float>> top_strip(std::size_t(g.tiles_x)), top_row(std::size_t(g.tiles_x));
-    std::vector<int> top_b(std::size_t(g.tiles_x), 0);
+    const std::uint64_t stage_seed = ctx.stage_seed(kHydraulicSeedSalt);
+    const std::int64_t reach = erosion::hydraulic_reach_cells(s, W.cell_m()), B = 2 * reach;
+    // World blocks cover the world's cells [0, n − 1) along each axis.
+    const std::int64_t nbx = (g.nx - 2) / B + 1, nbz = (g.nz - 2) / B + 1;
+    const std::int64_t G =
+        group_blocks > 0 ? group_blocks : std::max<std::int64_t>(kHydraulicGroupBlocks, (g.tile - 1 + B - 1) / B);
+    const std::int64_t ngx = (nbx + G - 1) / G, ngz = (nbz + G - 1) / G;
+    const double steps = double(g.count()) * 2 + 16.0 * double(ngx * ngz);
+    double done = 0;
+    auto step = [&] {
+      done += 1;
+      if (io.progress) io.progress(std::min(1.0, done / steps));
+    };
+    Scratch scratch(g.nx, g.nz);
     for (std::int64_t Z = 0; Z < g.tiles_z; ++Z)
       for (std::int64_t X = 0; X < g.tiles_x; ++X) {
         check_cancelled(io);
         const WorldGrid::Window w = g.window(X, Z);
-        const std::int64_t gx0 = std::max<std::int64_t>(0, w.ix0 - halo), gz0 = std::max<std::int64_t>(0, w.iz0 - halo);
-        const std::int64_t gx1 = std::min<std::int64_t>(g.nx, w.ix0 + w.nx + halo);
-        const std::int64_t gz1 = std::min<std::int64_t>(g.nz, w.iz0 + w.nz + halo);
-        const int gnx = int(gx1 - gx0), gnz = int(gz1 - gz0);
-        Terrain t;
-        t.frame = W.window(gx0, gz0, gnx, gnz);
-        std::vector<float>& e = t.layer("height", 1).data;
-        WorldTile own;
-        const auto [X0, X1] = tiles_touching(gx0, gx1, g.tiles_x, g.tile);
-        const auto [Z0, Z1] = tiles_touching(gz0, gz1, g.tiles_z, g.tile);
-        for (std::int64_t ZZ = Z0; ZZ <= Z1; ++ZZ)
-          for (std::int64_t XX = X0; XX <= X1; ++XX) {
-            WorldTile in = io.load(XX, ZZ);
-            const WorldGrid::Window v = g.window(XX, ZZ);
-            const std::vector<float>& src = in.layers.at("height").data;
-            const std::int64_t a0 = std::max(gx0, v.ix0), a1 = std::min(gx1, v.ix0 + v.nx);
-            const std::int64_t b0 = std::max(gz0, v.iz0), b1 = std::min(gz1, v.iz0 + v.nz);
-            for (std::int64_t iz = b0; iz < b1; ++iz)
-              for (std::int64_t ix = a0; ix < a1; ++ix)
-                e[std::size_t(iz - gz0) * std::size_t(gnx) + std::size_t(ix - gx0)] =
-                    src[std::size_t(iz - v.iz0) * std::size_t(v.nx) + std::size_t(ix - v.ix0)];
-            if (XX == X && ZZ == Z) own = std::move(in);
-          }
-        st.stage->apply(t, ctx);
-        const std::vector<float>& r = t.get("height").data;
-        auto run_at = [&](std::int64_t ix, std::int64_t iz) {
-          return r[std::size_t(iz - gz0) * std::size_t(gnx) + std::size_t(ix - gx0)];
-        };
-        std::vector<float> out(std::size_t(w.nx) * std::size_t(w.nz));
-        for (int j = 0; j < w.nz; ++j)
-          for (int i = 0; i < w.nx; ++i) out[std::size_t(j) * w.nx + i] = run_at(w.ix0 + i, w.iz0 + j);
-        // Blend with the runs of the tiles above and to the left, then take the shared samples from
-        // their stored tiles.
-        if (Z > 0 && top_b[std::size_t(X)] > 0) {
-          const int b = top_b[std::size_t(X)];
-          const std::vector<float>& s = top_strip[std::size_t(X)];
-          for (int j = 0; j < b; ++j) {
-            const float a = neighbour_weight(j, b);
-            for (int i = 0; i < w.nx; ++i) {
-              float& v = out[std::size_t(j) * w.nx + i];
-              v = a * s[std::size_t(j) * w.nx + i] + (1 - a) * v;
-            }
-          }
+        const WorldTile in = io.load_layers ? io.load_layers(X, Z, {"height"}) : io.load(X, Z);
+        scratch.write(w.ix0, w.iz0, w.nx, w.nz, in.layers.at("height").data.data());
+        step();
+      }
+    // The 16 passes in order; in each, the groups of G × G blocks one after another, each on its
+    // blocks' cells grown by the reach (and one sample), clipped to the world.
+    std::vector<float> e;
+    for (int pass = 0; pass < 16; ++pass)
+      for (std::int64_t gz = 0; gz < ngz; ++gz)
+        for (std::int64_t gx = 0; gx < ngx; ++gx) {
+          check_cancelled(io);
+          erosion::HydraulicPart part;
+          part.first_pass = pass, part.passes = 1;
+          part.bx0 = gx * G, part.bx1 = std::min(nbx, (gx + 1) * G);
+          part.bz0 = gz * G, part.bz1 = std::min(nbz, (gz + 1) * G);
+          const std::int64_t x0 = std::max<std::int64_t>(0, part.bx0 * B - reach);
+          const std::int64_t x1 = std::min<std::int64_t>(g.nx - 1, part.bx1 * B + reach + 1);
+          const std::int64_t z0 = std::max<std::int64_t>(0, part.bz0 * B - reach);
+          const std::int64_t z1 = std::min<std::int64_t>(g.nz - 1, part.bz1 * B + reach + 1);
+          const int wnx = int(x1 - x0 + 1), wnz = int(z1 - z0 + 1);
+          e.resize(std::size_t(wnx) * std::size_t(wnz));
+          scratch.read(x0, z0, wnx, wnz, e.data());
+          erosion::hydraulic_erosion_part(e.data(), W.window(x0, z0, wnx, wnz), s, stage_seed, part);
+          scratch.write(x0, z0, wnx, wnz, e.data());
+          step();
         }
-        if (X > 0 && left_b > 0) {
-          const int b = left_b;
-          for (int j = 0; j < w.nz; ++j)
-            for (int i = 0; i < b; ++i) {
-              const float a = neighbour_weight(i, b);
-              float& v = out[std::size_t(j) * w.nx + i];
-              v = a * left_strip[std::size_t(j) * b + i] + (1 - a) * v;
-            }
+    std::vector<float>().swap(e);
+    for (std::int64_t Z = 0; Z < g.tiles_z; ++Z)
+      for (std::int64_t X = 0; X < g.tiles_x; ++X) {
+        check_cancelled(io);
+        const WorldGrid::Window w = g.window(X, Z);
+        std::vector<float> h(std::size_t(w.nx) * std::size_t(w.nz));
+        scratch.read(w.ix0, w.iz0, w.nx, w.nz, h.data());
+        if (io.update) {
+          WorldTile changed;
+          changed.window = w;
+          changed.layers["height"] = Layer{1, std::move(h)};
+          io.update(X, Z, std::move(changed));
+        } else {
+          WorldTile tile = io.load(X, Z);
+          tile.layers.at("height").data = std::move(h);
+          io.store(X, Z, std::move(tile));
         }
-        if (X > 0)
-          for (int j = 0; j < w.nz; ++j) out[std::size_t(j) * w.nx] = left_col[std::size_t(j)];
-        if (Z > 0)
-          for (int i = 0; i < w.nx; ++i) out[std::size_t(i)] = top_row[std::size_t(X)][std::size_t(i)];
-        // What the next tiles need from this one.
-        if (X + 1 < g.tiles_x) {
-          const WorldGrid::Window n = g.window(X + 1, Z);
-          left_b = std::min(halo, n.nx - 1);
-          left_strip.assign(std::size_t(w.nz) * std::size_t(left_b), 0.0f);
-          for (int j = 0; j < w.nz; ++j)
-            for (int i = 0; i < left_b; ++i) left_strip[std::size_t(j) * left_b + i] = run_at(n.ix0 + i, w.iz0 + j);
-          left_col.resize(std::size_t(w.nz));
-          for (int j = 0; j < w.nz; ++j) left_col[std::size_t(j)] = out[std::size_t(j) * w.nx + (w.nx - 1)];
-        }
-        if (Z + 1 < g.tiles_z) {
-          const WorldGrid::Window n = g.window(X, Z + 1);
-          const int b = std::min(halo, n.nz - 1);
-          top_b[std::size_t(X)] = b;
-          std::vector<float>& s = top_strip[std::size_t(X)];
-          s.assign(std::size_t(b) * std::size_t(w.nx), 0.0f);
-          for (int j = 0; j < b; ++j)
-            for (int i = 0; i < w.nx; ++i) s[std::size_t(j) * w.nx + i] = run_at(w.ix0 + i, n.iz0 + j);
-          top_row[std::size_t(X)].assign(out.end() - w.nx, out.end());
-        }
-        own.layers.at("height").data = std::move(out);
-        io.store(X, Z, std::move(own));
-        if (io.progress) io.progress(double(Z * g.tiles_x + X + 1) / double(g.count()));
+        step();
       }
   };
 }

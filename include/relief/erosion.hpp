@@ -73,6 +73,25 @@ struct HydraulicStats {
 // progress(fraction), if given, is called on the calling thread as the work advances (16 times).
 HydraulicStats hydraulic_erosion(float* e, const Frame& f, const HydraulicSettings& s, std::uint64_t seed,
                                  const std::function<void(double)>& progress = {});
+// Part of the above, for world builds that run it exactly over a tiled world (relief/world_bounded.hpp):
+// the run is 16 passes, pass = round · 4 + phase (round r runs its droplets of every block of
+// checkerboard colour `phase` = (bx & 1) + 2 · (bz & 1), bx and bz the world block indices, blocks of
+// hydraulic_block_cells() cells). A pass changes only the cells within hydraulic_reach_cells() of
+// its blocks, and what it does there depends only on those cells: hydraulic_erosion() is
+// hydraulic_erosion_part() with every pass and block, and a window that holds a block's cells
+// grown by the reach (or the world's edge) runs that block's pass with the same bits as the whole map.
+struct HydraulicPart {
+  int first_pass = 0, passes = 16;  // the passes [first_pass, first_pass + passes) of 0..15, in order
+  // World block indices run: [bx0, bx1) × [bz0, bz1); droplets of other blocks are neither started
+  // nor drawn.
+  std::int64_t bx0 = INT64_MIN, bx1 = INT64_MAX, bz0 = INT64_MIN, bz1 = INT64_MAX;
+};
+HydraulicStats hydraulic_erosion_part(float* e, const Frame& f, const HydraulicSettings& s, std::uint64_t seed,
+                                      const HydraulicPart& part, const std::function<void(double)>& progress = {});
+// A droplet's reach in cells of cell_m: lifetime · step_m / cell_m rounded up, plus the brush's
+// radius in cells (brush radius at least 1.5 cells), plus 2. The blocks are 2 · reach cells wide.
+int hydraulic_reach_cells(const HydraulicSettings& s, double cell_m);
+inline int hydraulic_block_cells(const HydraulicSettings& s, double cell_m) { return 2 * hydraulic_reach_cells(s, cell_m); }
 
 // ---- thermal erosion (Musgrave, Kolb, Mace 1989; Olsen 2004) --------------------------------
 // One iteration on the von Neumann neighbourhood: with d_k the height difference (metres) to each

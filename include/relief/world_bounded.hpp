@@ -1,38 +1,39 @@
 #pragma once
-// World algorithms for the stages that cannot be exact under any tiling (issue 18, "bounded"):
-// droplet hydraulic erosion and stream power, and the seam metrics that measure how far a tiled
-// build of them is from one whole-map build.
+// World algorithms for droplet hydraulic erosion (exact: the whole map's bits in any tiling) and
+// stream power (bounded, issue 18), and the seam metrics that measure how far a tiled build is from
+// one whole-map build.
 //
 // default_world_algorithms() (relief/world.hpp) registers world_hydraulic() and world_stream_power();
 // tests may register others through WorldSettings::algorithms, e.g. world_stream_power(101).
 // Each runs as a phase of its own over the stored tiles (world.hpp, "Phases"): it reads the previous
-// phase's tiles with io.load and writes every tile once with io.store, every layer but "height"
-// passed through unchanged.
+// phase's tiles (io.load, io.load_layers) and writes every tile once (io.store, io.update), every
+// layer but "height" passed through unchanged.
 //
-// hydraulic (bounded). Droplets are defined by world position (relief/erosion.hpp: per world cell
-// counts and starts, world-aligned blocks processed in a fixed order), so a window runs the whole
-// map's droplets that start inside it, in the same order. Per tile, in row-major tile order:
-//   1. the tile's window grown by the stage's halo (Stage::reach: lifetime · step_m + brush_radius_m,
-//      in samples; stopping at the world's edge) is assembled from the input tiles it touches;
-//   2. the hydraulic stage runs on it with the window's world frame (Frame::window) and the
-//      recipe's stage seed (Context{seed, index}), exactly as the whole-map stage would;
-//   3. the tile is cropped from it. Its first `halo` columns (rows) after a seam with the tile to
-//      its left (above) are blended with what that tile's run computed for the same samples
-//      (weight of the neighbour's run 1 at the seam, 0 at `halo` samples, smoothstep), and the
-//      shared border samples are copied from the neighbour's stored tile: the tiles agree on every
-//      shared sample and the surface has no kink at the seam.
-//   What is not exact: droplets that start outside the grown window never run, so what they did to
-//   the halo (and, through it, to the droplets that reach the tile) is missing. tests/
-//   test_world_bounded.cpp measures the resulting seam error (see seam_metrics).
-//   Memory: one grown window and its run, the input tiles it touches one at a time, and the blend
-//   strips (halo × tile samples for the tile to the left, halo × world width for the row above).
-//   Measured (tests/test_world_bounded.cpp, 513² worlds of the eroded-mountains preset, RMS within 2
-//   halos of a seam over the world's relief): stream_power + hydraulic + thermal + fill 0.79 %
-//   (tiles of 129) and 0.50 % (257); droplets alone on raw ridged noise 1.35 % and 1.10 % (the
-//   issue's goal is 0.5 %). The error is not concentrated at seams (the RMS over the whole world is
-//   the same): droplet erosion feeds back on itself, so what the missing droplets did to the halo
-//   changes the gullies inside the tile. The largest slope jump across a seam stays below the 99.9th
-//   percentile of the jumps inside tiles for the preset's chain.
+// hydraulic (exact). The whole-map stage is 16 passes (relief/erosion.hpp: 4 rounds × 4 checkerboard
+// phases of world-aligned blocks of 2·reach cells, reach = erosion::hydraulic_reach_cells); a pass
+// changes only the cells within `reach` of its blocks, and what it does there depends on those
+// cells alone (the blocks of one phase touch disjoint cells; droplets are defined by world
+// position, positions in block coordinates, so a droplet's floats are the same in every window that
+// holds its block grown by the reach). So the world algorithm runs the passes one after another over
+// the whole world, each on groups of G × G blocks (G = group_blocks, or by default
+// max(kHydraulicGroupBlocks, tile / block) rounded up), each group on its blocks' cells grown by the reach
+// (clipped to the world), running only that group's blocks of the pass
+// (erosion::hydraulic_erosion_part): every pass gives, group by group, the whole map's pass bit for
+// bit, and so does the result. Between passes the world's heights live in an anonymous temporary
+// file (tmpfile(3), 4 bytes per world sample; removed when the process ends, even when killed): it is
+// filled from the input tiles, updated group by group, and the tiles are written from it at the end
+// (io.update with the height layer only, else load and store).
+//   Memory: one group's window, (G·block + 2·reach + 2)² floats, and the stage's per-block droplet
+//   starts; not the world. Disk: the temporary file (world samples × 4 bytes) besides the store.
+//   Time: the droplets are the whole map's, once each (no grown windows: nothing is computed twice);
+//   the passes add 16 reads and writes of the world's heights through the temporary file, each
+//   pass draws the starts of its blocks' droplets of its round only, and a group runs only its
+//   blocks of the pass's colour at once (G²/4 blocks in the vector lanes and threads, hence G ≥ 16
+//   by default). Measured on this 2-core machine (loaded, one run), the droplet work of the passes
+//   in groups against one whole-map run of the stage: 0.7–2.2× (513² and 1025² worlds, tiles of 129
+//   and 257), where the former method (each tile on its window grown by the halo, then blended)
+//   took 1.7–6.3× and missed the seam goal (0.79 % / 0.50 % of the relief on eroded-mountains,
+//   1.35 % / 1.10 % for droplets alone on ridged noise, tiles of 129 / 257, against 0.5 %).
 //
 // stream_power (bounded; exact when the world has at most kStreamPowerCoarseMax samples per axis).
 // Drainage area is global: it accumulates over every sample upstream. So the stage is solved on the
@@ -57,10 +58,18 @@ namespace relief {
 
 constexpr int kStreamPowerCoarseMax = 2049;  // stream power's coarse grid: at most this many samples per axis
 
+constexpr int kHydraulicGroupBlocks = 16;  // hydraulic: at least this many blocks per group side
+// The salt of the hydraulic stage's seed (Context::stage_seed; stage_erosion.cpp's apply_hydraulic
+// uses the same: tests/test_world_bounded.cpp compares the tiled world with the whole map's bytes).
+constexpr std::uint64_t kHydraulicSeedSalt = 0x6879647261756cull;
+
 // The world algorithm of the "hydraulic" stage (above). `seed` is the recipe's seed
 // (WorldReport::seed; the recipe's seed when it sets one): the stage seeds its droplets from it and
-// the stage's index, as the whole-map run does.
-WorldStageAlgorithm world_hydraulic(std::uint64_t seed);
+// the stage's index, as the whole-map run does. `group_blocks`: blocks per side of the groups a pass
+// runs at once (0: automatic, see above; tests lower it to have many groups on small worlds); the
+// bytes do not depend on it. Throws Error("group_blocks", …) when negative. Throws
+// Error("hydraulic", …) when the temporary file cannot be made, read or written.
+WorldStageAlgorithm world_hydraulic(std::uint64_t seed, int group_blocks = 0);
 // The same with the build's seed (WorldStageIO::seed): what default_world_algorithms() registers.
 WorldStageAlgorithm world_hydraulic();
 // The world algorithm of the "stream_power" stage (above), with a coarse grid of at most
