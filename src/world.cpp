@@ -434,7 +434,7 @@ WorldReport build_world(WorldSettings s) {
                                     ", not this one (its world.json differs in recipe, seed, size or tile); choose another folder, "
                                     "or pass " + s.force_name + " to replace it");
       }
-      if (!same) remove_old_world(dir);
+      if (!same && !s.dry_run) remove_old_world(dir);
       if (same && old_string("status") == "complete") {
         try {
           was_complete = verify_world(dir.string()).empty();
@@ -570,6 +570,7 @@ WorldReport build_world(WorldSettings s) {
         const fs::space_info sp = fs::space(existing_ancestor(dir), ec);
         free_bytes = ec ? UINT64_MAX : sp.available;
       }
+      rep.disk_free_bytes = free_bytes == UINT64_MAX ? free_bytes : free_bytes + present;
       if (need > free_bytes + present)
         throw Error(s.size_path, "a " + std::to_string(grid.nx) + "x" + std::to_string(grid.nz) + " world with " +
                                      std::to_string(channels) + " float channels needs about " + human_bytes(need) +
@@ -593,6 +594,10 @@ WorldReport build_world(WorldSettings s) {
                                      " at once) need about " + human_bytes(rep.tile_memory_bytes) + ", but the limit here is " +
                                      human_bytes(budget) + "; choose a smaller tile or fewer threads");
     }
+
+    if (s.dry_run)
+      return json{{"seed", rep.seed}, {"seed_reused", rep.seed_reused}, {"dry_run", true}, {"estimated_bytes", rep.estimated_bytes},
+                  {"estimated_store_bytes", rep.estimated_store_bytes}, {"disk_free_bytes", rep.disk_free_bytes}};
 
     // 6. The manifest, before the first tile.
     manifest = {
@@ -631,6 +636,21 @@ WorldReport build_world(WorldSettings s) {
     write_or_throw(dir / "world.json", manifest.dump(2) + "\n", s.out_path);
     return json{{"seed", rep.seed}, {"seed_reused", rep.seed_reused}, {"drop", drop}};
   });
+  if (s.dry_run) {  // nothing written: the estimates (every rank learns rank 0's)
+    rep.dry_run = true;
+    if (!root) {
+      rep.seed = started.at("seed").get<std::uint64_t>();
+      rep.seed_reused = started.at("seed_reused").get<bool>();
+      rep.estimated_bytes = started.at("estimated_bytes").get<std::uint64_t>();
+      rep.estimated_store_bytes = started.at("estimated_store_bytes").get<std::uint64_t>();
+      rep.disk_free_bytes = started.at("disk_free_bytes").get<std::uint64_t>();
+      r.seed = rep.seed;
+      rep.recipe = r.to_json();
+      rep.world_id = world_id_of(rep.recipe, grid.tile);
+    }
+    rep.total_ms = ms_since(t_start);
+    return rep;
+  }
   for (std::size_t k = 0; k < phases.size(); ++k) phases[k].drop = started.at("drop").at(k).get<std::set<std::string>>();
   if (!root) {
     r.seed = started.at("seed").get<std::uint64_t>();

@@ -226,3 +226,59 @@ TEST(WorldDisk, AWorldLargerThanTheFreeSpaceIsRefusedBeforeAnythingIsWritten) {
   s.progress = [](const WorldProgress&) {};
   EXPECT_EQ(build_world(s).estimated_bytes, rep.estimated_bytes);
 }
+
+// A dry run (WorldSettings::dry_run, `relief world --dry-run`) checks and estimates as the build
+// does — the same figures — and writes and removes nothing, even with --force over another world.
+TEST(WorldDryRun, GivesTheBuildsEstimatesAndWritesNothing) {
+  const Recipe r = recipe_of(river_world_doc(), 7);
+  TempDir d("world-dry-run");
+  WorldSettings s = settings(r, 257, 257, 65, d / "w", 2);
+  s.dry_run = true;
+  const WorldReport dry = build_world(s);
+  EXPECT_TRUE(dry.dry_run);
+  EXPECT_FALSE(fs::exists(d.path / "w"));
+  EXPECT_EQ(dry.grid.count(), 16);
+  EXPECT_GT(dry.estimated_store_bytes, 0u);
+  EXPECT_GT(dry.estimated_bytes, dry.estimated_store_bytes);
+  EXPECT_GT(dry.disk_free_bytes, dry.estimated_bytes);
+  EXPECT_GT(dry.tile_memory_bytes, 0u);
+  EXPECT_EQ(dry.tiles_built, 0);
+  s.dry_run = false;
+  const WorldReport built = build_world(s);
+  EXPECT_FALSE(built.dry_run);
+  EXPECT_EQ(dry.estimated_bytes, built.estimated_bytes);
+  EXPECT_EQ(dry.estimated_store_bytes, built.estimated_store_bytes);
+  EXPECT_EQ(dry.tile_memory_bytes, built.tile_memory_bytes);
+  EXPECT_EQ(dry.layers, built.layers);
+  EXPECT_EQ(dry.world_id, built.world_id);
+  // Over the finished world: another recipe is refused as a build would refuse it, and with force
+  // nothing is removed or changed.
+  const auto before = store_files(d.path / "w");
+  json other = river_world_doc();
+  other["stages"][0]["octaves"] = 3;
+  WorldSettings o = settings(recipe_of(other, 7), 257, 257, 65, d / "w", 2);
+  o.dry_run = true;
+  EXPECT_THROW(build_world(o), Error);
+  o.force = true;
+  EXPECT_TRUE(build_world(o).dry_run);
+  EXPECT_EQ(store_files(d.path / "w"), before);
+  // Too little disk: refused, as the build is.
+  s.dry_run = true;
+  s.out_dir = (d / "x");
+  s.disk_free_bytes = dry.estimated_bytes - 1;
+  EXPECT_THROW(build_world(s), Error);
+  EXPECT_FALSE(fs::exists(d.path / "x"));
+}
+
+TEST(WorldDryRun, TheCliPrintsTheEstimatesAndBuildsNothing) {
+  TempDir d("world-dry-run-cli");
+  const auto r = relief::test::relief_cli("world island --size 1025 --tile 257 --seed 3 -q --dry-run -o " + (d / "w"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  EXPECT_NE(r.out.find("world 1025x1025 in 4x4 tiles of 257 (16 tiles); layers: "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("disk: about "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("memory: about "), std::string::npos) << r.out;
+  EXPECT_NE(r.out.find("nothing was written (--dry-run)"), std::string::npos) << r.out;
+  EXPECT_FALSE(fs::exists(d.path / "w"));
+  // A tile size that is not 2^n+1 is still bad input (exit 2).
+  EXPECT_EQ(relief::test::relief_cli("world island --size 1025 --tile 200 --dry-run -o " + (d / "w")).code, 2);
+}

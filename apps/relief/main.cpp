@@ -444,6 +444,7 @@ struct CliWorld {
   // Engine tile set and LOD pyramid written from the finished store (relief/world_engine.hpp).
   std::string engine, split, godot_format;
   bool lod = false;
+  bool dry_run = false;  // --dry-run: the checks and estimates, nothing written
 };
 
 // --size for a world: N or NxM with kMinSize..kMaxWorldSize samples per axis.
@@ -498,6 +499,7 @@ int cmd_world(const CliWorld& w) {
   ws.tile_path = "--tile";
   ws.out_path = "--out";
   ws.force_name = "--force";
+  ws.dry_run = w.dry_run;
   if (w.mpi || std::getenv("OMPI_COMM_WORLD_SIZE")) {
     ws.mpi_module = world_mpi_module();
     ws.mpi_path = "--mpi";
@@ -539,6 +541,21 @@ int cmd_world(const CliWorld& w) {
   }
   prog.done();
   if (rep.rank != 0) return 0;  // rank 0 prints, and writes what comes after the store
+  if (rep.dry_run) {  // printed even with -q: it is the answer
+    std::string layers;
+    for (const auto& [name, c] : rep.layers) layers += (layers.empty() ? "" : ", ") + name + (c > 1 ? " (" + std::to_string(c) + ")" : "");
+    std::printf("world %lldx%lld in %lldx%lld tiles of %d (%lld tiles); layers: %s\n", (long long)rep.grid.nx, (long long)rep.grid.nz,
+                (long long)rep.grid.tiles_x, (long long)rep.grid.tiles_z, rep.grid.tile, (long long)rep.grid.count(), layers.c_str());
+    std::printf("disk: about %s needed at most (the finished store about %s; estimated from coded sample windows with a margin "
+                "of 2), %s free in %s\n",
+                human_bytes(rep.estimated_bytes).c_str(), human_bytes(rep.estimated_store_bytes).c_str(),
+                rep.disk_free_bytes == UINT64_MAX ? "unknown" : human_bytes(rep.disk_free_bytes).c_str(), s.out_dir.c_str());
+    std::printf("memory: about %s for %d tile%s built at once\n", human_bytes(rep.tile_memory_bytes).c_str(), rep.tiles_at_once,
+                rep.tiles_at_once == 1 ? "" : "s");
+    std::printf("seed %llu%s; nothing was written (--dry-run)\n", (unsigned long long)rep.seed,
+                seed_given ? "" : rep.seed_reused ? " (the world in the folder's)" : " (random: a build draws its own)");
+    return 0;
+  }
   if (!s.quiet) {
     if (!seed_given)
       std::printf("seed %llu (%s; reproduce with --seed %llu)\n", (unsigned long long)rep.seed,
@@ -925,6 +942,9 @@ int main(int argc, char** argv) {
   wld->add_option("--split", wsx.split, "Engine tiles along x and z, NxM (default 1x1; unity, godot: neighbours share a border sample; "
                                         "unreal: edge to edge)");
   wld->add_option("--godot-format", wsx.godot_format, "Engine godot: exr (32-bit float metres, default) or r16");
+  wld->add_flag("--dry-run", wsx.dry_run,
+                "Check the input and the folder, print the disk and memory estimates, and build nothing (exit 2 when a "
+                "build would be refused)");
   wld->add_flag("--lod", wsx.lod, "Also write a LOD pyramid into OUT/lod: 16-bit PNG height (and RGB colour) tiles, each level "
                                   "every other sample of the one below, up to one tile");
 

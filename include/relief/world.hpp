@@ -310,6 +310,11 @@ struct WorldSettings {
   // process).
   std::string mpi_module;
   std::string mpi_path = "mpi";
+  // Checks and estimates only: the input, the folder (a different world is refused as by a build,
+  // and --force removes nothing), the disk and memory checks (refused as a build would be); then
+  // returns the report — seed, world_id, grid, layers, estimated_bytes, estimated_store_bytes,
+  // disk_free_bytes, tile_memory_bytes, tiles_at_once — having written and removed nothing.
+  bool dry_run = false;
 };
 
 struct WorldReport {
@@ -326,6 +331,8 @@ struct WorldReport {
   std::uint64_t estimated_bytes = 0;    // the disk check's estimate of the whole need (see "Disk and memory")
   std::uint64_t estimated_store_bytes = 0;  // its part for the last store (tiles/), comparable with store_bytes
   std::uint64_t tile_memory_bytes = 0;  // the memory check's estimate for the tiles built at once
+  std::uint64_t disk_free_bytes = 0;    // the free space the disk check saw (plus this world's tiles already there)
+  bool dry_run = false;                 // WorldSettings::dry_run: nothing was built or written
   int tiles_at_once = 1;
   int overview_step = 1;  // overview.png samples every this many world samples
   json recipe;            // resolved recipe as built (seed and world size set)
