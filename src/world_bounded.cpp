@@ -14,9 +14,10 @@
 #include <algorithm>
 #include <cerrno>
 #include <cmath>
-#include <cstdio>
 #include <cstring>
+#include <filesystem>
 #include <string>
+#include <system_error>
 
 #include "relief/erosion.hpp"
 #include "relief/error.hpp"
@@ -55,16 +56,26 @@ erosion::HydraulicSettings hydraulic_settings(const json& p) {
   return s;
 }
 
-// The world's heights between the passes: one float per sample, row-major, in an anonymous temporary
-// file (tmpfile(3): removed when closed, or when the process ends, killed or not).
+// The world's heights between the passes: one float per sample, row-major, in a temporary file of
+// the temporary folder (std::filesystem::temp_directory_path: $TMPDIR, else /tmp) that is unlinked
+// as soon as it is opened, so that it disappears when closed or when the process ends, killed or not.
 class Scratch {
  public:
   Scratch(std::int64_t nx, std::int64_t nz) : nx_(nx) {
-    f_ = std::tmpfile();
-    if (!f_) throw Error("hydraulic", "could not create a temporary file for the world's heights: " + std::string(std::strerror(errno)));
-    if (::ftruncate(::fileno(f_), off_t(nx * nz * 4)) != 0) fail("size");
+    std::error_code ec;
+    const std::filesystem::path dir = std::filesystem::temp_directory_path(ec);
+    std::string name = ((ec ? std::filesystem::path("/tmp") : dir) / "relief-hydraulic-XXXXXX").string();
+    fd_ = ::mkstemp(name.data());
+    if (fd_ < 0) fail("create " + name + " as");
+    ::unlink(name.c_str());
+    if (::ftruncate(fd_, off_t(nx * nz * 4)) != 0) {
+      const int err = errno;
+      ::close(fd_);
+      errno = err;
+      fail("size");
+    }
   }
-  ~Scratch() { std::fclose(f_); }
+  ~Scratch() { ::close(fd_); }
   Scratch(const Scratch&) = delete;
   Scratch& operator=(const Scratch&) = delete;
   // Rows [z0, z0 + nz) × columns [x0, x0 + nx) to or from `data` (nx × nz, row-major).
@@ -81,17 +92,16 @@ class Scratch {
     std::size_t left = std::size_t(n) * 4;
     off_t at = off_t((z * nx_ + x0) * 4);
     while (left > 0) {
-      const ssize_t got = write ? ::pwrite(::fileno(f_), b, left, at) : ::pread(::fileno(f_), b, left, at);
+      const ssize_t got = write ? ::pwrite(fd_, b, left, at) : ::pread(fd_, b, left, at);
       if (got < 0 && errno == EINTR) continue;
       if (got <= 0) fail(write ? "write" : "read");
       b += got, left -= std::size_t(got), at += got;
     }
   }
-  [[noreturn]] static void fail(const char* what) {
-    throw Error("hydraulic", std::string("could not ") + what + " the temporary file of the world's heights: " +
-                                 std::strerror(errno));
+  [[noreturn]] static void fail(const std::string& what) {
+    throw Error("hydraulic", "could not " + what + " the temporary file of the world's heights: " + std::strerror(errno));
   }
-  std::FILE* f_ = nullptr;
+  int fd_ = -1;
   std::int64_t nx_ = 0;
 };
 

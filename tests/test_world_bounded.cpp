@@ -226,6 +226,7 @@ TEST(WorldHydraulic, PassesAndBlockGroupsGiveTheWholeMapsBytes) {
 // the seam metrics are met (RMS 0; the slope jumps across seams are the whole map's) and the world
 // drains after fill.
 TEST(WorldHydraulic, TiledWorldIsTheWholeMapAndDrains) {
+  EXPECT_THROW(world_hydraulic(kSeed, -1), Error);
   for (const auto& [tile, group, threads] : {std::tuple{129, 0, 2}, std::tuple{257, 2, 2}, std::tuple{129, 3, 1}}) {
     TempDir d;
     const json doc = eroded_doc(513, false, true);
