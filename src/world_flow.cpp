@@ -123,6 +123,10 @@ struct Ctx {
   double H, cell, cell2, runoff_m_s, threshold_cells;
   std::int64_t t1;
   const TileLoad* filled = nullptr;  // the filled heights, when the input may hold depressions
+  // hypot(dx, dy) for 0 <= dx, dy <= hyp_r, at hyp[dy·(hyp_r + 1) + dx] (each_cover's distances;
+  // hypot depends on |dx| and |dy| only), or empty.
+  std::vector<double> hyp;
+  int hyp_r = -1;
 };
 
 // Lakes: connected components (8-neighbours) of samples the fill raised, labelled per tile and
@@ -647,7 +651,8 @@ void trace_pieces(const Ctx& c, const Nodes& nd, const Solve& s, std::unordered_
 
 template <class F>
 void each_cover(const Ctx& c, std::int64_t i, std::int64_t j, std::uint64_t count, F f) {
-  // f(ix, iz, value, sea_test): apply_flow's water cover of one channel sample.
+  // f(ix, iz, value, sea_test): apply_flow's water cover of one channel sample, for the samples it
+  // covers (value > 0; apply_flow also visits those of value 0, which change nothing).
   const double w = width(c, count);
   if (w <= c.cell) {
     f(i, j, float(w / c.cell), false);
@@ -655,11 +660,16 @@ void each_cover(const Ctx& c, std::int64_t i, std::int64_t j, std::uint64_t coun
   }
   const double r_cells = 0.5 * w / c.cell;
   const int R = int(std::ceil(r_cells + 0.5));
-  for (std::int64_t b = std::max<std::int64_t>(0, j - R); b <= std::min<std::int64_t>(c.g.nz - 1, j + R); ++b)
+  const bool table = R <= c.hyp_r;
+  const std::size_t stride = std::size_t(c.hyp_r + 1);
+  for (std::int64_t b = std::max<std::int64_t>(0, j - R); b <= std::min<std::int64_t>(c.g.nz - 1, j + R); ++b) {
+    const double* row = table ? c.hyp.data() + std::size_t(std::abs(b - j)) * stride : nullptr;
     for (std::int64_t a = std::max<std::int64_t>(0, i - R); a <= std::min<std::int64_t>(c.g.nx - 1, i + R); ++a) {
-      const double cover = std::clamp(r_cells - std::hypot(double(a - i), double(b - j)) + 0.5, 0.0, 1.0);
-      f(a, b, float(cover), true);
+      const double h = table ? row[std::abs(a - i)] : std::hypot(double(a - i), double(b - j));
+      const double cover = std::clamp(r_cells - h + 0.5, 0.0, 1.0);
+      if (cover > 0) f(a, b, float(cover), true);
     }
+  }
 }
 
 }  // namespace
@@ -916,6 +926,24 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
   std::vector<std::uint8_t> may_channel(std::size_t(tiles), 0);
   for (std::size_t t = 0; t < std::size_t(tiles); ++t)
     may_channel[t] = tile_land[t] && double(std::uint64_t(tile_max_acc[t]) + ext_sum[t]) >= c.threshold_cells;
+  // each_cover's distances up to the widest river's disc radius (a bound: the largest local count
+  // plus all inflow of a tile bounds its counts), when that table is at most 2^21 entries.
+  {
+    std::uint64_t bound = 0;
+    for (std::size_t t = 0; t < std::size_t(tiles); ++t)
+      if (may_channel[t]) bound = std::max(bound, std::uint64_t(tile_max_acc[t]) + ext_sum[t]);
+    const double wmax = width(c, bound);
+    if (bound > 0 && wmax > c.cell) {
+      const double r = std::ceil(0.5 * wmax / c.cell + 0.5);
+      if (r <= 1447) {
+        c.hyp_r = int(r);
+        const std::size_t stride = std::size_t(c.hyp_r + 1);
+        c.hyp.resize(stride * stride);
+        for (int dy = 0; dy <= c.hyp_r; ++dy)
+          for (int dx = 0; dx <= c.hyp_r; ++dx) c.hyp[std::size_t(dy) * stride + std::size_t(dx)] = std::hypot(double(dx), double(dy));
+      }
+    }
+  }
   std::vector<std::uint64_t>().swap(ext_sum);
 
   // Pass S: Strahler orders downstream and carved heights upstream, until nothing changes. The
@@ -1012,8 +1040,10 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
     bool sea_test;
   };
   std::vector<std::vector<CoverEntry>> cover_of(static_cast<std::size_t>(tiles));
-  auto bucket = [&](const std::unordered_map<std::int64_t, float>& m, bool sea_test) {
-    for (const auto& [cell, v] : m) {
+  auto bucket = [&](std::unordered_map<std::int64_t, float>& m, bool sea_test) {
+    for (auto it = m.begin(); it != m.end(); it = m.erase(it)) {  // freed as bucketed
+      const std::int64_t cell = it->first;
+      const float v = it->second;
       const std::int64_t ix = cell % g.nx, iz = cell / g.nx;
       const std::int64_t X1 = std::min(ix / c.t1, g.tiles_x - 1), Z1 = std::min(iz / c.t1, g.tiles_z - 1);
       for (std::int64_t Z = std::max<std::int64_t>(0, Z1 - 1); Z <= Z1; ++Z)
