@@ -29,10 +29,11 @@ const std::vector<WorldAlgorithmEntry>& world_algorithm_entries() {
        "Strahler orders and carving exchanged between tiles until nothing changes; lakes joined across tiles by "
        "union-find over perimeter labels; a height that does not drain is filled first (as by the fill stage); "
        "rivers.json and lakes.json for the whole world"},
-      {"hydraulic", [] { return world_hydraulic(); }, "bounded",
-       "droplets defined by world position; each tile eroded on its window grown by a droplet's longest path, the "
-       "strip after each seam blended with the neighbour's run; seam error measured against one whole-map build "
-       "(tests/test_world_bounded.cpp)"},
+      {"hydraulic", [] { return world_hydraulic(); }, "exact",
+       "the whole map's 16 passes (4 rounds of droplets over 4 checkerboard colours of world blocks) run one after "
+       "another over the whole world, each on groups of blocks grown by a droplet's reach; a pass changes only the cells "
+       "within that reach of its blocks and depends on nothing else, so each group gives the whole map's bits; the "
+       "world's heights wait between passes in a temporary file (4 bytes per sample)"},
       {"volcano", [] { return world_volcano(); }, "exact",
        "placed on land: the 96 candidates' land probes read from the stored tiles, the best chosen as on the whole "
        "map, the lava level read from the shaped tiles at the rim, then every tile within the radius shaped and "
