@@ -185,7 +185,9 @@ void TileFarm::run(const std::string& kernel, const std::vector<std::int64_t>& i
               std::string in = input(items[p]);
               lock.unlock();
               try {
-                res.emplace(local(items[p], in));
+                // Isolated: while the kernel waits for its own parallel work (tile coding), this
+                // thread must not pick up another lane of this loop, which only ends with the batch.
+                tbb::this_task_arena::isolate([&] { res.emplace(local(items[p], in)); });
               } catch (...) {
                 err = std::current_exception();
               }
@@ -392,7 +394,8 @@ void TileFarm::serve(WorldTransport& t, int lanes, const std::function<FarmKerne
                 if (it == kernels.end()) it = kernels.emplace(task.kernel, make(task.kernel)).first;
                 kernel = it->second;
               }
-              std::string out = kernel(task.k, task.input);
+              std::string out;  // isolated, as on rank 0: no other lane runs inside the kernel's waits
+              tbb::this_task_arena::isolate([&] { out = kernel(task.k, task.input); });
               res.push_back(char(1));
               res += out;
             } catch (...) {
