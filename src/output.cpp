@@ -53,10 +53,6 @@ std::set<std::string>& live_temps() {
 }
 std::atomic<int> publishing{0};
 bool closed_for_exit = false;  // set by remove_live_temporaries (under live_mutex): no new temporaries
-void track(const std::string& tmp) {
-  std::lock_guard<std::mutex> lock(live_mutex());
-  live_temps().insert(tmp);
-}
 void untrack(const std::string& tmp) noexcept {
   try {
     std::lock_guard<std::mutex> lock(live_mutex());
