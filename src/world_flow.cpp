@@ -46,8 +46,12 @@ class Bands {
     each(ix, iz, [&](float&) { any = true; });
     return any;
   }
+  // Sets the slots of (ix, iz) that are not set yet (NaN): a slot once set is never written again,
+  // so tiles may read set slots while another tile's slots are being set.
   void set(std::int64_t ix, std::int64_t iz, float v) {
-    each(ix, iz, [&](float& s) { s = v; });
+    each(ix, iz, [&](float& s) {
+      if (std::isnan(s)) s = v;
+    });
   }
   float get(std::int64_t ix, std::int64_t iz) {
     float r = std::numeric_limits<float>::quiet_NaN();
@@ -74,6 +78,20 @@ class Bands {
   std::int64_t nx_, nz_, t1_, tx_, tz_;
   std::vector<float> v_, h_;
 };
+
+// f(i, j) for the window samples that may be in a band: the first and last two rows and columns,
+// row-major.
+template <class F>
+void for_band(const WorldGrid::Window& w, F f) {
+  for (int j = 0; j < w.nz; ++j)
+    for (int i = 0; i < w.nx; ++i) {
+      if (j > 1 && j < w.nz - 2 && i > 1 && i < w.nx - 2) {
+        i = w.nx - 3;  // skip the inside of the row
+        continue;
+      }
+      f(i, j);
+    }
+}
 
 // The perimeter graph: one node per sample on the boundary of a tile's owned rectangle.
 struct Nodes {
@@ -286,7 +304,9 @@ void local_order(Solve& s) {
   if (w != n) throw Error("world", "flow: internal error, a tile's flow graph has a cycle");
 }
 
-void prepare(const Ctx& c, Bands& bands, const TileLoad& load, std::int64_t X, std::int64_t Z, Solve& s) {
+// `beyond`: read the bands right of and below the window too (the grown ring there: no owned
+// sample's receiver depends on it); pass A, which sets the bands as it goes, leaves it NaN.
+void prepare(const Ctx& c, Bands& bands, const TileLoad& load, std::int64_t X, std::int64_t Z, Solve& s, bool beyond = true) {
   s.X = X, s.Z = Z;
   s.w = c.g.window(X, Z);
   s.z = c.filled ? (*c.filled)(X, Z) : load(X, Z);
@@ -305,12 +325,15 @@ void prepare(const Ctx& c, Bands& bands, const TileLoad& load, std::int64_t X, s
   for (int j = 0; j < s.gnz; ++j) {
     const std::int64_t iz = s.gz0 + j, wj = iz - s.w.iz0;
     float* row = s.zg.data() + std::size_t(j) * std::size_t(s.gnx);
+    const float nan = std::numeric_limits<float>::quiet_NaN();
     if (wj >= 0 && wj < s.w.nz) {
       std::memcpy(row + wx, z.data() + std::size_t(wj) * std::size_t(s.w.nx), std::size_t(s.w.nx) * sizeof(float));
       for (int i = 0; i < wx; ++i) row[i] = bands.get(s.gx0 + i, iz);
-      for (int i = wx + s.w.nx; i < s.gnx; ++i) row[i] = bands.get(s.gx0 + i, iz);
+      for (int i = wx + s.w.nx; i < s.gnx; ++i) row[i] = beyond ? bands.get(s.gx0 + i, iz) : nan;
+    } else if (wj < 0) {
+      for (int i = 0; i < s.gnx; ++i) row[i] = beyond || i < wx + s.w.nx ? bands.get(s.gx0 + i, iz) : nan;
     } else {
-      for (int i = 0; i < s.gnx; ++i) row[i] = bands.get(s.gx0 + i, iz);
+      for (int i = 0; i < s.gnx; ++i) row[i] = beyond ? bands.get(s.gx0 + i, iz) : nan;
     }
   }
   const std::int64_t ox1 = X == c.g.tiles_x - 1 ? c.g.nx : s.w.ix0 + c.t1;
@@ -719,36 +742,30 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
   std::vector<std::int64_t> all_tiles(static_cast<std::size_t>(tiles));
   for (std::int64_t t = 0; t < tiles; ++t) all_tiles[std::size_t(t)] = t;
 
-  // Pass 0: the bands of heights around inner tile borders.
   std::int64_t merged = 0;  // tiles merged in the current pass (progress)
   Bands bands(g);
-  detail::ordered_tiles<std::vector<float>>(
-      all_tiles,
-      [&](std::int64_t t) {
-        check();
-        const WorldGrid::Window w = g.window(t % g.tiles_x, t / g.tiles_x);
-        std::vector<float> z = c.filled ? (*c.filled)(t % g.tiles_x, t / g.tiles_x) : load(t % g.tiles_x, t / g.tiles_x);
-        if (z.size() != std::size_t(w.nx) * std::size_t(w.nz)) throw Error("world", "flow: a tile has the wrong size");
-        return z;
-      },
-      [&](std::int64_t t, std::vector<float> z) {
-        const WorldGrid::Window w = g.window(t % g.tiles_x, t / g.tiles_x);
-        for (int j = 0; j < w.nz; ++j)
-          for (int i = 0; i < w.nx; ++i) {
-            if (j > 1 && j < w.nz - 2 && i > 1 && i < w.nx - 2) {
-              i = w.nx - 3;  // skip the inside of the row
-              continue;
-            }
-            if (bands.has(w.ix0 + i, w.iz0 + j)) bands.set(w.ix0 + i, w.iz0 + j, z[std::size_t(j) * std::size_t(w.nx) + std::size_t(i)]);
-          }
-        report(0.0, 0.1, ++merged, tiles);
-      });
-
-  // Pass A: local accumulation, perimeter links, components of raised samples.
+  // Pass A: local accumulation, perimeter links, components of raised samples, and the bands: the
+  // heights within one sample of inner tile borders, which the receivers of a tile's owned samples
+  // read from the tiles left of and above it. So the tiles go by anti-diagonals (X + Z), each
+  // diagonal's tiles concurrently, reading the bands that earlier diagonals set, setting their own.
   merged = 0;
   Nodes nd;
   nd.nx = g.nx, nd.nz = g.nz, nd.t1 = c.t1, nd.tx = g.tiles_x, nd.tz = g.tiles_z;
   nd.base.assign(std::size_t(g.count()) + 1, 0);
+  // Node ids by arithmetic: tile t's perimeter nodes follow those of the tiles before it (row-major).
+  for (std::int64_t t = 0; t < tiles; ++t) {
+    const std::int64_t X = t % g.tiles_x, Z = t / g.tiles_x;
+    const std::int64_t onx = (X == g.tiles_x - 1 ? g.nx : (X + 1) * c.t1) - X * c.t1;
+    const std::int64_t onz = (Z == g.tiles_z - 1 ? g.nz : (Z + 1) * c.t1) - Z * c.t1;
+    nd.base[std::size_t(t) + 1] = nd.base[std::size_t(t)] + std::uint64_t(2 * onx + 2 * onz - 4);
+  }
+  if (nd.base[std::size_t(tiles)] >= kNone)
+    throw Error("world", "flow: too many tile perimeter samples (more than 2^32 - 1): use larger tiles");
+  {
+    const std::size_t total = std::size_t(nd.base[std::size_t(tiles)]);
+    nd.cell.resize(total), nd.link_cell.resize(total), nd.tile.resize(total), nd.acc.resize(total), nd.comp.resize(total);
+    nd.z.resize(total), nd.e.resize(total), nd.cross.resize(total);
+  }
   Components comp;
   comp.base.resize(std::size_t(g.count()) + 1, 0);
   // A tile's pass-A result: its perimeter nodes (row-major over its owned rectangle's perimeter,
@@ -763,91 +780,101 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
     std::vector<double> comp_depth;
     bool land = false;
     std::uint32_t max_acc = 0;
+    std::vector<float> band;  // the window's first and last two rows and columns (Bands order)
   };
   SolvePool pool;
   std::vector<std::uint8_t> tile_land(std::size_t(tiles), 0);
   std::vector<std::uint32_t> tile_max_acc(std::size_t(tiles), 0);
-  detail::ordered_tiles<LocalA>(
-      all_tiles,
-      [&](std::int64_t t) {
-        check();
-        LocalA r;
-        SolveRef sr(pool);
-        Solve& s = *sr;
-        prepare(c, bands, load, t % g.tiles_x, t / g.tiles_x, s);
-        check_drains(c, s, path);
-        const std::size_t on = s.rl.size();
-        // np: the next perimeter sample downstream inside the tile (kNone: none), receivers first.
-        s.top.assign(on, 0);
-        for (const std::uint32_t o : s.perimeter) s.top[o] = 1;
-        std::vector<std::uint32_t>& np = s.stack;
-        np.assign(on, kNone);
-        for (std::size_t q = on; q-- > 0;) {
-          const std::uint32_t o = s.order[q], rr = s.rl[o];
-          if (rr != o) np[o] = s.top[rr] ? rr : np[rr];
-        }
-        r.land = s.land;
-        r.max_acc = s.max_acc;
-        r.comp_count.assign(s.labels, 0);
-        r.comp_depth.assign(s.labels, 0.0);
-        if (s.labels > 0)
-          for (std::uint32_t o = 0; o < on; ++o) {
-            if (s.label[o] == kNone) continue;
-            const std::size_t l = s.label[o];
-            ++r.comp_count[l];
-            r.comp_depth[l] = std::max(r.comp_depth[l], (double(s.zg[s.grown_of(o)]) - s.eo[o]) * c.H);  // as apply_flow
+  std::vector<std::int64_t> diagonal;
+  for (std::int64_t d = 0; d < g.tiles_x + g.tiles_z - 1; ++d) {
+    diagonal.clear();
+    for (std::int64_t Z = std::max<std::int64_t>(0, d - (g.tiles_x - 1)); Z <= std::min(d, g.tiles_z - 1); ++Z)
+      diagonal.push_back(Z * g.tiles_x + (d - Z));
+    detail::ordered_tiles<LocalA>(
+        diagonal,
+        [&](std::int64_t t) {
+          check();
+          LocalA r;
+          SolveRef sr(pool);
+          Solve& s = *sr;
+          prepare(c, bands, load, t % g.tiles_x, t / g.tiles_x, s, false);
+          check_drains(c, s, path);
+          for_band(s.w, [&](int i, int j) { r.band.push_back(s.z[std::size_t(j) * std::size_t(s.w.nx) + std::size_t(i)]); });
+          const std::size_t on = s.rl.size();
+          // np: the next perimeter sample downstream inside the tile (kNone: none), receivers first.
+          s.top.assign(on, 0);
+          for (const std::uint32_t o : s.perimeter) s.top[o] = 1;
+          std::vector<std::uint32_t>& np = s.stack;
+          np.assign(on, kNone);
+          for (std::size_t q = on; q-- > 0;) {
+            const std::uint32_t o = s.order[q], rr = s.rl[o];
+            if (rr != o) np[o] = s.top[rr] ? rr : np[rr];
           }
-        const std::size_t pn = s.perimeter.size();
-        r.cell.resize(pn), r.link_cell.resize(pn), r.acc.resize(pn), r.comp.resize(pn), r.z.resize(pn), r.e.resize(pn);
-        r.cross.resize(pn);
-        for (std::size_t k = 0; k < pn; ++k) {
-          const std::uint32_t o = s.perimeter[k];
-          const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
-          const std::size_t gi = s.grown(oi, oj);
-          r.cell[k] = (s.w.iz0 + oj) * g.nx + s.w.ix0 + oi;
-          r.acc[k] = s.acc[o];
-          r.z[k] = s.zg[gi];
-          r.e[k] = s.eo[o];
-          r.comp[k] = s.label[o];
-          const std::uint32_t rg = s.rec[gi];
-          r.cross[k] = 0;
-          if (rg != gi && owned_of(s, rg) == kNone) {
-            r.cross[k] = 1;
-            r.link_cell[k] = world_index(c, s, rg);
-          } else if (np[o] != kNone) {
-            const int ri = int(np[o] % std::uint32_t(s.onx)), rj = int(np[o] / std::uint32_t(s.onx));
-            r.link_cell[k] = (s.w.iz0 + rj) * g.nx + s.w.ix0 + ri;
-          } else {
-            r.link_cell[k] = -1;
+          r.land = s.land;
+          r.max_acc = s.max_acc;
+          r.comp_count.assign(s.labels, 0);
+          r.comp_depth.assign(s.labels, 0.0);
+          if (s.labels > 0)
+            for (std::uint32_t o = 0; o < on; ++o) {
+              if (s.label[o] == kNone) continue;
+              const std::size_t l = s.label[o];
+              ++r.comp_count[l];
+              r.comp_depth[l] = std::max(r.comp_depth[l], (double(s.zg[s.grown_of(o)]) - s.eo[o]) * c.H);  // as apply_flow
+            }
+          const std::size_t pn = s.perimeter.size();
+          r.cell.resize(pn), r.link_cell.resize(pn), r.acc.resize(pn), r.comp.resize(pn), r.z.resize(pn), r.e.resize(pn);
+          r.cross.resize(pn);
+          for (std::size_t k = 0; k < pn; ++k) {
+            const std::uint32_t o = s.perimeter[k];
+            const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
+            const std::size_t gi = s.grown(oi, oj);
+            r.cell[k] = (s.w.iz0 + oj) * g.nx + s.w.ix0 + oi;
+            r.acc[k] = s.acc[o];
+            r.z[k] = s.zg[gi];
+            r.e[k] = s.eo[o];
+            r.comp[k] = s.label[o];
+            const std::uint32_t rg = s.rec[gi];
+            r.cross[k] = 0;
+            if (rg != gi && owned_of(s, rg) == kNone) {
+              r.cross[k] = 1;
+              r.link_cell[k] = world_index(c, s, rg);
+            } else if (np[o] != kNone) {
+              const int ri = int(np[o] % std::uint32_t(s.onx)), rj = int(np[o] / std::uint32_t(s.onx));
+              r.link_cell[k] = (s.w.iz0 + rj) * g.nx + s.w.ix0 + ri;
+            } else {
+              r.link_cell[k] = -1;
+            }
           }
-        }
-        return r;
-      },
-      [&](std::int64_t t, LocalA r) {
-        ++st.tile_solves;
-        tile_land[std::size_t(t)] = r.land;
-        tile_max_acc[std::size_t(t)] = r.max_acc;
-        nd.base[std::size_t(t)] = nd.cell.size();
-        if (nd.cell.size() + r.cell.size() >= kNone)
-          throw Error("world", "flow: too many tile perimeter samples (more than 2^32 - 1): use larger tiles");
-        const std::uint64_t base = comp.parent.size();
-        comp.base[std::size_t(t)] = base;
-        const std::size_t labels = r.comp_count.size();
-        if (base + labels >= kNone) throw Error("world", "flow: too many depressions (more than 2^32 - 1)");
-        for (std::uint32_t k = 0; k < labels; ++k) comp.parent.push_back(std::uint32_t(base + k));
-        comp.count.insert(comp.count.end(), r.comp_count.begin(), r.comp_count.end());
-        comp.depth.insert(comp.depth.end(), r.comp_depth.begin(), r.comp_depth.end());
-        if (!r.cell.empty() && nd.find(r.cell[0]) != nd.cell.size()) throw Error("world", "flow: internal error, perimeter numbering");
-        nd.cell.insert(nd.cell.end(), r.cell.begin(), r.cell.end());
-        nd.tile.insert(nd.tile.end(), r.cell.size(), std::uint32_t(t));
-        nd.acc.insert(nd.acc.end(), r.acc.begin(), r.acc.end());
-        nd.z.insert(nd.z.end(), r.z.begin(), r.z.end());
-        nd.e.insert(nd.e.end(), r.e.begin(), r.e.end());
-        for (const std::uint32_t l : r.comp) nd.comp.push_back(l == kNone ? kNone : std::uint32_t(base + l));
-        nd.cross.insert(nd.cross.end(), r.cross.begin(), r.cross.end());
-        nd.link_cell.insert(nd.link_cell.end(), r.link_cell.begin(), r.link_cell.end());
-        report(0.1, 0.35, ++merged, tiles);
-      });
+          return r;
+        },
+        [&](std::int64_t t, LocalA r) {
+          ++st.tile_solves;
+          const WorldGrid::Window w = g.window(t % g.tiles_x, t / g.tiles_x);
+          std::size_t q = 0;
+          for_band(w, [&](int i, int j) { bands.set(w.ix0 + i, w.iz0 + j, r.band[q++]); });
+          tile_land[std::size_t(t)] = r.land;
+          tile_max_acc[std::size_t(t)] = r.max_acc;
+          const std::size_t node0 = std::size_t(nd.base[std::size_t(t)]);
+          if (node0 + r.cell.size() != nd.base[std::size_t(t) + 1] || (!r.cell.empty() && nd.find(r.cell[0]) != node0))
+            throw Error("world", "flow: internal error, perimeter numbering");
+          const std::uint64_t base = comp.parent.size();
+          comp.base[std::size_t(t)] = base;
+          const std::size_t labels = r.comp_count.size();
+          if (base + labels >= kNone) throw Error("world", "flow: too many depressions (more than 2^32 - 1)");
+          for (std::uint32_t k = 0; k < labels; ++k) comp.parent.push_back(std::uint32_t(base + k));
+          comp.count.insert(comp.count.end(), r.comp_count.begin(), r.comp_count.end());
+          comp.depth.insert(comp.depth.end(), r.comp_depth.begin(), r.comp_depth.end());
+          std::copy(r.cell.begin(), r.cell.end(), nd.cell.begin() + std::ptrdiff_t(node0));
+          std::fill_n(nd.tile.begin() + std::ptrdiff_t(node0), r.cell.size(), std::uint32_t(t));
+          std::copy(r.acc.begin(), r.acc.end(), nd.acc.begin() + std::ptrdiff_t(node0));
+          std::copy(r.z.begin(), r.z.end(), nd.z.begin() + std::ptrdiff_t(node0));
+          std::copy(r.e.begin(), r.e.end(), nd.e.begin() + std::ptrdiff_t(node0));
+          for (std::size_t k = 0; k < r.comp.size(); ++k) nd.comp[node0 + k] = r.comp[k] == kNone ? kNone : std::uint32_t(base + r.comp[k]);
+          std::copy(r.cross.begin(), r.cross.end(), nd.cross.begin() + std::ptrdiff_t(node0));
+          std::copy(r.link_cell.begin(), r.link_cell.end(), nd.link_cell.begin() + std::ptrdiff_t(node0));
+          report(0.0, 0.35, ++merged, tiles);
+        });
+  }
 
   // Components across tiles: join raised perimeter samples with their raised neighbours in other
   // tiles (a sample next to an owned rectangle but outside it lies on another's perimeter).
