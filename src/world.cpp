@@ -550,9 +550,13 @@ WorldReport build_world(WorldSettings s) {
           }
         return b;
       };
-      std::uint64_t stores = store_estimate(phase_layers[0]);
+      // What a world algorithm keeps on disk besides the stores while its phase runs.
+      auto scratch = [&](std::size_t k) -> std::uint64_t {
+        return phases[k].global ? world_scratch_bytes(*r.stages[phases[k].first].def, grid.nx, grid.nz) : 0;
+      };
+      std::uint64_t stores = store_estimate(phase_layers[0]) + scratch(0);
       for (std::size_t k = 0; k + 1 < phases.size(); ++k)
-        stores = std::max(stores, store_estimate(phase_layers[k]) + store_estimate(phase_layers[k + 1]));
+        stores = std::max(stores, store_estimate(phase_layers[k]) + store_estimate(phase_layers[k + 1]) + scratch(k + 1));
       rep.estimated_store_bytes = store_estimate(phase_layers.back());
       // world.json and report.json (beyond their sizes below), the tiles' lines in world.json,
       // overview.png (3 bytes per pixel).
@@ -1064,6 +1068,7 @@ WorldReport build_world(WorldSettings s) {
         io.cancelled = s.cancelled;
         io.seed = rep.seed;
         io.legend = world_legend(r, ph.first);
+        io.scratch_dir = ph.folder.string();
         return io;
       };
       if (!root) {

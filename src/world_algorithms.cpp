@@ -1,6 +1,7 @@
 // The library's world algorithms (relief/world.hpp): which global stage runs how in a world build,
 // and what every stage guarantees there (world_guarantee). One table, so that `relief explain`,
 // world.json and build_world agree.
+#include <algorithm>
 #include <string>
 #include <vector>
 
@@ -55,6 +56,11 @@ std::map<std::string, WorldStageAlgorithm> default_world_algorithms() {
   std::map<std::string, WorldStageAlgorithm> m;
   for (const WorldAlgorithmEntry& e : world_algorithm_entries()) m.emplace(e.stage, e.make());
   return m;
+}
+
+std::uint64_t world_scratch_bytes(const StageDef& d, std::int64_t nx, std::int64_t nz) {
+  // world_hydraulic's file of the world's heights between its passes (relief/world_bounded.hpp).
+  return d.name == "hydraulic" ? 4 * std::uint64_t(std::max<std::int64_t>(0, nx)) * std::uint64_t(std::max<std::int64_t>(0, nz)) : 0;
 }
 
 WorldGuarantee world_guarantee(const StageDef& d) {

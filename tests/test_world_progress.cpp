@@ -282,3 +282,28 @@ TEST(WorldDryRun, TheCliPrintsTheEstimatesAndBuildsNothing) {
   // A tile size that is not 2^n+1 is still bad input (exit 2).
   EXPECT_EQ(relief::test::relief_cli("world island --size 1025 --tile 200 --dry-run -o " + (d / "w")).code, 2);
 }
+
+// The disk check counts what a world algorithm keeps besides the stores (world_scratch_bytes):
+// hydraulic's file of the world's heights, 4 bytes per sample, in the phase's folder.
+TEST(WorldDisk, HydraulicsTemporaryHeightsAreCounted) {
+  json doc = preset_doc("island");
+  json stages = json::array({doc["stages"][0]});
+  const json without = [&] {
+    json d = doc;
+    d["stages"] = stages;
+    return d;
+  }();
+  stages.push_back(json{{"stage", "hydraulic"}, {"droplets_per_km2", 100}});
+  json with = doc;
+  with["stages"] = stages;
+  TempDir d("world-disk-scratch");
+  auto dry = [&](const json& j) {
+    WorldSettings s = settings(recipe_of(j, 3), 257, 257, 65, d / "w", 1);
+    s.dry_run = true;
+    return build_world(s).estimated_bytes;
+  };
+  const std::uint64_t a = dry(without), b = dry(with);
+  EXPECT_GE(b, a + 4u * 257u * 257u);
+  EXPECT_EQ(world_scratch_bytes(*recipe_of(with, 3).stages[1].def, 257, 257), 4u * 257u * 257u);
+  EXPECT_EQ(world_scratch_bytes(*recipe_of(with, 3).stages[0].def, 257, 257), 0u);
+}

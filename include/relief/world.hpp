@@ -23,11 +23,12 @@
 //   exact    the global stages whose world algorithm is exact (default_world_algorithms(), or
 //            WorldSettings::algorithms): `fill` (tiles solved and their border levels exchanged
 //            until nothing changes, src/world_fill.cpp), `flow` (drainage, rivers, lakes,
-//            relief/world_flow.hpp), a volcano placed on land and `features`
-//            (relief/world_features.hpp). Each runs as a phase of its own over the stored tiles (see
-//            "Phases"), bit for bit as on the whole map.
-//   bounded  `hydraulic` and `stream_power` (relief/world_bounded.hpp): approximations whose seam
-//            error against a whole-map build is measured (tests/test_world_bounded.cpp).
+//            relief/world_flow.hpp), a volcano placed on land, `features`
+//            (relief/world_features.hpp) and `hydraulic` (the whole map's passes over groups of
+//            world blocks, relief/world_bounded.hpp). Each runs as a phase of its own over the stored
+//            tiles (see "Phases"), bit for bit as on the whole map.
+//   bounded  `stream_power` (relief/world_bounded.hpp): an approximation whose seam error against a
+//            whole-map build is measured (tests/test_world_bounded.cpp).
 //   refused  the other global stages (today: tilemap): build_world
 //            throws Error("stages[i]", …) before any work, saying the stage has no world support yet.
 // world_guarantee(stage) says which, and how; world.json and `relief explain` print it.
@@ -251,6 +252,10 @@ struct WorldStageIO {
   // Distributed builds: the ranks that run the phase's tile solves with this one (src/world_farm.hpp;
   // the fill algorithm uses it). Null outside build_world; one rank without MPI.
   detail::TileFarm* farm = nullptr;
+  // A folder on the store's file system for the algorithm's temporary files (the phase's folder;
+  // the disk check counts world_scratch_bytes for it). Empty outside build_world: the system's
+  // temporary folder.
+  std::string scratch_dir;
 };
 // Runs one global stage (`stage`, at `index` in the recipe) over the whole stored world.
 using WorldStageAlgorithm = std::function<void(const WorldStageIO& io, const RecipeStage& stage, int index)>;
@@ -269,6 +274,10 @@ struct WorldGuarantee {
   std::string guarantee, how;
 };
 WorldGuarantee world_guarantee(const StageDef& stage);
+// The disk the library's world algorithm of `stage` uses besides the tile stores while it runs, in
+// WorldStageIO::scratch_dir, for an nx × nz world (hydraulic: the world's heights, 4 bytes per
+// sample; 0 for the others). build_world's disk check adds it to the stores that coexist then.
+std::uint64_t world_scratch_bytes(const StageDef& stage, std::int64_t nx, std::int64_t nz);
 
 struct WorldSettings {
   Recipe recipe;  // parsed and validated; world.size is replaced by nx × nz
