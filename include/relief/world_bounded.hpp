@@ -33,11 +33,22 @@
 //   the passes add 16 reads and writes of the world's heights through the temporary file, each
 //   pass draws the starts of its blocks' droplets of its round only, and a group runs only its
 //   blocks of the pass's colour at once (G²/4 blocks in the vector lanes and threads, hence G ≥ 16
-//   by default). Measured on this 2-core machine (loaded, one run), the droplet work of the passes
-//   in groups against one whole-map run of the stage: 0.7–2.2× (513² and 1025² worlds, tiles of 129
-//   and 257), where the former method (each tile on its window grown by the halo, then blended)
-//   took 1.7–6.3× and missed the seam goal (0.79 % / 0.50 % of the relief on eroded-mountains,
-//   1.35 % / 1.10 % for droplets alone on ridged noise, tiles of 129 / 257, against 0.5 %).
+//   by default). Measured on this 2-core machine (loaded by other work; the hydraulic phase's time
+//   in build_world, 2 threads, droplets alone on the eroded-mountains terrain, two runs each): 513²
+//   world, tiles of 129: 1.0 s against 3.9 s for the former method (each tile on its window grown
+//   by one halo, then blended: 0.26×); tiles of 257: 1.1 s against 1.7 s (0.67×); 1025²: 2.3 s
+//   against 10.3 s (0.22×) and 2.0 s against 4.8 s (0.42×). The former method also missed the seam
+//   goal (RMS within 2 halos of a seam 0.79 % / 0.50 % of the relief on eroded-mountains, 1.35 % /
+//   1.10 % for droplets alone on ridged noise, tiles of 129 / 257, against 0.5 %).
+//   Why not grow the windows further: droplet erosion feeds back on itself (a gully draws the
+//   droplets that deepen it), and a cell after a pass depends on the cells before it up to 4
+//   reaches away (its block grown by the reach), so one window run would have to be grown by up to
+//   64 reaches (16 passes) to be exact. Measured with the former method on 513² worlds, RMS within
+//   2 halos of a seam over the relief for windows grown by 1, 2, 3, 4 halos: droplets alone, tiles
+//   of 129: 1.35, 1.24, 1.10, 0.98 %; tiles of 257: 1.10, 1.17, 1.00, 0.68 %; eroded-mountains,
+//   tiles of 129: 0.79, 0.77, 0.42, 0.40 %; tiles of 257: 0.50, 0.34, 0.27, 0.27 % — a slow, uneven
+//   decay, while the work per tile grows as the window's area (measured: 3.4× the time at 4 halos
+//   for tiles of 129): the goal was out of reach at ≤ 3× the time for droplets alone.
 //
 // stream_power (bounded; exact when the world has at most kStreamPowerCoarseMax samples per axis).
 // Drainage area is global: it accumulates over every sample upstream. So the stage is solved on the
