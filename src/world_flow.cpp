@@ -440,6 +440,10 @@ void check_drains(const Ctx& c, const Solve& s, const std::string& path) {
       const std::int64_t ix = s.w.ix0 + oi, iz = s.w.iz0 + oj;
       if (ix == 0 || iz == 0 || ix == c.g.nx - 1 || iz == c.g.nz - 1) continue;
       const int gi = oi + s.ox0, gj = oj + s.oz0;
+      // A D8 receiver is a strictly lower neighbour (its drop is > 0): only samples without one
+      // (below the sea, or pits) need the test.
+      const std::size_t c0 = std::size_t(gj) * std::size_t(s.gnx) + std::size_t(gi);
+      if (s.rec[c0] != c0) continue;
       float m = std::numeric_limits<float>::infinity();
       for (int k = 0; k < 8; ++k) m = std::min(m, s.zg[std::size_t(gj + hydro::kDj[k]) * std::size_t(s.gnx) + std::size_t(gi + hydro::kDi[k])]);
       const float zc = s.zg[std::size_t(gj) * std::size_t(s.gnx) + std::size_t(gi)];
@@ -997,6 +1001,20 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
   auto wake = [&](std::uint32_t t) {
     if (may_channel[t]) pending[t] = 1;
   };
+  // A tile's cover list reduced to one entry per sample (the largest cover: max is order-free), in
+  // sample order; also while it grows, so that overlapping discs along a border hold it to the
+  // samples they cover.
+  using CoverList = std::vector<std::pair<std::int64_t, float>>;
+  const std::size_t compact_at = std::size_t(1) << 20;
+  auto compact = [](CoverList& cv) {
+    std::sort(cv.begin(), cv.end());  // by sample, then value: the last of a sample is its largest
+    std::size_t n = 0;
+    for (std::size_t q = 0; q < cv.size(); ++q) {
+      if (n > 0 && cv[n - 1].first == cv[q].first) cv[n - 1] = cv[q];
+      else cv[n++] = cv[q];
+    }
+    cv.resize(n);
+  };
   auto solve_s = [&](std::int64_t t) {
     check();
     LocalS r;
@@ -1005,15 +1023,20 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
     prepare(c, bands, load, t % g.tiles_x, t / g.tiles_x, s);
     mark_lakes(c, comp, s, std::uint64_t(t));
     finish(c, nd, s);
+    std::size_t limit_sea = compact_at, limit_any = compact_at;
     if (st.rounds == 1)
       for (std::uint32_t o = 0; o < s.rl.size(); ++o) {
         if (!s.ch[o] || s.lake[o]) continue;
         const std::int64_t i = s.w.ix0 + o % std::uint32_t(s.onx), j = s.w.iz0 + o / std::uint32_t(s.onx);
         each_cover(c, i, j, s.cnt[o], [&](std::int64_t a, std::int64_t b, float v, bool sea_test) {
           if (!(v > 0) || strictly_inside(s, a, b)) return;
-          (sea_test ? r.cover_sea : r.cover_any).emplace_back(b * g.nx + a, v);
+          auto& cv = sea_test ? r.cover_sea : r.cover_any;
+          std::size_t& limit = sea_test ? limit_sea : limit_any;
+          cv.emplace_back(b * g.nx + a, v);
+          if (cv.size() >= limit) compact(cv), limit = std::max(compact_at, 2 * cv.size());
         });
       }
+    compact(r.cover_sea), compact(r.cover_any);
     const std::size_t pn = s.perimeter.size();
     r.chd.resize(pn), r.str.resize(pn), r.ec.resize(pn);
     for (std::size_t k = 0; k < pn; ++k) {
