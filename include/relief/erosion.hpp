@@ -66,10 +66,11 @@ struct HydraulicStats {
 // checkerboard by the world block's parity); blocks of one phase touch disjoint cells. A droplet's
 // round is the top 2 bits of its order key hash(seed, cx, cz, d, 'o'), and each block runs its
 // droplets of the round sequentially in key order. A window therefore runs, in the same order, the
-// subset of the whole map's droplets that start inside it (their results differ only through what
-// droplets starting outside the window did: hydraulic erosion is bounded, not exact, on a window;
-// relief/world_bounded.hpp measures it). The result depends on the parameters, the seed and the
-// window's world position only, never on the thread count.
+// subset of the whole map's droplets that start inside it (their results differ through what
+// droplets starting outside the window did: one run on a window is not exact; run pass by pass,
+// block group by block group, it is: hydraulic_erosion_part below, relief/world_bounded.hpp). The
+// result depends on the parameters, the seed and the window's world position only, never on the
+// thread count.
 // progress(fraction), if given, is called on the calling thread as the work advances (16 times).
 HydraulicStats hydraulic_erosion(float* e, const Frame& f, const HydraulicSettings& s, std::uint64_t seed,
                                  const std::function<void(double)>& progress = {});
