@@ -1259,10 +1259,13 @@ WorldStageAlgorithm world_flow(WorldWaterSink water) {
       if (io.load_layers) return std::move(io.load_layers(X, Z, {"height"}).layers.at("height").data);
       return io.load(X, Z).layers.at("height").data;
     };
+    // Without carving, on a height that drains, the stage's height is its input, bit for bit: the
+    // stored height stays as it is (its coded bytes copied through by io.update, not coded again).
+    bool same_height = p.carve_depth_coeff <= 0;
     const FlowTileStore store = [&](std::int64_t X, std::int64_t Z, FlowTile ft) {
       WorldTile t;
       if (!io.update) t = io.load(X, Z);
-      t.layers["height"] = Layer{1, std::move(ft.height)};
+      if (!(same_height && io.update)) t.layers["height"] = Layer{1, std::move(ft.height)};
       t.layers["flow"] = Layer{1, std::move(ft.flow)};
       t.layers["water"] = Layer{1, std::move(ft.water)};
       if (io.update) io.update(X, Z, std::move(t));
@@ -1287,6 +1290,7 @@ WorldStageAlgorithm world_flow(WorldWaterSink water) {
       flow_tiled_with_progress(g, io.world, p, load, store, want_water ? &rivers : nullptr, io.cancelled, path, {},
                                want_water ? &lakes : nullptr, span(0.0, 1.0));
     } catch (const NotDraining&) {
+      same_height = false;  // filled, and lake floors under their water
       const double from = reached, mid = reached + (1.0 - reached) * 0.4;
       // No fill stage before this one: fill as apply_flow does (fill_depressions_tiled gives the
       // whole world's hydro::fill_depressions). Only each tile's final border levels are kept; a
