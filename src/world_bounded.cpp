@@ -9,6 +9,7 @@
 //   onto the fine input.
 #include "relief/world_bounded.hpp"
 
+#include <fcntl.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -57,17 +58,27 @@ erosion::HydraulicSettings hydraulic_settings(const json& p) {
 }
 
 // The world's heights between the passes: one float per sample, row-major, in a temporary file of
-// the temporary folder (std::filesystem::temp_directory_path: $TMPDIR, else /tmp) that is unlinked
-// as soon as it is opened, so that it disappears when closed or when the process ends, killed or not.
+// `dir` (WorldStageIO::scratch_dir; when empty the temporary folder, std::filesystem::
+// temp_directory_path(): $TMPDIR, else /tmp) that has no name (O_TMPFILE; where the file system
+// cannot, one made with mkstemp and unlinked at once), so that it disappears when closed or when the
+// process ends, killed or not.
 class Scratch {
  public:
-  Scratch(std::int64_t nx, std::int64_t nz) : nx_(nx) {
-    std::error_code ec;
-    const std::filesystem::path dir = std::filesystem::temp_directory_path(ec);
-    std::string name = ((ec ? std::filesystem::path("/tmp") : dir) / "relief-hydraulic-XXXXXX").string();
-    fd_ = ::mkstemp(name.data());
-    if (fd_ < 0) fail("create " + name + " as");
-    ::unlink(name.c_str());
+  Scratch(std::string dir, std::int64_t nx, std::int64_t nz) : nx_(nx) {
+    if (dir.empty()) {
+      std::error_code ec;
+      const std::filesystem::path t = std::filesystem::temp_directory_path(ec);
+      dir = ec ? std::string("/tmp") : t.string();
+    }
+#ifdef O_TMPFILE
+    fd_ = ::open(dir.c_str(), O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);
+#endif
+    if (fd_ < 0) {
+      std::string name = (std::filesystem::path(dir) / "relief-hydraulic-XXXXXX").string();
+      fd_ = ::mkstemp(name.data());
+      if (fd_ < 0) fail("create, in " + dir + ",");
+      ::unlink(name.c_str());
+    }
     if (::ftruncate(fd_, off_t(nx * nz * 4)) != 0) {
       const int err = errno;
       ::close(fd_);
@@ -130,7 +141,7 @@ WorldStageAlgorithm world_hydraulic(std::uint64_t seed, int group_blocks) {
       done += 1;
       if (io.progress) io.progress(std::min(1.0, done / steps));
     };
-    Scratch scratch(g.nx, g.nz);
+    Scratch scratch(io.scratch_dir, g.nx, g.nz);
     for (std::int64_t Z = 0; Z < g.tiles_z; ++Z)
       for (std::int64_t X = 0; X < g.tiles_x; ++X) {
         check_cancelled(io);

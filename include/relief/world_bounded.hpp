@@ -20,15 +20,15 @@
 // (clipped to the world), running only that group's blocks of the pass
 // (erosion::hydraulic_erosion_part): every pass gives, group by group, the whole map's pass bit for
 // bit, and so does the result. Between passes the world's heights live in a temporary file (4 bytes
-// per world sample) in the temporary folder (std::filesystem::temp_directory_path(): $TMPDIR, else
-// /tmp), unlinked as soon as it is opened, so it disappears when the process ends, even when
-// killed: it is filled from the input tiles, updated group by group, and the tiles are written from
-// it at the end (io.update with the height layer only, else load and store). A killed build redoes
-// the phase from its input tiles.
+// per world sample, world_scratch_bytes) in io.scratch_dir (build_world: the phase's folder, on the
+// store's file system; when empty, the temporary folder: std::filesystem::temp_directory_path(),
+// $TMPDIR, else /tmp). The file has no name (O_TMPFILE, else mkstemp and unlinked at once), so it
+// disappears when the process ends, even when killed: it is filled from the input tiles, updated
+// group by group, and the tiles are written from it at the end (io.update with the height layer
+// only, else load and store). A killed build redoes the phase from its input tiles.
 //   Memory: one group's window, (G·block + 2·reach + 2)² floats, and the stage's per-block droplet
-//   starts; not the world (unless the temporary folder is in memory, e.g. a tmpfs /tmp: then point
-//   TMPDIR to a disk). Disk: the temporary file (world samples × 4 bytes) besides the store, not
-//   counted by build_world's disk check.
+//   starts; not the world. Disk: the temporary file (world samples × 4 bytes) besides the stores;
+//   build_world's disk check counts it.
 //   Time: the droplets are the whole map's, once each (no grown windows: nothing is computed twice);
 //   the passes add 16 reads and writes of the world's heights through the temporary file, each
 //   pass draws the starts of its blocks' droplets of its round only, and a group runs only its
