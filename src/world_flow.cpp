@@ -718,7 +718,7 @@ WorldFlowParams world_flow_params(const json& j) {
 
 namespace {
 // flow_tiled with progress (WorldStageIO::progress): the passes over every tile take fixed spans of
-// [0, 1] (pass 0 [0, 0.1), pass A [0.1, 0.35), pass S [0.35, 0.7), the final pass [0.7, 1]), each
+// [0, 1] (pass A [0, 0.35), pass S [0.35, 0.7), the final pass [0.7, 1]), each
 // split by the tiles it has merged; pass S's rounds split its span as fill_depressions_tiled's
 // rounds split [0, 1] (round r: [1 − 2^(1−r), 1 − 2^(−r)) of the span), since their count is not
 // known in advance. Reported from the merges (one thread at a time), never decreasing, 1 at the end.
@@ -955,8 +955,10 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
   std::vector<std::uint64_t> ext_sum(std::size_t(tiles), 0);
   for (std::size_t k = 0; k < nn; ++k) ext_sum[nd.tile[k]] += nd.ext[k];
   std::vector<std::uint8_t> may_channel(std::size_t(tiles), 0);
-  for (std::size_t t = 0; t < std::size_t(tiles); ++t)
+  for (std::size_t t = 0; t < std::size_t(tiles); ++t) {
     may_channel[t] = tile_land[t] && double(std::uint64_t(tile_max_acc[t]) + ext_sum[t]) >= c.threshold_cells;
+    st.channel_tiles += may_channel[t];
+  }
   // each_cover's distances up to the widest river's disc radius (a bound: the largest local count
   // plus all inflow of a tile bounds its counts), when that table is at most 2^21 entries.
   {

@@ -198,6 +198,13 @@ TEST(FlowTiled, IslandLayersEqualTheWholeMapAtSeveralTileSizes) {
       EXPECT_GT(st.rounds, 1);  // orders and carving crossed tiles
     }
     EXPECT_EQ(st.tiles, std::int64_t(a.stores.size()));
+    // Pass A and the final pass solve every tile once; pass S only the tiles where a channel may
+    // be, at most once a round. In small tiles some are all sea: they have none.
+    EXPECT_GT(st.channel_tiles, 0);
+    EXPECT_LE(st.tile_solves - 2 * st.tiles, st.channel_tiles * st.rounds);
+    if (tile <= 17) {
+      EXPECT_LT(st.channel_tiles, st.tiles);
+    }
   }
 }
 

@@ -27,34 +27,42 @@
 // Method. Ownership: tile (X, Z) owns the samples of its window minus its last column and row,
 // except the last tile of a row or column, which owns them too: the owned rectangles partition the
 // world. Receivers (D8, hydro::d8_receivers) of a tile's owned samples come from its window grown by
-// one sample, the halo read from "bands": the heights within one sample of every inner tile border,
-// gathered in a first pass (3 · (nz·(tiles_x−1) + nx·(tiles_z−1)) floats).
-//   Pass A (each tile once): local accumulation inside the owned rectangle; every perimeter sample p
-//     of it becomes a node with its local count and its link: the next perimeter sample downstream
-//     inside the tile, or (an "exit") its receiver in the neighbouring tile.
+// one sample, the halo read from "bands": the heights within one sample of every inner tile border
+// (3 · (nz·(tiles_x−1) + nx·(tiles_z−1)) floats), which each tile sets in pass A.
+//   Pass A (each tile once, by anti-diagonals X + Z: a tile's halo lies in the tiles left of and
+//     above it, which earlier diagonals solved): local accumulation inside the owned rectangle;
+//     every perimeter sample p of it becomes a node with its local count and its link: the next
+//     perimeter sample downstream inside the tile, or (an "exit") its receiver in the neighbouring
+//     tile. Per tile result: its band heights, its nodes (node order), its components of raised
+//     samples (count, max depth), whether it has land and its largest local count.
 //   Global solve: a topological pass over the perimeter graph gives each node its inflow from
 //     other tiles (64-bit integers; exact, order-free).
-//   Pass S (rounds until no perimeter value changes, as the tiled fill does): each tile
-//     finishes counts from its entries' inflows, then channels, Strahler orders (the orders of
-//     channel donors in other tiles as known so far: they only rise) and carving (the carved
-//     heights of receivers in other tiles as known so far, starting uncarved: they only fall).
-//     Both are monotone over a finite acyclic graph, so the rounds stop at the exact values.
+//   Pass S (rounds until no perimeter value changes, as the tiled fill does), only over the tiles
+//     where a channel may be (some land, and the largest local count plus all inflow from other
+//     tiles at the threshold; the others keep their initial perimeter values whatever happens):
+//     each tile finishes counts from its entries' inflows, then channels, Strahler orders (the
+//     orders of channel donors in other tiles as known so far: they only rise) and carving (the
+//     carved heights of receivers in other tiles as known so far, starting uncarved: they only
+//     fall). Both are monotone over a finite acyclic graph, so the rounds stop at the exact values.
+//     Per tile result: its perimeter nodes' channel donors, orders and carved heights.
 //   Pass W (in pass S's first round): every river disc's cover of a sample that is not inside the
-//     disc's own owned rectangle goes into a map by world sample (the disc radius is unbounded a
-//     priori, so no fixed halo).
+//     disc's own owned rectangle (one entry per sample, the largest) goes into a map by world sample
+//     (the disc radius is unbounded a priori, so no fixed halo); bucketed by tile before the final pass.
 //   Final pass: each tile's layers, from its own solve, the perimeter nodes (shared samples it does
-//     not own) and the cover map.
-// Threads: every pass solves tiles concurrently on the calling task arena's threads (pass S and the
-// tiled fill by classes of tiles that are never neighbours, X mod 2 and Z mod 2) and merges their
-// results in a fixed order, so the bits, the stats and the order of the store calls are the same
-// for any thread count.
-// Memory: up to two tiles in flight per thread, each a grown tile and its solve (about 40 bytes a
-// sample), plus about 70 bytes per
-// perimeter sample of the owned rectangles (4·T per tile: 16.8 M samples, ~1.2 GB, for a 65537²
-// world in tiles of 1025), the height bands, the cover map (samples within a disc radius of tile
-// borders, ~40 bytes each), all river vertices and, with lakes, the samples of all kept lakes.
-// Time: each tile is solved 3 times or more (A, S rounds, final); pass S's rounds are bounded
-// by the longest chain of tile crossings along a river whose order or carving changes.
+//     not own) and its cover entries. Per tile result: its layers, river pieces and lake samples.
+// Threads: every pass solves tiles concurrently on the calling task arena's threads (pass A by
+// diagonals, pass S and the tiled fill by classes of tiles that are never neighbours, X mod 2 and
+// Z mod 2) and merges their results in a fixed order, so the bits, the stats and the order of the
+// store calls are the same for any thread count.
+// Memory: up to two tiles in flight per thread plus as many kept for reuse, each a grown tile and
+// its solve (about 60 bytes a sample: ~60 MB in tiles of 1025), plus about 70 bytes per perimeter
+// sample of the owned rectangles (4·T per tile: 16.8 M samples, ~1.2 GB, for a 65537² world in
+// tiles of 1025), the height bands, the cover map (samples within a disc radius of tile borders,
+// ~40 bytes each), a table of disc distances (at most 16 MiB), all river vertices and, with lakes,
+// the samples of all kept lakes.
+// Time: each tile is loaded and solved twice (A, final), plus once per pass-S round that needs it;
+// pass S's rounds are bounded by the longest chain of tile crossings along a river whose order or
+// carving changes.
 #include <cstdint>
 #include <functional>
 #include <string>
@@ -92,6 +100,7 @@ struct TiledFlowStats {
   std::int64_t cross_links = 0;       // exits: samples draining into another tile
   int rounds = 0;                     // pass S rounds (the last one changes nothing)
   std::int64_t tile_solves = 0;       // tile solves in all passes
+  std::int64_t channel_tiles = 0;     // tiles where a channel may be (the only ones pass S solves)
   std::uint64_t max_count = 0;        // largest drainage count (samples)
   std::size_t cover_cells = 0;        // entries of the cross-tile river cover map
   std::size_t river_pieces = 0;       // river pieces traced in tiles (when rivers were asked for)
