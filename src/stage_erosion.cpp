@@ -62,12 +62,12 @@ void apply_hydraulic(Terrain& t, const HydraulicParams& p, const Context& ctx) {
   erosion::hydraulic_erosion(h.data.data(), t.frame, p, ctx.stage_seed(0x6879647261756cull), stage_progress(ctx, "hydraulic"));
 }
 
-// Global, but bounded: a droplet moves at most lifetime · step_m from its start and erodes within
-// brush_radius_m of its path. Droplets are defined by world position (erosion.hpp), so a window
-// runs the whole map's droplets that start inside it, in the same order; world_hydraulic
-// (relief/world_bounded.hpp) runs the stage on each tile grown by this halo, with a measured seam
-// error. run() still refuses the stage on a window: droplets starting outside it are missing, so
-// its result there is not the whole map's bits.
+// Global: a droplet moves at most lifetime · step_m from its start and erodes within
+// brush_radius_m of its path, but each droplet runs over what the droplets before it left, so the
+// stage's result at a sample depends on the whole map through its 16 passes. run() refuses the stage
+// on a window (one run on a window grown by this halo is not the whole map's bits); world_hydraulic
+// (relief/world_bounded.hpp) is exact by running the passes one after another over the whole world,
+// each on groups of world blocks grown by the reach (erosion::hydraulic_erosion_part).
 constexpr const char* kHydraulicWhy =
     "droplets start anywhere on the map, one after another, each changing the map the next one runs over";
 Reach hydraulic_reach(const HydraulicParams& p, const Frame& f) {

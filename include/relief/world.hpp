@@ -246,8 +246,9 @@ struct WorldStageIO {
   // in-order merges). Null when nobody listens. The library's algorithms: fill (rounds until no
   // border level changes: round r spans [1 − 2^(1−r), 1 − 2^(−r)), split by the tiles solved in the
   // round), flow (its passes over every tile take fixed spans; its Strahler/carving rounds split
-  // their span as fill's rounds do), volcano, features and hydraulic (a step per tile they store,
-  // in order), stream power (its gathering pass [0, 0.3), coarse solve to 0.4, writing pass [0.4, 1]).
+  // their span as fill's rounds do), volcano and features (a step per tile they store, in order),
+  // hydraulic (a step per tile read, per group of blocks of each of its 16 passes, per tile written),
+  // stream power (its gathering pass [0, 0.3), coarse solve to 0.4, writing pass [0.4, 1]).
   std::function<void(double fraction)> progress;
   // Distributed builds: the ranks that run the phase's tile solves with this one (src/world_farm.hpp;
   // the fill algorithm uses it). Null outside build_world; one rank without MPI.
