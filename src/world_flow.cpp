@@ -419,7 +419,7 @@ void prepare(const Ctx& c, Bands& bands, const TileLoad& load, std::int64_t X, s
 // Marks the owned samples in kept lakes (after the components are joined).
 void mark_lakes(const Ctx& c, const Components& comp, Solve& s, std::uint64_t tile) {
   s.lake.assign(s.rl.size(), 0);
-  if (!c.p.lakes) return;
+  if (!c.p.lakes || s.labels == 0) return;
   for (std::size_t o = 0; o < s.rl.size(); ++o)
     if (s.label[o] != kNone) s.lake[o] = comp.kept[comp.root(std::uint32_t(comp.base[tile] + s.label[o]))];
 }
