@@ -17,12 +17,14 @@
 #include <cmath>
 #include <cstring>
 #include <filesystem>
+#include <memory>
 #include <string>
 #include <system_error>
 
 #include "relief/erosion.hpp"
 #include "relief/error.hpp"
 #include "relief/stage.hpp"
+#include "world_farm.hpp"
 
 namespace relief {
 namespace {
@@ -116,7 +118,50 @@ class Scratch {
   std::int64_t nx_ = 0;
 };
 
+// One group of one pass as a farm task (src/world_farm.hpp): the input is the job and the group's
+// window of heights as the pass found them; the result, the samples the pass changed (a byte per
+// window sample, 1: changed, then their new values in row-major order). Groups of a pass change
+// disjoint samples, and each reads none that another changes (relief/erosion.hpp), so the result
+// does not depend on which of the pass's other groups were merged when its window was read, and
+// writing only the changed samples leaves every other group's changes in place.
+struct HydraulicJob {
+  std::uint64_t stage_seed = 0;
+  std::int64_t pass = 0, bx0 = 0, bx1 = 0, bz0 = 0, bz1 = 0, x0 = 0, z0 = 0, wnx = 0, wnz = 0;
+};
+constexpr std::size_t kHydraulicJobBytes = sizeof(HydraulicJob);
+
+detail::FarmKernel hydraulic_kernel(const Frame& W, const erosion::HydraulicSettings& s) {
+  return [W, s](std::int64_t, std::string_view in) {
+    if (in.size() < kHydraulicJobBytes) throw std::runtime_error("world transport: a hydraulic task of " + std::to_string(in.size()) + " bytes");
+    HydraulicJob j;
+    std::memcpy(&j, in.data(), kHydraulicJobBytes);
+    const std::size_t n = std::size_t(j.wnx) * std::size_t(j.wnz);
+    if (j.wnx < 1 || j.wnz < 1 || j.pass < 0 || j.pass > 15 || in.size() != kHydraulicJobBytes + 4 * n)
+      throw std::runtime_error("world transport: a malformed hydraulic task");
+    std::vector<float> e(n);
+    std::memcpy(e.data(), in.data() + kHydraulicJobBytes, 4 * n);
+    erosion::HydraulicPart part;
+    part.first_pass = int(j.pass), part.passes = 1;
+    part.bx0 = j.bx0, part.bx1 = j.bx1, part.bz0 = j.bz0, part.bz1 = j.bz1;
+    erosion::hydraulic_erosion_part(e.data(), W.window(j.x0, j.z0, int(j.wnx), int(j.wnz)), s, j.stage_seed, part);
+    std::string out(n, '\0');
+    const char* before = in.data() + kHydraulicJobBytes;
+    for (std::size_t q = 0; q < n; ++q)
+      if (std::memcmp(&e[q], before + 4 * q, 4) != 0) {
+        out[q] = 1;
+        out.append(reinterpret_cast<const char*>(&e[q]), 4);
+      }
+    return out;
+  };
+}
+
 }  // namespace
+
+namespace detail {
+FarmKernel hydraulic_farm_kernel(const WorldStageIO& io, const RecipeStage& st) {
+  return hydraulic_kernel(io.world, hydraulic_settings(st.stage->params()));
+}
+}  // namespace detail
 
 WorldStageAlgorithm world_hydraulic(std::uint64_t seed, int group_blocks) {
   if (group_blocks < 0)
@@ -132,8 +177,11 @@ WorldStageAlgorithm world_hydraulic(std::uint64_t seed, int group_blocks) {
     const std::int64_t reach = erosion::hydraulic_reach_cells(s, W.cell_m()), B = 2 * reach;
     // World blocks cover the world's cells [0, n − 1) along each axis.
     const std::int64_t nbx = (g.nx - 2) / B + 1, nbz = (g.nz - 2) / B + 1;
-    const std::int64_t G =
-        group_blocks > 0 ? group_blocks : std::max<std::int64_t>(kHydraulicGroupBlocks, (g.tile - 1 + B - 1) / B);
+    std::int64_t G = group_blocks > 0 ? group_blocks : std::max<std::int64_t>(kHydraulicGroupBlocks, (g.tile - 1 + B - 1) / B);
+    // A distributed build: groups halved (down to 2 blocks) until each pass has at least 4 per rank,
+    // so that every rank gets some (the bytes do not depend on G).
+    const int ranks = io.farm ? io.farm->ranks() : 1;
+    while (group_blocks == 0 && ranks > 1 && G > 2 && ((nbx + G - 1) / G) * ((nbz + G - 1) / G) < 4 * ranks) G = (G + 1) / 2;
     const std::int64_t ngx = (nbx + G - 1) / G, ngz = (nbz + G - 1) / G;
     const double steps = double(g.count()) * 2 + 16.0 * double(ngx * ngz);
     double done = 0;
@@ -150,29 +198,63 @@ WorldStageAlgorithm world_hydraulic(std::uint64_t seed, int group_blocks) {
         scratch.write(w.ix0, w.iz0, w.nx, w.nz, in.layers.at("height").data.data());
         step();
       }
-    // The 16 passes in order; in each, the groups of G × G blocks one after another, each on its
-    // blocks' cells grown by the reach (and one sample), clipped to the world.
-    std::vector<float> e;
-    for (int pass = 0; pass < 16; ++pass)
-      for (std::int64_t gz = 0; gz < ngz; ++gz)
-        for (std::int64_t gx = 0; gx < ngx; ++gx) {
-          check_cancelled(io);
-          erosion::HydraulicPart part;
-          part.first_pass = pass, part.passes = 1;
-          part.bx0 = gx * G, part.bx1 = std::min(nbx, (gx + 1) * G);
-          part.bz0 = gz * G, part.bz1 = std::min(nbz, (gz + 1) * G);
-          const std::int64_t x0 = std::max<std::int64_t>(0, part.bx0 * B - reach);
-          const std::int64_t x1 = std::min<std::int64_t>(g.nx - 1, part.bx1 * B + reach + 1);
-          const std::int64_t z0 = std::max<std::int64_t>(0, part.bz0 * B - reach);
-          const std::int64_t z1 = std::min<std::int64_t>(g.nz - 1, part.bz1 * B + reach + 1);
-          const int wnx = int(x1 - x0 + 1), wnz = int(z1 - z0 + 1);
-          e.resize(std::size_t(wnx) * std::size_t(wnz));
-          scratch.read(x0, z0, wnx, wnz, e.data());
-          erosion::hydraulic_erosion_part(e.data(), W.window(x0, z0, wnx, wnz), s, stage_seed, part);
-          scratch.write(x0, z0, wnx, wnz, e.data());
-          step();
-        }
-    std::vector<float>().swap(e);
+    // The 16 passes in order; in each, the groups of G × G blocks, each on its blocks' cells grown
+    // by the reach (and one sample), clipped to the world: farm tasks (src/world_farm.hpp), run on
+    // this rank's threads or on other ranks (a distributed build), merged in group order.
+    std::unique_ptr<detail::WorldTransport> alone;  // no farm (outside build_world): this process's
+    std::unique_ptr<detail::TileFarm> own;
+    detail::TileFarm* farm = io.farm;
+    if (!farm) {
+      alone = detail::in_process_transport();
+      own = std::make_unique<detail::TileFarm>(*alone);
+      farm = own.get();
+    }
+    const detail::FarmKernel kernel = hydraulic_kernel(W, s);
+    std::vector<std::int64_t> groups(static_cast<std::size_t>(ngx * ngz));
+    for (std::int64_t q = 0; q < ngx * ngz; ++q) groups[std::size_t(q)] = q;
+    for (int pass = 0; pass < 16; ++pass) {
+      auto job_of = [&](std::int64_t q) {
+        HydraulicJob j;
+        j.stage_seed = stage_seed;
+        j.pass = pass;
+        const std::int64_t gx = q % ngx, gz = q / ngx;
+        j.bx0 = gx * G, j.bx1 = std::min(nbx, (gx + 1) * G);
+        j.bz0 = gz * G, j.bz1 = std::min(nbz, (gz + 1) * G);
+        j.x0 = std::max<std::int64_t>(0, j.bx0 * B - reach);
+        j.z0 = std::max<std::int64_t>(0, j.bz0 * B - reach);
+        j.wnx = std::min<std::int64_t>(g.nx - 1, j.bx1 * B + reach + 1) - j.x0 + 1;
+        j.wnz = std::min<std::int64_t>(g.nz - 1, j.bz1 * B + reach + 1) - j.z0 + 1;
+        return j;
+      };
+      farm->run(
+          "hydraulic", groups,
+          [&](std::int64_t q) {
+            check_cancelled(io);
+            const HydraulicJob j = job_of(q);
+            std::string in(kHydraulicJobBytes + 4 * std::size_t(j.wnx) * std::size_t(j.wnz), '\0');
+            std::memcpy(in.data(), &j, kHydraulicJobBytes);
+            scratch.read(j.x0, j.z0, int(j.wnx), int(j.wnz), reinterpret_cast<float*>(in.data() + kHydraulicJobBytes));
+            return in;
+          },
+          kernel,
+          [&](std::int64_t q, std::string out) {
+            const HydraulicJob j = job_of(q);
+            const std::size_t n = std::size_t(j.wnx) * std::size_t(j.wnz);
+            if (out.size() < n) throw std::runtime_error("world transport: a malformed hydraulic result");
+            std::size_t changed = 0;
+            for (std::size_t k = 0; k < n; ++k) changed += out[k] != 0;
+            if (out.size() != n + 4 * changed) throw std::runtime_error("world transport: a malformed hydraulic result");
+            if (changed > 0) {  // the changed samples written over the window as it is now
+              std::vector<float> e(n);
+              scratch.read(j.x0, j.z0, int(j.wnx), int(j.wnz), e.data());
+              const char* v = out.data() + n;
+              for (std::size_t k = 0; k < n; ++k)
+                if (out[k]) std::memcpy(&e[k], v, 4), v += 4;
+              scratch.write(j.x0, j.z0, int(j.wnx), int(j.wnz), e.data());
+            }
+            step();
+          });
+    }
     for (std::int64_t Z = 0; Z < g.tiles_z; ++Z)
       for (std::int64_t X = 0; X < g.tiles_x; ++X) {
         check_cancelled(io);

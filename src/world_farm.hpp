@@ -6,7 +6,9 @@
 // few kilobytes), the rank that runs it loads the tile from the shared store, solves it, writes what
 // the tile stores itself and sends back the small result (the perimeter values it found), and rank 0
 // merges the results in the batch's order. So the bytes are those of a build in one process for any
-// rank count, and only perimeters cross the transport.
+// rank count, and only perimeters cross the transport (hydraulic: a group's window of heights and
+// the samples it changed). Inputs and results hold raw floats and integers: the ranks must share one
+// architecture (as MPI_BYTE messages assume).
 //
 // A kernel is a pure function of (tile, input bytes): the same code runs a solve on rank 0 and on the
 // other ranks. The other ranks know no algorithm state: they make kernels from the stage and their own
@@ -82,8 +84,10 @@ class TileFarm {
 };
 
 // The kernel `name` of a distributed world algorithm, made from the stage and a rank's own io (the
-// library's: "fill", src/world_fill.cpp). Throws for an unknown name.
+// library's: "fill", src/world_fill.cpp; "hydraulic", src/world_bounded.cpp). Throws for an unknown
+// name.
 FarmKernel make_farm_kernel(const std::string& name, const WorldStageIO& io, const RecipeStage& stage);
-FarmKernel fill_farm_kernel(const WorldStageIO& io, const RecipeStage& stage);  // "fill" (src/world_fill.cpp)
+FarmKernel fill_farm_kernel(const WorldStageIO& io, const RecipeStage& stage);       // "fill" (src/world_fill.cpp)
+FarmKernel hydraulic_farm_kernel(const WorldStageIO& io, const RecipeStage& stage);  // "hydraulic" (src/world_bounded.cpp)
 
 }  // namespace relief::detail

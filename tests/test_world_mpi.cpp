@@ -240,6 +240,30 @@ TEST(WorldMpi, TheCliWithTheFillStageIsTheSameOnTwoAndFourRanks) {
   }
 }
 
+// Droplet erosion's passes (relief/world_bounded.hpp) spread over the ranks: each rank runs groups of
+// world blocks on the windows rank 0 sends and sends back the samples they changed; the store is the
+// bytes of a build without MPI (which are the whole map's: tests/test_world_bounded.cpp).
+TEST(WorldMpi, HydraulicPassesSpreadOverTwoRanksGiveTheSameBytes) {
+  REQUIRE_MPI();
+  TempDir d("world-mpi-hydraulic");
+  relief::json doc = relief::load_preset("island");
+  doc["stages"] = relief::json::array({doc["stages"][0], doc["stages"][1], doc["stages"][2],
+                                       relief::json{{"stage", "hydraulic"}, {"droplets_per_km2", 2000}}});
+  relief::test::write_text(d.path / "hydraulic.json", doc.dump());
+  const std::string args = "world " + (d / "hydraulic.json") + " --size 1025 --tile 257 --seed 3 -q -j 1";
+  const Shell ref = relief::test::relief_cli(args + " -o " + (d / "ref"));
+  ASSERT_EQ(ref.code, 0) << ref.out;
+  ASSERT_EQ(relief::read_world_manifest(d / "ref")["stages"][3]["world"], "exact");
+  const Shell r = mpirun(2, args + " -o " + (d / "p2"));
+  ASSERT_EQ(r.code, 0) << r.out;
+  expect_same_store(d.path / "ref", d.path / "p2");
+  std::int64_t sum = 0;
+  const std::vector<std::int64_t> by_rank = global_solves(d.path / "p2", sum);
+  ASSERT_EQ(by_rank.size(), 2u);
+  EXPECT_GE(sum, 16);  // 16 passes, several groups each (smaller groups with more ranks)
+  EXPECT_GT(by_rank[1], 0);
+}
+
 // A store left unfinished (tiles missing, the manifest still "building") by a build without MPI
 // is finished by a distributed one, which skips the tiles that are there.
 TEST(WorldMpi, ADistributedBuildResumesAnUnfinishedStore) {

@@ -26,6 +26,11 @@
 // disappears when the process ends, even when killed: it is filled from the input tiles, updated
 // group by group, and the tiles are written from it at the end (io.update with the height layer
 // only, else load and store). A killed build redoes the phase from its input tiles.
+//   Distributed (WorldStageIO::farm, src/world_farm.hpp): a pass's groups are farm tasks — rank 0
+//   sends a group's window of heights as the pass found it, the rank that runs it sends back the
+//   samples it changed, and rank 0 writes them into the file in group order (groups of a pass change
+//   disjoint samples and read none that another changes, so the order of reading does not matter).
+//   With several ranks the automatic G is halved (down to 2) until a pass has 4 groups per rank.
 //   Memory: one group's window, (G·block + 2·reach + 2)² floats, and the stage's per-block droplet
 //   starts; not the world. Disk: the temporary file (world samples × 4 bytes) besides the stores;
 //   build_world's disk check counts it.
