@@ -250,7 +250,7 @@ TEST(WorldMpi, HydraulicPassesSpreadOverTwoRanksGiveTheSameBytes) {
   doc["stages"] = relief::json::array({doc["stages"][0], doc["stages"][1], doc["stages"][2],
                                        relief::json{{"stage", "hydraulic"}, {"droplets_per_km2", 2000}}});
   relief::test::write_text(d.path / "hydraulic.json", doc.dump());
-  const std::string args = "world " + (d / "hydraulic.json") + " --size 1025 --tile 257 --seed 3 -q -j 1";
+  const std::string args = "world " + (d / "hydraulic.json") + " --size 513 --tile 129 --seed 3 -q -j 1";
   const Shell ref = relief::test::relief_cli(args + " -o " + (d / "ref"));
   ASSERT_EQ(ref.code, 0) << ref.out;
   ASSERT_EQ(relief::read_world_manifest(d / "ref")["stages"][3]["world"], "exact");
