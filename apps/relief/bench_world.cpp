@@ -166,10 +166,16 @@ void bench_world_mpi(const BenchSettings& s, json& entries, int n, const std::fi
     e["tile"] = tile;
     std::ifstream rf(out / "report.json");
     const json report = json::parse(rf, nullptr, false);
-    if (report.is_object() && report.contains("tiles")) e["built_by_rank"] = report["tiles"].value("built_by_rank", json::array());
+    if (report.is_object() && report.contains("tiles")) {
+      e["built_by_rank"] = report["tiles"].value("built_by_rank", json::array());
+      e["global_solves_by_rank"] = report["tiles"].value("global_solves_by_rank", json::array());
+    }
     if (ranks == 2) e["ratio_to_1_rank"] = ms[1] / ms[0];
     print_row(e);
-    if (ranks == 2) std::printf("  2 ranks take %.2fx the time of 1 (global stages run on rank 0)\n", ms[1] / ms[0]);
+    if (ranks == 2)
+      std::printf("  2 ranks take %.2fx the time of 1 (local phases and fill's tile solves spread over the ranks; flow's on rank 0); "
+                  "global solves by rank %s\n",
+                  ms[1] / ms[0], e.value("global_solves_by_rank", json::array()).dump().c_str());
     entries.push_back(e);
   }
 }
