@@ -84,14 +84,6 @@ std::exception_ptr decode_failure(Reader& r, int rank) {
   return std::make_exception_ptr(std::runtime_error("rank " + std::to_string(rank) + ": " + message));
 }
 
-// Sleeps between polls, 10 µs doubling to 200 µs (as WorkHandout's server).
-struct Backoff {
-  int us = 10;
-  void wait() {
-    std::this_thread::sleep_for(std::chrono::microseconds(us));
-    us = std::min(200, us * 2);
-  }
-};
 
 }  // namespace
 

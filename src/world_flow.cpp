@@ -201,7 +201,7 @@ struct Solve {
   // scratch
   std::vector<float> z;             // the loaded tile
   std::vector<std::uint64_t> b;     // inflow from other tiles through each sample
-  std::vector<std::uint8_t> top, donors;
+  std::vector<std::uint8_t> top;
   std::vector<std::uint32_t> stack;
 
   std::size_t grown(int oi, int oj) const { return std::size_t(oj + oz0) * std::size_t(gnx) + std::size_t(oi + ox0); }
@@ -274,34 +274,11 @@ std::uint32_t owned_of(const Solve& s, std::uint32_t gi) {
   return std::uint32_t(j) * std::uint32_t(s.onx) + std::uint32_t(i);
 }
 
-// hydro::flow_order's order and counts (the same algorithm: chains followed downstream from the
-// sources), with the donor counts in the solve's scratch instead of a fresh array.
+// The local flow order and counts of the owned rectangle (hydro::flow_order).
 void local_order(Solve& s) {
-  const std::size_t n = s.rl.size();
-  const std::uint32_t* rec = s.rl.data();
-  s.donors.assign(n, 0);
-  std::uint8_t* donors = s.donors.data();
-  for (std::size_t c = 0; c < n; ++c)
-    if (rec[c] != c) ++donors[rec[c]];
-  s.acc.assign(n, 1);
-  std::uint32_t* count = s.acc.data();
-  s.order.resize(n);
-  std::uint32_t* order = s.order.data();
-  std::size_t w = 0;
-  for (std::size_t c = 0; c < n; ++c) {
-    if (donors[c] != 0) continue;
-    std::uint32_t x = std::uint32_t(c);
-    for (;;) {
-      donors[x] = 0xFF;
-      order[w++] = x;
-      const std::uint32_t r = rec[x];
-      if (r == x) break;
-      count[r] += count[x];
-      if (--donors[r] != 0) break;
-      x = r;
-    }
-  }
-  if (w != n) throw Error("world", "flow: internal error, a tile's flow graph has a cycle");
+  s.acc.resize(s.rl.size());
+  hydro::flow_order(s.rl.data(), s.rl.size(), s.order, s.acc.data());
+  if (s.order.size() != s.rl.size()) throw Error("world", "flow: internal error, a tile's flow graph has a cycle");
 }
 
 // `beyond`: read the bands right of and below the window too (the grown ring there: no owned

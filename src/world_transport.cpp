@@ -43,15 +43,6 @@ std::int64_t decode_i64(const std::string& s) {
   return std::int64_t(v);
 }
 
-// Sleeps between polls: 10 µs, doubling to 200 µs (rank 0's server answers a request within
-// about 0.2 ms, about 1 % of a 129² tile's time, for about 5000 cheap wake-ups a second).
-struct Backoff {
-  int us = 10;
-  void wait() {
-    std::this_thread::sleep_for(std::chrono::microseconds(us));
-    us = std::min(200, us * 2);
-  }
-};
 
 }  // namespace
 

@@ -69,6 +69,14 @@ Built build_both(const json& doc, int tile, const std::string& dir, int coarse_m
   return b;
 }
 
+// The 257² ridged world the droplet tests erode: eroded_doc's stages before its hydraulic stage.
+Terrain droplets_input() {
+  const json doc = eroded_doc(257, false, true);
+  json pre = doc;
+  pre["stages"] = json::array({doc["stages"][0], doc["stages"][1], doc["stages"][2], doc["stages"][3]});
+  return run(parse_recipe(pre)).terrain;
+}
+
 int hydraulic_halo(const json& doc, const Frame& world) {
   const Recipe r = parse_recipe(doc);
   for (const RecipeStage& st : r.stages)
@@ -122,10 +130,7 @@ TEST(WorldHydraulic, WindowsThatSplitTheCellsStartTheWholeMapsDroplets) {
 // Far from the window's border (more than a droplet's reach plus the blocks' cascade), a window's
 // run follows the whole map's closely: the same droplets in the same order.
 TEST(WorldHydraulic, AWindowMatchesTheWholeMapAwayFromItsBorder) {
-  const json doc = eroded_doc(257, false, true);
-  json pre = doc;
-  pre["stages"] = json::array({doc["stages"][0], doc["stages"][1], doc["stages"][2], doc["stages"][3]});
-  const Terrain base = run(parse_recipe(pre)).terrain;
+  const Terrain base = droplets_input();
   const Frame& f = base.frame;
   erosion::HydraulicSettings s;
   s.droplets_per_km2 = 5000, s.capacity = 0.012, s.brush_radius_m = 40, s.step_m = 20;
@@ -156,10 +161,7 @@ TEST(WorldHydraulic, AWindowMatchesTheWholeMapAwayFromItsBorder) {
 // The passes of the stage, run one at a time (erosion::hydraulic_erosion_part), and each pass run
 // block group by block group on windows of the groups grown by the reach: the whole map's bytes.
 TEST(WorldHydraulic, PassesAndBlockGroupsGiveTheWholeMapsBytes) {
-  const json doc = eroded_doc(257, false, true);
-  json pre = doc;
-  pre["stages"] = json::array({doc["stages"][0], doc["stages"][1], doc["stages"][2], doc["stages"][3]});
-  const Terrain base = run(parse_recipe(pre)).terrain;
+  const Terrain base = droplets_input();
   const Frame& f = base.frame;
   erosion::HydraulicSettings s;
   s.droplets_per_km2 = 5000, s.capacity = 0.012, s.brush_radius_m = 40, s.step_m = 20, s.lifetime = 12;
