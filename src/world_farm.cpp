@@ -289,7 +289,11 @@ void TileFarm::server() {
   } catch (...) {
     std::lock_guard<std::mutex> lock(m_);
     server_error_ = std::current_exception();
-    if (batch_ && !batch_->failure) batch_->failure = server_error_;
+    if (batch_) {
+      if (!batch_->failure) batch_->failure = server_error_;
+      // No result of another rank will arrive now: the batch ends once this rank's lanes are done.
+      for (std::size_t rk = 1; rk < outstanding_.size(); ++rk) batch_->in_flight -= outstanding_[rk], outstanding_[rk] = 0;
+    }
     cv_.notify_all();
   }
 }

@@ -216,3 +216,36 @@ TEST(TileFarm, CancelledOnAnotherRankIsCancelledHere) {
 }
 
 }  // namespace
+
+namespace {
+// A rank that sends rank 0 something that is not a farm message: rank 0's run ends with an error
+// naming it (instead of waiting for results that will never come), and its farm still ends.
+TEST(TileFarm, AMalformedMessageFromARankFailsTheRunInsteadOfHanging) {
+  Hub hub;
+  {
+    Loopback t1(hub, 1, 2);
+    t1.send(0, 3, std::string("C\x02\x00\x00\x00", 5));  // credit for 2 lanes: rank 0 sends it 2 tasks,
+    t1.send(0, 3, std::string("Znonsense"));                 // which never come back: then this
+  }
+  Loopback t0(hub, 0, 2);
+  std::exception_ptr e;
+  {
+    TileFarm farm(t0);
+    tbb::task_arena arena(2);
+    const std::vector<std::int64_t> items = iota_items(50);
+    try {
+      arena.execute([&] {
+        farm.run("square", items, [](std::int64_t) { return std::string(); }, square_kernel(2000), [](std::int64_t, std::string) {});
+      });
+    } catch (...) {
+      e = std::current_exception();
+    }
+  }
+  ASSERT_TRUE(e);
+  try {
+    std::rethrow_exception(e);
+  } catch (const std::runtime_error& x) {
+    EXPECT_NE(std::string(x.what()).find("malformed"), std::string::npos) << x.what();
+  }
+}
+}  // namespace
