@@ -30,6 +30,7 @@
 
 #include "relief/erosion.hpp"
 #include "relief/hydrology.hpp"
+#include "relief/world_bounded.hpp"
 #include "parallel.hpp"
 #include "relief/error.hpp"
 #include "stages.hpp"
@@ -59,7 +60,7 @@ using HydraulicParams = erosion::HydraulicSettings;
 
 void apply_hydraulic(Terrain& t, const HydraulicParams& p, const Context& ctx) {
   Layer& h = height_layer(t);
-  erosion::hydraulic_erosion(h.data.data(), t.frame, p, ctx.stage_seed(0x6879647261756cull), stage_progress(ctx, "hydraulic"));
+  erosion::hydraulic_erosion(h.data.data(), t.frame, p, ctx.stage_seed(kHydraulicSeedSalt), stage_progress(ctx, "hydraulic"));
 }
 
 // Global: a droplet moves at most lifetime · step_m from its start and erodes within

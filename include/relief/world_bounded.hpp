@@ -80,7 +80,7 @@ constexpr int kStreamPowerCoarseMax = 2049;  // stream power's coarse grid: at m
 
 constexpr int kHydraulicGroupBlocks = 16;  // hydraulic: at least this many blocks per group side
 // The salt of the hydraulic stage's seed (Context::stage_seed; stage_erosion.cpp's apply_hydraulic
-// uses the same: tests/test_world_bounded.cpp compares the tiled world with the whole map's bytes).
+// uses this constant, so the tiled world and the whole map seed their droplets alike).
 constexpr std::uint64_t kHydraulicSeedSalt = 0x6879647261756cull;
 
 // The world algorithm of the "hydraulic" stage (above). `seed` is the recipe's seed
