@@ -103,6 +103,13 @@ struct TileFarm::Batch {
   bool finished() const { return merged == items.size() || (failure && in_flight == 0); }
 };
 
+// Results wait for their turn to merge within a window of twice the lanes of every rank (under m_).
+std::size_t TileFarm::window(const Batch& b) const {
+  std::size_t lanes = b.lanes;
+  for (std::size_t r = 1; r < credit_.size(); ++r) lanes += std::size_t(std::max(0, credit_[r]) + outstanding_[r]);
+  return 2 * lanes;
+}
+
 TileFarm::TileFarm(WorldTransport& t) : t_(t) {
   credit_.assign(std::size_t(t_.size()), -1);
   outstanding_.assign(std::size_t(t_.size()), 0);
@@ -122,7 +129,7 @@ void TileFarm::end() {
 }
 
 std::vector<std::int64_t> TileFarm::tasks_by_rank() const {
-  std::lock_guard<std::mutex> lock(const_cast<std::mutex&>(m_));
+  std::lock_guard<std::mutex> lock(m_);
   return tasks_by_rank_;
 }
 
@@ -140,12 +147,6 @@ void TileFarm::run(const std::string& kernel, const std::vector<std::int64_t>& i
     if (server_error_) std::rethrow_exception(server_error_);
     batch_ = &b;
   }
-  // Results wait for their turn to merge within a window of twice the lanes of every rank.
-  auto window = [&] {
-    std::size_t lanes = b.lanes;
-    for (std::size_t r = 1; r < credit_.size(); ++r) lanes += std::size_t(std::max(0, credit_[r]) + outstanding_[r]);
-    return 2 * lanes;
-  };
   auto merge_ready = [&] {  // under m_
     while (!b.failure && b.merged < items.size() && b.ready[b.merged]) {
       const std::size_t p = b.merged;
@@ -167,7 +168,7 @@ void TileFarm::run(const std::string& kernel, const std::vector<std::int64_t>& i
         for (;;) {
           merge_ready();
           if (b.finished()) break;
-          if (!b.failure && b.next < items.size() && b.next < b.merged + window()) {
+          if (!b.failure && b.next < items.size() && b.next < b.merged + window(b)) {
             const std::size_t p = b.next++;
             ++b.in_flight;
             ++tasks_by_rank_[0];
@@ -247,9 +248,7 @@ void TileFarm::server() {
         // Hand out tasks to ranks with free lanes, in order, within the window.
         for (std::size_t rk = 1; batch_ && rk < credit_.size(); ++rk) {
           Batch& b = *batch_;
-          std::size_t lanes = b.lanes;
-          for (std::size_t q = 1; q < credit_.size(); ++q) lanes += std::size_t(std::max(0, credit_[q]) + outstanding_[q]);
-          while (credit_[rk] > 0 && !b.failure && b.next < b.items.size() && b.next < b.merged + 2 * lanes) {
+          while (credit_[rk] > 0 && !b.failure && b.next < b.items.size() && b.next < b.merged + window(b)) {
             const std::size_t p = b.next++;
             std::string task = "T";
             put_i64(task, std::int64_t(p));

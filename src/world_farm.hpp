@@ -72,7 +72,8 @@ class TileFarm {
   struct Batch;
   void server();
   WorldTransport& t_;
-  std::mutex m_;  // everything below and the current batch
+  std::size_t window(const Batch& b) const;
+  mutable std::mutex m_;  // everything below and the current batch
   std::condition_variable cv_;
   Batch* batch_ = nullptr;
   std::vector<int> credit_;       // free lanes per rank (-1: its "C" has not arrived)
