@@ -51,7 +51,8 @@ std::set<std::string>& live_temps() {
   static std::set<std::string> s;
   return s;
 }
-std::atomic<int> publishing{0};
+std::atomic<int> publishing{0};            // commits whose renames are under way
+std::atomic<std::uint64_t> published{0};   // outputs whose renames have begun, ever (commits_published)
 bool closed_for_exit = false;  // set by remove_live_temporaries (under live_mutex): no new temporaries
 void untrack(const std::string& tmp) noexcept {
   try {
@@ -440,6 +441,7 @@ void FileOutput::publish() {
     std::lock_guard<std::mutex> live(live_mutex());
     if (closed_for_exit) throw Error("output", "cannot replace files in '" + dir_ + "': the run is being interrupted");
     ++publishing;
+    ++published;
   }
   struct Done {
     bool on = true;
@@ -469,15 +471,22 @@ void FileOutput::publish() {
   pending_.clear();
 }
 
-void remove_live_temporaries() noexcept {
-  // Takes the registry's lock and keeps it: no temporary is created, and no commit starts, after
-  // this; a commit's renames already under way finish first (never a mix of old and new files).
+bool remove_live_temporaries() noexcept {
+  // Takes the registry's lock and, when it removes the temporaries, keeps it: no temporary is
+  // created, and no commit starts, after this. A commit under way (its renames started) is the
+  // run's point of no return: then nothing is removed and the caller is told to let it finish.
   live_mutex().lock();
+  if (publishing.load() > 0) {
+    live_mutex().unlock();
+    return false;
+  }
   closed_for_exit = true;
-  while (publishing.load() > 0) ::usleep(1000);
   for (const std::string& t : live_temps()) ::unlink(t.c_str());
   live_temps().clear();
+  return true;
 }
+
+std::uint64_t commits_published() noexcept { return published.load(); }
 
 namespace {
 // Whether process `pid` can still write: it exists and is not a zombie (a process killed whose
@@ -524,6 +533,16 @@ std::size_t remove_dead_temporaries(const std::string& dir) {
 
 void commit_all(const std::vector<Output*>& outputs) {
   for (Output* o : outputs) o->prepare();
+  // The publishes are one commit for remove_live_temporaries: it never runs between two of them
+  // (the first output's files new, the next one's removed).
+  {
+    std::lock_guard<std::mutex> live(live_mutex());
+    if (closed_for_exit) throw Error("output", "cannot replace files: the run is being interrupted");
+    ++publishing;
+  }
+  struct Done {
+    ~Done() { --publishing; }
+  } done;
   for (Output* o : outputs) o->publish();
 }
 

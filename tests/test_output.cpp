@@ -7,6 +7,7 @@
 #include <spng.h>
 #include <sys/resource.h>
 #include <sys/stat.h>
+#include <sys/wait.h>
 #include <unistd.h>
 
 #include <algorithm>
@@ -23,6 +24,7 @@
 #include <limits>
 #include <sstream>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "relief/error.hpp"
@@ -958,6 +960,54 @@ TEST(FileOutput, OnCommitRejectsTheSameNameTwice) {
   }
   out.commit();
   EXPECT_EQ(read_file(dir.path / "x.txt"), "one");
+}
+
+// The CLI's signal thread and a commit (remove_live_temporaries, commits_published): while a
+// commit of several outputs runs — also between the publish of one output and the next — nothing is
+// removed and the thread is told so; once no commit runs, the temporaries go and no later commit
+// can start. In a child process: the last step closes that process's outputs for good.
+TEST(FileOutput, InterruptWaitsForACommitOfSeveralOutputsAndThenClosesTheProcess) {
+  TempDir dir;
+  fs::create_directories(dir.path / "a");
+  write_file(dir.path / "a" / "f.txt", "old");
+  const pid_t pid = ::fork();
+  ASSERT_GE(pid, 0);
+  if (pid == 0) {
+    ::alarm(60);  // a deadlock ends the child (the parent sees a signal), never the suite
+    int failed = 0;
+    auto check = [&](bool ok, int bit) { failed |= ok ? 0 : bit; };
+    // The second output's publish waits until the main thread has asked to interrupt.
+    struct Slow final : Output {
+      std::atomic<int> stage{0};
+      void put(const std::string&, std::string) override {}
+      void publish() override {
+        stage = 1;
+        while (stage.load() != 2) ::usleep(1000);
+      }
+    } slow;
+    FileOutput a((dir.path / "a").string(), FileOutput::Mode::OnCommit);
+    a.put("f.txt", "new");
+    const std::uint64_t published = commits_published();
+    std::thread commit([&] { commit_all({&a, &slow}); });
+    while (slow.stage.load() != 1) ::usleep(1000);
+    check(read_file(dir.path / "a" / "f.txt") == "new", 1);  // the first output is published
+    check(commits_published() == published + 1, 2);
+    if (remove_live_temporaries()) ::_exit(failed | 4);  // between the two publishes: nothing may be removed
+    slow.stage = 2;
+    commit.join();
+    FileOutput b((dir.path / "b").string(), FileOutput::Mode::OnCommit);
+    b.put("g.txt", "pending");
+    check(temp_leftovers(dir.path / "b").size() == 1, 8);
+    check(remove_live_temporaries(), 16);  // no commit runs: the temporaries go
+    check(temp_leftovers(dir.path / "b").empty(), 32);
+    ::_exit(failed);
+  }
+  int st = 0;
+  ASSERT_EQ(::waitpid(pid, &st, 0), pid);
+  ASSERT_TRUE(WIFEXITED(st)) << st;
+  EXPECT_EQ(WEXITSTATUS(st), 0) << "failed checks (bits): " << WEXITSTATUS(st);
+  EXPECT_EQ(read_file(dir.path / "a" / "f.txt"), "new");
+  EXPECT_FALSE(fs::exists(dir.path / "b" / "g.txt"));
 }
 
 TEST(FileOutput, OnCommitTakesPutsFromManyThreads) {

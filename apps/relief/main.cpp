@@ -191,11 +191,14 @@ std::string apply_tilemap_shortcuts(const CliGenerate& s, const std::string& for
 // stages and writers); the run then unwinds, its outputs remove their temporary files, and main()
 // exits 130 (SIGINT) or 143 (SIGTERM) with a message. A stage that runs on for more than 2 s is not
 // waited for: the thread removes this process's temporary files itself (never during a commit's
-// renames) and exits with the same code. Either way no file of the output changes.
+// renames) and exits with the same code. Either way no file of the output changes. A signal that
+// comes once `generate`'s commit has begun replacing files is too late: the run finishes (exit 0).
 std::atomic<int> g_signal{0};
 std::atomic<bool> g_finished{false};
 // What the 2 s fallback says was kept: `relief world` keeps its finished tiles (a rerun resumes).
 std::atomic<const char*> g_interrupt_outcome{"no file was changed"};
+// Whether the command commits its files once (generate; a world commits tile by tile).
+std::atomic<bool> g_one_commit{true};
 
 const char* signal_name(int sig) { return sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "a signal"; }
 
@@ -229,9 +232,18 @@ void take_interrupts() {
     if (sigwait(&set, &sig) != 0) return;
     g_signal = sig;
     for (int k = 0; k < 200 && !g_finished; ++k) ::usleep(10000);
-    if (g_finished) return;
-    remove_live_temporaries();
     const char* clear = isatty(fileno(stderr)) ? "\r\033[K" : "";
+    for (;;) {
+      if (g_finished) return;
+      // `generate` commits once: once that commit has begun replacing files, the run ends as if
+      // no signal had come (exit 0), since 130/143 promise that no file was changed.
+      if (g_one_commit && commits_published() > 0) {
+        dprintf(2, "%srelief: %s came while the new files were being put in place; the run finishes\n", clear, signal_name(sig));
+        return;
+      }
+      if (remove_live_temporaries()) break;
+      ::usleep(10000);  // a commit's renames are under way (a world's tile): they finish first
+    }
     dprintf(2, "%srelief: interrupted by %s; %s\n", clear, signal_name(sig), g_interrupt_outcome.load());
     ::_exit(128 + sig);
   }).detach();
@@ -1022,6 +1034,7 @@ int main(int argc, char** argv) {
       check_generate_flags(wsx.recipe);
       wsx.recipe.threads = capped_threads(wsx.recipe.threads);
       g_interrupt_outcome = "the finished tiles are kept: run the same command again to resume";
+      g_one_commit = false;
       take_interrupts();
       const int code = cmd_world_rank(wsx);
       g_finished = true;

@@ -16,10 +16,16 @@ namespace relief {
 
 // Temporary files (FileOutput, write_file_atomic) are named ".NAME.tmp-PID-XXXXXX" beside their
 // target. For a front end's signal handling (the CLI on SIGINT/SIGTERM): removes every temporary
-// file this process has not yet renamed into place, waiting first for a commit's renames that are
-// under way, so the folder holds all-old or all-new files and no temporaries. Async-signal-unsafe:
-// call it from a normal thread (e.g. one that sigwait()s), then exit.
-void remove_live_temporaries() noexcept;
+// file this process has not yet renamed into place and returns true; from then on no temporary is
+// created and no commit starts (the caller exits). While a commit's renames are under way (they
+// are its point of no return) it removes nothing and returns false: the caller lets the commit
+// finish and asks again, or lets the run end. Either way the folder holds all-old or all-new
+// files. Async-signal-unsafe: call it from a normal thread (e.g. one that sigwait()s).
+bool remove_live_temporaries() noexcept;
+// How many outputs have begun replacing their files (FileOutput::publish) in this process, ever:
+// a signal handler that compares it with the count when the signal came knows whether files were
+// replaced since.
+std::uint64_t commits_published() noexcept;
 // Removes the temporary files in `dir` left by processes that no longer run (killed, e.g. by
 // SIGKILL, before they could clean up): only regular files named as above whose PID is not a
 // running process. Returns how many it removed. FileOutput calls it on its folder when created.
