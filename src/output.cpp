@@ -54,6 +54,13 @@ std::set<std::string>& live_temps() {
 std::atomic<int> publishing{0};            // commits whose renames are under way
 std::atomic<std::uint64_t> published{0};   // outputs whose renames have begun, ever (commits_published)
 bool closed_for_exit = false;  // set by remove_live_temporaries (under live_mutex): no new temporaries
+// Starts a commit's renames (counted in `publishing`, see remove_live_temporaries); refused once
+// the process is being interrupted. `where` completes "cannot replace files…".
+void begin_publishing(const std::string& where) {
+  std::lock_guard<std::mutex> live(live_mutex());
+  if (closed_for_exit) throw Error("output", "cannot replace files" + where + ": the run is being interrupted");
+  ++publishing;
+}
 void untrack(const std::string& tmp) noexcept {
   try {
     std::lock_guard<std::mutex> lock(live_mutex());
@@ -437,12 +444,8 @@ void FileOutput::prepare() {
 
 void FileOutput::publish() {
   std::lock_guard<std::mutex> lock(mutex_);
-  {
-    std::lock_guard<std::mutex> live(live_mutex());
-    if (closed_for_exit) throw Error("output", "cannot replace files in '" + dir_ + "': the run is being interrupted");
-    ++publishing;
-    ++published;
-  }
+  begin_publishing(" in '" + dir_ + "'");
+  ++published;
   struct Done {
     bool on = true;
     void end() {
@@ -535,11 +538,7 @@ void commit_all(const std::vector<Output*>& outputs) {
   for (Output* o : outputs) o->prepare();
   // The publishes are one commit for remove_live_temporaries: it never runs between two of them
   // (the first output's files new, the next one's removed).
-  {
-    std::lock_guard<std::mutex> live(live_mutex());
-    if (closed_for_exit) throw Error("output", "cannot replace files: the run is being interrupted");
-    ++publishing;
-  }
+  begin_publishing("");
   struct Done {
     ~Done() { --publishing; }
   } done;

@@ -23,8 +23,7 @@ namespace relief {
 // files. Async-signal-unsafe: call it from a normal thread (e.g. one that sigwait()s).
 bool remove_live_temporaries() noexcept;
 // How many outputs have begun replacing their files (FileOutput::publish) in this process, ever:
-// a signal handler that compares it with the count when the signal came knows whether files were
-// replaced since.
+// a front end that commits once (the CLI's `generate`) knows from it whether its commit has begun.
 std::uint64_t commits_published() noexcept;
 // Removes the temporary files in `dir` left by processes that no longer run (killed, e.g. by
 // SIGKILL, before they could clean up): only regular files named as above whose PID is not a
