@@ -411,6 +411,7 @@ void TileFarm::serve(WorldTransport& t, int lanes, const std::function<FarmKerne
 FarmKernel make_farm_kernel(const std::string& name, const WorldStageIO& io, const RecipeStage& stage) {
   if (name == "fill") return fill_farm_kernel(io, stage);
   if (name == "hydraulic") return hydraulic_farm_kernel(io, stage);
+  if (name == "flow") return flow_farm_kernel(io, stage);
   throw std::runtime_error("world transport: no farm kernel named " + name);
 }
 

@@ -85,10 +85,14 @@ class TileFarm {
 };
 
 // The kernel `name` of a distributed world algorithm, made from the stage and a rank's own io (the
-// library's: "fill", src/world_fill.cpp; "hydraulic", src/world_bounded.cpp). Throws for an unknown
-// name.
+// library's: "fill", src/world_fill.cpp; "hydraulic", src/world_bounded.cpp; "flow",
+// src/world_flow.cpp). Throws for an unknown name.
 FarmKernel make_farm_kernel(const std::string& name, const WorldStageIO& io, const RecipeStage& stage);
 FarmKernel fill_farm_kernel(const WorldStageIO& io, const RecipeStage& stage);       // "fill" (src/world_fill.cpp)
 FarmKernel hydraulic_farm_kernel(const WorldStageIO& io, const RecipeStage& stage);  // "hydraulic" (src/world_bounded.cpp)
+FarmKernel flow_farm_kernel(const WorldStageIO& io, const RecipeStage& stage);       // "flow" (src/world_flow.cpp)
+// A flow kernel's message (a task's input or a result) decoded and coded again, for tests: the same
+// bytes for a well-formed message; an Error for a malformed one (src/world_flow.cpp).
+std::string flow_message_recoded(std::string_view bytes);
 
 }  // namespace relief::detail

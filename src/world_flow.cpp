@@ -21,10 +21,12 @@
 #include <memory>
 #include <mutex>
 #include <tuple>
+#include <type_traits>
 #include <unordered_map>
 
 #include "relief/error.hpp"
 #include "relief/hydrology.hpp"
+#include "world_farm.hpp"
 #include "world_internal.hpp"
 #include "writer_defs.hpp"
 
@@ -281,9 +283,52 @@ void local_order(Solve& s) {
   if (s.order.size() != s.rl.size()) throw Error("world", "flow: internal error, a tile's flow graph has a cycle");
 }
 
-// `beyond`: read the bands right of and below the window too (the grown ring there: no owned
-// sample's receiver depends on it); pass A, which sets the bands as it goes, leaves it NaN.
-void prepare(const Ctx& c, Bands& bands, const TileLoad& load, std::int64_t X, std::int64_t Z, Solve& s, bool beyond = true) {
+// The grown window of tile window `w`: the window and the samples one step around it that lie in
+// the world.
+struct Grown {
+  std::int64_t gx0, gz0;
+  int gnx, gnz;
+};
+Grown grown_of_window(const WorldGrid& g, const WorldGrid::Window& w) {
+  Grown r;
+  r.gx0 = w.ix0 - (w.ix0 > 0 ? 1 : 0);
+  r.gz0 = w.iz0 - (w.iz0 > 0 ? 1 : 0);
+  const std::int64_t gx1 = w.ix0 + w.nx + (w.ix0 + w.nx < g.nx ? 1 : 0);
+  const std::int64_t gz1 = w.iz0 + w.nz + (w.iz0 + w.nz < g.nz ? 1 : 0);
+  r.gnx = int(gx1 - r.gx0), r.gnz = int(gz1 - r.gz0);
+  return r;
+}
+// f(ix, iz, read) for the samples of the grown window outside the window (the grown ring),
+// row-major; `read`: whether a solve reads its band height (else it is NaN). `beyond`: the bands
+// right of and below the window are read too (the grown ring there: no owned sample's receiver
+// depends on it); pass A, which sets the bands as it goes, leaves them NaN.
+template <class F>
+void for_ring(const WorldGrid& g, const WorldGrid::Window& w, bool beyond, F f) {
+  const Grown gr = grown_of_window(g, w);
+  const int wx = int(w.ix0 - gr.gx0);
+  for (int j = 0; j < gr.gnz; ++j) {
+    const std::int64_t iz = gr.gz0 + j, wj = iz - w.iz0;
+    if (wj >= 0 && wj < w.nz) {
+      for (int i = 0; i < wx; ++i) f(gr.gx0 + i, iz, true);
+      for (int i = wx + w.nx; i < gr.gnx; ++i) f(gr.gx0 + i, iz, beyond);
+    } else if (wj < 0) {
+      for (int i = 0; i < gr.gnx; ++i) f(gr.gx0 + i, iz, beyond || i < wx + w.nx);
+    } else {
+      for (int i = 0; i < gr.gnx; ++i) f(gr.gx0 + i, iz, beyond);
+    }
+  }
+}
+// The grown ring's heights of tile (X, Z) from the bands (for_ring's order; NaN where not read).
+std::vector<float> ring_of(const WorldGrid& g, Bands& bands, std::int64_t X, std::int64_t Z, bool beyond) {
+  std::vector<float> r;
+  for_ring(g, g.window(X, Z), beyond, [&](std::int64_t ix, std::int64_t iz, bool read) {
+    r.push_back(read ? bands.get(ix, iz) : std::numeric_limits<float>::quiet_NaN());
+  });
+  return r;
+}
+
+// `ring`: the grown ring's heights (ring_of).
+void prepare(const Ctx& c, const std::vector<float>& ring, const TileLoad& load, std::int64_t X, std::int64_t Z, Solve& s) {
   s.X = X, s.Z = Z;
   s.w = c.g.window(X, Z);
   s.z = c.filled ? (*c.filled)(X, Z) : load(X, Z);
@@ -291,26 +336,24 @@ void prepare(const Ctx& c, Bands& bands, const TileLoad& load, std::int64_t X, s
   if (z.size() != std::size_t(s.w.nx) * std::size_t(s.w.nz))
     throw Error("world", "flow: tile " + std::to_string(X) + "," + std::to_string(Z) + " has " + std::to_string(z.size()) +
                              " heights, expected " + std::to_string(std::size_t(s.w.nx) * std::size_t(s.w.nz)));
-  s.gx0 = s.w.ix0 - (s.w.ix0 > 0 ? 1 : 0);
-  s.gz0 = s.w.iz0 - (s.w.iz0 > 0 ? 1 : 0);
-  const std::int64_t gx1 = s.w.ix0 + s.w.nx + (s.w.ix0 + s.w.nx < c.g.nx ? 1 : 0);
-  const std::int64_t gz1 = s.w.iz0 + s.w.nz + (s.w.iz0 + s.w.nz < c.g.nz ? 1 : 0);
-  s.gnx = int(gx1 - s.gx0), s.gnz = int(gz1 - s.gz0);
+  const Grown gr = grown_of_window(c.g, s.w);
+  s.gx0 = gr.gx0, s.gz0 = gr.gz0, s.gnx = gr.gnx, s.gnz = gr.gnz;
   s.zg.resize(std::size_t(s.gnx) * std::size_t(s.gnz));
-  // The window's rows copied whole; the grown ring (outside the window) from the bands.
+  if (ring.size() != s.zg.size() - z.size())
+    throw Error("world", "flow: tile " + std::to_string(X) + "," + std::to_string(Z) + " has a ring of " + std::to_string(ring.size()) +
+                             " heights, expected " + std::to_string(s.zg.size() - z.size()));
+  // The window's rows copied whole; the grown ring (outside the window) from `ring`.
   const int wx = int(s.w.ix0 - s.gx0);  // window's first column in the grown window
+  std::size_t q = 0;
   for (int j = 0; j < s.gnz; ++j) {
     const std::int64_t iz = s.gz0 + j, wj = iz - s.w.iz0;
     float* row = s.zg.data() + std::size_t(j) * std::size_t(s.gnx);
-    const float nan = std::numeric_limits<float>::quiet_NaN();
     if (wj >= 0 && wj < s.w.nz) {
       std::memcpy(row + wx, z.data() + std::size_t(wj) * std::size_t(s.w.nx), std::size_t(s.w.nx) * sizeof(float));
-      for (int i = 0; i < wx; ++i) row[i] = bands.get(s.gx0 + i, iz);
-      for (int i = wx + s.w.nx; i < s.gnx; ++i) row[i] = beyond ? bands.get(s.gx0 + i, iz) : nan;
-    } else if (wj < 0) {
-      for (int i = 0; i < s.gnx; ++i) row[i] = beyond || i < wx + s.w.nx ? bands.get(s.gx0 + i, iz) : nan;
+      for (int i = 0; i < wx; ++i) row[i] = ring[q++];
+      for (int i = wx + s.w.nx; i < s.gnx; ++i) row[i] = ring[q++];
     } else {
-      for (int i = 0; i < s.gnx; ++i) row[i] = beyond ? bands.get(s.gx0 + i, iz) : nan;
+      for (int i = 0; i < s.gnx; ++i) row[i] = ring[q++];
     }
   }
   const std::int64_t ox1 = X == c.g.tiles_x - 1 ? c.g.nx : s.w.ix0 + c.t1;
@@ -393,12 +436,48 @@ void prepare(const Ctx& c, Bands& bands, const TileLoad& load, std::int64_t X, s
   }
 }
 
+// What a solve of pass S or the final pass reads of the global state (the perimeter graph, the
+// components), for its tile only: its own perimeter nodes' inflow and channel donors in other tiles,
+// the nodes on the one-sample ring around its owned rectangle (they lie on the perimeters of the
+// tiles around), and its components' fate. About 4·T values: a task's input (src/world_farm.hpp).
+struct RingNode {
+  float carved = 0, z = 0;
+  std::uint8_t lake = 0, channel = 0, chd = 0;
+  std::uint64_t count = 0;     // acc + inflow
+  std::uint32_t root = kNone;  // the lake's component root (kNone: not in a kept lake)
+};
+struct TileView {
+  std::vector<std::uint64_t> ext;     // per own perimeter node (node order)
+  std::vector<std::uint32_t> donors;  // per own perimeter node: its channel donors in other tiles
+  std::vector<std::uint8_t> donor_str;  // their Strahler orders, node after node
+  std::vector<RingNode> ring;         // ring_slot order (slots outside the world: default)
+  std::vector<std::uint8_t> kept;     // per local component: in a kept lake
+  std::vector<std::uint32_t> root;    // per local component: its root
+  // The slots of the ring around an owned rectangle of onx × onz: its row above (onx + 2), the
+  // left and right samples of each of its rows, its row below.
+  static std::size_t slots(int onx, int onz) { return 2 * std::size_t(onx + 2) + 2 * std::size_t(onz); }
+  static std::size_t slot(int onx, int onz, int bi, int bj) {  // bi, bj: from the ring box's corner
+    if (bj == 0) return std::size_t(bi);
+    if (bj == onz + 1) return std::size_t(onx + 2) + 2 * std::size_t(onz) + std::size_t(bi);
+    return std::size_t(onx + 2) + 2 * std::size_t(bj - 1) + (bi == 0 ? 0 : 1);
+  }
+  // The ring node of world sample `cell` (next to tile s's owned rectangle, outside it).
+  const RingNode& at(const Ctx& c, const Solve& s, std::int64_t cell) const {
+    const std::int64_t bi = cell % c.g.nx - (s.w.ix0 - 1), bj = cell / c.g.nx - (s.w.iz0 - 1);
+    const bool inside = bi >= 1 && bi <= s.onx && bj >= 1 && bj <= s.onz;
+    if (inside || bi < 0 || bj < 0 || bi > s.onx + 1 || bj > s.onz + 1 || ring.size() != slots(s.onx, s.onz))
+      throw Error("world", "flow: internal error, sample " + std::to_string(cell) + " is not on a tile's ring");
+    return ring[slot(s.onx, s.onz, int(bi), int(bj))];
+  }
+};
+
 // Marks the owned samples in kept lakes (after the components are joined).
-void mark_lakes(const Ctx& c, const Components& comp, Solve& s, std::uint64_t tile) {
+void mark_lakes(const Ctx& c, const TileView& v, Solve& s) {
+  if (v.kept.size() != s.labels || v.root.size() != s.labels) throw Error("world", "flow: internal error, a tile's components");
   s.lake.assign(s.rl.size(), 0);
   if (!c.p.lakes || s.labels == 0) return;
   for (std::size_t o = 0; o < s.rl.size(); ++o)
-    if (s.label[o] != kNone) s.lake[o] = comp.kept[comp.root(std::uint32_t(comp.base[tile] + s.label[o]))];
+    if (s.label[o] != kNone) s.lake[o] = v.kept[s.label[o]];
 }
 
 // Thrown by check_drains (an Error like any other to flow_tiled's callers; world_flow catches it
@@ -438,12 +517,13 @@ double width(const Ctx& c, std::uint64_t count) {
 
 // Counts, channels, Strahler orders and carved heights of the owned samples, from the perimeter
 // graph as known now. Returns nothing; fills s.cnt, s.ch, s.str, s.ec.
-void finish(const Ctx& c, const Nodes& nd, Solve& s) {
+void finish(const Ctx& c, const TileView& v, Solve& s) {
   const std::size_t on = s.rl.size();
-  const std::uint64_t node0 = nd.base[std::size_t(s.Z * c.g.tiles_x + s.X)];  // perimeter[k] is node node0 + k
+  if (v.ext.size() != s.perimeter.size() || v.donors.size() != s.perimeter.size())
+    throw Error("world", "flow: internal error, a tile's perimeter nodes");
   s.b.assign(on, 0);
   std::uint64_t* b = s.b.data();
-  for (std::size_t k = 0; k < s.perimeter.size(); ++k) b[s.perimeter[k]] = nd.ext[node0 + k];
+  for (std::size_t k = 0; k < s.perimeter.size(); ++k) b[s.perimeter[k]] = v.ext[k];
   for (std::uint32_t o : s.order)
     if (s.rl[o] != o) b[s.rl[o]] += b[o];
   s.cnt.resize(on);
@@ -471,15 +551,16 @@ void finish(const Ctx& c, const Nodes& nd, Solve& s) {
     if (sd > s.str[r]) s.str[r] = sd, top[r] = 1;
     else if (sd == s.str[r]) ++top[r];
   };
+  std::size_t di = 0;  // v.donor_str's first of node q
   for (std::size_t q = 0; q < s.perimeter.size(); ++q) {
     const std::uint32_t o = s.perimeter[q];
+    const std::size_t n = v.donors[q];
+    if (v.donor_str.size() - di < n) throw Error("world", "flow: internal error, a tile's channel donors");
+    di += n;
     if (!s.ch[o]) continue;
-    const std::uint64_t p = node0 + q;
-    for (std::uint32_t k = nd.dstart[p]; k < nd.dstart[p + 1]; ++k) {
-      const std::uint32_t d = nd.donors[k];
-      if (!nd.channel[d]) continue;
+    for (std::size_t k = di - n; k < di; ++k) {
       ++s.chd[o], ++s.cross_chd[o];
-      add(o, nd.strahler[d]);
+      add(o, v.donor_str[k]);
     }
   }
   for (std::uint32_t o : s.order) {
@@ -504,8 +585,8 @@ void finish(const Ctx& c, const Nodes& nd, Solve& s) {
       if (ro != kNone) {
         below = s.lake[ro] ? s.zg[rg] : s.ec[ro];
       } else {
-        const std::uint32_t k = nd.at(world_index(c, s, rg));
-        below = nd.lake[k] ? nd.z[k] : nd.carved[k];
+        const RingNode& k = v.at(c, s, world_index(c, s, rg));
+        below = k.lake ? k.z : k.carved;
       }
       const float carved = std::max(float(double(s.ec[o]) - depth / c.H), std::nextafter(below, 2.0f));
       s.ec[o] = std::min(s.ec[o], carved);
@@ -584,7 +665,7 @@ struct Piece {
   int order = 1;
 };
 
-void trace_pieces(const Ctx& c, const Nodes& nd, const Solve& s, std::unordered_map<std::int64_t, Piece>& pieces,
+void trace_pieces(const Ctx& c, const TileView& v, const Solve& s, std::unordered_map<std::int64_t, Piece>& pieces,
                   std::vector<std::int64_t>& starts) {
   const Frame& f = c.f;
   // apply_flow's vertex(): position, surface height (no lakes here), discharge and width.
@@ -624,8 +705,8 @@ void trace_pieces(const Ctx& c, const Nodes& nd, const Solve& s, std::unordered_
       if (ro != kNone) {
         r_channel = s.ch[ro], r_chd = s.chd[ro], r_e = s.lake[ro] ? s.zg[rg] : s.ec[ro], r_count = s.cnt[ro];
       } else {
-        const std::uint32_t k = nd.at(rw);
-        r_channel = nd.channel[k], r_chd = nd.chd[k], r_e = nd.lake[k] ? nd.z[k] : nd.carved[k], r_count = std::uint64_t(nd.acc[k]) + nd.inflow[k];
+        const RingNode& k = v.at(c, s, rw);
+        r_channel = k.channel, r_chd = k.chd, r_e = k.lake ? k.z : k.carved, r_count = k.count;
       }
       if (!r_channel) {  // only the sea ends a channel
         RiverVertex mouth = vertex(rx, rz, r_e, r_count);
@@ -694,6 +775,294 @@ WorldFlowParams world_flow_params(const json& j) {
 }
 
 namespace {
+// A tile's pass-A result: its perimeter nodes (row-major over its owned rectangle's perimeter,
+// the node order) and its components of raised samples; the solve itself goes back to the pool
+// before the merge.
+struct LocalA {
+  std::vector<std::int64_t> cell, link_cell;  // world samples: the node, its link (-1: none)
+  std::vector<std::uint32_t> acc, comp;       // local count; local component (kNone: not raised)
+  std::vector<float> z, e;                    // filled and input heights
+  std::vector<std::uint8_t> cross;            // the link is an exit into another tile
+  std::vector<std::uint64_t> comp_count;      // per local component: samples, max depth (m)
+  std::vector<double> comp_depth;
+  bool land = false;
+  std::uint32_t max_acc = 0;
+  std::vector<float> band;  // the window's first and last two rows and columns (Bands order)
+};
+
+// Pass A's solve of tile t, its grown ring's heights `ring` (ring_of, not beyond). Throws NotDraining
+// (check_drains).
+LocalA solve_a(const Ctx& c, const std::vector<float>& ring, const TileLoad& load, std::int64_t t, SolvePool& pool,
+               const std::string& path) {
+  const WorldGrid& g = c.g;
+  LocalA r;
+  SolveRef sr(pool);
+  Solve& s = *sr;
+  prepare(c, ring, load, t % g.tiles_x, t / g.tiles_x, s);
+  check_drains(c, s, path);
+  for_band(s.w, [&](int i, int j) { r.band.push_back(s.z[std::size_t(j) * std::size_t(s.w.nx) + std::size_t(i)]); });
+  const std::size_t on = s.rl.size();
+  // np: the next perimeter sample downstream inside the tile (kNone: none), receivers first.
+  s.top.assign(on, 0);
+  for (const std::uint32_t o : s.perimeter) s.top[o] = 1;
+  std::vector<std::uint32_t>& np = s.stack;
+  np.assign(on, kNone);
+  for (std::size_t q = on; q-- > 0;) {
+    const std::uint32_t o = s.order[q], rr = s.rl[o];
+    if (rr != o) np[o] = s.top[rr] ? rr : np[rr];
+  }
+  r.land = s.land;
+  r.max_acc = s.max_acc;
+  r.comp_count.assign(s.labels, 0);
+  r.comp_depth.assign(s.labels, 0.0);
+  if (s.labels > 0)
+    for (std::uint32_t o = 0; o < on; ++o) {
+      if (s.label[o] == kNone) continue;
+      const std::size_t l = s.label[o];
+      ++r.comp_count[l];
+      r.comp_depth[l] = std::max(r.comp_depth[l], (double(s.zg[s.grown_of(o)]) - s.eo[o]) * c.H);  // as apply_flow
+    }
+  const std::size_t pn = s.perimeter.size();
+  r.cell.resize(pn), r.link_cell.resize(pn), r.acc.resize(pn), r.comp.resize(pn), r.z.resize(pn), r.e.resize(pn);
+  r.cross.resize(pn);
+  for (std::size_t k = 0; k < pn; ++k) {
+    const std::uint32_t o = s.perimeter[k];
+    const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
+    const std::size_t gi = s.grown(oi, oj);
+    r.cell[k] = (s.w.iz0 + oj) * g.nx + s.w.ix0 + oi;
+    r.acc[k] = s.acc[o];
+    r.z[k] = s.zg[gi];
+    r.e[k] = s.eo[o];
+    r.comp[k] = s.label[o];
+    const std::uint32_t rg = s.rec[gi];
+    r.cross[k] = 0;
+    if (rg != gi && owned_of(s, rg) == kNone) {
+      r.cross[k] = 1;
+      r.link_cell[k] = world_index(c, s, rg);
+    } else if (np[o] != kNone) {
+      const int ri = int(np[o] % std::uint32_t(s.onx)), rj = int(np[o] / std::uint32_t(s.onx));
+      r.link_cell[k] = (s.w.iz0 + rj) * g.nx + s.w.ix0 + ri;
+    } else {
+      r.link_cell[k] = -1;
+    }
+  }
+  return r;
+}
+
+Ctx make_ctx(const WorldGrid& g, const Frame& f, const WorldFlowParams& p, const TileLoad* filled) {
+  Ctx c{g, f, p, float(f.sea_level), f.height_m, f.cell_m(), 0, 0, 0, g.tile - 1, filled};
+  c.cell2 = c.cell * c.cell;
+  c.runoff_m_s = p.runoff_mm_per_year * 1e-3 / kSecondsPerYear;
+  c.threshold_cells = p.river_area_km2 * 1e6 / c.cell2;
+  return c;
+}
+
+// The perimeter samples of window `w`.
+std::size_t window_perimeter(const WorldGrid::Window& w) {
+  return w.nx == 1 || w.nz == 1 ? std::size_t(w.nx) * std::size_t(w.nz) : 2 * std::size_t(w.nx + w.nz) - 4;
+}
+// Tile (X, Z)'s filled heights from its input heights `z`: one hydro::fill_depressions_tile solve
+// seeded with `ring`, its window perimeter's final levels in fill_depressions_tiled (row-major).
+std::vector<float> filled_from_ring(const WorldGrid& g, float sea, float eps, std::int64_t X, std::int64_t Z, std::vector<float> z,
+                                    const std::vector<float>& ring) {
+  const WorldGrid::Window w = g.window(X, Z);
+  const std::size_t n = std::size_t(w.nx) * std::size_t(w.nz);
+  if (z.size() != n || ring.size() != window_perimeter(w))
+    throw Error("world", "flow: tile " + std::to_string(X) + "," + std::to_string(Z) + " has " + std::to_string(z.size()) + " heights and " +
+                             std::to_string(ring.size()) + " fill levels, expected " + std::to_string(n) + " and " +
+                             std::to_string(window_perimeter(w)));
+  std::vector<std::uint8_t> outlet(n);
+  std::vector<float> seed(n, std::numeric_limits<float>::infinity());
+  std::size_t k = 0;
+  for (int j = 0; j < w.nz; ++j)
+    for (int i = 0; i < w.nx; ++i) {
+      const std::int64_t ix = w.ix0 + i, iz = w.iz0 + j;
+      const std::size_t q = std::size_t(j) * std::size_t(w.nx) + std::size_t(i);
+      outlet[q] = ix == 0 || iz == 0 || ix == g.nx - 1 || iz == g.nz - 1 || z[q] < sea;  // as fill_depressions_tiled
+      if (i == 0 || j == 0 || i == w.nx - 1 || j == w.nz - 1) seed[q] = ring[k++];
+    }
+  hydro::fill_depressions_tile<float>(z.data(), w.nx, w.nz, outlet.data(), seed.data(), eps);
+  return z;
+}
+
+// The flow kernel's messages (src/world_farm.hpp): raw integers and floats (the ranks share one
+// architecture), vectors as a u64 count and their elements. Every read is bounds-checked: a
+// malformed message throws an Error, it never reads beyond its end.
+struct Coder {
+  std::string s;
+  template <class T>
+  void put(const T& v) {
+    static_assert(std::is_trivially_copyable_v<T>);
+    s.append(reinterpret_cast<const char*>(&v), sizeof v);
+  }
+  template <class T>
+  void put(const std::vector<T>& v) {
+    put(std::uint64_t(v.size()));
+    s.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+  }
+};
+struct Decoder {
+  std::string_view s;
+  std::size_t at = 0;
+  [[noreturn]] void bad(const std::string& why) const {
+    throw Error("world", "flow: a malformed farm message of " + std::to_string(s.size()) + " bytes (" + why + ")");
+  }
+  template <class T>
+  T get() {
+    static_assert(std::is_trivially_copyable_v<T>);
+    if (s.size() - at < sizeof(T)) bad("it ends at byte " + std::to_string(at) + " inside a field");
+    T v;
+    std::memcpy(&v, s.data() + at, sizeof v);
+    at += sizeof v;
+    return v;
+  }
+  template <class T>
+  std::vector<T> vec() {
+    const std::uint64_t n = get<std::uint64_t>();
+    if (n > (s.size() - at) / sizeof(T)) bad("a count of " + std::to_string(n) + " at byte " + std::to_string(at - 8) + " beyond its end");
+    std::vector<T> v(static_cast<std::size_t>(n));
+    if (n) std::memcpy(v.data(), s.data() + at, std::size_t(n) * sizeof(T));
+    at += std::size_t(n) * sizeof(T);
+    return v;
+  }
+  void end() const {
+    if (at != s.size()) bad(std::to_string(s.size() - at) + " bytes after its end");
+  }
+};
+
+// Pass A's task: 'A', whether the heights are filled from levels, the grown ring, the fill levels.
+struct InputA {
+  std::vector<float> ring, fill_ring;
+  bool filled = false;
+};
+std::string encode(const InputA& in) {
+  Coder c;
+  c.put(char('A'));
+  c.put(std::uint8_t(in.filled));
+  c.put(in.ring);
+  c.put(in.fill_ring);
+  return std::move(c.s);
+}
+InputA decode_input_a(Decoder& d) {
+  InputA in;
+  const std::uint8_t f = d.get<std::uint8_t>();
+  if (f > 1) d.bad("a flag of " + std::to_string(f));
+  in.filled = f;
+  in.ring = d.vec<float>();
+  in.fill_ring = d.vec<float>();
+  d.end();
+  return in;
+}
+// Pass A's result: 'a', a status (0: solved, then the LocalA; 1: the height does not drain, then
+// check_drains' message).
+std::string encode(const LocalA& r) {
+  Coder c;
+  c.put(char('a'));
+  c.put(std::uint8_t(0));
+  c.put(r.cell), c.put(r.link_cell), c.put(r.acc), c.put(r.comp), c.put(r.z), c.put(r.e), c.put(r.cross);
+  c.put(r.comp_count), c.put(r.comp_depth);
+  c.put(std::uint8_t(r.land));
+  c.put(r.max_acc);
+  c.put(r.band);
+  return std::move(c.s);
+}
+std::string encode_not_draining(const std::string& message) {
+  Coder c;
+  c.put(char('a'));
+  c.put(std::uint8_t(1));
+  c.put(std::vector<char>(message.begin(), message.end()));
+  return std::move(c.s);
+}
+struct ResultA {
+  LocalA r;
+  bool drains = true;
+  std::string message;  // when it does not
+};
+ResultA decode_result_a(Decoder& d) {
+  ResultA out;
+  const std::uint8_t status = d.get<std::uint8_t>();
+  if (status == 1) {
+    const std::vector<char> m = d.vec<char>();
+    out.drains = false;
+    out.message.assign(m.begin(), m.end());
+    d.end();
+    return out;
+  }
+  if (status != 0) d.bad("a status of " + std::to_string(status));
+  LocalA& r = out.r;
+  r.cell = d.vec<std::int64_t>(), r.link_cell = d.vec<std::int64_t>(), r.acc = d.vec<std::uint32_t>(), r.comp = d.vec<std::uint32_t>();
+  r.z = d.vec<float>(), r.e = d.vec<float>(), r.cross = d.vec<std::uint8_t>();
+  r.comp_count = d.vec<std::uint64_t>(), r.comp_depth = d.vec<double>();
+  const std::uint8_t land = d.get<std::uint8_t>();
+  if (land > 1) d.bad("a flag of " + std::to_string(land));
+  r.land = land;
+  r.max_acc = d.get<std::uint32_t>();
+  r.band = d.vec<float>();
+  d.end();
+  const std::size_t pn = r.cell.size();
+  if (r.link_cell.size() != pn || r.acc.size() != pn || r.comp.size() != pn || r.z.size() != pn || r.e.size() != pn ||
+      r.cross.size() != pn || r.comp_depth.size() != r.comp_count.size())
+    d.bad("fields of different lengths");
+  for (const std::uint32_t l : r.comp)
+    if (l != kNone && l >= r.comp_count.size()) d.bad("a component label out of range");
+  return out;
+}
+// What the rank that runs a task knows: the stage's parameters, the world, its own tiles.
+struct FlowKernelState {
+  WorldGrid g;
+  Frame f;
+  WorldFlowParams p;
+  TileLoad load;
+  std::function<bool()> cancelled;
+  SolvePool pool;
+};
+std::string run_flow_task(FlowKernelState& k, std::int64_t t, std::string_view input) {
+  if (k.cancelled && k.cancelled()) throw Cancelled();
+  Decoder d{input};
+  const char tag = d.get<char>();
+  if (tag != 'A') d.bad("an unknown task kind " + std::to_string(int(std::uint8_t(tag))));
+  if (t < 0 || t >= k.g.count()) d.bad("a tile " + std::to_string(t) + " outside the world");
+  const InputA in = decode_input_a(d);
+  const float sea = float(k.f.sea_level), eps = float(k.p.epsilon_m / k.f.height_m);  // as world_flow
+  const TileLoad filled = [&](std::int64_t x, std::int64_t z) { return filled_from_ring(k.g, sea, eps, x, z, k.load(x, z), in.fill_ring); };
+  const Ctx c = make_ctx(k.g, k.f, k.p, in.filled ? &filled : nullptr);
+  try {
+    return encode(solve_a(c, in.ring, k.load, t, k.pool, ""));
+  } catch (const NotDraining& e) {  // a status, not an error: rank 0 then fills first, on any rank count
+    return encode_not_draining(e.message());
+  }
+}
+detail::FarmKernel flow_kernel(const WorldGrid& g, const Frame& f, const WorldFlowParams& p, const TileLoad& load,
+                               const std::function<bool()>& cancelled) {
+  auto k = std::make_shared<FlowKernelState>();
+  k->g = g, k->f = f, k->p = p, k->load = load, k->cancelled = cancelled;
+  return [k](std::int64_t t, std::string_view input) { return run_flow_task(*k, t, input); };
+}
+
+// A distributed build's farm (src/world_farm.hpp) for flow's tile solves, and the fill levels of
+// each tile's window perimeter when the heights are filled first (world_flow).
+struct FlowFarm {
+  detail::TileFarm* farm = nullptr;
+  const std::vector<std::vector<float>>* fill_rings = nullptr;
+};
+
+}  // namespace
+
+namespace detail {
+std::string flow_message_recoded(std::string_view bytes) {
+  Decoder d{bytes};
+  const char tag = d.get<char>();
+  if (tag == 'A') return encode(decode_input_a(d));
+  if (tag == 'a') {
+    const ResultA r = decode_result_a(d);
+    return r.drains ? encode(r.r) : encode_not_draining(r.message);
+  }
+  d.bad("an unknown kind " + std::to_string(int(std::uint8_t(tag))));
+}
+}  // namespace detail
+
+namespace {
+
 // flow_tiled with progress (WorldStageIO::progress): the passes over every tile take fixed spans of
 // [0, 1] (pass A [0, 0.35), pass S [0.35, 0.7), the final pass [0.7, 1]), each
 // split by the tiles it has merged; pass S's rounds split its span as fill_depressions_tiled's
@@ -702,16 +1071,14 @@ namespace {
 TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, const WorldFlowParams& p, const TileLoad& load,
                                         const FlowTileStore& store, std::vector<River>* rivers,
                                         const std::function<bool()>& cancelled, const std::string& path, const TileLoad& filled,
-                                        std::vector<Lake>* lakes, const std::function<void(double)>& progress) {
+                                        std::vector<Lake>* lakes, const std::function<void(double)>& progress, const FlowFarm& ff = {}) {
   auto report = [&](double lo, double hi, std::int64_t done, std::int64_t of) {
     if (progress) progress(lo + (hi - lo) * double(std::min(done, of)) / double(std::max<std::int64_t>(1, of)));
   };
   TiledFlowStats st;
   st.tiles = g.count();
-  Ctx c{g, f, p, float(f.sea_level), f.height_m, f.cell_m(), 0, 0, 0, g.tile - 1, filled ? &filled : nullptr};
-  c.cell2 = c.cell * c.cell;
-  c.runoff_m_s = p.runoff_mm_per_year * 1e-3 / kSecondsPerYear;
-  c.threshold_cells = p.river_area_km2 * 1e6 / c.cell2;
+  Ctx c = make_ctx(g, f, p, filled ? &filled : nullptr);
+  if (ff.farm && filled && !ff.fill_rings) throw Error("world", "flow: internal error, filled heights without their levels");
   auto check = [&] {
     if (cancelled && cancelled()) throw Cancelled();
   };
@@ -749,112 +1116,75 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
   }
   Components comp;
   comp.base.resize(std::size_t(g.count()) + 1, 0);
-  // A tile's pass-A result: its perimeter nodes (row-major over its owned rectangle's perimeter,
-  // the node order) and its components of raised samples; the solve itself goes back to the pool
-  // before the merge.
-  struct LocalA {
-    std::vector<std::int64_t> cell, link_cell;  // world samples: the node, its link (-1: none)
-    std::vector<std::uint32_t> acc, comp;       // local count; local component (kNone: not raised)
-    std::vector<float> z, e;                    // filled and input heights
-    std::vector<std::uint8_t> cross;            // the link is an exit into another tile
-    std::vector<std::uint64_t> comp_count;      // per local component: samples, max depth (m)
-    std::vector<double> comp_depth;
-    bool land = false;
-    std::uint32_t max_acc = 0;
-    std::vector<float> band;  // the window's first and last two rows and columns (Bands order)
-  };
   SolvePool pool;
   std::vector<std::uint8_t> tile_land(std::size_t(tiles), 0);
   std::vector<std::uint32_t> tile_max_acc(std::size_t(tiles), 0);
+  std::vector<std::uint32_t> tile_labels(std::size_t(tiles), 0);  // components of each tile (from comp.base)
+  const detail::FarmKernel farm_kernel = ff.farm ? flow_kernel(g, f, p, load, cancelled) : detail::FarmKernel();
+  auto merge_a = [&](std::int64_t t, LocalA r) {
+    ++st.tile_solves;
+    const WorldGrid::Window w = g.window(t % g.tiles_x, t / g.tiles_x);
+    std::size_t q = 0;
+    for_band(w, [&](int, int) { ++q; });
+    if (r.band.size() != q) throw Error("world", "flow: internal error, a tile's band of " + std::to_string(r.band.size()) + " heights");
+    q = 0;
+    for_band(w, [&](int i, int j) { bands.set(w.ix0 + i, w.iz0 + j, r.band[q++]); });
+    tile_land[std::size_t(t)] = r.land;
+    tile_max_acc[std::size_t(t)] = r.max_acc;
+    const std::size_t node0 = std::size_t(nd.base[std::size_t(t)]);
+    if (node0 + r.cell.size() != nd.base[std::size_t(t) + 1] || (!r.cell.empty() && nd.find(r.cell[0]) != node0))
+      throw Error("world", "flow: internal error, perimeter numbering");
+    const std::uint64_t base = comp.parent.size();
+    comp.base[std::size_t(t)] = base;
+    const std::size_t labels = r.comp_count.size();
+    if (base + labels >= kNone) throw Error("world", "flow: too many depressions (more than 2^32 - 1)");
+    for (std::uint32_t k = 0; k < labels; ++k) comp.parent.push_back(std::uint32_t(base + k));
+    tile_labels[std::size_t(t)] = std::uint32_t(labels);
+    comp.count.insert(comp.count.end(), r.comp_count.begin(), r.comp_count.end());
+    comp.depth.insert(comp.depth.end(), r.comp_depth.begin(), r.comp_depth.end());
+    std::copy(r.cell.begin(), r.cell.end(), nd.cell.begin() + std::ptrdiff_t(node0));
+    std::fill_n(nd.tile.begin() + std::ptrdiff_t(node0), r.cell.size(), std::uint32_t(t));
+    std::copy(r.acc.begin(), r.acc.end(), nd.acc.begin() + std::ptrdiff_t(node0));
+    std::copy(r.z.begin(), r.z.end(), nd.z.begin() + std::ptrdiff_t(node0));
+    std::copy(r.e.begin(), r.e.end(), nd.e.begin() + std::ptrdiff_t(node0));
+    for (std::size_t k = 0; k < r.comp.size(); ++k) nd.comp[node0 + k] = r.comp[k] == kNone ? kNone : std::uint32_t(base + r.comp[k]);
+    std::copy(r.cross.begin(), r.cross.end(), nd.cross.begin() + std::ptrdiff_t(node0));
+    std::copy(r.link_cell.begin(), r.link_cell.end(), nd.link_cell.begin() + std::ptrdiff_t(node0));
+    report(0.0, 0.35, ++merged, tiles);
+  };
   std::vector<std::int64_t> diagonal;
   for (std::int64_t d = 0; d < g.tiles_x + g.tiles_z - 1; ++d) {
     diagonal.clear();
     for (std::int64_t Z = std::max<std::int64_t>(0, d - (g.tiles_x - 1)); Z <= std::min(d, g.tiles_z - 1); ++Z)
       diagonal.push_back(Z * g.tiles_x + (d - Z));
+    if (ff.farm) {
+      // Each solve on whichever rank (src/world_farm.hpp): its ring of band heights (and fill levels)
+      // go there, its LocalA comes back; a height that does not drain comes back as a status.
+      ff.farm->run(
+          "flow", diagonal,
+          [&](std::int64_t t) {
+            InputA in;
+            in.ring = ring_of(g, bands, t % g.tiles_x, t / g.tiles_x, false);
+            in.filled = filled != nullptr;
+            if (in.filled) in.fill_ring = (*ff.fill_rings).at(std::size_t(t));
+            return encode(in);
+          },
+          farm_kernel, [&](std::int64_t t, std::string bytes) {
+            Decoder d{bytes};
+            if (d.get<char>() != 'a') d.bad("not a pass-A result");
+            ResultA r = decode_result_a(d);
+            if (!r.drains) throw NotDraining(path, r.message);
+            merge_a(t, std::move(r.r));
+          });
+      continue;
+    }
     detail::ordered_tiles<LocalA>(
         diagonal,
         [&](std::int64_t t) {
           check();
-          LocalA r;
-          SolveRef sr(pool);
-          Solve& s = *sr;
-          prepare(c, bands, load, t % g.tiles_x, t / g.tiles_x, s, false);
-          check_drains(c, s, path);
-          for_band(s.w, [&](int i, int j) { r.band.push_back(s.z[std::size_t(j) * std::size_t(s.w.nx) + std::size_t(i)]); });
-          const std::size_t on = s.rl.size();
-          // np: the next perimeter sample downstream inside the tile (kNone: none), receivers first.
-          s.top.assign(on, 0);
-          for (const std::uint32_t o : s.perimeter) s.top[o] = 1;
-          std::vector<std::uint32_t>& np = s.stack;
-          np.assign(on, kNone);
-          for (std::size_t q = on; q-- > 0;) {
-            const std::uint32_t o = s.order[q], rr = s.rl[o];
-            if (rr != o) np[o] = s.top[rr] ? rr : np[rr];
-          }
-          r.land = s.land;
-          r.max_acc = s.max_acc;
-          r.comp_count.assign(s.labels, 0);
-          r.comp_depth.assign(s.labels, 0.0);
-          if (s.labels > 0)
-            for (std::uint32_t o = 0; o < on; ++o) {
-              if (s.label[o] == kNone) continue;
-              const std::size_t l = s.label[o];
-              ++r.comp_count[l];
-              r.comp_depth[l] = std::max(r.comp_depth[l], (double(s.zg[s.grown_of(o)]) - s.eo[o]) * c.H);  // as apply_flow
-            }
-          const std::size_t pn = s.perimeter.size();
-          r.cell.resize(pn), r.link_cell.resize(pn), r.acc.resize(pn), r.comp.resize(pn), r.z.resize(pn), r.e.resize(pn);
-          r.cross.resize(pn);
-          for (std::size_t k = 0; k < pn; ++k) {
-            const std::uint32_t o = s.perimeter[k];
-            const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
-            const std::size_t gi = s.grown(oi, oj);
-            r.cell[k] = (s.w.iz0 + oj) * g.nx + s.w.ix0 + oi;
-            r.acc[k] = s.acc[o];
-            r.z[k] = s.zg[gi];
-            r.e[k] = s.eo[o];
-            r.comp[k] = s.label[o];
-            const std::uint32_t rg = s.rec[gi];
-            r.cross[k] = 0;
-            if (rg != gi && owned_of(s, rg) == kNone) {
-              r.cross[k] = 1;
-              r.link_cell[k] = world_index(c, s, rg);
-            } else if (np[o] != kNone) {
-              const int ri = int(np[o] % std::uint32_t(s.onx)), rj = int(np[o] / std::uint32_t(s.onx));
-              r.link_cell[k] = (s.w.iz0 + rj) * g.nx + s.w.ix0 + ri;
-            } else {
-              r.link_cell[k] = -1;
-            }
-          }
-          return r;
+          return solve_a(c, ring_of(g, bands, t % g.tiles_x, t / g.tiles_x, false), load, t, pool, path);
         },
-        [&](std::int64_t t, LocalA r) {
-          ++st.tile_solves;
-          const WorldGrid::Window w = g.window(t % g.tiles_x, t / g.tiles_x);
-          std::size_t q = 0;
-          for_band(w, [&](int i, int j) { bands.set(w.ix0 + i, w.iz0 + j, r.band[q++]); });
-          tile_land[std::size_t(t)] = r.land;
-          tile_max_acc[std::size_t(t)] = r.max_acc;
-          const std::size_t node0 = std::size_t(nd.base[std::size_t(t)]);
-          if (node0 + r.cell.size() != nd.base[std::size_t(t) + 1] || (!r.cell.empty() && nd.find(r.cell[0]) != node0))
-            throw Error("world", "flow: internal error, perimeter numbering");
-          const std::uint64_t base = comp.parent.size();
-          comp.base[std::size_t(t)] = base;
-          const std::size_t labels = r.comp_count.size();
-          if (base + labels >= kNone) throw Error("world", "flow: too many depressions (more than 2^32 - 1)");
-          for (std::uint32_t k = 0; k < labels; ++k) comp.parent.push_back(std::uint32_t(base + k));
-          comp.count.insert(comp.count.end(), r.comp_count.begin(), r.comp_count.end());
-          comp.depth.insert(comp.depth.end(), r.comp_depth.begin(), r.comp_depth.end());
-          std::copy(r.cell.begin(), r.cell.end(), nd.cell.begin() + std::ptrdiff_t(node0));
-          std::fill_n(nd.tile.begin() + std::ptrdiff_t(node0), r.cell.size(), std::uint32_t(t));
-          std::copy(r.acc.begin(), r.acc.end(), nd.acc.begin() + std::ptrdiff_t(node0));
-          std::copy(r.z.begin(), r.z.end(), nd.z.begin() + std::ptrdiff_t(node0));
-          std::copy(r.e.begin(), r.e.end(), nd.e.begin() + std::ptrdiff_t(node0));
-          for (std::size_t k = 0; k < r.comp.size(); ++k) nd.comp[node0 + k] = r.comp[k] == kNone ? kNone : std::uint32_t(base + r.comp[k]);
-          std::copy(r.cross.begin(), r.cross.end(), nd.cross.begin() + std::ptrdiff_t(node0));
-          std::copy(r.link_cell.begin(), r.link_cell.end(), nd.link_cell.begin() + std::ptrdiff_t(node0));
-          report(0.0, 0.35, ++merged, tiles);
-        });
+        merge_a);
   }
 
   // Components across tiles: join raised perimeter samples with their raised neighbours in other
@@ -956,6 +1286,47 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
   }
   std::vector<std::uint64_t>().swap(ext_sum);
 
+  // What a solve of tile t reads of the global state now (TileView).
+  auto view_of = [&](std::int64_t t) {
+    TileView v;
+    const std::int64_t X = t % g.tiles_x, Z = t / g.tiles_x;
+    const std::size_t node0 = std::size_t(nd.base[std::size_t(t)]), pn = std::size_t(nd.base[std::size_t(t) + 1]) - node0;
+    v.ext.assign(nd.ext.begin() + std::ptrdiff_t(node0), nd.ext.begin() + std::ptrdiff_t(node0 + pn));
+    v.donors.resize(pn);
+    for (std::size_t q = 0; q < pn; ++q) {
+      const std::size_t p = node0 + q;
+      std::uint32_t n = 0;
+      for (std::uint32_t k = nd.dstart[p]; k < nd.dstart[p + 1]; ++k) {
+        const std::uint32_t d = nd.donors[k];
+        if (!nd.channel[d]) continue;
+        v.donor_str.push_back(nd.strahler[d]);
+        ++n;
+      }
+      v.donors[q] = n;
+    }
+    const WorldGrid::Window w = g.window(X, Z);
+    const int onx = int((X == g.tiles_x - 1 ? g.nx : w.ix0 + c.t1) - w.ix0), onz = int((Z == g.tiles_z - 1 ? g.nz : w.iz0 + c.t1) - w.iz0);
+    v.ring.resize(TileView::slots(onx, onz));
+    auto set = [&](int bi, int bj) {
+      const std::int64_t ix = w.ix0 - 1 + bi, iz = w.iz0 - 1 + bj;
+      if (ix < 0 || iz < 0 || ix >= g.nx || iz >= g.nz) return;
+      const std::uint32_t k = nd.at(iz * g.nx + ix);
+      RingNode& r = v.ring[TileView::slot(onx, onz, bi, bj)];
+      r.carved = nd.carved[k], r.z = nd.z[k], r.lake = nd.lake[k], r.channel = nd.channel[k], r.chd = nd.chd[k];
+      r.count = std::uint64_t(nd.acc[k]) + nd.inflow[k];
+      r.root = nd.lake[k] ? comp.root(nd.comp[k]) : kNone;
+    };
+    for (int bi = 0; bi < onx + 2; ++bi) set(bi, 0), set(bi, onz + 1);
+    for (int bj = 1; bj <= onz; ++bj) set(0, bj), set(onx + 1, bj);
+    const std::uint64_t l0 = comp.base[std::size_t(t)], l1 = l0 + tile_labels[std::size_t(t)];
+    for (std::uint64_t l = l0; l < l1; ++l) {
+      const std::uint32_t root = comp.root(std::uint32_t(l));
+      v.root.push_back(root);
+      v.kept.push_back(comp.kept[root]);
+    }
+    return v;
+  };
+
   // Pass S: Strahler orders downstream and carved heights upstream, until nothing changes. The
   // first round (every tile) also gathers the river cover that reaches beyond the owned rectangle
   // of its channel sample ("pass W"): it depends on counts, channels and lakes only, all known now.
@@ -999,9 +1370,10 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
     LocalS r;
     SolveRef sr(pool);
     Solve& s = *sr;
-    prepare(c, bands, load, t % g.tiles_x, t / g.tiles_x, s);
-    mark_lakes(c, comp, s, std::uint64_t(t));
-    finish(c, nd, s);
+    prepare(c, ring_of(g, bands, t % g.tiles_x, t / g.tiles_x, true), load, t % g.tiles_x, t / g.tiles_x, s);
+    const TileView v = view_of(t);
+    mark_lakes(c, v, s);
+    finish(c, v, s);
     std::size_t limit_sea = compact_at, limit_any = compact_at;
     if (st.rounds == 1)
       for (std::uint32_t o = 0; o < s.rl.size(); ++o) {
@@ -1106,9 +1478,10 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
     const std::int64_t X = t % g.tiles_x, Z = t / g.tiles_x;
     SolveRef sr(pool);
     Solve& s = *sr;
-    prepare(c, bands, load, X, Z, s);
-    mark_lakes(c, comp, s, std::uint64_t(t));
-    finish(c, nd, s);
+    prepare(c, ring_of(g, bands, X, Z, true), load, X, Z, s);
+    const TileView v = view_of(t);
+    mark_lakes(c, v, s);
+    finish(c, v, s);
     if (!s.cnt.empty()) r.max_count = *std::max_element(s.cnt.begin(), s.cnt.end());
     const WorldGrid::Window& w = s.w;
     const std::size_t n = std::size_t(w.nx) * std::size_t(w.nz);
@@ -1126,10 +1499,10 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
           if (s.lake[o]) out.water[m] = 1.0f;
           count = s.cnt[o];
         } else {
-          const std::uint32_t k = nd.at((w.iz0 + j) * g.nx + w.ix0 + i);
-          out.height[m] = nd.carved[k];
-          if (nd.lake[k]) out.water[m] = 1.0f;
-          count = std::uint64_t(nd.acc[k]) + nd.inflow[k];
+          const RingNode& k = v.at(c, s, (w.iz0 + j) * g.nx + w.ix0 + i);
+          out.height[m] = k.carved;
+          if (k.lake) out.water[m] = 1.0f;
+          count = k.count;
         }
         out.flow[m] = float(double(count) * c.cell2);
       }
@@ -1149,20 +1522,20 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
       if (ce.sea_test && out.height[m] < c.sea) continue;
       out.water[m] = std::max(out.water[m], ce.v);
     }
-    if (rivers) trace_pieces(c, nd, s, r.pieces, r.starts);
+    if (rivers) trace_pieces(c, v, s, r.pieces, r.starts);
     if (lakes)
       for (std::uint32_t o = 0; o < s.rl.size(); ++o) {
         if (!s.lake[o]) continue;
         const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
-        const std::uint32_t root = comp.root(std::uint32_t(comp.base[std::size_t(t)] + s.label[o]));
+        const std::uint32_t root = v.root[s.label[o]];
         const std::size_t gi = s.grown(oi, oj);
         const std::uint32_t rg = s.rec[gi];
         bool same = false;
         if (const std::uint32_t ro = owned_of(s, rg); ro != kNone) {
-          same = s.lake[ro] && comp.root(std::uint32_t(comp.base[std::size_t(t)] + s.label[ro])) == root;
+          same = s.lake[ro] && v.root[s.label[ro]] == root;
         } else {
-          const std::uint32_t k = nd.at(world_index(c, s, rg));
-          same = nd.lake[k] && comp.root(nd.comp[k]) == root;
+          const RingNode& k = v.at(c, s, world_index(c, s, rg));
+          same = k.lake && k.root == root;
         }
         const std::int64_t wc = (w.iz0 + oj) * g.nx + w.ix0 + oi;
         r.lake.emplace_back(root, wc, LakeSample{s.zg[gi], s.eo[o], s.cnt[o], !same});
@@ -1267,7 +1640,7 @@ WorldStageAlgorithm world_flow(WorldWaterSink water) {
     };
     try {
       flow_tiled_with_progress(g, io.world, p, load, store, want_water ? &rivers : nullptr, io.cancelled, path, {},
-                               want_water ? &lakes : nullptr, span(0.0, 1.0));
+                               want_water ? &lakes : nullptr, span(0.0, 1.0), FlowFarm{io.farm, nullptr});
     } catch (const NotDraining&) {
       same_height = false;  // filled, and lake floors under their water
       const double from = reached, mid = reached + (1.0 - reached) * 0.4;
@@ -1292,30 +1665,26 @@ WorldStageAlgorithm world_flow(WorldWaterSink water) {
           [&](std::int64_t X, std::int64_t Z, std::vector<float> f) { rings[std::size_t(Z * g.tiles_x + X)] = ring_of(g.window(X, Z), f); },
           span(from, mid));
       const TileLoad filled = [&](std::int64_t X, std::int64_t Z) {
-        const WorldGrid::Window w = g.window(X, Z);
-        std::vector<float> z = load(X, Z);
-        const std::size_t n = std::size_t(w.nx) * std::size_t(w.nz);
-        std::vector<std::uint8_t> outlet(n);
-        std::vector<float> seed(n, std::numeric_limits<float>::infinity());
-        const std::vector<float>& ring = rings[std::size_t(Z * g.tiles_x + X)];
-        std::size_t k = 0;
-        for (int j = 0; j < w.nz; ++j)
-          for (int i = 0; i < w.nx; ++i) {
-            const std::int64_t ix = w.ix0 + i, iz = w.iz0 + j;
-            const std::size_t q = std::size_t(j) * std::size_t(w.nx) + std::size_t(i);
-            outlet[q] = ix == 0 || iz == 0 || ix == g.nx - 1 || iz == g.nz - 1 || z[q] < sea;  // as fill_depressions_tiled
-            if (i == 0 || j == 0 || i == w.nx - 1 || j == w.nz - 1) seed[q] = ring[k++];
-          }
-        hydro::fill_depressions_tile<float>(z.data(), w.nx, w.nz, outlet.data(), seed.data(), eps);
-        return z;
+        return filled_from_ring(g, sea, eps, X, Z, load(X, Z), rings[std::size_t(Z * g.tiles_x + X)]);
       };
       flow_tiled_with_progress(g, io.world, p, load, store, want_water ? &rivers : nullptr, io.cancelled, path, filled,
-                               want_water ? &lakes : nullptr, span(mid, 1.0));
+                               want_water ? &lakes : nullptr, span(mid, 1.0), FlowFarm{io.farm, &rings});
     }
     if (water) water(io.world, std::move(rivers), std::move(lakes));
     else if (io.out) write_world_water(io.world, rivers, lakes, *io.out);
   };
 }
+
+namespace detail {
+FarmKernel flow_farm_kernel(const WorldStageIO& io, const RecipeStage& st) {
+  const WorldFlowParams p = world_flow_params(st.stage->params());
+  const TileLoad load = [&io](std::int64_t X, std::int64_t Z) {  // as world_flow's
+    if (io.load_layers) return std::move(io.load_layers(X, Z, {"height"}).layers.at("height").data);
+    return io.load(X, Z).layers.at("height").data;
+  };
+  return flow_kernel(io.grid, io.world, p, load, io.cancelled);
+}
+}  // namespace detail
 
 void write_world_water(const Frame& world, const std::vector<River>& rivers, const std::vector<Lake>& lakes, Output& out) {
   Terrain t;

@@ -1,18 +1,22 @@
 // The tile farm of distributed global phases (src/world_farm.hpp) over an in-memory transport whose
 // ranks are threads of this process: every task runs once, results merge in order whichever rank ran
 // them, failures keep their kind and path and stop the run at their turn, and the other ranks always
-// leave when rank 0 ends the phase. (The farm over Open MPI, with the fill algorithm:
-// tests/test_world_mpi.cpp.)
+// leave when rank 0 ends the phase. The flow kernel's messages decode to what was coded and a
+// malformed one is an Error, never a read beyond its end. (The farm over Open MPI, with the fill and
+// flow algorithms: tests/test_world_mpi.cpp.)
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
 #include <chrono>
 #include <deque>
+#include <limits>
 #include <map>
 #include <mutex>
 #include <thread>
 
 #include "relief/error.hpp"
+#include "relief/recipe.hpp"
+#include "relief/world.hpp"
 #include "world_farm.hpp"
 
 namespace {
@@ -247,5 +251,78 @@ TEST(TileFarm, AMalformedMessageFromARankFailsTheRunInsteadOfHanging) {
   } catch (const std::runtime_error& x) {
     EXPECT_NE(std::string(x.what()).find("malformed"), std::string::npos) << x.what();
   }
+}
+
+// The flow stage's kernel (src/world_flow.cpp) on a pass-A task of tile (0, 0) of a 65² world of
+// 33² tiles: its input (the 67 heights of its grown ring, NaN where pass A reads none) and its
+// result decode and code again to the same bytes; every shorter prefix, a count beyond the end and
+// trailing bytes are rejected with an Error; a height that does not drain comes back as a status
+// (not an exception) naming the sample.
+TEST(FlowFarm, APassATaskAndItsResultRoundTripAndMalformedMessagesAreRejected) {
+  relief::json doc = relief::load_preset("island");
+  doc["stages"] = relief::json::array({relief::json{{"stage", "flow"}, {"river_area_km2", 0.02}}});
+  doc["seed"] = 1;
+  const relief::Recipe r = relief::parse_recipe(doc);
+  int pit = 0;  // > 0: sample (10, 10) lowered into a pit
+  relief::WorldStageIO io;
+  io.grid = relief::world_grid(65, 65, 33);
+  io.world = relief::world_frame(r, 65, 65);
+  io.load = [&](std::int64_t X, std::int64_t Z) {
+    const relief::WorldGrid::Window w = io.grid.window(X, Z);
+    relief::WorldTile t;
+    std::vector<float> h(std::size_t(w.nx) * std::size_t(w.nz));
+    for (int j = 0; j < w.nz; ++j)
+      for (int i = 0; i < w.nx; ++i) {
+        const std::int64_t ix = w.ix0 + i, iz = w.iz0 + j;
+        h[std::size_t(j) * std::size_t(w.nx) + std::size_t(i)] =
+            0.6f + 0.002f * float(ix) + 0.0001f * float(iz) - (pit && ix == 10 && iz == 10 ? 0.01f : 0.0f);
+      }
+    t.layers["height"] = relief::Layer{1, std::move(h)};
+    return t;
+  };
+  const FarmKernel kernel = relief::detail::make_farm_kernel("flow", io, r.stages[0]);
+  // 'A', not filled, 67 NaN ring heights, no fill levels (u64 counts, raw floats).
+  std::string input("A\0", 2);
+  auto put_u64 = [&](std::uint64_t v) { input.append(reinterpret_cast<const char*>(&v), 8); };
+  put_u64(67);
+  const float nan = std::numeric_limits<float>::quiet_NaN();
+  for (int k = 0; k < 67; ++k) input.append(reinterpret_cast<const char*>(&nan), 4);
+  put_u64(0);
+  const std::string result = kernel(0, input);
+  ASSERT_GT(result.size(), 100u);
+  EXPECT_EQ(result.substr(0, 2), std::string("a\0", 2));  // solved
+  EXPECT_EQ(relief::detail::flow_message_recoded(input), input);
+  EXPECT_EQ(relief::detail::flow_message_recoded(result), result);
+  auto rejected = [](const std::string& bytes) {
+    try {
+      relief::detail::flow_message_recoded(bytes);
+    } catch (const relief::Error& e) {
+      return std::string(e.what()).find("malformed") != std::string::npos;
+    }
+    return false;
+  };
+  for (const std::string* m : std::initializer_list<const std::string*>{&input, &result})
+    for (std::size_t n = 0; n < m->size(); ++n) ASSERT_TRUE(rejected(m->substr(0, n))) << n << " of " << m->size() << " bytes";
+  EXPECT_TRUE(rejected(input + "x"));
+  EXPECT_TRUE(rejected(result + "x"));
+  std::string huge = input;
+  huge[2] = '\xff';  // the ring's count: beyond the end
+  EXPECT_TRUE(rejected(huge));
+  EXPECT_THROW(kernel(0, huge), relief::Error);
+  EXPECT_THROW(kernel(0, input.substr(0, 30)), relief::Error);
+  std::string short_ring("A\0", 2);  // a ring of 66 heights: the kernel refuses it
+  input.swap(short_ring);
+  put_u64(66);
+  for (int k = 0; k < 66; ++k) input.append(reinterpret_cast<const char*>(&nan), 4);
+  put_u64(0);
+  EXPECT_THROW(kernel(0, input), relief::Error);
+  input.swap(short_ring);
+  EXPECT_THROW(kernel(4, input), relief::Error);  // no tile 4 in a 2 × 2 world
+  pit = 1;
+  const std::string not_draining = kernel(0, input);
+  ASSERT_GE(not_draining.size(), 2u);
+  EXPECT_EQ(not_draining.substr(0, 2), std::string("a\x01", 2));
+  EXPECT_NE(not_draining.find("(10, 10)"), std::string::npos);
+  EXPECT_EQ(relief::detail::flow_message_recoded(not_draining), not_draining);
 }
 }  // namespace

@@ -240,6 +240,56 @@ TEST(WorldMpi, TheCliWithTheFillStageIsTheSameOnTwoAndFourRanks) {
   }
 }
 
+// The CLI with the `flow` stage (rivers, lakes; relief/world_flow.hpp): its tile solves run on
+// every rank (src/world_farm.hpp) and the store, rivers.json and lakes.json are the bytes of a
+// build without MPI on 1, 2 and 4 ranks: after a fill stage, and without one, where the first pass
+// finds a height that does not drain (a status sent back by whichever rank solved the tile) and
+// rank 0 fills first, then runs the tile solves on every rank again.
+TEST(WorldMpi, TheCliWithTheFlowStageIsTheSameOnOneTwoAndFourRanks) {
+  REQUIRE_MPI();
+  TempDir d("world-mpi-flow");
+  for (const bool fill : {true, false}) {
+    SCOPED_TRACE(fill ? "after a fill stage" : "without a fill stage");
+    relief::json doc = relief::load_preset("island");
+    relief::json stages = relief::json::array({doc["stages"][0], doc["stages"][1], doc["stages"][2]});
+    if (fill) stages.push_back(relief::json{{"stage", "fill"}, {"epsilon_m", 0.01}});
+    stages.push_back(relief::json{{"stage", "flow"}, {"river_area_km2", 0.02}, {"width_coeff", 300.0}, {"carve_depth_coeff", 1.0}});
+    stages.push_back(doc["stages"][3]);  // a local phase after flow
+    doc["stages"] = stages;
+    const std::string name = fill ? "fill-flow" : "flow";
+    relief::test::write_text(d.path / (name + ".json"), doc.dump());
+    const std::string args = "world " + (d / (name + ".json")) + " --size 257 --tile 65 --seed 3 -q -j 1";
+    const fs::path ref = d.path / (name + "-ref");
+    const Shell one = relief::test::relief_cli(args + " -o " + ref.string());
+    ASSERT_EQ(one.code, 0) << one.out;
+    const std::size_t flow_stage = fill ? 4 : 3;
+    ASSERT_EQ(relief::read_world_manifest(ref.string())["stages"][flow_stage]["locality"], "global");
+    const relief::json rivers = relief::json::parse(relief::test::slurp(ref / "rivers.json"));
+    EXPECT_FALSE(rivers.dump().find("vertices") == std::string::npos) << "no river in the reference";
+    ASSERT_TRUE(fs::exists(ref / "lakes.json"));
+    std::int64_t solves = 0;
+    EXPECT_EQ(global_solves(ref, solves).size(), 1u);
+    EXPECT_GE(solves, 16);  // pass A's solves at least, all in this process
+    for (int ranks : {1, 2, 4}) {
+      SCOPED_TRACE(std::to_string(ranks) + " ranks");
+      const fs::path out = d.path / (name + "-p" + std::to_string(ranks));
+      const Shell r = mpirun(ranks, args + " -o " + out.string());
+      ASSERT_EQ(r.code, 0) << r.out;
+      expect_same_store(ref, out);  // every tile, world.json, rivers.json, lakes.json
+      std::int64_t sum = 0;
+      const std::vector<std::int64_t> by_rank = global_solves(out, sum);
+      ASSERT_EQ(by_rank.size(), std::size_t(ranks));
+      // Without a fill stage, every global solve is flow's: some ran on the other ranks.
+      if (ranks > 1 && !fill) {
+        EXPECT_GT(sum - by_rank[0], 0);
+      }
+      if (fill) {
+        EXPECT_GE(sum, 2 * 16);  // fill's and flow's
+      }
+    }
+  }
+}
+
 // Droplet erosion's passes (relief/world_bounded.hpp) spread over the ranks: each rank runs groups of
 // world blocks on the windows rank 0 sends and sends back the samples they changed; the store is the
 // bytes of a build without MPI (which are the whole map's: tests/test_world_bounded.cpp).
