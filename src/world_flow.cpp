@@ -12,6 +12,16 @@
 //
 // The per-sample arithmetic below copies apply_flow's (src/stage_erosion.cpp) expression for
 // expression, so that every float comes out with the same bits; keep the two in step.
+//
+// Distributed builds (src/world_farm.hpp): in a build (WorldStageIO::farm) every tile solve of the
+// three passes is a farm task ("flow": 'A', 'S', 'F'), run on any rank by the same code. A solve
+// reads nothing of rank 0's global state but what its task carries: the heights of the grown ring
+// from the bands (ring_of), the fill levels of its window perimeter when the heights are filled
+// first, and (passes S and final) its TileView: its perimeter nodes' inflow and channel donors, the
+// nodes on the ring around its owned rectangle, its components' fate, and (final) the cover from
+// other tiles. Results are the Local* structs; the final pass's tile is stored where it is solved.
+// Pass A's "does not drain" is a status in its result, so that world_flow fills first on any rank
+// count. Rank 0 merges in the same order as without a farm: the same bytes for any rank count.
 #include "relief/world_flow.hpp"
 
 #include <algorithm>
@@ -144,8 +154,8 @@ struct Ctx {
   std::int64_t t1;
   const TileLoad* filled = nullptr;  // the filled heights, when the input may hold depressions
   // hypot(dx, dy) for 0 <= dx, dy <= hyp_r, at hyp[dy·(hyp_r + 1) + dx] (each_cover's distances;
-  // hypot depends on |dx| and |dy| only), or empty.
-  std::vector<double> hyp;
+  // hypot depends on |dx| and |dy| only; hyp_table), or null.
+  const double* hyp = nullptr;
   int hyp_r = -1;
 };
 
@@ -748,7 +758,7 @@ void each_cover(const Ctx& c, std::int64_t i, std::int64_t j, std::uint64_t coun
   const bool table = R <= c.hyp_r;
   const std::size_t stride = std::size_t(c.hyp_r + 1);
   for (std::int64_t b = std::max<std::int64_t>(0, j - R); b <= std::min<std::int64_t>(c.g.nz - 1, j + R); ++b) {
-    const double* row = table ? c.hyp.data() + std::size_t(std::abs(b - j)) * stride : nullptr;
+    const double* row = table ? c.hyp + std::size_t(std::abs(b - j)) * stride : nullptr;
     for (std::int64_t a = std::max<std::int64_t>(0, i - R); a <= std::min<std::int64_t>(c.g.nx - 1, i + R); ++a) {
       const double h = table ? row[std::abs(a - i)] : std::hypot(double(a - i), double(b - j));
       const double cover = std::clamp(r_cells - h + 0.5, 0.0, 1.0);
@@ -846,6 +856,150 @@ LocalA solve_a(const Ctx& c, const std::vector<float>& ring, const TileLoad& loa
       r.link_cell[k] = -1;
     }
   }
+  return r;
+}
+
+// A tile's pass-S result: the values of its perimeter nodes (node order) and, in the first
+// round, its cover beyond its owned rectangle.
+struct LocalS {
+  std::vector<std::uint8_t> chd, str;
+  std::vector<float> ec;
+  std::vector<std::pair<std::int64_t, float>> cover_sea, cover_any;  // first round: cover beyond the owned rectangle
+};
+
+bool strictly_inside(const Solve& s, std::int64_t ix, std::int64_t iz) {
+  return ix > s.w.ix0 && iz > s.w.iz0 && ix < s.w.ix0 + s.onx - 1 && iz < s.w.iz0 + s.onz - 1;
+}
+
+// A tile's cover list reduced to one entry per sample (the largest cover: max is order-free), in
+// sample order; also while it grows, so that overlapping discs along a border hold it to the
+// samples they cover.
+using CoverList = std::vector<std::pair<std::int64_t, float>>;
+constexpr std::size_t compact_at = std::size_t(1) << 20;
+void compact(CoverList& cv) {
+  std::sort(cv.begin(), cv.end());  // by sample, then value: the last of a sample is its largest
+  std::size_t n = 0;
+  for (std::size_t q = 0; q < cv.size(); ++q) {
+    if (n > 0 && cv[n - 1].first == cv[q].first) cv[n - 1] = cv[q];
+    else cv[n++] = cv[q];
+  }
+  cv.resize(n);
+}
+
+LocalS solve_s_tile(const Ctx& c, const std::vector<float>& ring, const TileLoad& load, const TileView& v, std::int64_t t,
+                    bool first_round, SolvePool& pool) {
+  const WorldGrid& g = c.g;
+  LocalS r;
+  SolveRef sr(pool);
+  Solve& s = *sr;
+  prepare(c, ring, load, t % g.tiles_x, t / g.tiles_x, s);
+  mark_lakes(c, v, s);
+  finish(c, v, s);
+  std::size_t limit_sea = compact_at, limit_any = compact_at;
+  if (first_round)
+    for (std::uint32_t o = 0; o < s.rl.size(); ++o) {
+      if (!s.ch[o] || s.lake[o]) continue;
+      const std::int64_t i = s.w.ix0 + o % std::uint32_t(s.onx), j = s.w.iz0 + o / std::uint32_t(s.onx);
+      each_cover(c, i, j, s.cnt[o], [&](std::int64_t a, std::int64_t b, float cv_v, bool sea_test) {
+        if (!(cv_v > 0) || strictly_inside(s, a, b)) return;
+        auto& cv = sea_test ? r.cover_sea : r.cover_any;
+        std::size_t& limit = sea_test ? limit_sea : limit_any;
+        cv.emplace_back(b * g.nx + a, cv_v);
+        if (cv.size() >= limit) compact(cv), limit = std::max(compact_at, 2 * cv.size());
+      });
+    }
+  compact(r.cover_sea), compact(r.cover_any);
+  const std::size_t pn = s.perimeter.size();
+  r.chd.resize(pn), r.str.resize(pn), r.ec.resize(pn);
+  for (std::size_t k = 0; k < pn; ++k) {
+    const std::uint32_t o = s.perimeter[k];
+    r.chd[k] = s.chd[o], r.str[k] = s.str[o], r.ec[k] = s.ec[o];
+  }
+  return r;
+}
+
+struct CoverEntry {
+  std::int64_t cell;
+  float v;
+  bool sea_test;
+};
+
+struct LocalF {
+  FlowTile out;
+  std::uint64_t max_count = 0;
+  std::unordered_map<std::int64_t, Piece> pieces;
+  std::vector<std::int64_t> starts;
+  std::vector<std::tuple<std::uint32_t, std::int64_t, LakeSample>> lake;  // root, world sample, sample
+};
+
+LocalF solve_f_tile(const Ctx& c, const std::vector<float>& ring, const TileLoad& load, const TileView& v,
+                    const std::vector<CoverEntry>& cover, std::int64_t t, bool rivers, bool lakes, SolvePool& pool) {
+  const WorldGrid& g = c.g;
+  LocalF r;
+  const std::int64_t X = t % g.tiles_x, Z = t / g.tiles_x;
+  SolveRef sr(pool);
+  Solve& s = *sr;
+  prepare(c, ring, load, X, Z, s);
+  mark_lakes(c, v, s);
+  finish(c, v, s);
+  if (!s.cnt.empty()) r.max_count = *std::max_element(s.cnt.begin(), s.cnt.end());
+  const WorldGrid::Window& w = s.w;
+  const std::size_t n = std::size_t(w.nx) * std::size_t(w.nz);
+  FlowTile& out = r.out;
+  out.height.resize(n);
+  out.flow.resize(n);
+  out.water.assign(n, 0.0f);
+  for (int j = 0; j < w.nz; ++j)
+    for (int i = 0; i < w.nx; ++i) {
+      const std::size_t m = std::size_t(j) * std::size_t(w.nx) + std::size_t(i);
+      std::uint64_t count;
+      if (i < s.onx && j < s.onz) {
+        const std::size_t o = std::size_t(j) * std::size_t(s.onx) + std::size_t(i);
+        out.height[m] = s.ec[o];
+        if (s.lake[o]) out.water[m] = 1.0f;
+        count = s.cnt[o];
+      } else {
+        const RingNode& k = v.at(c, s, (w.iz0 + j) * g.nx + w.ix0 + i);
+        out.height[m] = k.carved;
+        if (k.lake) out.water[m] = 1.0f;
+        count = k.count;
+      }
+      out.flow[m] = float(double(count) * c.cell2);
+    }
+  for (std::uint32_t o = 0; o < s.rl.size(); ++o) {
+    if (!s.ch[o] || s.lake[o]) continue;
+    const std::int64_t i = w.ix0 + o % std::uint32_t(s.onx), j = w.iz0 + o / std::uint32_t(s.onx);
+    each_cover(c, i, j, s.cnt[o], [&](std::int64_t a, std::int64_t b, float v, bool sea_test) {
+      if (a < w.ix0 || b < w.iz0 || a >= w.ix0 + w.nx || b >= w.iz0 + w.nz) return;
+      const std::size_t m = std::size_t(b - w.iz0) * std::size_t(w.nx) + std::size_t(a - w.ix0);
+      if (sea_test && out.height[m] < c.sea) return;
+      out.water[m] = std::max(out.water[m], v);
+    });
+  }
+  // Cover from channel samples of other tiles (discs may reach deep into this one).
+  for (const CoverEntry& ce : cover) {
+    const std::size_t m = std::size_t(ce.cell / g.nx - w.iz0) * std::size_t(w.nx) + std::size_t(ce.cell % g.nx - w.ix0);
+    if (ce.sea_test && out.height[m] < c.sea) continue;
+    out.water[m] = std::max(out.water[m], ce.v);
+  }
+  if (rivers) trace_pieces(c, v, s, r.pieces, r.starts);
+  if (lakes)
+    for (std::uint32_t o = 0; o < s.rl.size(); ++o) {
+      if (!s.lake[o]) continue;
+      const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
+      const std::uint32_t root = v.root[s.label[o]];
+      const std::size_t gi = s.grown(oi, oj);
+      const std::uint32_t rg = s.rec[gi];
+      bool same = false;
+      if (const std::uint32_t ro = owned_of(s, rg); ro != kNone) {
+        same = s.lake[ro] && v.root[s.label[ro]] == root;
+      } else {
+        const RingNode& k = v.at(c, s, world_index(c, s, rg));
+        same = k.lake && k.root == root;
+      }
+      const std::int64_t wc = (w.iz0 + oj) * g.nx + w.ix0 + oi;
+      r.lake.emplace_back(root, wc, LakeSample{s.zg[gi], s.eo[o], s.cnt[o], !same});
+    }
   return r;
 }
 
@@ -1007,43 +1161,248 @@ ResultA decode_result_a(Decoder& d) {
     if (l != kNone && l >= r.comp_count.size()) d.bad("a component label out of range");
   return out;
 }
+// Pass S's and the final pass's task: 'S' or 'F', the grown ring (beyond), the fill levels, the
+// TileView, the flags, each_cover's table radius and (final pass) the cover from other tiles.
+struct InputSF {
+  char kind = 'S';
+  std::vector<float> ring, fill_ring;
+  bool filled = false, first_round = false, rivers = false, lakes = false, same_height = false;
+  int hyp_r = -1;
+  TileView view;
+  std::vector<CoverEntry> cover;
+};
+std::uint8_t flag(Decoder& d) {
+  const std::uint8_t f = d.get<std::uint8_t>();
+  if (f > 1) d.bad("a flag of " + std::to_string(f));
+  return f;
+}
+std::string encode(const InputSF& in) {
+  Coder c;
+  c.put(in.kind);
+  c.put(in.ring), c.put(in.fill_ring);
+  c.put(std::uint8_t(in.filled)), c.put(std::uint8_t(in.first_round)), c.put(std::uint8_t(in.rivers)), c.put(std::uint8_t(in.lakes));
+  c.put(std::uint8_t(in.same_height));
+  c.put(std::int32_t(in.hyp_r));
+  const TileView& v = in.view;
+  c.put(v.ext), c.put(v.donors), c.put(v.donor_str);
+  const std::size_t n = v.ring.size();
+  std::vector<float> carved(n), z(n);
+  std::vector<std::uint8_t> lake(n), channel(n), chd(n);
+  std::vector<std::uint64_t> count(n);
+  std::vector<std::uint32_t> root(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const RingNode& r = v.ring[k];
+    carved[k] = r.carved, z[k] = r.z, lake[k] = r.lake, channel[k] = r.channel, chd[k] = r.chd, count[k] = r.count, root[k] = r.root;
+  }
+  c.put(carved), c.put(z), c.put(lake), c.put(channel), c.put(chd), c.put(count), c.put(root);
+  c.put(v.kept), c.put(v.root);
+  std::vector<std::int64_t> cell(in.cover.size());
+  std::vector<float> value(in.cover.size());
+  std::vector<std::uint8_t> sea(in.cover.size());
+  for (std::size_t k = 0; k < in.cover.size(); ++k) cell[k] = in.cover[k].cell, value[k] = in.cover[k].v, sea[k] = in.cover[k].sea_test;
+  c.put(cell), c.put(value), c.put(sea);
+  return std::move(c.s);
+}
+InputSF decode_input_sf(Decoder& d, char kind) {
+  InputSF in;
+  in.kind = kind;
+  in.ring = d.vec<float>(), in.fill_ring = d.vec<float>();
+  in.filled = flag(d), in.first_round = flag(d), in.rivers = flag(d), in.lakes = flag(d), in.same_height = flag(d);
+  in.hyp_r = d.get<std::int32_t>();
+  if (in.hyp_r < -1 || in.hyp_r > 1447) d.bad("a table radius of " + std::to_string(in.hyp_r));
+  TileView& v = in.view;
+  v.ext = d.vec<std::uint64_t>(), v.donors = d.vec<std::uint32_t>(), v.donor_str = d.vec<std::uint8_t>();
+  std::uint64_t donors = 0;
+  for (const std::uint32_t n : v.donors) donors += n;
+  if (v.ext.size() != v.donors.size() || donors != v.donor_str.size()) d.bad("perimeter fields of different lengths");
+  const std::vector<float> carved = d.vec<float>(), z = d.vec<float>();
+  const std::vector<std::uint8_t> lake = d.vec<std::uint8_t>(), channel = d.vec<std::uint8_t>(), chd = d.vec<std::uint8_t>();
+  const std::vector<std::uint64_t> count = d.vec<std::uint64_t>();
+  const std::vector<std::uint32_t> root = d.vec<std::uint32_t>();
+  const std::size_t n = carved.size();
+  if (z.size() != n || lake.size() != n || channel.size() != n || chd.size() != n || count.size() != n || root.size() != n)
+    d.bad("ring fields of different lengths");
+  v.ring.resize(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    if (lake[k] > 1 || channel[k] > 1) d.bad("a flag of a ring node");
+    RingNode& r = v.ring[k];
+    r.carved = carved[k], r.z = z[k], r.lake = lake[k], r.channel = channel[k], r.chd = chd[k], r.count = count[k], r.root = root[k];
+  }
+  v.kept = d.vec<std::uint8_t>(), v.root = d.vec<std::uint32_t>();
+  if (v.kept.size() != v.root.size()) d.bad("component fields of different lengths");
+  const std::vector<std::int64_t> cell = d.vec<std::int64_t>();
+  const std::vector<float> value = d.vec<float>();
+  const std::vector<std::uint8_t> sea = d.vec<std::uint8_t>();
+  if (value.size() != cell.size() || sea.size() != cell.size()) d.bad("cover fields of different lengths");
+  in.cover.resize(cell.size());
+  for (std::size_t k = 0; k < cell.size(); ++k) {
+    if (sea[k] > 1) d.bad("a flag of a cover entry");
+    in.cover[k] = CoverEntry{cell[k], value[k], sea[k] != 0};
+  }
+  d.end();
+  return in;
+}
+// Pass S's result: 's', the LocalS.
+std::string encode(const LocalS& r) {
+  Coder c;
+  c.put(char('s'));
+  c.put(r.chd), c.put(r.str), c.put(r.ec);
+  for (const CoverList* cv : {&r.cover_sea, &r.cover_any}) {
+    std::vector<std::int64_t> cell(cv->size());
+    std::vector<float> value(cv->size());
+    for (std::size_t k = 0; k < cv->size(); ++k) cell[k] = (*cv)[k].first, value[k] = (*cv)[k].second;
+    c.put(cell), c.put(value);
+  }
+  return std::move(c.s);
+}
+LocalS decode_result_s(Decoder& d) {
+  LocalS r;
+  r.chd = d.vec<std::uint8_t>(), r.str = d.vec<std::uint8_t>(), r.ec = d.vec<float>();
+  if (r.str.size() != r.chd.size() || r.ec.size() != r.chd.size()) d.bad("perimeter fields of different lengths");
+  for (CoverList* cv : {&r.cover_sea, &r.cover_any}) {
+    const std::vector<std::int64_t> cell = d.vec<std::int64_t>();
+    const std::vector<float> value = d.vec<float>();
+    if (value.size() != cell.size()) d.bad("cover fields of different lengths");
+    cv->resize(cell.size());
+    for (std::size_t k = 0; k < cell.size(); ++k) (*cv)[k] = {cell[k], value[k]};
+  }
+  d.end();
+  return r;
+}
+// The final pass's result: 'f', the LocalF but its tile (stored by the rank that solved it).
+std::string encode(const LocalF& r) {
+  Coder c;
+  c.put(char('f'));
+  c.put(r.max_count);
+  c.put(std::uint64_t(r.pieces.size()));
+  for (const auto& [at, pc] : r.pieces) {
+    c.put(at), c.put(std::int32_t(pc.order)), c.put(pc.next);
+    c.put(std::vector<char>(pc.end.begin(), pc.end.end()));
+    c.put(pc.vertices);
+  }
+  c.put(r.starts);
+  const std::size_t n = r.lake.size();
+  std::vector<std::uint32_t> root(n);
+  std::vector<std::int64_t> wc(n);
+  std::vector<float> filled(n), e(n);
+  std::vector<std::uint64_t> count(n);
+  std::vector<std::uint8_t> exits(n);
+  for (std::size_t k = 0; k < n; ++k) {
+    const auto& [rt, w, ls] = r.lake[k];
+    root[k] = rt, wc[k] = w, filled[k] = ls.filled, e[k] = ls.e, count[k] = ls.count, exits[k] = ls.exits;
+  }
+  c.put(root), c.put(wc), c.put(filled), c.put(e), c.put(count), c.put(exits);
+  return std::move(c.s);
+}
+LocalF decode_result_f(Decoder& d) {
+  LocalF r;
+  r.max_count = d.get<std::uint64_t>();
+  const std::uint64_t pieces = d.get<std::uint64_t>();
+  if (pieces > d.s.size()) d.bad("a count of " + std::to_string(pieces) + " river pieces");
+  for (std::uint64_t q = 0; q < pieces; ++q) {
+    const std::int64_t at = d.get<std::int64_t>();
+    Piece pc;
+    pc.order = d.get<std::int32_t>();
+    pc.next = d.get<std::int64_t>();
+    const std::vector<char> end = d.vec<char>();
+    pc.end.assign(end.begin(), end.end());
+    pc.vertices = d.vec<RiverVertex>();
+    if (!r.pieces.emplace(at, std::move(pc)).second) d.bad("a river piece twice");
+  }
+  r.starts = d.vec<std::int64_t>();
+  const std::vector<std::uint32_t> root = d.vec<std::uint32_t>();
+  const std::vector<std::int64_t> wc = d.vec<std::int64_t>();
+  const std::vector<float> filled = d.vec<float>(), e = d.vec<float>();
+  const std::vector<std::uint64_t> count = d.vec<std::uint64_t>();
+  const std::vector<std::uint8_t> exits = d.vec<std::uint8_t>();
+  const std::size_t n = root.size();
+  if (wc.size() != n || filled.size() != n || e.size() != n || count.size() != n || exits.size() != n)
+    d.bad("lake fields of different lengths");
+  for (std::size_t k = 0; k < n; ++k) {
+    if (exits[k] > 1) d.bad("a flag of a lake sample");
+    r.lake.emplace_back(root[k], wc[k], LakeSample{filled[k], e[k], count[k], exits[k] != 0});
+  }
+  d.end();
+  return r;
+}
+// each_cover's table for radius r (Ctx::hyp).
+std::shared_ptr<const std::vector<double>> hyp_table(int r) {
+  const std::size_t stride = std::size_t(r + 1);
+  auto t = std::make_shared<std::vector<double>>(stride * stride);
+  for (int dy = 0; dy <= r; ++dy)
+    for (int dx = 0; dx <= r; ++dx) (*t)[std::size_t(dy) * stride + std::size_t(dx)] = std::hypot(double(dx), double(dy));
+  return t;
+}
+
 // What the rank that runs a task knows: the stage's parameters, the world, its own tiles.
 struct FlowKernelState {
   WorldGrid g;
   Frame f;
   WorldFlowParams p;
   TileLoad load;
+  std::function<void(std::int64_t X, std::int64_t Z, FlowTile tile, bool same_height)> store;  // the final pass's tiles
   std::function<bool()> cancelled;
   SolvePool pool;
+  std::mutex m;  // hyp
+  std::shared_ptr<const std::vector<double>> hyp;
+  std::shared_ptr<const std::vector<double>> table(int r) {
+    std::lock_guard<std::mutex> lock(m);
+    if (!hyp || hyp->size() != std::size_t(r + 1) * std::size_t(r + 1)) hyp = hyp_table(r);
+    return hyp;
+  }
 };
 std::string run_flow_task(FlowKernelState& k, std::int64_t t, std::string_view input) {
   if (k.cancelled && k.cancelled()) throw Cancelled();
   Decoder d{input};
   const char tag = d.get<char>();
-  if (tag != 'A') d.bad("an unknown task kind " + std::to_string(int(std::uint8_t(tag))));
+  if (tag != 'A' && tag != 'S' && tag != 'F') d.bad("an unknown task kind " + std::to_string(int(std::uint8_t(tag))));
   if (t < 0 || t >= k.g.count()) d.bad("a tile " + std::to_string(t) + " outside the world");
-  const InputA in = decode_input_a(d);
   const float sea = float(k.f.sea_level), eps = float(k.p.epsilon_m / k.f.height_m);  // as world_flow
-  const TileLoad filled = [&](std::int64_t x, std::int64_t z) { return filled_from_ring(k.g, sea, eps, x, z, k.load(x, z), in.fill_ring); };
-  const Ctx c = make_ctx(k.g, k.f, k.p, in.filled ? &filled : nullptr);
-  try {
-    return encode(solve_a(c, in.ring, k.load, t, k.pool, ""));
-  } catch (const NotDraining& e) {  // a status, not an error: rank 0 then fills first, on any rank count
-    return encode_not_draining(e.message());
+  if (tag == 'A') {
+    const InputA in = decode_input_a(d);
+    const TileLoad filled = [&](std::int64_t x, std::int64_t z) { return filled_from_ring(k.g, sea, eps, x, z, k.load(x, z), in.fill_ring); };
+    const Ctx c = make_ctx(k.g, k.f, k.p, in.filled ? &filled : nullptr);
+    try {
+      return encode(solve_a(c, in.ring, k.load, t, k.pool, ""));
+    } catch (const NotDraining& e) {  // a status, not an error: rank 0 then fills first, on any rank count
+      return encode_not_draining(e.message());
+    }
   }
+  const InputSF in = decode_input_sf(d, tag);
+  const TileLoad filled = [&](std::int64_t x, std::int64_t z) { return filled_from_ring(k.g, sea, eps, x, z, k.load(x, z), in.fill_ring); };
+  Ctx c = make_ctx(k.g, k.f, k.p, in.filled ? &filled : nullptr);
+  std::shared_ptr<const std::vector<double>> hyp;
+  if (in.hyp_r >= 0) {
+    hyp = k.table(in.hyp_r);
+    c.hyp = hyp->data(), c.hyp_r = in.hyp_r;
+  }
+  if (tag == 'S') return encode(solve_s_tile(c, in.ring, k.load, in.view, t, in.first_round, k.pool));
+  const std::int64_t X = t % k.g.tiles_x, Z = t / k.g.tiles_x;
+  const WorldGrid::Window w = k.g.window(X, Z);
+  for (const CoverEntry& ce : in.cover) {
+    const std::int64_t ix = ce.cell % k.g.nx, iz = ce.cell / k.g.nx;
+    if (ce.cell < 0 || ix < w.ix0 || iz < w.iz0 || ix >= w.ix0 + w.nx || iz >= w.iz0 + w.nz) d.bad("a cover entry outside the tile");
+  }
+  LocalF r = solve_f_tile(c, in.ring, k.load, in.view, in.cover, t, in.rivers, in.lakes, k.pool);
+  if (k.store) k.store(X, Z, std::move(r.out), in.same_height);
+  return encode(r);
 }
 detail::FarmKernel flow_kernel(const WorldGrid& g, const Frame& f, const WorldFlowParams& p, const TileLoad& load,
+                               const std::function<void(std::int64_t, std::int64_t, FlowTile, bool)>& store,
                                const std::function<bool()>& cancelled) {
   auto k = std::make_shared<FlowKernelState>();
-  k->g = g, k->f = f, k->p = p, k->load = load, k->cancelled = cancelled;
+  k->g = g, k->f = f, k->p = p, k->load = load, k->store = store, k->cancelled = cancelled;
   return [k](std::int64_t t, std::string_view input) { return run_flow_task(*k, t, input); };
 }
 
-// A distributed build's farm (src/world_farm.hpp) for flow's tile solves, and the fill levels of
-// each tile's window perimeter when the heights are filled first (world_flow).
+// A distributed build's farm (src/world_farm.hpp) for flow's tile solves, the kernel of this rank
+// (flow_farm_kernel), the fill levels of each tile's window perimeter when the heights are filled
+// first, and whether the stored height stays as it is (world_flow).
 struct FlowFarm {
   detail::TileFarm* farm = nullptr;
   const std::vector<std::vector<float>>* fill_rings = nullptr;
+  detail::FarmKernel kernel;
+  bool same_height = false;
 };
 
 }  // namespace
@@ -1057,6 +1416,9 @@ std::string flow_message_recoded(std::string_view bytes) {
     const ResultA r = decode_result_a(d);
     return r.drains ? encode(r.r) : encode_not_draining(r.message);
   }
+  if (tag == 'S' || tag == 'F') return encode(decode_input_sf(d, tag));
+  if (tag == 's') return encode(decode_result_s(d));
+  if (tag == 'f') return encode(decode_result_f(d));
   d.bad("an unknown kind " + std::to_string(int(std::uint8_t(tag))));
 }
 }  // namespace detail
@@ -1078,7 +1440,7 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
   TiledFlowStats st;
   st.tiles = g.count();
   Ctx c = make_ctx(g, f, p, filled ? &filled : nullptr);
-  if (ff.farm && filled && !ff.fill_rings) throw Error("world", "flow: internal error, filled heights without their levels");
+  if (ff.farm && ((filled && !ff.fill_rings) || !ff.kernel)) throw Error("world", "flow: internal error, filled heights without their levels");
   auto check = [&] {
     if (cancelled && cancelled()) throw Cancelled();
   };
@@ -1120,7 +1482,6 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
   std::vector<std::uint8_t> tile_land(std::size_t(tiles), 0);
   std::vector<std::uint32_t> tile_max_acc(std::size_t(tiles), 0);
   std::vector<std::uint32_t> tile_labels(std::size_t(tiles), 0);  // components of each tile (from comp.base)
-  const detail::FarmKernel farm_kernel = ff.farm ? flow_kernel(g, f, p, load, cancelled) : detail::FarmKernel();
   auto merge_a = [&](std::int64_t t, LocalA r) {
     ++st.tile_solves;
     const WorldGrid::Window w = g.window(t % g.tiles_x, t / g.tiles_x);
@@ -1169,7 +1530,7 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
             if (in.filled) in.fill_ring = (*ff.fill_rings).at(std::size_t(t));
             return encode(in);
           },
-          farm_kernel, [&](std::int64_t t, std::string bytes) {
+          ff.kernel, [&](std::int64_t t, std::string bytes) {
             Decoder d{bytes};
             if (d.get<char>() != 'a') d.bad("not a pass-A result");
             ResultA r = decode_result_a(d);
@@ -1266,6 +1627,7 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
     may_channel[t] = tile_land[t] && double(std::uint64_t(tile_max_acc[t]) + ext_sum[t]) >= c.threshold_cells;
     st.channel_tiles += may_channel[t];
   }
+  std::shared_ptr<const std::vector<double>> hyp;  // c.hyp's table
   // each_cover's distances up to the widest river's disc radius (a bound: the largest local count
   // plus all inflow of a tile bounds its counts), when that table is at most 2^21 entries.
   {
@@ -1277,10 +1639,8 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
       const double r = std::ceil(0.5 * wmax / c.cell + 0.5);
       if (r <= 1447) {
         c.hyp_r = int(r);
-        const std::size_t stride = std::size_t(c.hyp_r + 1);
-        c.hyp.resize(stride * stride);
-        for (int dy = 0; dy <= c.hyp_r; ++dy)
-          for (int dx = 0; dx <= c.hyp_r; ++dx) c.hyp[std::size_t(dy) * stride + std::size_t(dx)] = std::hypot(double(dx), double(dy));
+        hyp = hyp_table(c.hyp_r);
+        c.hyp = hyp->data();
       }
     }
   }
@@ -1327,74 +1687,37 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
     return v;
   };
 
+  // The tasks of passes S and final (one kind of task per pass, 'S' and 'F'; src/world_farm.hpp).
+  auto task_input = [&](char kind, std::int64_t t) {
+    InputSF in;
+    in.kind = kind;
+    in.ring = ring_of(g, bands, t % g.tiles_x, t / g.tiles_x, true);
+    in.filled = filled != nullptr;
+    if (in.filled) in.fill_ring = (*ff.fill_rings).at(std::size_t(t));
+    in.view = view_of(t);
+    in.first_round = st.rounds == 1;
+    in.rivers = rivers != nullptr, in.lakes = lakes != nullptr, in.same_height = ff.same_height;
+    in.hyp_r = c.hyp_r;
+    return in;
+  };
+
   // Pass S: Strahler orders downstream and carved heights upstream, until nothing changes. The
   // first round (every tile) also gathers the river cover that reaches beyond the owned rectangle
   // of its channel sample ("pass W"): it depends on counts, channels and lakes only, all known now.
   std::unordered_map<std::int64_t, float> cover_sea, cover_any;  // sea-tested discs, point covers
-  auto strictly_inside = [](const Solve& s, std::int64_t ix, std::int64_t iz) {
-    return ix > s.w.ix0 && iz > s.w.iz0 && ix < s.w.ix0 + s.onx - 1 && iz < s.w.iz0 + s.onz - 1;
-  };
   // Rounds as the tiled fill's (src/world_fill.cpp): the four classes of tiles (X mod 2, Z mod 2)
   // in turn, each the class's tiles waiting for new perimeter values, solved concurrently. A
   // tile's solve reads the perimeter nodes of its neighbours' owned rectangles and its merge writes
   // those of its own; tiles of one class are never neighbours, so no solve reads what another
   // merge of its class writes. Orders only rise and carved heights only fall, so the rounds end at
   // the same values for any schedule; this one is fixed.
-  // A tile's pass-S result: the values of its perimeter nodes (node order) and, in the first
-  // round, its cover beyond its owned rectangle.
-  struct LocalS {
-    std::vector<std::uint8_t> chd, str;
-    std::vector<float> ec;
-    std::vector<std::pair<std::int64_t, float>> cover_sea, cover_any;  // first round: cover beyond the owned rectangle
-  };
   std::vector<std::uint8_t> pending(may_channel);
   auto wake = [&](std::uint32_t t) {
     if (may_channel[t]) pending[t] = 1;
   };
-  // A tile's cover list reduced to one entry per sample (the largest cover: max is order-free), in
-  // sample order; also while it grows, so that overlapping discs along a border hold it to the
-  // samples they cover.
-  using CoverList = std::vector<std::pair<std::int64_t, float>>;
-  const std::size_t compact_at = std::size_t(1) << 20;
-  auto compact = [](CoverList& cv) {
-    std::sort(cv.begin(), cv.end());  // by sample, then value: the last of a sample is its largest
-    std::size_t n = 0;
-    for (std::size_t q = 0; q < cv.size(); ++q) {
-      if (n > 0 && cv[n - 1].first == cv[q].first) cv[n - 1] = cv[q];
-      else cv[n++] = cv[q];
-    }
-    cv.resize(n);
-  };
   auto solve_s = [&](std::int64_t t) {
     check();
-    LocalS r;
-    SolveRef sr(pool);
-    Solve& s = *sr;
-    prepare(c, ring_of(g, bands, t % g.tiles_x, t / g.tiles_x, true), load, t % g.tiles_x, t / g.tiles_x, s);
-    const TileView v = view_of(t);
-    mark_lakes(c, v, s);
-    finish(c, v, s);
-    std::size_t limit_sea = compact_at, limit_any = compact_at;
-    if (st.rounds == 1)
-      for (std::uint32_t o = 0; o < s.rl.size(); ++o) {
-        if (!s.ch[o] || s.lake[o]) continue;
-        const std::int64_t i = s.w.ix0 + o % std::uint32_t(s.onx), j = s.w.iz0 + o / std::uint32_t(s.onx);
-        each_cover(c, i, j, s.cnt[o], [&](std::int64_t a, std::int64_t b, float v, bool sea_test) {
-          if (!(v > 0) || strictly_inside(s, a, b)) return;
-          auto& cv = sea_test ? r.cover_sea : r.cover_any;
-          std::size_t& limit = sea_test ? limit_sea : limit_any;
-          cv.emplace_back(b * g.nx + a, v);
-          if (cv.size() >= limit) compact(cv), limit = std::max(compact_at, 2 * cv.size());
-        });
-      }
-    compact(r.cover_sea), compact(r.cover_any);
-    const std::size_t pn = s.perimeter.size();
-    r.chd.resize(pn), r.str.resize(pn), r.ec.resize(pn);
-    for (std::size_t k = 0; k < pn; ++k) {
-      const std::uint32_t o = s.perimeter[k];
-      r.chd[k] = s.chd[o], r.str[k] = s.str[o], r.ec[k] = s.ec[o];
-    }
-    return r;
+    return solve_s_tile(c, ring_of(g, bands, t % g.tiles_x, t / g.tiles_x, true), load, view_of(t), t, st.rounds == 1, pool);
   };
   detail::RoundProgress rounds(0.35, 0.35);  // pass S's rounds (progress)
   auto merge_s = [&](std::int64_t t, LocalS r) {
@@ -1427,7 +1750,21 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
     rounds.start(st.rounds, pending);
     for (int cls = 0; cls < 4; ++cls) {
       const std::vector<std::int64_t> batch = detail::take_tile_class(pending, g.tiles_x, cls);
-      detail::ordered_tiles<LocalS>(batch, solve_s, merge_s);
+      if (ff.farm)
+        ff.farm->run(
+            "flow", batch, [&](std::int64_t t) { return encode(task_input('S', t)); }, ff.kernel,
+            [&](std::int64_t t, std::string bytes) {
+              Decoder d{bytes};
+              if (d.get<char>() != 's') d.bad("not a pass-S result");
+              LocalS r = decode_result_s(d);
+              if (r.chd.size() != std::size_t(nd.base[std::size_t(t) + 1] - nd.base[std::size_t(t)])) d.bad("a perimeter of another length");
+              for (const CoverList* cv : {&r.cover_sea, &r.cover_any})
+                for (const auto& [cell, v] : *cv)
+                  if (cell < 0 || cell >= g.nx * g.nz) d.bad("a cover entry outside the world");
+              merge_s(t, std::move(r));
+            });
+      else
+        detail::ordered_tiles<LocalS>(batch, solve_s, merge_s);
     }
     any = std::find(pending.begin(), pending.end(), std::uint8_t(1)) != pending.end();
   }
@@ -1435,11 +1772,6 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
   st.cover_cells = cover_sea.size() + cover_any.size();
   // The cover map by tile: each entry goes to every tile whose window holds its sample (up to 4:
   // windows share their borders), so that a tile reads its entries only.
-  struct CoverEntry {
-    std::int64_t cell;
-    float v;
-    bool sea_test;
-  };
   std::vector<std::vector<CoverEntry>> cover_of(static_cast<std::size_t>(tiles));
   auto bucket = [&](std::unordered_map<std::int64_t, float>& m, bool sea_test) {
     for (auto it = m.begin(); it != m.end(); it = m.erase(it)) {  // freed as bucketed
@@ -1465,82 +1797,10 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
   std::unordered_map<std::int64_t, Piece> pieces;
   std::unordered_map<std::uint32_t, std::unordered_map<std::int64_t, LakeSample>> lake_cells;  // by root
   std::vector<std::int64_t> starts;
-  struct LocalF {
-    FlowTile out;
-    std::uint64_t max_count = 0;
-    std::unordered_map<std::int64_t, Piece> pieces;
-    std::vector<std::int64_t> starts;
-    std::vector<std::tuple<std::uint32_t, std::int64_t, LakeSample>> lake;  // root, world sample, sample
-  };
   auto solve_f = [&](std::int64_t t) {
     check();
-    LocalF r;
-    const std::int64_t X = t % g.tiles_x, Z = t / g.tiles_x;
-    SolveRef sr(pool);
-    Solve& s = *sr;
-    prepare(c, ring_of(g, bands, X, Z, true), load, X, Z, s);
-    const TileView v = view_of(t);
-    mark_lakes(c, v, s);
-    finish(c, v, s);
-    if (!s.cnt.empty()) r.max_count = *std::max_element(s.cnt.begin(), s.cnt.end());
-    const WorldGrid::Window& w = s.w;
-    const std::size_t n = std::size_t(w.nx) * std::size_t(w.nz);
-    FlowTile& out = r.out;
-    out.height.resize(n);
-    out.flow.resize(n);
-    out.water.assign(n, 0.0f);
-    for (int j = 0; j < w.nz; ++j)
-      for (int i = 0; i < w.nx; ++i) {
-        const std::size_t m = std::size_t(j) * std::size_t(w.nx) + std::size_t(i);
-        std::uint64_t count;
-        if (i < s.onx && j < s.onz) {
-          const std::size_t o = std::size_t(j) * std::size_t(s.onx) + std::size_t(i);
-          out.height[m] = s.ec[o];
-          if (s.lake[o]) out.water[m] = 1.0f;
-          count = s.cnt[o];
-        } else {
-          const RingNode& k = v.at(c, s, (w.iz0 + j) * g.nx + w.ix0 + i);
-          out.height[m] = k.carved;
-          if (k.lake) out.water[m] = 1.0f;
-          count = k.count;
-        }
-        out.flow[m] = float(double(count) * c.cell2);
-      }
-    for (std::uint32_t o = 0; o < s.rl.size(); ++o) {
-      if (!s.ch[o] || s.lake[o]) continue;
-      const std::int64_t i = w.ix0 + o % std::uint32_t(s.onx), j = w.iz0 + o / std::uint32_t(s.onx);
-      each_cover(c, i, j, s.cnt[o], [&](std::int64_t a, std::int64_t b, float v, bool sea_test) {
-        if (a < w.ix0 || b < w.iz0 || a >= w.ix0 + w.nx || b >= w.iz0 + w.nz) return;
-        const std::size_t m = std::size_t(b - w.iz0) * std::size_t(w.nx) + std::size_t(a - w.ix0);
-        if (sea_test && out.height[m] < c.sea) return;
-        out.water[m] = std::max(out.water[m], v);
-      });
-    }
-    // Cover from channel samples of other tiles (discs may reach deep into this one).
-    for (const CoverEntry& ce : cover_of[std::size_t(t)]) {
-      const std::size_t m = std::size_t(ce.cell / g.nx - w.iz0) * std::size_t(w.nx) + std::size_t(ce.cell % g.nx - w.ix0);
-      if (ce.sea_test && out.height[m] < c.sea) continue;
-      out.water[m] = std::max(out.water[m], ce.v);
-    }
-    if (rivers) trace_pieces(c, v, s, r.pieces, r.starts);
-    if (lakes)
-      for (std::uint32_t o = 0; o < s.rl.size(); ++o) {
-        if (!s.lake[o]) continue;
-        const int oi = int(o % std::uint32_t(s.onx)), oj = int(o / std::uint32_t(s.onx));
-        const std::uint32_t root = v.root[s.label[o]];
-        const std::size_t gi = s.grown(oi, oj);
-        const std::uint32_t rg = s.rec[gi];
-        bool same = false;
-        if (const std::uint32_t ro = owned_of(s, rg); ro != kNone) {
-          same = s.lake[ro] && v.root[s.label[ro]] == root;
-        } else {
-          const RingNode& k = v.at(c, s, world_index(c, s, rg));
-          same = k.lake && k.root == root;
-        }
-        const std::int64_t wc = (w.iz0 + oj) * g.nx + w.ix0 + oi;
-        r.lake.emplace_back(root, wc, LakeSample{s.zg[gi], s.eo[o], s.cnt[o], !same});
-      }
-    return r;
+    return solve_f_tile(c, ring_of(g, bands, t % g.tiles_x, t / g.tiles_x, true), load, view_of(t), cover_of[std::size_t(t)], t,
+                        rivers != nullptr, lakes != nullptr, pool);
   };
   auto merge_f = [&](std::int64_t t, LocalF r) {
     ++st.tile_solves;
@@ -1549,11 +1809,26 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
     for (auto& [at, pc] : r.pieces) pieces.emplace(at, std::move(pc));
     starts.insert(starts.end(), r.starts.begin(), r.starts.end());
     for (auto& [root, wc, ls] : r.lake) lake_cells[root].emplace(wc, ls);
-    if (store) store(t % g.tiles_x, t / g.tiles_x, std::move(r.out));
+    if (store && !ff.farm) store(t % g.tiles_x, t / g.tiles_x, std::move(r.out));  // else stored where solved
     report(0.7, 1.0, ++merged, tiles);
   };
   merged = 0;
-  detail::ordered_tiles<LocalF>(all_tiles, solve_f, merge_f);
+  if (ff.farm)
+    ff.farm->run(
+        "flow", all_tiles,
+        [&](std::int64_t t) {
+          InputSF in = task_input('F', t);
+          in.cover = cover_of[std::size_t(t)];
+          return encode(in);
+        },
+        ff.kernel,
+        [&](std::int64_t t, std::string bytes) {
+          Decoder d{bytes};
+          if (d.get<char>() != 'f') d.bad("not a final-pass result");
+          merge_f(t, decode_result_f(d));
+        });
+  else
+    detail::ordered_tiles<LocalF>(all_tiles, solve_f, merge_f);
   if (lakes) {
     // Lakes in the order of their first sample (row-major), as apply_flow's scan numbers them.
     std::vector<std::pair<std::int64_t, std::uint32_t>> seeds;
@@ -1601,6 +1876,20 @@ TiledFlowStats flow_tiled(const WorldGrid& g, const Frame& f, const WorldFlowPar
   return flow_tiled_with_progress(g, f, p, load, store, rivers, cancelled, path, filled, lakes, {});
 }
 
+namespace {
+// Tile (X, Z)'s flow layers stored through a build's io; `same_height`: the stored height stays as
+// it is.
+void store_flow_tile(const WorldStageIO& io, bool same_height, std::int64_t X, std::int64_t Z, FlowTile ft) {
+  WorldTile t;
+  if (!io.update) t = io.load(X, Z);
+  if (!(same_height && io.update)) t.layers["height"] = Layer{1, std::move(ft.height)};
+  t.layers["flow"] = Layer{1, std::move(ft.flow)};
+  t.layers["water"] = Layer{1, std::move(ft.water)};
+  if (io.update) io.update(X, Z, std::move(t));
+  else io.store(X, Z, std::move(t));
+}
+}  // namespace
+
 WorldStageAlgorithm world_flow(WorldWaterSink water) {
   return [water](const WorldStageIO& io, const RecipeStage& st, int index) {
     const WorldFlowParams p = world_flow_params(st.stage->params());
@@ -1614,15 +1903,9 @@ WorldStageAlgorithm world_flow(WorldWaterSink water) {
     // Without carving, on a height that drains, the stage's height is its input, bit for bit: the
     // stored height stays as it is (its coded bytes copied through by io.update, not coded again).
     bool same_height = p.carve_depth_coeff <= 0;
-    const FlowTileStore store = [&](std::int64_t X, std::int64_t Z, FlowTile ft) {
-      WorldTile t;
-      if (!io.update) t = io.load(X, Z);
-      if (!(same_height && io.update)) t.layers["height"] = Layer{1, std::move(ft.height)};
-      t.layers["flow"] = Layer{1, std::move(ft.flow)};
-      t.layers["water"] = Layer{1, std::move(ft.water)};
-      if (io.update) io.update(X, Z, std::move(t));
-      else io.store(X, Z, std::move(t));
-    };
+    const FlowTileStore store = [&](std::int64_t X, std::int64_t Z, FlowTile ft) { store_flow_tile(io, same_height, X, Z, std::move(ft)); };
+    // In a build (src/world_farm.hpp): the tile solves run on every rank (one rank without MPI).
+    const detail::FarmKernel kernel = io.farm ? detail::flow_farm_kernel(io, st) : detail::FarmKernel();
     const std::string path = "stages[" + std::to_string(index) + "]";
     std::vector<River> rivers;
     std::vector<Lake> lakes;
@@ -1640,7 +1923,7 @@ WorldStageAlgorithm world_flow(WorldWaterSink water) {
     };
     try {
       flow_tiled_with_progress(g, io.world, p, load, store, want_water ? &rivers : nullptr, io.cancelled, path, {},
-                               want_water ? &lakes : nullptr, span(0.0, 1.0), FlowFarm{io.farm, nullptr});
+                               want_water ? &lakes : nullptr, span(0.0, 1.0), FlowFarm{io.farm, nullptr, kernel, same_height});
     } catch (const NotDraining&) {
       same_height = false;  // filled, and lake floors under their water
       const double from = reached, mid = reached + (1.0 - reached) * 0.4;
@@ -1668,7 +1951,7 @@ WorldStageAlgorithm world_flow(WorldWaterSink water) {
         return filled_from_ring(g, sea, eps, X, Z, load(X, Z), rings[std::size_t(Z * g.tiles_x + X)]);
       };
       flow_tiled_with_progress(g, io.world, p, load, store, want_water ? &rivers : nullptr, io.cancelled, path, filled,
-                               want_water ? &lakes : nullptr, span(mid, 1.0), FlowFarm{io.farm, &rings});
+                               want_water ? &lakes : nullptr, span(mid, 1.0), FlowFarm{io.farm, &rings, kernel, same_height});
     }
     if (water) water(io.world, std::move(rivers), std::move(lakes));
     else if (io.out) write_world_water(io.world, rivers, lakes, *io.out);
@@ -1682,7 +1965,10 @@ FarmKernel flow_farm_kernel(const WorldStageIO& io, const RecipeStage& st) {
     if (io.load_layers) return std::move(io.load_layers(X, Z, {"height"}).layers.at("height").data);
     return io.load(X, Z).layers.at("height").data;
   };
-  return flow_kernel(io.grid, io.world, p, load, io.cancelled);
+  return flow_kernel(
+      io.grid, io.world, p, load,
+      [&io](std::int64_t X, std::int64_t Z, FlowTile ft, bool same_height) { store_flow_tile(io, same_height, X, Z, std::move(ft)); },
+      io.cancelled);
 }
 }  // namespace detail
 

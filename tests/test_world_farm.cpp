@@ -253,6 +253,45 @@ TEST(TileFarm, AMalformedMessageFromARankFailsTheRunInsteadOfHanging) {
   }
 }
 
+// The flow kernel's messages made by hand (the format of src/world_flow.cpp: a kind byte, then raw
+// values, vectors as a u64 count and their elements).
+struct Msg {
+  std::string s;
+  explicit Msg(char kind) : s(1, kind) {}
+  template <class T>
+  Msg& put(T v) {
+    s.append(reinterpret_cast<const char*>(&v), sizeof v);
+    return *this;
+  }
+  template <class T>
+  Msg& vec(const std::vector<T>& v) {
+    put(std::uint64_t(v.size()));
+    s.append(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(T));
+    return *this;
+  }
+};
+bool flow_rejects(const std::string& bytes) {
+  try {
+    relief::detail::flow_message_recoded(bytes);
+  } catch (const relief::Error& e) {
+    return std::string(e.what()).find("malformed") != std::string::npos;
+  }
+  return false;
+}
+Msg s_input(std::uint32_t donors) {
+  Msg m('S');
+  m.vec(std::vector<float>{}).vec(std::vector<float>{});
+  for (int k = 0; k < 5; ++k) m.put(std::uint8_t(k == 1));  // filled, first round, rivers, lakes, same height
+  m.put(std::int32_t(-1));                                   // no table
+  m.vec(std::vector<std::uint64_t>{5}).vec(std::vector<std::uint32_t>{donors}).vec(std::vector<std::uint8_t>{2});
+  m.vec(std::vector<float>{0.5f}).vec(std::vector<float>{0.5f});
+  m.vec(std::vector<std::uint8_t>{0}).vec(std::vector<std::uint8_t>{1}).vec(std::vector<std::uint8_t>{1});
+  m.vec(std::vector<std::uint64_t>{7}).vec(std::vector<std::uint32_t>{0xFFFFFFFFu});
+  m.vec(std::vector<std::uint8_t>{}).vec(std::vector<std::uint32_t>{});
+  m.vec(std::vector<std::int64_t>{}).vec(std::vector<float>{}).vec(std::vector<std::uint8_t>{});
+  return m;
+}
+
 // The flow stage's kernel (src/world_flow.cpp) on a pass-A task of tile (0, 0) of a 65² world of
 // 33² tiles: its input (the 67 heights of its grown ring, NaN where pass A reads none) and its
 // result decode and code again to the same bytes; every shorter prefix, a count beyond the end and
@@ -318,11 +357,41 @@ TEST(FlowFarm, APassATaskAndItsResultRoundTripAndMalformedMessagesAreRejected) {
   EXPECT_THROW(kernel(0, input), relief::Error);
   input.swap(short_ring);
   EXPECT_THROW(kernel(4, input), relief::Error);  // no tile 4 in a 2 × 2 world
+  EXPECT_THROW(kernel(0, s_input(1).s), relief::Error);  // a pass-S task whose ring does not fit the tile
   pit = 1;
   const std::string not_draining = kernel(0, input);
   ASSERT_GE(not_draining.size(), 2u);
   EXPECT_EQ(not_draining.substr(0, 2), std::string("a\x01", 2));
   EXPECT_NE(not_draining.find("(10, 10)"), std::string::npos);
   EXPECT_EQ(relief::detail::flow_message_recoded(not_draining), not_draining);
+}
+
+// Pass S's and the final pass's messages of the flow kernel, made by hand: each decodes and codes
+// again to the same bytes; every shorter prefix, trailing bytes, inconsistent lengths and bad flags
+// are rejected with an Error.
+TEST(FlowFarm, PassSAndFinalPassMessagesRoundTripAndMalformedOnesAreRejected) {
+  const std::string in = s_input(1).s;
+  Msg s_result('s');
+  s_result.vec(std::vector<std::uint8_t>{1}).vec(std::vector<std::uint8_t>{1}).vec(std::vector<float>{0.5f});
+  s_result.vec(std::vector<std::int64_t>{5}).vec(std::vector<float>{0.25f}).vec(std::vector<std::int64_t>{}).vec(std::vector<float>{});
+  Msg f_result('f');
+  f_result.put(std::uint64_t(9)).put(std::uint64_t(1));  // max count, one river piece:
+  f_result.put(std::int64_t(100)).put(std::int32_t(2)).put(std::int64_t(-1)).vec(std::vector<char>{'s', 'e', 'a'});
+  f_result.put(std::uint64_t(1));  // one vertex (5 doubles)
+  for (double v : {1.0, 2.0, 3.0, 4.0, 5.0}) f_result.put(v);
+  f_result.vec(std::vector<std::int64_t>{100});
+  f_result.vec(std::vector<std::uint32_t>{3}).vec(std::vector<std::int64_t>{100}).vec(std::vector<float>{0.5f}).vec(std::vector<float>{0.4f});
+  f_result.vec(std::vector<std::uint64_t>{9}).vec(std::vector<std::uint8_t>{1});
+  for (const std::string& m : {in, s_result.s, f_result.s}) {
+    SCOPED_TRACE(std::string(1, m[0]));
+    EXPECT_EQ(relief::detail::flow_message_recoded(m), m);
+    for (std::size_t n = 0; n < m.size(); ++n) ASSERT_TRUE(flow_rejects(m.substr(0, n))) << n << " of " << m.size() << " bytes";
+    EXPECT_TRUE(flow_rejects(m + "x"));
+  }
+  EXPECT_TRUE(flow_rejects(s_input(2).s));  // two donors, one order
+  std::string flag = in;
+  flag[1 + 8 + 8] = 2;  // the "filled" flag
+  EXPECT_TRUE(flow_rejects(flag));
+  EXPECT_TRUE(flow_rejects(std::string("Q")));
 }
 }  // namespace
