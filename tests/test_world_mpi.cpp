@@ -264,9 +264,10 @@ TEST(WorldMpi, TheCliWithTheFlowStageIsTheSameOnOneTwoAndFourRanks) {
     ASSERT_EQ(one.code, 0) << one.out;
     const std::size_t flow_stage = fill ? 4 : 3;
     ASSERT_EQ(relief::read_world_manifest(ref.string())["stages"][flow_stage]["locality"], "global");
-    const relief::json rivers = relief::json::parse(relief::test::slurp(ref / "rivers.json"));
-    EXPECT_FALSE(rivers.dump().find("vertices") == std::string::npos) << "no river in the reference";
-    ASSERT_TRUE(fs::exists(ref / "lakes.json"));
+    EXPECT_GT(relief::json::parse(relief::test::slurp(ref / "rivers.json"))["count"].get<int>(), 0);
+    if (!fill) {
+      EXPECT_GT(relief::json::parse(relief::test::slurp(ref / "lakes.json"))["count"].get<int>(), 0);  // the fill's depressions
+    }
     std::int64_t solves = 0;
     EXPECT_EQ(global_solves(ref, solves).size(), 1u);
     EXPECT_GE(solves, 2 * 16);  // pass A's and the final pass's at least, all in this process
