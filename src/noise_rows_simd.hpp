@@ -13,7 +13,7 @@ namespace relief::detail {
 // src/noise_rows_simd.cpp (Perlin: the corner hashes of a lattice row looked up once per cell;
 // Cellular: the feature points of a lattice row computed once per cell; Simplex: x terms once per
 // strip of columns for the whole block). Returns false, having
-// written nothing, when the dispatched target has no such kernel (only AVX2 has them), for other
+// written nothing, when the dispatched target has no such kernel (AVX2 and the AVX-512 targets have them), for other
 // bases, with domain warp, for sample indices of 2⁵² and more, and for cellular windows of more than
 // about a cell per sample or positions beyond 2⁵⁰ cells: the caller then uses noise_row_simd. Scratch memory: per thread, reused;
 // at most about 150 bytes per sample of n (cellular) and 30 bytes per column and octave of a strip
