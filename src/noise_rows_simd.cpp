@@ -5,10 +5,10 @@
 // Sources: the definitions are those of noise.cpp (Perlin 2002 with a seeded permutation; Worley
 // 1996; classic 2D simplex after Gustavson 2005); this file only reorganises the work. Google
 // Highway for the per-target compilation and run-time dispatch (the kernels themselves are AVX2
-// intrinsics, compiled for the AVX2 target and for the AVX-512 targets, which run them at 256 bits:
-// on AVX-512 machines they beat noise_simd.cpp's 512-bit per-sample kernels for Perlin and cellular
-// 3–3.5×, see `relief bench --cases noise`; other targets keep noise_simd.cpp's kernels, with the
-// same values).
+// intrinsics, compiled for the AVX2 target and for the AVX-512 targets, which run them at 256 bits
+// except Perlin's row loop, which has a 512-bit form there: on a Zen 4 they beat noise_simd.cpp's
+// 512-bit per-sample kernels for Perlin 3.5× and for cellular 2.6×, see `relief bench --cases
+// noise`; other targets keep noise_simd.cpp's kernels, with the same values).
 //
 // Perlin. In a row, the lattice row (y0, y1) of an octave is fixed, so the four corner hashes
 // p[p[A + y]] & 15 of lattice column c (A = p[c], B = p[c + 1]) depend on c alone: once per
@@ -136,6 +136,35 @@ HWY_INLINE void Store4(__m128 v, float* out, int count) {
     std::memcpy(out, t, std::size_t(count) * sizeof(float));
   }
 }
+
+#if HWY_TARGET <= HWY_AVX3
+// The 512-bit forms of the helpers above (same operations, 8 lanes).
+HWY_INLINE __m512d LerpV8(__m512d t, __m512d a, __m512d b) { return _mm512_add_pd(a, _mm512_mul_pd(t, _mm512_sub_pd(b, a))); }
+// A Pick4 table (8 floats) in both 256-bit halves.
+HWY_INLINE __m512 Table16(__m256 t) { return _mm512_insertf32x8(_mm512_castps256_ps512(t), t, 1); }
+// 8 lanes of Pick4's table t (Table16), picked as Pick4 picks them: the permute reads 4 index
+// bits, and both halves of t hold the same 8 entries, so bit 3 does not matter.
+HWY_INLINE __m512d Pick8(__m512 t, __m512i idx) { return _mm512_castps_pd(_mm512_permutexvar_ps(idx, t)); }
+template <int kFr>
+HWY_INLINE __m512d FoldV8(__m512d acc, __m512d amp, __m512d n) {
+  if constexpr (kFr == 0) {
+    return _mm512_add_pd(acc, _mm512_mul_pd(amp, n));
+  } else if constexpr (kFr == 1) {
+    const __m512d an = _mm512_abs_pd(n);
+    const __m512d r = _mm512_sub_pd(_mm512_set1_pd(1.0), an);
+    return _mm512_add_pd(acc, _mm512_mul_pd(amp, _mm512_mul_pd(r, r)));
+  } else {
+    const __m512d an = _mm512_abs_pd(n);
+    return _mm512_add_pd(acc, _mm512_mul_pd(amp, _mm512_sub_pd(_mm512_mul_pd(_mm512_set1_pd(2.0), an), _mm512_set1_pd(1.0))));
+  }
+}
+template <int kFr>
+HWY_INLINE __m256 FinishV8(__m512d acc, __m512d inv) {
+  if constexpr (kFr == 1)
+    return _mm512_cvtpd_ps(_mm512_sub_pd(_mm512_mul_pd(_mm512_set1_pd(2.0), _mm512_mul_pd(acc, inv)), _mm512_set1_pd(1.0)));
+  return _mm512_cvtpd_ps(_mm512_mul_pd(acc, inv));
+}
+#endif
 
 // Scratch memory per thread, grown on demand (no allocation once warm).
 template <class T>
@@ -268,6 +297,10 @@ void PerlinRows(const NoiseKernelArgs& a, const double* z, int nrows, std::int64
   for (int k = 0; k < count; ++k) built[k][0] = -1;
   const __m256 tx = _mm256_castpd_ps(_mm256_setr_pd(1.0, -1.0, 0.0, -0.0));
   const __m256d inv = _mm256_set1_pd(a.inv_amp_sum);
+#if HWY_TARGET <= HWY_AVX3
+  const __m512 tx16 = Table16(tx);
+  const __m512d inv8 = _mm512_set1_pd(a.inv_amp_sum);
+#endif
   for (int c0 = 0; c0 < n; c0 += strip) {
     const int m = std::min(strip, n - c0), m4 = (m + 3) & ~3;
     for (int k = 0; k < count; ++k) {
@@ -326,6 +359,35 @@ void PerlinRows(const NoiseKernelArgs& a, const double* z, int nrows, std::int64
         }
         for (int u = 0; u < kN; ++u) Store4(FinishV<kFr>(acc[u], inv), dst + i + 4 * u, m - i - 4 * u);
       };
+#if HWY_TARGET <= HWY_AVX3
+      // AVX-512: the same chain on 8 samples per vector (one 512-bit permute per coefficient: the
+      // table's 8 floats in both halves, so the permute's fourth index bit, the next field's
+      // lowest, picks the same entry); the 4-sample step takes the rest.
+      auto step8 = [&](auto U, int i) {
+        constexpr int kN = decltype(U)::value;
+        __m512d acc[kN];
+        for (int u = 0; u < kN; ++u) acc[u] = _mm512_setzero_pd();
+        for (int k = 0; k < count; ++k) {
+          const double* d = cd + std::size_t(k) * strip * 3 + i;
+          const std::uint64_t* qk = qcol + std::size_t(k) * strip + i;
+          const __m512 y0 = Table16(ty0[k]), y1 = Table16(ty1[k]);
+          const __m512d sy8 = _mm512_set1_pd(_mm256_cvtsd_f64(sy[k])), amp8 = _mm512_set1_pd(_mm256_cvtsd_f64(amp[k]));
+          for (int u = 0; u < kN; ++u) {
+            const __m512i q = _mm512_loadu_si512(qk + 8 * u);
+            const __m512d fx = _mm512_loadu_pd(d + 8 * u), fx1 = _mm512_loadu_pd(d + strip + 8 * u);
+            const __m512d g00 = _mm512_add_pd(_mm512_mul_pd(Pick8(tx16, q), fx), Pick8(y0, _mm512_srli_epi64(q, 3)));
+            const __m512d g10 = _mm512_add_pd(_mm512_mul_pd(Pick8(tx16, _mm512_srli_epi64(q, 6)), fx1), Pick8(y0, _mm512_srli_epi64(q, 9)));
+            const __m512d g01 = _mm512_add_pd(_mm512_mul_pd(Pick8(tx16, _mm512_srli_epi64(q, 12)), fx), Pick8(y1, _mm512_srli_epi64(q, 15)));
+            const __m512d g11 = _mm512_add_pd(_mm512_mul_pd(Pick8(tx16, _mm512_srli_epi64(q, 18)), fx1), Pick8(y1, _mm512_srli_epi64(q, 21)));
+            const __m512d sx = _mm512_loadu_pd(d + 2 * strip + 8 * u);
+            acc[u] = FoldV8<kFr>(acc[u], amp8, LerpV8(sy8, LerpV8(sx, g00, g10), LerpV8(sx, g01, g11)));
+          }
+        }
+        for (int u = 0; u < kN; ++u) _mm256_storeu_ps(dst + i + 8 * u, FinishV8<kFr>(acc[u], inv8));
+      };
+      for (; i + 8 * kU <= m; i += 8 * kU) step8(std::integral_constant<int, kU>(), i);
+      for (; i + 8 <= m; i += 8) step8(std::integral_constant<int, 1>(), i);
+#endif
       for (; i + 4 * kU <= m; i += 4 * kU) step(std::integral_constant<int, kU>(), i);
       for (; i < m; i += 4) step(std::integral_constant<int, 1>(), i);
     }
