@@ -1440,7 +1440,8 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
   TiledFlowStats st;
   st.tiles = g.count();
   Ctx c = make_ctx(g, f, p, filled ? &filled : nullptr);
-  if (ff.farm && ((filled && !ff.fill_rings) || !ff.kernel)) throw Error("world", "flow: internal error, filled heights without their levels");
+  if (ff.farm && ((filled && !ff.fill_rings) || !ff.kernel))
+    throw Error("world", "flow: internal error, a farm without its kernel, or filled heights without their levels");
   auto check = [&] {
     if (cancelled && cancelled()) throw Cancelled();
   };
