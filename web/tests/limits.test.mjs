@@ -120,6 +120,43 @@ test('the time budget covers an export: its stages, writers and zip stop, answer
   }
 });
 
+// A volume request (POST /api/volume) meshes the recipe's volume after running it: the time budget
+// covers the meshing (checked between chunks), and admission counts its estimate (mesh bytes too).
+test('the time budget and admission cover a volume request: 503 naming the limit; the server serves on', async () => {
+  const server = await startStudio(['--threads', '1', '--time-budget', '1', '--work-mib', '1']);
+  try {
+    const doc = await (await fetch(server.url + '/api/presets/sea-cliff')).json();
+    doc.world.size = 1025;  // about 5 s of stages and meshing on one thread
+    doc.seed = 5;
+    const t0 = Date.now();
+    const ctl = new AbortController();
+    const pending = post(server, '/api/volume', { recipe: doc }, { signal: ctl.signal });
+    await waitStats(server, (s) => s.running === 1, 10000, 'the volume request to start');
+    // While it runs, another volume request (another client: its own lane) is refused by admission.
+    const busy = await post(server, '/api/volume', { recipe: { ...doc, world: { ...doc.world, size: 65 } } },
+      { headers: { 'Content-Type': 'application/json', 'X-Relief-Client': 'other' } });
+    assert.equal(busy.status, 503);
+    assert.equal((await busy.json()).limit, 'memory');
+    const res = await pending;
+    const ms = Date.now() - t0;
+    assert.equal(res.status, 503);
+    const body = await res.json();
+    assert.equal(body.limit, 'time_budget', body.error);
+    assert.match(body.error, /time budget of 1 s/);
+    assert.ok(ms < 6000, `answered after ${ms} ms`);
+    const s = await waitStats(server, (x) => x.running === 0, 5000, 'the volume request to end');
+    assert.equal(s.cancelled.time_budget, 1);
+    assert.equal(s.refused.memory, 1);
+    assert.equal(s.admitted_bytes, 0);
+    // The server keeps serving volumes.
+    const small = await post(server, '/api/volume', { recipe: { ...doc, world: { ...doc.world, size: 65 } } });
+    assert.equal(small.status, 200, await small.clone().text());
+    assert.equal(small.headers.get('content-type'), 'model/gltf-binary');
+  } finally {
+    await stopClean(server);
+  }
+});
+
 test('a generation whose client disconnects is cancelled, and the next request is served', async () => {
   const server = await startStudio(['--threads', '1']);
   try {
