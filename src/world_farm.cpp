@@ -412,6 +412,7 @@ FarmKernel make_farm_kernel(const std::string& name, const WorldStageIO& io, con
   if (name == "fill") return fill_farm_kernel(io, stage);
   if (name == "hydraulic") return hydraulic_farm_kernel(io, stage);
   if (name == "flow") return flow_farm_kernel(io, stage);
+  if (name == "flow-fill") return flow_fill_farm_kernel(io, stage);
   throw std::runtime_error("world transport: no farm kernel named " + name);
 }
 

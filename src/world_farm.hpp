@@ -85,12 +85,24 @@ class TileFarm {
 };
 
 // The kernel `name` of a distributed world algorithm, made from the stage and a rank's own io (the
-// library's: "fill", src/world_fill.cpp; "hydraulic", src/world_bounded.cpp; "flow",
+// library's: "fill", src/world_fill.cpp; "hydraulic", src/world_bounded.cpp; "flow" and "flow-fill",
 // src/world_flow.cpp). Throws for an unknown name.
 FarmKernel make_farm_kernel(const std::string& name, const WorldStageIO& io, const RecipeStage& stage);
 FarmKernel fill_farm_kernel(const WorldStageIO& io, const RecipeStage& stage);       // "fill" (src/world_fill.cpp)
 FarmKernel hydraulic_farm_kernel(const WorldStageIO& io, const RecipeStage& stage);  // "hydraulic" (src/world_bounded.cpp)
 FarmKernel flow_farm_kernel(const WorldStageIO& io, const RecipeStage& stage);       // "flow" (src/world_flow.cpp)
+FarmKernel flow_fill_farm_kernel(const WorldStageIO& io, const RecipeStage& stage);  // "flow-fill" (src/world_flow.cpp)
+// A fill solve that stores nothing (src/world_fill.cpp): task t's input is the levels known for tile t's
+// window perimeter (row-major floats), its result the filled tile's window perimeter; `load` gives the
+// tile's heights. "flow-fill" is this kernel with the flow stage's sea level and epsilon.
+FarmKernel fill_perimeter_kernel(const WorldGrid& g, float sea, float epsilon, const TileLoad& load);
+// fill_depressions_tiled (relief/world.hpp) with its tile solves as tasks of `farm` named `kernel`
+// (`local` on this rank: fill_perimeter_kernel's), storing no tile: ring(t, tile t's filled window
+// perimeter) for every solve, in merge order (the same for any rank count): the last one of a tile is
+// its final levels. For the flow stage's fallback fill (src/world_flow.cpp).
+TiledFillStats fill_perimeters_on_farm(const WorldGrid& g, float sea, float epsilon, TileFarm& farm, const std::string& kernel,
+                                       const FarmKernel& local, const std::function<void(double)>& progress,
+                                       const std::function<void(std::int64_t, std::vector<float>)>& ring);
 // A flow kernel's message (a task's input or a result) decoded and coded again, for tests: the same
 // bytes for a well-formed message; an Error for a malformed one (src/world_flow.cpp).
 std::string flow_message_recoded(std::string_view bytes);

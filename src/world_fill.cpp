@@ -88,6 +88,7 @@ std::vector<float> floats_of(std::string_view bytes, std::size_t count, const ch
 // filled tile goes to `store` here.
 detail::FarmKernel fill_kernel(const WorldGrid& g, float sea, float epsilon, const TileLoad& load, const TileStore& store) {
   return [=](std::int64_t t, std::string_view input) {
+    if (t < 0 || t >= g.count()) throw Error("world", "fill: a malformed farm task for tile " + std::to_string(t) + ", outside the world");
     const std::int64_t X = t % g.tiles_x, Z = t / g.tiles_x;
     const std::vector<float> border = floats_of(input, perimeter_count(g.window(X, Z)), "a fill task's perimeter");
     std::vector<float> filled = load(X, Z);
@@ -98,8 +99,11 @@ detail::FarmKernel fill_kernel(const WorldGrid& g, float sea, float epsilon, con
   };
 }
 
+// `farm`: the solves run as its tasks named `kernel_name`, here by `local` (if empty, fill_kernel with
+// `store`); `ring` (if any) gets each solve's filled perimeter (row-major), in merge order.
 TiledFillStats fill_tiled(const WorldGrid& g, float sea, float epsilon, const TileLoad& load, const TileStore& store,
-                          const std::function<void(double)>& progress, detail::TileFarm* farm) {
+                          const std::function<void(double)>& progress, detail::TileFarm* farm, const std::string& kernel_name = "fill",
+                          const detail::FarmKernel& local = {}, const std::function<void(std::int64_t, std::vector<float>)>& ring = {}) {
   TiledFillStats st;
   detail::RoundProgress rounds(0.0, 1.0);  // progress (relief/world.hpp)
   const std::int64_t tiles = g.count();
@@ -187,13 +191,15 @@ TiledFillStats fill_tiled(const WorldGrid& g, float sea, float epsilon, const Ti
   // In a build (src/world_farm.hpp): the solves run on every rank (one rank without MPI), each storing its
   // tile; only perimeters come back here.
   const bool spread = farm != nullptr;
-  const detail::FarmKernel kernel = spread ? fill_kernel(g, sea, epsilon, load, store) : detail::FarmKernel();
+  const detail::FarmKernel kernel = !spread ? detail::FarmKernel() : local ? local : fill_kernel(g, sea, epsilon, load, store);
   auto border_input = [&](std::int64_t t) {
     const std::vector<float> b = border_of(t);
     return std::string(reinterpret_cast<const char*>(b.data()), b.size() * sizeof(float));
   };
   auto merge_result = [&](std::int64_t t, std::string bytes) {
-    merge_border(t, floats_of(bytes, perimeter_count(g.window(t % g.tiles_x, t / g.tiles_x)), "a fill result's perimeter"));
+    std::vector<float> f = floats_of(bytes, perimeter_count(g.window(t % g.tiles_x, t / g.tiles_x)), "a fill result's perimeter");
+    merge_border(t, f);
+    if (ring) ring(t, std::move(f));
   };
   // Rounds: the four classes in turn, each the pending tiles of the class in tile order (a fixed
   // schedule: the same solves and calls for any thread count).
@@ -203,7 +209,7 @@ TiledFillStats fill_tiled(const WorldGrid& g, float sea, float epsilon, const Ti
     for (int cls = 0; cls < 4; ++cls) {
       const std::vector<std::int64_t> batch = detail::take_tile_class(pending, g.tiles_x, cls);
       if (spread)
-        farm->run("fill", batch, border_input, kernel, merge_result);
+        farm->run(kernel_name, batch, border_input, kernel, merge_result);
       else
         detail::ordered_tiles<std::vector<float>>(batch, solve, merge);
     }
@@ -266,6 +272,15 @@ WorldStageAlgorithm world_fill() {
 }
 
 namespace detail {
+FarmKernel fill_perimeter_kernel(const WorldGrid& g, float sea, float epsilon, const TileLoad& load) {
+  return fill_kernel(g, sea, epsilon, load, TileStore());
+}
+TiledFillStats fill_perimeters_on_farm(const WorldGrid& g, float sea, float epsilon, TileFarm& farm, const std::string& kernel,
+                                       const FarmKernel& local, const std::function<void(double)>& progress,
+                                       const std::function<void(std::int64_t, std::vector<float>)>& ring) {
+  if (!local) throw Error("world", "fill: internal error, a farm without its kernel");
+  return fill_tiled(g, sea, epsilon, TileLoad(), TileStore(), progress, &farm, kernel, local, ring);
+}
 FarmKernel fill_farm_kernel(const WorldStageIO& io, const RecipeStage& st) {
   const FillIO f = fill_io(io, st);
   return fill_kernel(io.grid, f.sea, f.eps, f.load, f.store);

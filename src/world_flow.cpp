@@ -1944,10 +1944,17 @@ WorldStageAlgorithm world_flow(WorldWaterSink water) {
         if (io.cancelled && io.cancelled()) throw Cancelled();
         return load(X, Z);
       };
-      fill_depressions_tiled(
-          g, sea, eps, fill_load,
-          [&](std::int64_t X, std::int64_t Z, std::vector<float> f) { rings[std::size_t(Z * g.tiles_x + X)] = ring_of(g.window(X, Z), f); },
-          span(from, mid));
+      if (io.farm) {
+        // In a build: the fill's tile solves run on every rank too ("flow-fill": this stage's sea
+        // level and epsilon, nothing stored), each result being the ring kept here.
+        detail::fill_perimeters_on_farm(g, sea, eps, *io.farm, "flow-fill", detail::flow_fill_farm_kernel(io, st), span(from, mid),
+                                        [&](std::int64_t t, std::vector<float> r) { rings[std::size_t(t)] = std::move(r); });
+      } else {
+        fill_depressions_tiled(
+            g, sea, eps, fill_load,
+            [&](std::int64_t X, std::int64_t Z, std::vector<float> f) { rings[std::size_t(Z * g.tiles_x + X)] = ring_of(g.window(X, Z), f); },
+            span(from, mid));
+      }
       const TileLoad filled = [&](std::int64_t X, std::int64_t Z) {
         return filled_from_ring(g, sea, eps, X, Z, load(X, Z), rings[std::size_t(Z * g.tiles_x + X)]);
       };
@@ -1970,6 +1977,18 @@ FarmKernel flow_farm_kernel(const WorldStageIO& io, const RecipeStage& st) {
       io.grid, io.world, p, load,
       [&io](std::int64_t X, std::int64_t Z, FlowTile ft, bool same_height) { store_flow_tile(io, same_height, X, Z, std::move(ft)); },
       io.cancelled);
+}
+// world_flow's fallback fill (a height that does not drain): fill_kernel with this stage's sea level
+// and epsilon, the heights as world_flow's fill loads them, nothing stored.
+FarmKernel flow_fill_farm_kernel(const WorldStageIO& io, const RecipeStage& st) {
+  const WorldFlowParams p = world_flow_params(st.stage->params());
+  const float sea = float(io.world.sea_level), eps = float(p.epsilon_m / io.world.height_m);  // as world_flow
+  const TileLoad load = [&io](std::int64_t X, std::int64_t Z) {
+    if (io.cancelled && io.cancelled()) throw Cancelled();
+    if (io.load_layers) return std::move(io.load_layers(X, Z, {"height"}).layers.at("height").data);
+    return io.load(X, Z).layers.at("height").data;
+  };
+  return fill_perimeter_kernel(io.grid, sea, eps, load);
 }
 }  // namespace detail
 

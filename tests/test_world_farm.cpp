@@ -8,10 +8,12 @@
 #include <tbb/task_arena.h>
 
 #include <chrono>
+#include <cmath>
 #include <deque>
 #include <limits>
 #include <map>
 #include <mutex>
+#include <set>
 #include <thread>
 
 #include "relief/error.hpp"
@@ -395,3 +397,128 @@ TEST(FlowFarm, PassSAndFinalPassMessagesRoundTripAndMalformedOnesAreRejected) {
   EXPECT_TRUE(flow_rejects(std::string("Q")));
 }
 }  // namespace
+
+namespace {
+// Heights with pits of a `n`² world (0.45 to 0.85: above the island's sea level).
+float pitted(std::int64_t ix, std::int64_t iz) {
+  return 0.6f + 0.0005f * float(ix) + 0.1f * std::sin(0.37f * float(ix)) * std::cos(0.29f * float(iz)) + 0.05f * std::sin(0.11f * float(ix + 2 * iz));
+}
+relief::WorldStageIO pitted_io(const relief::Recipe& r, std::int64_t n, int tile) {
+  relief::WorldStageIO io;
+  io.grid = relief::world_grid(n, n, tile);
+  io.world = relief::world_frame(r, n, n);
+  const relief::WorldGrid g = io.grid;
+  io.load = [g](std::int64_t X, std::int64_t Z) {
+    const relief::WorldGrid::Window w = g.window(X, Z);
+    relief::WorldTile t;
+    std::vector<float> h(std::size_t(w.nx) * std::size_t(w.nz));
+    for (int j = 0; j < w.nz; ++j)
+      for (int i = 0; i < w.nx; ++i) h[std::size_t(j) * std::size_t(w.nx) + std::size_t(i)] = pitted(w.ix0 + i, w.iz0 + j);
+    t.layers["height"] = relief::Layer{1, std::move(h)};
+    return t;
+  };
+  return io;
+}
+std::vector<float> ring_of(const relief::WorldGrid::Window& w, const std::vector<float>& f) {
+  std::vector<float> r;
+  for (int j = 0; j < w.nz; ++j)
+    for (int i = 0; i < w.nx; ++i)
+      if (i == 0 || j == 0 || i == w.nx - 1 || j == w.nz - 1) r.push_back(f[std::size_t(j) * std::size_t(w.nx) + std::size_t(i)]);
+  return r;
+}
+std::string bytes_of(const std::vector<float>& v) { return std::string(reinterpret_cast<const char*>(v.data()), v.size() * sizeof(float)); }
+relief::Recipe flow_recipe() {
+  relief::json doc = relief::load_preset("island");
+  doc["stages"] = relief::json::array({relief::json{{"stage", "flow"}, {"river_area_km2", 0.02}, {"epsilon_m", 0.01}}});
+  doc["seed"] = 1;
+  return relief::parse_recipe(doc);
+}
+// The final window perimeter of every tile in the library's fill_depressions_tiled, with the flow
+// stage's sea level and epsilon (as world_flow's fallback).
+std::vector<std::vector<float>> library_rings(const relief::WorldStageIO& io, const relief::Recipe& r, bool& changed) {
+  const float sea = float(io.world.sea_level), eps = float(0.01 / io.world.height_m);
+  std::vector<std::vector<float>> rings(std::size_t(io.grid.count()));
+  changed = false;
+  relief::fill_depressions_tiled(
+      io.grid, sea, eps, [&](std::int64_t X, std::int64_t Z) { return io.load(X, Z).layers.at("height").data; },
+      [&](std::int64_t X, std::int64_t Z, std::vector<float> f) {
+        const relief::WorldGrid::Window w = io.grid.window(X, Z);
+        changed = changed || f != io.load(X, Z).layers.at("height").data;
+        rings[std::size_t(Z * io.grid.tiles_x + X)] = ring_of(w, f);
+      },
+      {});
+  (void)r;
+  return rings;
+}
+}  // namespace
+
+// The "flow-fill" kernel (world_flow's fallback fill, src/world_flow.cpp) made by make_farm_kernel
+// from the flow stage: on a world of one tile, from no known levels (what a first round sends), its
+// result is the window perimeter of the library's fill with the flow stage's epsilon; a task of a
+// tile outside the world, a perimeter one float short or one byte long are refused with an exception.
+TEST(FlowFarm, TheFlowFillKernelGivesTheLibraryFillsPerimeterAndRefusesMalformedTasks) {
+  const relief::Recipe r = flow_recipe();
+  const relief::WorldStageIO io = pitted_io(r, 33, 33);  // one tile
+  bool changed = false;
+  const std::vector<std::vector<float>> rings = library_rings(io, r, changed);
+  ASSERT_TRUE(changed);  // the heights have depressions
+  const FarmKernel kernel = relief::detail::make_farm_kernel("flow-fill", io, r.stages[0]);
+  const std::vector<float> none(rings[0].size(), std::numeric_limits<float>::infinity());
+  const std::string input = bytes_of(none);
+  EXPECT_EQ(kernel(0, input), bytes_of(rings[0]));
+  EXPECT_ANY_THROW(kernel(1, input));   // no tile 1
+  EXPECT_ANY_THROW(kernel(-1, input));
+  EXPECT_ANY_THROW(kernel(0, input.substr(0, input.size() - 4)));
+  EXPECT_ANY_THROW(kernel(0, input + "x"));
+  EXPECT_ANY_THROW(kernel(0, std::string()));
+}
+
+// world_flow's fallback fill over the farm (fill_perimeters_on_farm, kernel "flow-fill") on 2 ranks:
+// rank 1 makes its kernels by name from the flow stage and runs some of the solves; the last ring of
+// every tile is the library fill's final window perimeter, as on 1 rank.
+TEST(FlowFarm, TheFallbackFillOverTheFarmGivesTheLibrarysRingsOnOneAndTwoRanks) {
+  const relief::Recipe r = flow_recipe();
+  const relief::WorldStageIO io = pitted_io(r, 129, 33);  // 4 × 4 tiles
+  bool changed = false;
+  const std::vector<std::vector<float>> want = library_rings(io, r, changed);
+  ASSERT_TRUE(changed);
+  for (int ranks : {1, 2}) {
+    SCOPED_TRACE(std::to_string(ranks) + " ranks");
+    std::mutex m;
+    std::set<std::string> names;
+    std::vector<std::vector<float>> rings(want.size());
+    std::vector<std::int64_t> by_rank;
+    relief::TiledFillStats st;
+    const std::exception_ptr e = with_ranks(
+        ranks,
+        [&](const std::string& name) {
+          {
+            std::lock_guard<std::mutex> lock(m);
+            names.insert(name);
+          }
+          return relief::detail::make_farm_kernel(name, io, r.stages[0]);
+        },
+        [&](TileFarm& farm) {
+          const FarmKernel k = relief::detail::flow_fill_farm_kernel(io, r.stages[0]);
+          const FarmKernel slow = [k](std::int64_t t, std::string_view in) {  // so that rank 1 gets tasks
+            std::this_thread::sleep_for(std::chrono::milliseconds(3));
+            return k(t, in);
+          };
+          const float sea = float(io.world.sea_level), eps = float(0.01 / io.world.height_m);
+          st = relief::detail::fill_perimeters_on_farm(io.grid, sea, eps, farm, "flow-fill", slow, {},
+                                                       [&](std::int64_t t, std::vector<float> ring) { rings.at(std::size_t(t)) = std::move(ring); });
+          by_rank = farm.tasks_by_rank();
+        });
+    ASSERT_FALSE(e);
+    for (std::size_t t = 0; t < want.size(); ++t) EXPECT_EQ(rings[t], want[t]) << "tile " << t;
+    ASSERT_EQ(by_rank.size(), std::size_t(ranks));
+    std::int64_t sum = 0;
+    for (std::int64_t n : by_rank) sum += n;
+    EXPECT_EQ(sum, st.tile_solves);
+    EXPECT_GE(st.tile_solves, 16);
+    if (ranks == 2) {
+      EXPECT_GT(by_rank[1], 0);
+      EXPECT_EQ(names, std::set<std::string>{"flow-fill"});
+    }
+  }
+}

@@ -271,6 +271,23 @@ TEST(WorldMpi, TheCliWithTheFlowStageIsTheSameOnOneTwoAndFourRanks) {
     std::int64_t solves = 0;
     EXPECT_EQ(global_solves(ref, solves).size(), 1u);
     EXPECT_GE(solves, 2 * 16);  // pass A's and the final pass's at least, all in this process
+    // Without a fill stage: the same recipe with a fill stage of flow's epsilon (0) before flow, in
+    // one process, runs the solves of the fallback fill (the same heights, sea level and epsilon: the
+    // same schedule) and of flow on the filled heights; the fallback also runs the first attempt's
+    // pass A (1 to 16 solves until the tile that does not drain). So the fallback fill's solves are
+    // farm tasks (global_solves_by_rank) when the no-fill build has more solves than that build.
+    std::int64_t fill_then_flow = 0;
+    if (!fill) {
+      relief::json both = doc;
+      both["stages"] = relief::json::array({stages[0], stages[1], stages[2], relief::json{{"stage", "fill"}, {"epsilon_m", 0.0}}, stages[3], stages[4]});
+      relief::test::write_text(d.path / "fill0-flow.json", both.dump());
+      const fs::path both_ref = d.path / "fill0-flow-ref";
+      const Shell b = relief::test::relief_cli("world " + (d / "fill0-flow.json") + " --size 257 --tile 65 --seed 3 -q -j 1 -o " + both_ref.string());
+      ASSERT_EQ(b.code, 0) << b.out;
+      global_solves(both_ref, fill_then_flow);
+      EXPECT_GT(solves, fill_then_flow);
+      EXPECT_LE(solves, fill_then_flow + 16);
+    }
     for (int ranks : {1, 2, 4}) {
       SCOPED_TRACE(std::to_string(ranks) + " ranks");
       const fs::path out = d.path / (name + "-p" + std::to_string(ranks));
@@ -280,9 +297,15 @@ TEST(WorldMpi, TheCliWithTheFlowStageIsTheSameOnOneTwoAndFourRanks) {
       std::int64_t sum = 0;
       const std::vector<std::int64_t> by_rank = global_solves(out, sum);
       ASSERT_EQ(by_rank.size(), std::size_t(ranks));
-      // Without a fill stage, every global solve is flow's: some ran on the other ranks.
+      // Without a fill stage, every global solve is flow's or its fallback fill's ("flow-fill"
+      // tasks): some ran on the other ranks, and the fill's were farm tasks on any rank count (see
+      // above; one process, or rank 0 alone, ran them outside the farm before).
       if (ranks > 1 && !fill) {
         EXPECT_GT(sum - by_rank[0], 0);
+      }
+      if (!fill) {
+        EXPECT_GT(sum, fill_then_flow);
+        EXPECT_LE(sum, fill_then_flow + 16);
       }
       if (fill) {
         // Fill's solves and flow's (pass A and the final pass: 16 each, pass S's rounds): a fixed
