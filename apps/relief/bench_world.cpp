@@ -173,7 +173,7 @@ void bench_world_mpi(const BenchSettings& s, json& entries, int n, const std::fi
     if (ranks == 2) e["ratio_to_1_rank"] = ms[1] / ms[0];
     print_row(e);
     if (ranks == 2)
-      std::printf("  2 ranks take %.2fx the time of 1 (local phases and fill's tile solves spread over the ranks; flow's on rank 0); "
+      std::printf("  2 ranks take %.2fx the time of 1 (local phases and the tile solves of fill and flow spread over the ranks); "
                   "global solves by rank %s\n",
                   ms[1] / ms[0], e.value("global_solves_by_rank", json::array()).dump().c_str());
     entries.push_back(e);
