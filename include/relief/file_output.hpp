@@ -27,7 +27,9 @@ bool remove_live_temporaries() noexcept;
 std::uint64_t commits_published() noexcept;
 // Removes the temporary files in `dir` left by processes that no longer run (killed, e.g. by
 // SIGKILL, before they could clean up): only regular files named as above whose PID is not a
-// running process. Returns how many it removed. FileOutput calls it on its folder when created.
+// running process. A zombie (a killed process its parent has not reaped yet: state Z or X in
+// /proc/PID/stat, as the ranks of a SIGKILLed mpirun are for a while) counts as not running.
+// Returns how many it removed. FileOutput calls it on its folder when created.
 std::size_t remove_dead_temporaries(const std::string& dir);
 
 // Writes into `dir`, created (with missing parents) by the first file, so that a run that fails

@@ -135,9 +135,11 @@ class NoiseColumns {
 // Lattice coordinates are clamped to ±2⁵¹ cells. Coordinates must be finite (non-finite ones give
 // unspecified values, never UB). No FMA anywhere (see noise.cpp).
 //
-// Evaluation is vectorised with Google Highway (src/noise_simd.cpp), dispatched at run time to the
-// best target this CPU supports (AVX-512, AVX2, SSE4 or a portable scalar emulation); every target
-// gives bit-identical results to row_reference(), the plain scalar implementation.
+// Evaluation is vectorised with Google Highway, dispatched at run time to the best target this CPU
+// supports (AVX-512, AVX2, SSE4 or a portable scalar emulation): per-sample kernels in
+// src/noise_simd.cpp (src/noise3_simd.cpp in 3D), and on the AVX2 and AVX-512 targets block-of-rows
+// kernels for Perlin, cellular and simplex in src/noise_rows_simd.cpp. Every target gives
+// bit-identical results to row_reference(), the plain scalar implementation.
 class Noise {
  public:
   explicit Noise(const NoiseSettings& s);
