@@ -77,7 +77,7 @@ std::size_t perimeter_count(const WorldGrid::Window& w) {
 }
 std::vector<float> floats_of(std::string_view bytes, std::size_t count, const char* what) {
   if (bytes.size() != count * sizeof(float))
-    throw std::runtime_error(std::string("world transport: ") + what + " of " + std::to_string(bytes.size()) + " bytes, expected " +
+    throw Error("world", std::string("fill: a malformed farm message: ") + what + " of " + std::to_string(bytes.size()) + " bytes, expected " +
                              std::to_string(count * sizeof(float)));
   std::vector<float> v(count);
   std::memcpy(v.data(), bytes.data(), bytes.size());

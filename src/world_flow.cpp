@@ -125,6 +125,7 @@ struct Nodes {
   std::vector<std::uint32_t> dstart, donors;  // cross donors of each node (CSR)
   // The node of world sample c, or kNone when c is not on the perimeter of its owned rectangle.
   std::uint32_t find(std::int64_t c) const {
+    if (c < 0 || c >= nx * nz) return kNone;  // (a malformed farm result: never an index out of bounds)
     const std::int64_t ix = c % nx, iz = c / nx;
     const std::int64_t X = std::min(ix / t1, tx - 1), Z = std::min(iz / t1, tz - 1);
     const std::int64_t ox0 = X * t1, oz0 = Z * t1;
@@ -1275,7 +1276,12 @@ std::string encode(const LocalF& r) {
   c.put(char('f'));
   c.put(r.max_count);
   c.put(std::uint64_t(r.pieces.size()));
-  for (const auto& [at, pc] : r.pieces) {
+  std::vector<std::int64_t> keys;  // in key order, not the hash map's: a result has one coding
+  keys.reserve(r.pieces.size());
+  for (const auto& kv : r.pieces) keys.push_back(kv.first);
+  std::sort(keys.begin(), keys.end());
+  for (const std::int64_t at : keys) {
+    const Piece& pc = r.pieces.at(at);
     c.put(at), c.put(std::int32_t(pc.order)), c.put(pc.next);
     c.put(std::vector<char>(pc.end.begin(), pc.end.end()));
     c.put(pc.vertices);
@@ -1494,8 +1500,13 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
     tile_land[std::size_t(t)] = r.land;
     tile_max_acc[std::size_t(t)] = r.max_acc;
     const std::size_t node0 = std::size_t(nd.base[std::size_t(t)]);
-    if (node0 + r.cell.size() != nd.base[std::size_t(t) + 1] || (!r.cell.empty() && nd.find(r.cell[0]) != node0))
+    if (node0 + r.cell.size() != nd.base[std::size_t(t) + 1])
       throw Error("world", "flow: internal error, perimeter numbering");
+    // Every node is the perimeter sample of its place, every link a perimeter node or none (also
+    // the check of a result from another rank: nothing below indexes by an unchecked sample).
+    for (std::size_t k = 0; k < r.cell.size(); ++k)
+      if (nd.find(r.cell[k]) != node0 + k || (r.link_cell[k] != -1 && nd.find(r.link_cell[k]) == kNone))
+        throw Error("world", "flow: internal error, perimeter numbering (tile " + std::to_string(t) + ", node " + std::to_string(k) + ")");
     const std::uint64_t base = comp.parent.size();
     comp.base[std::size_t(t)] = base;
     const std::size_t labels = r.comp_count.size();
@@ -1826,7 +1837,23 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
         [&](std::int64_t t, std::string bytes) {
           Decoder d{bytes};
           if (d.get<char>() != 'f') d.bad("not a final-pass result");
-          merge_f(t, decode_result_f(d));
+          LocalF r = decode_result_f(d);
+          // Pieces, starts and lake samples are the tile's own samples (a malformed result is an
+          // error here, not a river walk through samples no tile traced).
+          const std::int64_t X = t % g.tiles_x, Z = t / g.tiles_x;
+          const std::int64_t x1 = X == g.tiles_x - 1 ? g.nx : (X + 1) * c.t1, z1 = Z == g.tiles_z - 1 ? g.nz : (Z + 1) * c.t1;
+          auto owned = [&](std::int64_t q) {
+            if (q < 0 || q >= g.nx * g.nz) return false;
+            const std::int64_t ix = q % g.nx, iz = q / g.nx;
+            return ix >= X * c.t1 && ix < x1 && iz >= Z * c.t1 && iz < z1;
+          };
+          for (const auto& [at, pc] : r.pieces)
+            if (!owned(at) || (pc.next != -1 && (pc.next < 0 || pc.next >= g.nx * g.nz))) d.bad("a river piece outside its tile");
+          for (const std::int64_t q : r.starts)
+            if (!owned(q) || !r.pieces.count(q)) d.bad("a river start outside its tile's pieces");
+          for (const auto& lk : r.lake)
+            if (!owned(std::get<1>(lk))) d.bad("a lake sample outside its tile");
+          merge_f(t, std::move(r));
         });
   else
     detail::ordered_tiles<LocalF>(all_tiles, solve_f, merge_f);
@@ -1850,9 +1877,10 @@ TiledFlowStats flow_tiled_with_progress(const WorldGrid& g, const Frame& f, cons
     for (const std::int64_t s0 : starts) {
       River river;
       std::int64_t at = s0;
-      for (;;) {
+      for (std::size_t steps = 0;; ++steps) {
         const auto it = pieces.find(at);
         if (it == pieces.end()) throw Error("world", "flow: internal error, a river piece is missing");
+        if (steps == pieces.size()) throw Error("world", "flow: internal error, a river's pieces form a loop");
         Piece& pc = it->second;
         if (at == s0) river.order = pc.order;
         river.vertices.insert(river.vertices.end(), pc.vertices.begin(), pc.vertices.end());
