@@ -196,18 +196,21 @@ void bench_world_large(const BenchSettings& s, json& entries, int n) {
   ws.tile = tile;
   ws.out_dir = dir.string();
   ws.threads = threads;
-  // The disk estimate first: the build's own check, asked with one free byte, refuses and says it.
+  // The disk estimate first: the build's own checks, as `relief world --dry-run` makes them.
   std::error_code ec;
   const fs::space_info sp = fs::space(fs::path(dir_env ? dir_env : fs::temp_directory_path().string()), ec);
   {
     WorldSettings probe = ws;
-    probe.disk_free_bytes = 1;
+    probe.dry_run = true;
     try {
-      build_world(probe);
+      const WorldReport est = build_world(probe);
+      std::printf("world large %d² (tiles of %d): the disk check estimates %s on disk in all (%s for the final store), "
+                  "%s of memory for the tiles built at once; free here: %s\n",
+                  n, tile, human_bytes(est.estimated_bytes).c_str(), human_bytes(est.estimated_store_bytes).c_str(),
+                  human_bytes(est.tile_memory_bytes).c_str(), ec ? "?" : human_bytes(sp.available).c_str());
     } catch (const Error& e) {
-      std::printf("world large %d² (tiles of %d): the disk check says: %s\n", n, tile, e.message().c_str());
+      std::printf("world large %d² (tiles of %d): the checks refuse it: %s\n", n, tile, e.message().c_str());
     }
-    std::printf("  free here: %s\n", ec ? "?" : human_bytes(sp.available).c_str());
   }
   std::fflush(stdout);
   int last_pct = -1;
