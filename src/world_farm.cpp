@@ -6,6 +6,7 @@
 #include <tbb/partitioner.h>
 #include <tbb/task_arena.h>
 
+#include <algorithm>
 #include <chrono>
 #include <deque>
 #include <map>
@@ -143,10 +144,24 @@ void TileFarm::run(const std::string& kernel, const std::vector<std::int64_t>& i
   b.errors.resize(items.size());
   b.ready.assign(items.size(), 0);
   {
-    std::lock_guard<std::mutex> lock(m_);
+    std::unique_lock<std::mutex> lock(m_);
     if (server_error_) std::rethrow_exception(server_error_);
+    // Every rank says how many lanes it has ("C") as it starts serving, right after the local phase
+    // before this one; waiting for them (a few seconds at most) lets the first tasks go to every
+    // rank rather than all to this one while the others are still starting.
+    cv_.wait_for(lock, std::chrono::seconds(5), [&] {
+      return server_error_ || std::all_of(credit_.begin(), credit_.end(), [](int c) { return c >= 0; });
+    });
     batch_ = &b;
   }
+  // Free lanes of the other ranks (under m_): while there are some, this rank's lanes leave the
+  // next task to the server thread, which hands it out within a fraction of a millisecond, so that
+  // every rank shares the work whatever the size of a task (the merges' order does not change).
+  auto others_free = [&] {
+    for (std::size_t r = 1; r < credit_.size(); ++r)
+      if (credit_[r] > 0) return true;
+    return false;
+  };
   auto merge_ready = [&] {  // under m_
     while (!b.failure && b.merged < items.size() && b.ready[b.merged]) {
       const std::size_t p = b.merged;
@@ -168,7 +183,7 @@ void TileFarm::run(const std::string& kernel, const std::vector<std::int64_t>& i
         for (;;) {
           merge_ready();
           if (b.finished()) break;
-          if (!b.failure && b.next < items.size() && b.next < b.merged + window(b)) {
+          if (!b.failure && b.next < items.size() && b.next < b.merged + window(b) && (server_error_ || !others_free())) {
             const std::size_t p = b.next++;
             ++b.in_flight;
             ++tasks_by_rank_[0];
@@ -224,6 +239,7 @@ void TileFarm::server() {
         if (msg[0] == 'C') {
           if (credit_[std::size_t(from)] >= 0) throw malformed("farm credit (sent twice)");
           credit_[std::size_t(from)] = int(std::min<std::uint64_t>(r.bytes(4), 64));
+          cv_.notify_all();
         } else if (msg[0] == 'R') {
           const std::int64_t p = std::int64_t(r.bytes(8));
           const bool ok = r.bytes(1) != 0;
@@ -271,6 +287,7 @@ void TileFarm::server() {
             busy = true;
           }
         }
+        if (busy) cv_.notify_all();  // this rank's lanes wait while other ranks have free lanes
         if (ending_) {
           bool quiet = true;
           for (std::size_t rk = 1; rk < credit_.size(); ++rk) quiet = quiet && credit_[rk] >= 0 && outstanding_[rk] == 0;
