@@ -60,7 +60,7 @@ namespace relief::detail {
 namespace HWY_NAMESPACE {
 namespace {
 
-#if HWY_TARGET == HWY_AVX2 || HWY_TARGET == HWY_AVX3 || HWY_TARGET == HWY_AVX3_DL
+#if HWY_ARCH_X86 && HWY_TARGET <= HWY_AVX2  // AVX2 and every AVX-512 target (lower is better)
 
 // ---- scalar helpers: noise.cpp's, operation for operation ---------------------------------------
 
