@@ -370,7 +370,10 @@ TEST(WorldMpi, ADistributedBuildResumesAnUnfinishedStore) {
 TEST(WorldMpi, AfterSigkillOfMpirunADistributedRerunGivesTheSameBytes) {
   REQUIRE_MPI();
   TempDir d("world-mpi-kill");
-  const std::string args = "world island --size 1025 --tile 33 --seed 6 -q -j 1";  // 1024 tiles
+  // 4096 tiles of 17: a rank takes about a second to notice that mpirun is gone and builds tiles
+  // until then, so the world must take several seconds (1024 tiles of 33 took 1.6 s on a Zen 4, and
+  // the ranks finished them all after the kill); the samples stay few, the reference build cheap.
+  const std::string args = "world island --size 1025 --tile 17 --seed 6 -q -j 1";
   const Shell ref = relief::test::relief_cli(args + " -o " + (d / "ref"));
   ASSERT_EQ(ref.code, 0) << ref.out;
   const fs::path out = d.path / "w";
@@ -415,7 +418,7 @@ TEST(WorldMpi, AfterSigkillOfMpirunADistributedRerunGivesTheSameBytes) {
   if (WIFSIGNALED(st)) {  // killed part way (not after the build had finished): it resumed
     EXPECT_EQ(report_of(out)["tiles"]["skipped"], kept);
     EXPECT_GT(kept, 0u);
-    EXPECT_LT(kept, 1024u);
+    EXPECT_LT(kept, 4096u);
   }
 }
 
