@@ -133,7 +133,11 @@ struct Lod {
 
   void write(int k, std::int64_t X, std::int64_t Z, const LodTile& t) {
     if (s->cancelled && s->cancelled()) throw Cancelled();
-    const std::string base = "x" + std::to_string(X) + "_z" + std::to_string(Z);
+    // Appended piece by piece: GCC 12 warns (-Wrestrict, a false positive) on "x" + std::to_string(X).
+    std::string base = "x";
+    base += std::to_string(X);
+    base += "_z";
+    base += std::to_string(Z);
     std::vector<std::uint16_t> px(t.h.size());
     for (std::size_t i = 0; i < px.size(); ++i) px[i] = to_u16(t.h[i]);
     put(k, base + ".png", encode_png_pixels(px.data(), px.size() * 2, t.nx, t.nz, 16, 1));

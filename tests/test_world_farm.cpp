@@ -7,6 +7,7 @@
 #include <gtest/gtest.h>
 #include <tbb/task_arena.h>
 
+#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <deque>
@@ -19,6 +20,7 @@
 #include "relief/error.hpp"
 #include "relief/recipe.hpp"
 #include "relief/world.hpp"
+#include "relief/world_flow.hpp"
 #include "world_farm.hpp"
 
 namespace {
@@ -536,4 +538,65 @@ TEST(FlowFarm, TheFallbackFillOverTheFarmGivesTheLibrarysRingsOnOneAndTwoRanks) 
       EXPECT_EQ(names, std::set<std::string>{"flow-fill"});
     }
   }
+}
+
+// A result from another rank damaged on its way (one bit of one result of rank 1 flipped, at a place
+// that changes from trial to trial) through a real flow run without fill on 2 ranks (the fallback
+// fill's and flow's three passes): rank 0 either stops with a relief::Error or takes the result as
+// it reads (a changed height or count is still a valid message). It never crashes, never hangs and
+// never reads outside its arrays (the sanitizer pass runs this test too), and some damage is caught.
+TEST(FlowFarm, ADamagedResultFromAnotherRankIsAnErrorNeverACrash) {
+  const relief::Recipe r = flow_recipe();
+  relief::WorldStageIO io = pitted_io(r, 129, 33);  // 4 × 4 tiles with depressions: no fill before flow
+  std::mutex m;
+  std::map<std::int64_t, std::vector<float>> stored;
+  io.store = [&](std::int64_t X, std::int64_t Z, relief::WorldTile t) {
+    std::lock_guard<std::mutex> lock(m);
+    stored[Z * 4 + X] = t.layers.at("height").data;
+  };
+  const relief::WorldStageAlgorithm flow =
+      relief::world_flow([](const relief::Frame&, std::vector<relief::River>, std::vector<relief::Lake>) {});
+  auto run = [&](int ranks, std::int64_t victim, std::uint64_t where, std::int64_t* results) {
+    std::atomic<std::int64_t> count{0};
+    const std::exception_ptr e = with_ranks(
+        ranks,
+        [&](const std::string& name) -> FarmKernel {
+          const FarmKernel k = relief::detail::make_farm_kernel(name, io, r.stages[0]);
+          return [k, &count, victim, where](std::int64_t t, std::string_view in) {
+            std::string out = k(t, in);
+            if (count++ == victim && !out.empty()) out[std::size_t(where % out.size())] ^= char(1 << ((where >> 40) & 7));
+            return out;
+          };
+        },
+        [&](TileFarm& farm) {
+          relief::WorldStageIO here = io;
+          here.farm = &farm;
+          flow(here, r.stages[0], 0);
+        });
+    if (results) *results = count;
+    return e;
+  };
+  std::int64_t results = 0;
+  ASSERT_FALSE(run(2, -1, 0, &results));  // nothing damaged: the run succeeds
+  ASSERT_GT(results, 8) << "rank 1 ran too few tasks for the test to mean anything";
+  int errors = 0, taken = 0;
+  std::uint64_t x = 0x9E3779B97F4A7C15ull;
+  for (int trial = 0; trial < 120; ++trial) {
+    x ^= x << 13, x ^= x >> 7, x ^= x << 17;  // xorshift: a fixed sequence of places
+    const std::exception_ptr e = run(2, std::int64_t(x % std::uint64_t(results)), x >> 8, nullptr);
+    if (!e) {
+      ++taken;
+      continue;
+    }
+    try {
+      std::rethrow_exception(e);
+    } catch (const relief::Error& err) {
+      ++errors;
+      EXPECT_FALSE(std::string(err.what()).empty());
+    } catch (const std::exception& err) {
+      ADD_FAILURE() << "trial " << trial << ": not a relief::Error: " << err.what();
+    }
+  }
+  std::printf("damaged results: %d refused with an Error, %d taken as they read\n", errors, taken);
+  EXPECT_GT(errors, 0);
 }

@@ -195,10 +195,13 @@ std::string apply_tilemap_shortcuts(const CliGenerate& s, const std::string& for
 // comes once `generate`'s commit has begun replacing files is too late: the run finishes (exit 0).
 std::atomic<int> g_signal{0};
 std::atomic<bool> g_finished{false};
-// What the 2 s fallback says was kept: `relief world` keeps its finished tiles (a rerun resumes).
-std::atomic<const char*> g_interrupt_outcome{"no file was changed"};
-// Whether the command commits its files once (generate; a world commits tile by tile).
-std::atomic<bool> g_one_commit{true};
+// How a command's outputs meet an interruption, given to take_interrupts().
+struct InterruptPolicy {
+  // Whether the command commits its files once (generate; a world commits tile by tile).
+  bool one_commit = true;
+  // What the 2 s fallback says was kept: `relief world` keeps its finished tiles (a rerun resumes).
+  const char* outcome = "no file was changed";
+};
 
 const char* signal_name(int sig) { return sig == SIGINT ? "SIGINT" : sig == SIGTERM ? "SIGTERM" : "a signal"; }
 
@@ -224,10 +227,10 @@ void unblock_interrupts() {
   pthread_sigmask(SIG_UNBLOCK, &set, nullptr);
 }
 
-void take_interrupts() {
+void take_interrupts(const InterruptPolicy policy = {}) {
   const sigset_t set = interrupt_signals();
   pthread_sigmask(SIG_BLOCK, &set, nullptr);  // still blocked since block_interrupts_early; threads inherit it
-  std::thread([set] {
+  std::thread([set, policy] {
     int sig = 0;
     if (sigwait(&set, &sig) != 0) return;
     g_signal = sig;
@@ -237,14 +240,14 @@ void take_interrupts() {
       if (g_finished) return;
       // `generate` commits once: once that commit has begun replacing files, the run ends as if
       // no signal had come (exit 0), since 130/143 promise that no file was changed.
-      if (g_one_commit && commits_published() > 0) {
+      if (policy.one_commit && commits_published() > 0) {
         dprintf(2, "%srelief: %s came while the new files were being put in place; the run finishes\n", clear, signal_name(sig));
         return;
       }
       if (remove_live_temporaries()) break;
       ::usleep(10000);  // a commit's renames are under way (a world's tile): they finish first
     }
-    dprintf(2, "%srelief: interrupted by %s; %s\n", clear, signal_name(sig), g_interrupt_outcome.load());
+    dprintf(2, "%srelief: interrupted by %s; %s\n", clear, signal_name(sig), policy.outcome);
     ::_exit(128 + sig);
   }).detach();
 }
@@ -1033,9 +1036,7 @@ int main(int argc, char** argv) {
       if (wsx.recipe.seed_given) wsx.recipe.seed = read_int_flag(world_seed_text, "--seed", 0, std::int64_t(kMaxSeed), "decimal digits");
       check_generate_flags(wsx.recipe);
       wsx.recipe.threads = capped_threads(wsx.recipe.threads);
-      g_interrupt_outcome = "the finished tiles are kept: run the same command again to resume";
-      g_one_commit = false;
-      take_interrupts();
+      take_interrupts({false, "the finished tiles are kept: run the same command again to resume"});
       const int code = cmd_world_rank(wsx);
       g_finished = true;
       return code;
