@@ -48,6 +48,7 @@ Layer& Terrain::layer(const std::string& name, int channels) {
   if (l.channels != channels || l.data.size() != want) {
     l.channels = channels;
     take_spare(spare, l.data, want);
+    if (l.data.capacity() < want && want * sizeof(float) >= (std::size_t(4) << 20)) reserve_huge(l.data, want);
     l.data.assign(want, 0.0f);
   }
   return l;
