@@ -25,7 +25,8 @@
 //
 // Cellular. The feature points of the cells of a lattice row (three rows of them) are hashed once
 // per row of cells, not nine times per sample; per sample row, the squared row distances; per cell
-// the candidates that can win anywhere in it (CellLists); vectors inside one cell broadcast them.
+// the candidates that can win anywhere in it (CellLists); vectors inside one cell broadcast them;
+// the x-only terms once per block of rows (CellColumns). 8 lanes per vector on the AVX-512 targets.
 //
 // Simplex. The x positions' lattice coordinates once per strip of columns for the block; per 8
 // samples the reference's skew and split in double and its three vertices in float.
@@ -402,9 +403,12 @@ void PerlinRows(const NoiseKernelArgs& a, const double* z, int nrows, std::int64
 // (b = 0, 1, 2) exactly as cellular_core() computes them, px(a) = (a − 1 + ½) + jitter·ux for the
 // three column offsets a it is seen from, py = (b − 1 + ½) + jitter·uy, and the cell value; per row
 // (fy) the squared row distance (py − fy)². A sample in cell X visits the nine entries X + a − 1:
-// dist = (px − fx)² + dy², the reference's operations. When the four lanes of a vector share their
-// cell (every vector but the few that straddle a cell edge, at a few samples per cell and more),
-// the entries are broadcast; otherwise they are gathered per lane.
+// dist = (px − fx)² + dy², the reference's operations. The x-only terms (fx, the entry of each
+// sample's cell, and per group of 8 samples whether they share one cell or two) are computed once
+// per block of rows (CellColumns). When the 8 samples of a group share their cell (every group but
+// the few that straddle a cell edge, at a few samples per cell and more), the entries are broadcast;
+// otherwise they are gathered per lane. The vector code is written once over a lane type: 2 vectors
+// of 4 doubles on AVX2, 1 of 8 on the AVX-512 targets.
 struct CellTables {
   const double* px[3][3];  // [b][a]
   const double* dy2[3];    // [b]
@@ -413,39 +417,101 @@ struct CellTables {
 
 constexpr double kK21 = kCell2m21;
 
+// 4 lanes (AVX2): doubles in __m256d, their int32 entries in __m128i.
+struct CellV4 {
+  using D = __m256d;
+  using I = __m128i;
+  static constexpr int L = 4;
+  static D Set1(double v) { return _mm256_set1_pd(v); }
+  static D Bcast(const double* p) { return _mm256_broadcast_sd(p); }
+  static D Load(const double* p) { return _mm256_loadu_pd(p); }
+  static I LoadI(const std::int32_t* p) { return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p)); }
+  static I AddI(I e, int c) { return _mm_add_epi32(e, _mm_set1_epi32(c)); }
+  static D Gather(const double* t, I e) { return _mm256_i32gather_pd(t, e, 8); }
+  static D Sub(D a, D b) { return _mm256_sub_pd(a, b); }
+  static D Add(D a, D b) { return _mm256_add_pd(a, b); }
+  static D Mul(D a, D b) { return _mm256_mul_pd(a, b); }
+  static D Min(D a, D b) { return _mm256_min_pd(a, b); }  // a < b ? a : b
+  static D Max(D a, D b) { return _mm256_max_pd(a, b); }  // a > b ? a : b
+  static D Sqrt(D a) { return _mm256_sqrt_pd(a); }
+  // a < b ? x : y
+  static D SelectLt(D a, D b, D x, D y) { return _mm256_blendv_pd(y, x, _mm256_cmp_pd(a, b, _CMP_LT_OQ)); }
+  // e == c ? x : y, per lane
+  static D SelectEq(I e, int c, D x, D y) {
+    return _mm256_blendv_pd(y, x, _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm_cmpeq_epi32(e, _mm_set1_epi32(c)))));
+  }
+  template <int kFr>
+  static D Fold(D acc, D amp, D n) { return FoldV<kFr>(acc, amp, n); }
+  template <int kFr>
+  static void Finish(D acc, D inv, float* out, int count) { Store4(FinishV<kFr>(acc, inv), out, count); }
+};
+
+#if HWY_TARGET <= HWY_AVX3
+// 8 lanes (AVX-512): doubles in __m512d, their int32 entries in __m256i.
+struct CellV8 {
+  using D = __m512d;
+  using I = __m256i;
+  static constexpr int L = 8;
+  static D Set1(double v) { return _mm512_set1_pd(v); }
+  static D Bcast(const double* p) { return _mm512_set1_pd(*p); }
+  static D Load(const double* p) { return _mm512_loadu_pd(p); }
+  static I LoadI(const std::int32_t* p) { return _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p)); }
+  static I AddI(I e, int c) { return _mm256_add_epi32(e, _mm256_set1_epi32(c)); }
+  static D Gather(const double* t, I e) { return _mm512_i32gather_pd(e, t, 8); }
+  static D Sub(D a, D b) { return _mm512_sub_pd(a, b); }
+  static D Add(D a, D b) { return _mm512_add_pd(a, b); }
+  static D Mul(D a, D b) { return _mm512_mul_pd(a, b); }
+  static D Min(D a, D b) { return _mm512_min_pd(a, b); }
+  static D Max(D a, D b) { return _mm512_max_pd(a, b); }
+  static D Sqrt(D a) { return _mm512_sqrt_pd(a); }
+  static D SelectLt(D a, D b, D x, D y) { return _mm512_mask_blend_pd(_mm512_cmp_pd_mask(a, b, _CMP_LT_OQ), y, x); }
+  static D SelectEq(I e, int c, D x, D y) {
+    return _mm512_mask_blend_pd(_mm256_cmpeq_epi32_mask(e, _mm256_set1_epi32(c)), y, x);
+  }
+  template <int kFr>
+  static D Fold(D acc, D amp, D n) { return FoldV8<kFr>(acc, amp, n); }
+  template <int kFr>
+  static void Finish(D acc, D inv, float* out, int count) {
+    const __m256 v = FinishV8<kFr>(acc, inv);
+    if (count >= 8) _mm256_storeu_ps(out, v);
+    else _mm256_mask_storeu_ps(out, __mmask8((1u << count) - 1u), v);
+  }
+};
+#endif
+
 // One candidate feature point seen from kN vectors: dist = (p − fx)² + dy², folded into the
 // running F1 (d1), F2 (d2) or owner's cell value (h1) as the reference folds it.
-template <int kRet, int kN>
-HWY_INLINE void CellFold(const __m256d* p, const __m256d* dy2, const __m256d* cv, const __m256d* fx, __m256d* d1,
-                         __m256d* d2, __m256d* h1) {
+template <class V, int kRet, int kN>
+HWY_INLINE void CellFold(const typename V::D* p, const typename V::D* dy2, const typename V::D* cv,
+                         const typename V::D* fx, typename V::D* d1, typename V::D* d2, typename V::D* h1) {
   for (int u = 0; u < kN; ++u) {
-    const __m256d ddx = _mm256_sub_pd(p[u], fx[u]);
-    const __m256d dist = _mm256_add_pd(_mm256_mul_pd(ddx, ddx), dy2[u]);
+    const auto ddx = V::Sub(p[u], fx[u]);
+    const auto dist = V::Add(V::Mul(ddx, ddx), dy2[u]);
     if constexpr (kRet == int(CellularReturn::F1)) {
-      d1[u] = _mm256_min_pd(dist, d1[u]);  // dist < d1 ? dist : d1 (NaN keeps d1, as the reference)
+      d1[u] = V::Min(dist, d1[u]);  // dist < d1 ? dist : d1 (NaN keeps d1, as the reference)
     } else if constexpr (kRet == int(CellularReturn::CellValue)) {
-      const __m256d lt = _mm256_cmp_pd(dist, d1[u], _CMP_LT_OQ);
-      d1[u] = _mm256_blendv_pd(d1[u], dist, lt);
-      h1[u] = _mm256_blendv_pd(h1[u], cv[u], lt);
+      h1[u] = V::SelectLt(dist, d1[u], cv[u], h1[u]);
+      d1[u] = V::Min(dist, d1[u]);
     } else {
       // The reference's "if (d < d1) {d2 = d1; d1 = d;} else if (d < d2) d2 = d;" as
       // d2 = min(max(d, d1), d2), d1 = min(d, d1) (NaN d leaves both).
-      d2[u] = _mm256_min_pd(_mm256_max_pd(dist, d1[u]), d2[u]);
-      d1[u] = _mm256_min_pd(dist, d1[u]);
+      d2[u] = V::Min(V::Max(dist, d1[u]), d2[u]);
+      d1[u] = V::Min(dist, d1[u]);
     }
   }
 }
-template <int kRet, int kN>
-HWY_INLINE void CellFinish(const __m256d* d1, const __m256d* d2, const __m256d* h1, __m256d* res) {
-  const __m256d one = _mm256_set1_pd(1.0), two = _mm256_set1_pd(2.0);
-  auto min1 = [&](__m256d v) { return _mm256_blendv_pd(v, one, _mm256_cmp_pd(one, v, _CMP_LT_OQ)); };  // std::min(v, 1.0)
+template <class V, int kRet, int kN>
+HWY_INLINE void CellFinish(const typename V::D* d1, const typename V::D* d2, const typename V::D* h1,
+                           typename V::D* res) {
+  const auto one = V::Set1(1.0), two = V::Set1(2.0);
+  auto min1 = [&](typename V::D v) { return V::SelectLt(one, v, one, v); };  // std::min(v, 1.0)
   for (int u = 0; u < kN; ++u) {
     if constexpr (kRet == int(CellularReturn::F1)) {
-      res[u] = _mm256_sub_pd(_mm256_mul_pd(two, min1(_mm256_sqrt_pd(d1[u]))), one);
+      res[u] = V::Sub(V::Mul(two, min1(V::Sqrt(d1[u]))), one);
     } else if constexpr (kRet == int(CellularReturn::F2)) {
-      res[u] = _mm256_sub_pd(_mm256_mul_pd(two, min1(_mm256_mul_pd(_mm256_sqrt_pd(d2[u]), _mm256_set1_pd(1.0 / 1.5)))), one);
+      res[u] = V::Sub(V::Mul(two, min1(V::Mul(V::Sqrt(d2[u]), V::Set1(1.0 / 1.5)))), one);
     } else if constexpr (kRet == int(CellularReturn::F2MinusF1)) {
-      res[u] = _mm256_sub_pd(_mm256_mul_pd(two, min1(_mm256_sub_pd(_mm256_sqrt_pd(d2[u]), _mm256_sqrt_pd(d1[u])))), one);
+      res[u] = V::Sub(V::Mul(two, min1(V::Sub(V::Sqrt(d2[u]), V::Sqrt(d1[u])))), one);
     } else {
       res[u] = h1[u];
     }
@@ -454,49 +520,51 @@ HWY_INLINE void CellFinish(const __m256d* d1, const __m256d* d2, const __m256d* 
 
 // kN vectors (fx[u]; lanes' entries e[u], or all e0 when broadcast) through the nine visits in the
 // reference's order, their chains interleaved.
-template <int kRet, bool kGather, int kN>
-HWY_INLINE void CellVisitAll(const CellTables& t, std::int64_t e0, const __m128i* e, const __m256d* fx, __m256d* res) {
-  const __m256d inf = _mm256_set1_pd(HUGE_VAL);
-  __m256d d1[kN], d2[kN], h1[kN];
-  for (int u = 0; u < kN; ++u) d1[u] = d2[u] = inf, h1[u] = _mm256_set1_pd(-1.0);
+template <class V, int kRet, bool kGather, int kN>
+HWY_INLINE void CellVisitAll(const CellTables& t, std::int64_t e0, const typename V::I* e, const typename V::D* fx,
+                             typename V::D* res) {
+  using D = typename V::D;
+  const D inf = V::Set1(HUGE_VAL);
+  D d1[kN], d2[kN], h1[kN];
+  for (int u = 0; u < kN; ++u) d1[u] = d2[u] = inf, h1[u] = V::Set1(-1.0);
   for (int b = 0; b < 3; ++b)
     for (int a = 0; a < 3; ++a) {
-      __m256d p[kN], dy2[kN], cv[kN];
+      D p[kN], dy2[kN], cv[kN];
       for (int u = 0; u < kN; ++u) {
         if constexpr (kGather) {
-          const __m128i ea = _mm_add_epi32(e[u], _mm_set1_epi32(a - 1));
-          p[u] = _mm256_i32gather_pd(t.px[b][a], ea, 8);
-          dy2[u] = _mm256_i32gather_pd(t.dy2[b], ea, 8);
-          if constexpr (kRet == int(CellularReturn::CellValue)) cv[u] = _mm256_i32gather_pd(t.cv[b], ea, 8);
+          const auto ea = V::AddI(e[u], a - 1);
+          p[u] = V::Gather(t.px[b][a], ea);
+          dy2[u] = V::Gather(t.dy2[b], ea);
+          if constexpr (kRet == int(CellularReturn::CellValue)) cv[u] = V::Gather(t.cv[b], ea);
         } else {
-          p[u] = _mm256_broadcast_sd(t.px[b][a] + e0 + a - 1);
-          dy2[u] = _mm256_broadcast_sd(t.dy2[b] + e0 + a - 1);
-          if constexpr (kRet == int(CellularReturn::CellValue)) cv[u] = _mm256_broadcast_sd(t.cv[b] + e0 + a - 1);
+          p[u] = V::Bcast(t.px[b][a] + e0 + a - 1);
+          dy2[u] = V::Bcast(t.dy2[b] + e0 + a - 1);
+          if constexpr (kRet == int(CellularReturn::CellValue)) cv[u] = V::Bcast(t.cv[b] + e0 + a - 1);
         }
       }
-      CellFold<kRet, kN>(p, dy2, cv, fx, d1, d2, h1);
+      CellFold<V, kRet, kN>(p, dy2, cv, fx, d1, d2, h1);
     }
-  CellFinish<kRet, kN>(d1, d2, h1, res);
+  CellFinish<V, kRet, kN>(d1, d2, h1, res);
 }
 
 // The same for vectors whose lanes all lie in cell e, through that cell's list of candidates that
 // can win somewhere in it (CellLists), in the reference's order.
-template <int kRet, int kN>
-HWY_INLINE void CellVisitList(const double* lp, const double* ld, const double* lc, int count, const __m256d* fx,
-                              __m256d* res) {
-  const __m256d inf = _mm256_set1_pd(HUGE_VAL);
-  __m256d d1[kN], d2[kN], h1[kN];
-  for (int u = 0; u < kN; ++u) d1[u] = d2[u] = inf, h1[u] = _mm256_set1_pd(-1.0);
+template <class V, int kRet, int kN>
+HWY_INLINE void CellVisitList(const double* lp, const double* ld, const double* lc, int count, const typename V::D* fx,
+                              typename V::D* res) {
+  using D = typename V::D;
+  const D inf = V::Set1(HUGE_VAL);
+  D d1[kN], d2[kN], h1[kN];
+  for (int u = 0; u < kN; ++u) d1[u] = d2[u] = inf, h1[u] = V::Set1(-1.0);
   for (int t = 0; t < count; ++t) {
-    __m256d p[kN], dy2[kN], cv[kN];
-    for (int u = 0; u < kN; ++u) {
-      p[u] = _mm256_broadcast_sd(lp + t);
-      dy2[u] = _mm256_broadcast_sd(ld + t);
-      if constexpr (kRet == int(CellularReturn::CellValue)) cv[u] = _mm256_broadcast_sd(lc + t);
-    }
-    CellFold<kRet, kN>(p, dy2, cv, fx, d1, d2, h1);
+    D p[kN], dy2[kN], cv[kN];
+    const D pb = V::Bcast(lp + t), db = V::Bcast(ld + t);
+    D cb = pb;
+    if constexpr (kRet == int(CellularReturn::CellValue)) cb = V::Bcast(lc + t);
+    for (int u = 0; u < kN; ++u) p[u] = pb, dy2[u] = db, cv[u] = cb;
+    CellFold<V, kRet, kN>(p, dy2, cv, fx, d1, d2, h1);
   }
-  CellFinish<kRet, kN>(d1, d2, h1, res);
+  CellFinish<V, kRet, kN>(d1, d2, h1, res);
 }
 
 struct CellOctaveState {
@@ -518,9 +586,44 @@ struct CellOctaveState {
   double* cg = nullptr;  // [b][a][R]: the bounds' terms of px (CellLists)
   double* cm = nullptr;
   std::int32_t* count = nullptr;
+  // The block's columns (CellColumns), n rounded up to 8: each sample's fx and cell entry (clamped
+  // into [1, R − 2]), and per group of 8 samples code = 4·e0 + kind, e0 its first sample's entry,
+  // kind 0 when all 8 are in e0, 1 when all are in e0 or e0 + 1, else 2.
+  double* fx = nullptr;
+  std::int32_t* e = nullptr;
+  std::int32_t* code = nullptr;
 };
 
 constexpr int kCullSamples = 8;
+
+// The x-only terms of octave o over the block's n columns (n8 = n rounded up to 8; the lanes past
+// n are computed as the kernels used to compute them, clamped into the table, never stored):
+// x = double(i0 + i)·dx, u = x·fₓ + offₓ, the reference's clamped floor, fx = u − floor.
+void CellColumns(const NoiseOctave& o, std::int64_t i0, double dx, int n8, CellOctaveState& s) {
+  const __m256d iota = _mm256_setr_pd(0.0, 1.0, 2.0, 3.0), vdx = _mm256_set1_pd(dx);
+  const __m256d f = _mm256_set1_pd(o.freq_x), off = _mm256_set1_pd(o.offset_x);
+  const __m128i vb = _mm_set1_epi32(std::int32_t(std::uint32_t(s.base))), emax = _mm_set1_epi32(s.R - 2);
+  for (int i = 0; i < n8; i += 4) {
+    const __m256d x = _mm256_mul_pd(_mm256_add_pd(_mm256_set1_pd(double(i0 + i)), iota), vdx);
+    const __m256d uu = _mm256_add_pd(_mm256_mul_pd(x, f), off);
+    const __m256d fl = FloorClampedV(uu);
+    _mm256_storeu_pd(s.fx + i, _mm256_sub_pd(uu, fl));
+    // Entry of each lane's cell: its index modulo 2³² minus the base's (the range is small).
+    __m128i e = _mm_sub_epi32(Low32V(fl), vb);
+    e = _mm_max_epi32(_mm_min_epi32(e, emax), _mm_set1_epi32(1));
+    _mm_storeu_si128(reinterpret_cast<__m128i*>(s.e + i), e);
+  }
+  for (int g = 0; g < n8 / 8; ++g) {
+    const std::int32_t* e = s.e + 8 * g;
+    const std::int32_t e0 = e[0];
+    int kind = 0;
+    for (int l = 1; l < 8; ++l) {
+      if (e[l] == e0) continue;
+      kind = std::max(kind, e[l] == e0 + 1 ? 1 : 2);
+    }
+    s.code[g] = 4 * e0 + kind;
+  }
+}
 
 // The candidate lists of one row (after dy2). Candidate i is dist_i(fx) = (p_i − fx)² + dy²_i over
 // the cell, fx in [0, 1): at least LB_i = dy²_i + gap(p_i, [0, 1])², at most UB_i = dy²_i +
@@ -536,31 +639,30 @@ void CellLists(CellOctaveState& s, double fy) {
   const int R = s.R;
   const bool finite = std::isfinite(fy);  // then every dy² and bound is finite
   for (int e = 1; e + 1 < R; ++e) {
-    double d[9], lb[9], ub[9];
+    double d[9], lb[9];
     double m1 = HUGE_VAL, m2 = HUGE_VAL;
     for (int b = 0; b < 3; ++b)
       for (int a = 0; a < 3; ++a) {
         const int t = b * 3 + a, ee = e + a - 1;
         d[t] = s.dy2[b * R + ee];
         lb[t] = d[t] + s.cg[t * R + ee];
-        ub[t] = d[t] + s.cm[t * R + ee];
-        if (ub[t] < m1) {
-          m2 = m1;
-          m1 = ub[t];
-        } else if (ub[t] < m2) {
-          m2 = ub[t];
-        }
+        const double ub = d[t] + s.cm[t * R + ee];
+        // The two smallest upper bounds, without branches (finite values; else all nine are kept).
+        m2 = std::min(std::max(ub, m1), m2);
+        m1 = std::min(ub, m1);
       }
     const double thr = (kSecond ? m2 : m1) + kMargin;
     int k = 0;
-    for (int t = 0; t < 9; ++t)
-      if (!finite || lb[t] <= thr) {
-        const int b = t / 3, ee = e + t % 3 - 1;
-        s.lp[e * 9 + k] = s.px[t * R + ee];
-        s.ld[e * 9 + k] = d[t];
-        s.lc[e * 9 + k] = s.cv[b * R + ee];
-        ++k;
-      }
+    double* lp = s.lp + e * 9;
+    double* ld = s.ld + e * 9;
+    double* lc = s.lc + e * 9;
+    for (int t = 0; t < 9; ++t) {
+      const int b = t / 3, ee = e + t % 3 - 1;
+      lp[k] = s.px[t * R + ee];
+      ld[k] = d[t];
+      lc[k] = s.cv[b * R + ee];
+      k += (!finite || lb[t] <= thr) ? 1 : 0;
+    }
     s.count[e] = k;
   }
 }
@@ -590,17 +692,17 @@ void CellBuild(const NoiseOctave& o, double jitter, std::int64_t j, CellOctaveSt
   s.built = true;
 }
 
-template <int kRet, int kFr>
-void CellularRows(const NoiseKernelArgs& a, const double* z, int nrows, std::int64_t i0, double dx, int n, float* out,
-                  std::ptrdiff_t stride, CellOctaveState* mst) {
+template <class V, int kRet, int kFr>
+void CellularRows(const NoiseKernelArgs& a, const double* z, int nrows, int n, float* out, std::ptrdiff_t stride,
+                  CellOctaveState* mst) {
+  using D = typename V::D;
+  using I = typename V::I;
+  constexpr int L = V::L, kN = 8 / L;  // a group of 8 samples: kN vectors of L lanes
   const int count = a.count;
-  const __m256d iota = _mm256_setr_pd(0.0, 1.0, 2.0, 3.0), vdx = _mm256_set1_pd(dx);
-  const __m256d inv = _mm256_set1_pd(a.inv_amp_sum);
+  const D inv = V::Set1(a.inv_amp_sum);
   for (int r = 0; r < nrows; ++r) {
     CellTables tabs[kMaxOctaves];
-    __m256d amp[kMaxOctaves], f[kMaxOctaves], off[kMaxOctaves];
-    std::int64_t base[kMaxOctaves];
-    __m128i emax[kMaxOctaves];
+    D amp[kMaxOctaves];
     for (int k = 0; k < count; ++k) {
       const NoiseOctave& o = a.octaves[k];
       CellOctaveState& s = mst[k];
@@ -620,77 +722,60 @@ void CellularRows(const NoiseKernelArgs& a, const double* z, int nrows, std::int
         tabs[k].cv[b] = s.cv + b * s.R;
       }
       if (s.cull) CellLists<kRet>(s, fy);
-      amp[k] = _mm256_set1_pd(o.amp);
-      f[k] = _mm256_set1_pd(o.freq_x);
-      off[k] = _mm256_set1_pd(o.offset_x);
-      base[k] = s.base;
-      emax[k] = _mm_set1_epi32(s.R - 2);
+      amp[k] = V::Set1(o.amp);
     }
     float* dst = out + r * stride;
-    // Two vectors per step (independent chains side by side); broadcast when all 8 lanes share a cell.
-    auto step = [&](auto U, int i) {
-      constexpr int kN = decltype(U)::value;
-      __m256d acc[kN];
-      for (int u = 0; u < kN; ++u) acc[u] = _mm256_setzero_pd();
+    for (int i = 0; i < n; i += 8) {
+      D acc[kN];
+      for (int u = 0; u < kN; ++u) acc[u] = V::Set1(0.0);
       for (int k = 0; k < count; ++k) {
-        __m256d fx[kN], nk[kN];
-        __m128i e[kN];
-        __m128i same = _mm_set1_epi32(-1);
-        int e0 = 0;
-        for (int u = 0; u < kN; ++u) {
-          const __m256d x = _mm256_mul_pd(_mm256_add_pd(_mm256_set1_pd(double(i0 + i + 4 * u)), iota), vdx);
-          const __m256d uu = _mm256_add_pd(_mm256_mul_pd(x, f[k]), off[k]);
-          const __m256d fl = FloorClampedV(uu);
-          fx[u] = _mm256_sub_pd(uu, fl);
-          // Entry of each lane's cell: its index modulo 2³² minus the base's (the range is small).
-          // Lanes past the window's end are clamped into the table (their values are not stored).
-          e[u] = _mm_sub_epi32(Low32V(fl), _mm_set1_epi32(std::int32_t(std::uint32_t(base[k]))));
-          e[u] = _mm_max_epi32(_mm_min_epi32(e[u], emax[k]), _mm_set1_epi32(1));
-          if (u == 0) e0 = _mm_cvtsi128_si32(e[0]);
-          same = _mm_and_si128(same, _mm_cmpeq_epi32(e[u], _mm_set1_epi32(e0)));
-        }
         const CellOctaveState& s = mst[k];
+        D fx[kN], nk[kN];
+        for (int u = 0; u < kN; ++u) fx[u] = V::Load(s.fx + i + L * u);
+        const std::int32_t code = s.code[i / 8], e0 = code >> 2, kind = code & 3;
+        auto lanes = [&](I* e) {
+          for (int u = 0; u < kN; ++u) e[u] = V::LoadI(s.e + i + L * u);
+        };
         if (s.cull) {
-          // Every lane in cell e0, or in e0 and e0 + 1 (a vector across one cell edge: both cells'
+          // Every lane in cell e0, or in e0 and e0 + 1 (a group across one cell edge: both cells'
           // lists, each lane taking its own cell's result), else gathered.
-          __m128i next = _mm_set1_epi32(-1);
-          for (int u = 0; u < kN; ++u) next = _mm_and_si128(next, _mm_or_si128(_mm_cmpeq_epi32(e[u], _mm_set1_epi32(e0)),
-                                                                             _mm_cmpeq_epi32(e[u], _mm_set1_epi32(e0 + 1))));
-          auto list = [&](int c, __m256d* res) {
-            CellVisitList<kRet, kN>(s.lp + c * 9, s.ld + c * 9, s.lc + c * 9, s.count[c], fx, res);
+          auto list = [&](int c, D* res) {
+            CellVisitList<V, kRet, kN>(s.lp + c * 9, s.ld + c * 9, s.lc + c * 9, s.count[c], fx, res);
           };
-          if (_mm_movemask_epi8(same) == 0xFFFF) {
+          if (kind == 0) {
             list(e0, nk);
-          } else if (_mm_movemask_epi8(next) == 0xFFFF) {
-            __m256d n1[kN];
+          } else if (kind == 1) {
+            D n1[kN];
+            I e[kN];
             list(e0, nk);
             list(e0 + 1, n1);
-            for (int u = 0; u < kN; ++u) {
-              const __m256d in1 = _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm_cmpeq_epi32(e[u], _mm_set1_epi32(e0 + 1))));
-              nk[u] = _mm256_blendv_pd(nk[u], n1[u], in1);
-            }
+            lanes(e);
+            for (int u = 0; u < kN; ++u) nk[u] = V::SelectEq(e[u], e0 + 1, n1[u], nk[u]);
           } else {
-            CellVisitAll<kRet, true, kN>(tabs[k], e0, e, fx, nk);
+            I e[kN];
+            lanes(e);
+            CellVisitAll<V, kRet, true, kN>(tabs[k], e0, e, fx, nk);
           }
-        } else if (_mm_movemask_epi8(same) == 0xFFFF) {
-          CellVisitAll<kRet, false, kN>(tabs[k], e0, e, fx, nk);
+        } else if (kind == 0) {
+          CellVisitAll<V, kRet, false, kN>(tabs[k], e0, nullptr, fx, nk);
         } else {
-          CellVisitAll<kRet, true, kN>(tabs[k], e0, e, fx, nk);
+          I e[kN];
+          lanes(e);
+          CellVisitAll<V, kRet, true, kN>(tabs[k], e0, e, fx, nk);
         }
-        for (int u = 0; u < kN; ++u) acc[u] = FoldV<kFr>(acc[u], amp[k], nk[u]);
+        for (int u = 0; u < kN; ++u) acc[u] = V::template Fold<kFr>(acc[u], amp[k], nk[u]);
       }
-      for (int u = 0; u < kN; ++u) Store4(FinishV<kFr>(acc[u], inv), dst + i + 4 * u, n - i - 4 * u);
-    };
-    int i = 0;
-    for (; i + 8 <= n; i += 8) step(std::integral_constant<int, 2>(), i);
-    for (; i < n; i += 4) step(std::integral_constant<int, 1>(), i);
+      for (int u = 0; u < kN; ++u)
+        if (i + L * u < n) V::template Finish<kFr>(acc[u], inv, dst + i + L * u, n - i - L * u);
+    }
   }
 }
 
 // The cell range of every octave over the row window; false when a table would be much larger than
 // the window (more than about a cell per sample: up to 144 bytes of tables per sample otherwise,
-// for little gain over the per-sample kernel).
+// for little gain over the per-sample kernel). Then the block's x-only terms (CellColumns).
 bool CellularPrepare(const NoiseKernelArgs& a, std::int64_t i0, double dx, int n, CellOctaveState* st) {
+  const int n8 = (n + 7) / 8 * 8;
   std::size_t total = 0;
   for (int k = 0; k < a.count; ++k) {
     const NoiseOctave& o = a.octaves[k];
@@ -704,11 +789,11 @@ bool CellularPrepare(const NoiseKernelArgs& a, std::int64_t i0, double dx, int n
     st[k].R = int(hi - lo + 3);
     st[k].built = false;
     st[k].cull = std::int64_t(st[k].R) * kCullSamples <= std::int64_t(n) + 2 * kCullSamples;
-    total += std::size_t(st[k].R) * (st[k].cull ? 63 : 18);
+    total += std::size_t(st[k].R) * (st[k].cull ? 63 : 18) + std::size_t(n8);
   }
   double* p = Grow(tls.d, total);
   std::size_t ints = 0;
-  for (int k = 0; k < a.count; ++k) ints += st[k].cull ? std::size_t(st[k].R) : 0;
+  for (int k = 0; k < a.count; ++k) ints += (st[k].cull ? std::size_t(st[k].R) : 0) + std::size_t(n8 + n8 / 8);
   std::int32_t* q = Grow(tls.i, ints + 1);
   for (int k = 0; k < a.count; ++k) {
     const std::size_t R = std::size_t(st[k].R);
@@ -727,6 +812,12 @@ bool CellularPrepare(const NoiseKernelArgs& a, std::int64_t i0, double dx, int n
       st[k].count = q;
       q += R;
     }
+    st[k].fx = p;
+    p += n8;
+    st[k].e = q;
+    st[k].code = q + n8;
+    q += n8 + n8 / 8;
+    CellColumns(a.octaves[k], i0, dx, n8, st[k]);
   }
   return true;
 }
@@ -736,12 +827,16 @@ bool CellularRet(const NoiseKernelArgs& a, const double* z, int nrows, std::int6
                  std::ptrdiff_t stride, int fr) {
   CellOctaveState st[kMaxOctaves];
   if (!CellularPrepare(a, i0, dx, n, st)) return false;
-  if (fr == 1) CellularRows<kRet, 1>(a, z, nrows, i0, dx, n, out, stride, st);
-  else if (fr == 2) CellularRows<kRet, 2>(a, z, nrows, i0, dx, n, out, stride, st);
-  else CellularRows<kRet, 0>(a, z, nrows, i0, dx, n, out, stride, st);
+#if HWY_TARGET <= HWY_AVX3
+  using V = CellV8;
+#else
+  using V = CellV4;
+#endif
+  if (fr == 1) CellularRows<V, kRet, 1>(a, z, nrows, n, out, stride, st);
+  else if (fr == 2) CellularRows<V, kRet, 2>(a, z, nrows, n, out, stride, st);
+  else CellularRows<V, kRet, 0>(a, z, nrows, n, out, stride, st);
   return true;
 }
-
 
 // ---- Simplex ----------------------------------------------------------------------------------------
 
