@@ -425,6 +425,8 @@ struct CellV4 {
   static D Set1(double v) { return _mm256_set1_pd(v); }
   static D Bcast(const double* p) { return _mm256_broadcast_sd(p); }
   static D Load(const double* p) { return _mm256_loadu_pd(p); }
+  static void Store(double* p, D v) { _mm256_storeu_pd(p, v); }
+  static std::uint32_t LeBits(D a, D b) { return std::uint32_t(_mm256_movemask_pd(_mm256_cmp_pd(a, b, _CMP_LE_OQ))); }
   static I LoadI(const std::int32_t* p) { return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p)); }
   static I AddI(I e, int c) { return _mm_add_epi32(e, _mm_set1_epi32(c)); }
   static D Gather(const double* t, I e) { return _mm256_i32gather_pd(t, e, 8); }
@@ -455,6 +457,8 @@ struct CellV8 {
   static D Set1(double v) { return _mm512_set1_pd(v); }
   static D Bcast(const double* p) { return _mm512_set1_pd(*p); }
   static D Load(const double* p) { return _mm512_loadu_pd(p); }
+  static void Store(double* p, D v) { _mm512_storeu_pd(p, v); }
+  static std::uint32_t LeBits(D a, D b) { return std::uint32_t(_mm512_cmp_pd_mask(a, b, _CMP_LE_OQ)); }
   static I LoadI(const std::int32_t* p) { return _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p)); }
   static I AddI(I e, int c) { return _mm256_add_epi32(e, _mm256_set1_epi32(c)); }
   static D Gather(const double* t, I e) { return _mm512_i32gather_pd(e, t, 8); }
@@ -632,38 +636,76 @@ void CellColumns(const NoiseOctave& o, std::int64_t i0, double dx, int n8, CellO
 // it; F2 likewise with the second smallest UB (two candidates are below it everywhere). The kept
 // candidates include the ones attaining those bounds, so the fold over the list gives the same
 // d1, d2 and first owner as over all nine. A row at a non-finite fy keeps all nine.
-template <int kRet>
+// One lane (CellLists on windows of few cells).
+struct CellV1 {
+  using D = double;
+  static constexpr int L = 1;
+  static D Set1(double v) { return v; }
+  static D Load(const double* p) { return *p; }
+  static void Store(double* p, D v) { *p = v; }
+  static D Add(D a, D b) { return a + b; }
+  static D Min(D a, D b) { return a < b ? a : b; }
+  static D Max(D a, D b) { return a > b ? a : b; }
+  static std::uint32_t LeBits(D a, D b) { return a <= b ? 1u : 0u; }
+};
+
+template <class V, int kRet>
 void CellLists(CellOctaveState& s, double fy) {
+  using D = typename V::D;
+  constexpr int L = V::L;
   constexpr bool kSecond = kRet == int(CellularReturn::F2) || kRet == int(CellularReturn::F2MinusF1);
-  constexpr double kMargin = 1e-9;
+  const D margin = V::Set1(1e-9);
   const int R = s.R;
-  const bool finite = std::isfinite(fy);  // then every dy² and bound is finite
-  for (int e = 1; e + 1 < R; ++e) {
-    double d[9], lb[9];
-    double m1 = HUGE_VAL, m2 = HUGE_VAL;
-    for (int b = 0; b < 3; ++b)
-      for (int a = 0; a < 3; ++a) {
-        const int t = b * 3 + a, ee = e + a - 1;
-        d[t] = s.dy2[b * R + ee];
-        lb[t] = d[t] + s.cg[t * R + ee];
-        const double ub = d[t] + s.cm[t * R + ee];
-        // The two smallest upper bounds, without branches (finite values; else all nine are kept).
-        m2 = std::min(std::max(ub, m1), m2);
-        m1 = std::min(ub, m1);
+  if (L > 1 && R < L + 2) {  // fewer than L cells: one at a time
+    CellLists<CellV1, kRet>(s, fy);
+    return;
+  }
+  if (!std::isfinite(fy)) {  // keep all nine (else every dy² and bound is finite)
+    for (int e = 1; e + 1 < R; ++e) {
+      for (int t = 0; t < 9; ++t) {
+        const int b = t / 3, ee = e + t % 3 - 1;
+        s.lp[e * 9 + t] = s.px[t * R + ee];
+        s.ld[e * 9 + t] = s.dy2[b * R + ee];
+        s.lc[e * 9 + t] = s.cv[b * R + ee];
       }
-    const double thr = (kSecond ? m2 : m1) + kMargin;
-    int k = 0;
-    double* lp = s.lp + e * 9;
-    double* ld = s.ld + e * 9;
-    double* lc = s.lc + e * 9;
+      s.count[e] = 9;
+    }
+    return;
+  }
+  // L cells at a time (the last block overlaps the previous one: the same lists again).
+  for (int e1 = 1; e1 + 1 < R; e1 += L) {
+    const int e = std::max(1, std::min(e1, R - 1 - L));
+    alignas(64) double d[9][L];
+    std::uint32_t keep[9];
+    D lb[9];
+    D m1 = V::Set1(HUGE_VAL), m2 = m1;
     for (int t = 0; t < 9; ++t) {
       const int b = t / 3, ee = e + t % 3 - 1;
-      lp[k] = s.px[t * R + ee];
-      ld[k] = d[t];
-      lc[k] = s.cv[b * R + ee];
-      k += (!finite || lb[t] <= thr) ? 1 : 0;
+      const D dt = V::Load(s.dy2 + b * R + ee);
+      V::Store(d[t], dt);
+      lb[t] = V::Add(dt, V::Load(s.cg + t * R + ee));
+      const D ub = V::Add(dt, V::Load(s.cm + t * R + ee));
+      // The two smallest upper bounds: the reference's fold without branches (finite values).
+      m2 = V::Min(V::Max(ub, m1), m2);
+      m1 = V::Min(ub, m1);
     }
-    s.count[e] = k;
+    const D thr = V::Add(kSecond ? m2 : m1, margin);
+    for (int t = 0; t < 9; ++t) keep[t] = V::LeBits(lb[t], thr);
+    for (int l = 0; l < L && e + l + 1 < R; ++l) {
+      const int c = e + l;
+      double* lp = s.lp + c * 9;
+      double* ld = s.ld + c * 9;
+      double* lc = s.lc + c * 9;
+      int k = 0;
+      for (int t = 0; t < 9; ++t) {
+        const int b = t / 3, ee = c + t % 3 - 1;
+        lp[k] = s.px[t * R + ee];
+        ld[k] = d[t][l];
+        if constexpr (kRet == int(CellularReturn::CellValue)) lc[k] = s.cv[b * R + ee];
+        k += int((keep[t] >> l) & 1u);
+      }
+      s.count[c] = k;
+    }
   }
 }
 
@@ -721,53 +763,70 @@ void CellularRows(const NoiseKernelArgs& a, const double* z, int nrows, int n, f
         tabs[k].dy2[b] = dy2;
         tabs[k].cv[b] = s.cv + b * s.R;
       }
-      if (s.cull) CellLists<kRet>(s, fy);
+      if (s.cull) CellLists<V, kRet>(s, fy);
       amp[k] = V::Set1(o.amp);
     }
     float* dst = out + r * stride;
-    for (int i = 0; i < n; i += 8) {
-      D acc[kN];
-      for (int u = 0; u < kN; ++u) acc[u] = V::Set1(0.0);
+    // One octave over one group of 8 samples at i (kN vectors).
+    auto group = [&](const CellOctaveState& s, const CellTables& tab, int i, D* nk) {
+      D fx[kN];
+      for (int u = 0; u < kN; ++u) fx[u] = V::Load(s.fx + i + L * u);
+      const std::int32_t code = s.code[i / 8], e0 = code >> 2, kind = code & 3;
+      I e[kN];
+      for (int u = 0; u < kN; ++u) e[u] = V::LoadI(s.e + i + L * u);
+      if (s.cull) {
+        // Every lane in cell e0, or in e0 and e0 + 1 (a group across one cell edge: both cells'
+        // lists, each lane taking its own cell's result), else gathered.
+        auto list = [&](int c, D* res) {
+          CellVisitList<V, kRet, kN>(s.lp + c * 9, s.ld + c * 9, s.lc + c * 9, s.count[c], fx, res);
+        };
+        if (kind == 0) {
+          list(e0, nk);
+        } else if (kind == 1) {
+          D n1[kN];
+          list(e0, nk);
+          list(e0 + 1, n1);
+          for (int u = 0; u < kN; ++u) nk[u] = V::SelectEq(e[u], e0 + 1, n1[u], nk[u]);
+        } else {
+          CellVisitAll<V, kRet, true, kN>(tab, e0, e, fx, nk);
+        }
+      } else if (kind == 0) {
+        CellVisitAll<V, kRet, false, kN>(tab, e0, e, fx, nk);
+      } else {
+        CellVisitAll<V, kRet, true, kN>(tab, e0, e, fx, nk);
+      }
+    };
+    // Two groups at a time (16 samples, 2·kN independent chains): when both lie in the same cell,
+    // through its list together; else one after the other.
+    auto step = [&](auto M, int i) {
+      constexpr int kM = decltype(M)::value;  // groups
+      D acc[kM * kN];
+      for (int u = 0; u < kM * kN; ++u) acc[u] = V::Set1(0.0);
       for (int k = 0; k < count; ++k) {
         const CellOctaveState& s = mst[k];
-        D fx[kN], nk[kN];
-        for (int u = 0; u < kN; ++u) fx[u] = V::Load(s.fx + i + L * u);
-        const std::int32_t code = s.code[i / 8], e0 = code >> 2, kind = code & 3;
-        auto lanes = [&](I* e) {
-          for (int u = 0; u < kN; ++u) e[u] = V::LoadI(s.e + i + L * u);
-        };
-        if (s.cull) {
-          // Every lane in cell e0, or in e0 and e0 + 1 (a group across one cell edge: both cells'
-          // lists, each lane taking its own cell's result), else gathered.
-          auto list = [&](int c, D* res) {
-            CellVisitList<V, kRet, kN>(s.lp + c * 9, s.ld + c * 9, s.lc + c * 9, s.count[c], fx, res);
-          };
-          if (kind == 0) {
-            list(e0, nk);
-          } else if (kind == 1) {
-            D n1[kN];
-            I e[kN];
-            list(e0, nk);
-            list(e0 + 1, n1);
-            lanes(e);
-            for (int u = 0; u < kN; ++u) nk[u] = V::SelectEq(e[u], e0 + 1, n1[u], nk[u]);
+        D nk[kM * kN];
+        if constexpr (kM == 2) {
+          const std::int32_t c0 = s.code[i / 8];
+          if (s.cull && (c0 & 3) == 0 && s.code[i / 8 + 1] == c0) {
+            D fx[2 * kN];
+            for (int u = 0; u < 2 * kN; ++u) fx[u] = V::Load(s.fx + i + L * u);
+            const int c = c0 >> 2;
+            CellVisitList<V, kRet, 2 * kN>(s.lp + c * 9, s.ld + c * 9, s.lc + c * 9, s.count[c], fx, nk);
           } else {
-            I e[kN];
-            lanes(e);
-            CellVisitAll<V, kRet, true, kN>(tabs[k], e0, e, fx, nk);
+            group(s, tabs[k], i, nk);
+            group(s, tabs[k], i + 8, nk + kN);
           }
-        } else if (kind == 0) {
-          CellVisitAll<V, kRet, false, kN>(tabs[k], e0, nullptr, fx, nk);
         } else {
-          I e[kN];
-          lanes(e);
-          CellVisitAll<V, kRet, true, kN>(tabs[k], e0, e, fx, nk);
+          group(s, tabs[k], i, nk);
         }
-        for (int u = 0; u < kN; ++u) acc[u] = V::template Fold<kFr>(acc[u], amp[k], nk[u]);
+        for (int u = 0; u < kM * kN; ++u) acc[u] = V::template Fold<kFr>(acc[u], amp[k], nk[u]);
       }
-      for (int u = 0; u < kN; ++u)
+      for (int u = 0; u < kM * kN; ++u)
         if (i + L * u < n) V::template Finish<kFr>(acc[u], inv, dst + i + L * u, n - i - L * u);
-    }
+    };
+    int i = 0;
+    for (; i + 16 <= n; i += 16) step(std::integral_constant<int, 2>(), i);
+    for (; i < n; i += 8) step(std::integral_constant<int, 1>(), i);
   }
 }
 
