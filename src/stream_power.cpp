@@ -23,13 +23,18 @@
 #include <vector>
 
 #include "relief/erosion.hpp"
+#include "stream_power_detail.hpp"
 #include "relief/hydrology.hpp"
 #include "parallel.hpp"
 
 namespace relief::erosion {
+namespace {
 
-StreamPowerStats stream_power(float* e, const Frame& f, const StreamPowerSettings& s,
-                              const std::function<void(double)>& progress) {
+// The solver; kWindow adds the window's ring levels, inflow and observers (stream_power_detail.hpp).
+// stream_power is the instance without them: its code path is the one before the window existed.
+template <bool kWindow>
+StreamPowerStats run(float* e, const Frame& f, const StreamPowerSettings& s, const detail::StreamPowerWindow* win,
+                     const std::function<void(double)>& progress) {
   StreamPowerStats stats;
   const int nx = f.nx, nz = f.nz;
   const std::size_t n = f.count();
@@ -38,7 +43,7 @@ StreamPowerStats stream_power(float* e, const Frame& f, const StreamPowerSetting
   hydro::fill_depressions<float>(e, nx, nz, float(sea), 0.0f);
   std::vector<double> h(n), uplift(n);
   const double land_span = std::max(1.0 - sea, 1e-9);
-  detail::parallel_rows(nz, [&](int j) {
+  relief::detail::parallel_rows(nz, [&](int j) {
     for (int i = 0; i < nx; ++i) {
       const std::size_t c = std::size_t(j) * nx + i;
       h[c] = (double(e[c]) - sea) * H;
@@ -94,7 +99,7 @@ StreamPowerStats stream_power(float* e, const Frame& f, const StreamPowerSetting
   // They start small and grow with the largest basin met (not with the map).
   struct Basin {
     std::vector<std::uint32_t> cell, link, count, stack;
-    std::vector<double> h0, f, h;
+    std::vector<double> h0, f, h, area;  // area: kWindow's drainage area with inflow
     void grow_cells(std::size_t need) {
       const std::size_t size = std::max(need, 2 * cell.size());
       cell.resize(size), link.resize(size), h0.resize(size);
@@ -106,20 +111,33 @@ StreamPowerStats stream_power(float* e, const Frame& f, const StreamPowerSetting
     b.stack.resize(512);
     return b;
   });
+  std::vector<double> extra;  // the window's inflow per cell (kWindow)
+  if constexpr (kWindow) extra.assign(win->inflow ? n : 0, 0.0);
   for (int step = 0; step < s.steps; ++step) {
+    if constexpr (kWindow)
+      if (win->ring) win->ring(step, false, h.data());
     if (hydro::d8_directions<double>(h.data(), nx, nz, 0.0, dir.data()) != 0) {
       hydro::fill_depressions<double>(h.data(), nx, nz, 0.0, 1e-6);
       hydro::d8_directions<double>(h.data(), nx, nz, 0.0, dir.data());
       ++stats.fills;
     }
+    if constexpr (kWindow) {
+      if (win->seen) win->seen(step, h.data());
+      if (win->inflow) {
+        std::fill(extra.begin(), extra.end(), 0.0);
+        win->inflow(step, extra.data());
+      }
+    }
     hydro::donor_masks(dir.data(), nx, nz, mask.data());
     // Uplift first, in a streaming pass (h_c⁰ = h_c + U·dt for every cell that has a receiver), so
     // that the basin walks below read one array per cell; outlets stay at base level.
-    detail::parallel_rows(nz, [&](int j) {
+    relief::detail::parallel_rows(nz, [&](int j) {
       const std::size_t row = std::size_t(j) * nx;
       for (std::size_t c = row; c < row + std::size_t(nx); ++c)
         if (dir[c] != hydro::kNoReceiver) h[c] += uplift[c] * dt;
     }, 16);
+    if constexpr (kWindow)
+      if (win->ring) win->ring(step, true, h.data());
     // Every cell without a receiver (outlets) roots a drainage basin; basins are disjoint, so they
     // are solved in parallel, each by the same sequential code: the result does not depend on the
     // schedule. In a basin, the depth-first preorder from the root puts every receiver before its
@@ -168,10 +186,27 @@ StreamPowerStats stream_power(float* e, const Frame& f, const StreamPowerSetting
           for (std::size_t q = cells; q-- > 1;) count[link[q] >> 1] += count[q];
           constexpr std::size_t kAhead = 16;  // table rows of large areas are far apart: prefetch them
           for (std::size_t q = 1; q < std::min(cells, kAhead); ++q) __builtin_prefetch(area_m.data() + std::min<std::size_t>(count[q], table_size - 1));
-          for (std::size_t q = 1; q < cells; ++q) {
-            if (q + kAhead < cells) __builtin_prefetch(area_m.data() + std::min<std::size_t>(count[q + kAhead], table_size - 1));
-            fb[q] = ((link[q] & 1) == 0 ? kdt_straight : kdt_diag) * pow_area(count[q]);
+          if constexpr (kWindow) {
+            if (!extra.empty()) {
+              // Areas with the inflow, in cells: sums of whole numbers stay exact, so a window given whole
+              // cells of inflow computes the whole map's A^m (the table holds the same std::pow values).
+              if (b.area.size() < cells) b.area.resize(b.cell.size());
+              double* const a = b.area.data();
+              for (std::size_t q = 0; q < cells; ++q) a[q] = 1.0 + extra[cell[q]];
+              for (std::size_t q = cells; q-- > 1;) a[link[q] >> 1] += a[q];
+              for (std::size_t q = 1; q < cells; ++q) {
+                const double cnt = a[q];
+                const double am = cnt < double(table_size) && cnt == std::floor(cnt) ? area_m[std::size_t(cnt)]
+                                                                                     : std::pow(cnt * cell_area, s.m);
+                fb[q] = ((link[q] & 1) == 0 ? kdt_straight : kdt_diag) * am;
+              }
+            }
           }
+          if (!kWindow || extra.empty())
+            for (std::size_t q = 1; q < cells; ++q) {
+              if (q + kAhead < cells) __builtin_prefetch(area_m.data() + std::min<std::size_t>(count[q + kAhead], table_size - 1));
+              fb[q] = ((link[q] & 1) == 0 ? kdt_straight : kdt_diag) * pow_area(count[q]);
+            }
           hb[0] = std::max(hb0[0], 0.0);  // the sea surface is the base level, not the sea floor
           if (linear) {
             // The receiver is usually the previous cell: keep its height in a register.
@@ -197,9 +232,11 @@ StreamPowerStats stream_power(float* e, const Frame& f, const StreamPowerSetting
           }
         }
     });
+    if constexpr (kWindow)
+      if (win->solved) win->solved(step, h.data());
     if (progress) progress(double(step + 1) / double(s.steps));
   }
-  detail::parallel_rows(nz, [&](int j) {
+  relief::detail::parallel_rows(nz, [&](int j) {
     for (int i = 0; i < nx; ++i) {
       const std::size_t c = std::size_t(j) * nx + i;
       e[c] = float(std::clamp(sea + h[c] / H, 0.0, 1.0));
@@ -208,5 +245,19 @@ StreamPowerStats stream_power(float* e, const Frame& f, const StreamPowerSetting
   hydro::fill_depressions<float>(e, nx, nz, float(sea), 0.0f);
   return stats;
 }
+
+}  // namespace
+
+StreamPowerStats stream_power(float* e, const Frame& f, const StreamPowerSettings& s,
+                              const std::function<void(double)>& progress) {
+  return run<false>(e, f, s, nullptr, progress);
+}
+
+namespace detail {
+StreamPowerStats stream_power_window(float* e, const Frame& f, const StreamPowerSettings& s, const StreamPowerWindow& w,
+                                     const std::function<void(double)>& progress) {
+  return run<true>(e, f, s, &w, progress);
+}
+}  // namespace detail
 
 }  // namespace relief::erosion

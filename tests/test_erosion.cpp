@@ -24,6 +24,7 @@
 #include "relief/recipe.hpp"
 #include "relief/stage.hpp"
 #include "stages.hpp"
+#include "stream_power_detail.hpp"
 #include "support.hpp"
 
 using namespace relief;
@@ -698,6 +699,97 @@ TEST(StreamPower, UpliftBuildsReliefAndIncisionBoundsIt) {
   auto top = [](const Terrain& t) { return *std::max_element(t.get("height").data.begin(), t.get("height").data.end()); };
   EXPECT_GT(top(old), top(young) * 2);  // 2·10⁴ years of 1 mm/yr add at most 20 m to a 6 m start
   EXPECT_NEAR(top(older), top(old), 0.02 * top(old)) << "steady state: uplift balanced by incision";
+}
+
+// The window kernel (src/stream_power_detail.hpp, world_stream_power's refinement): without ring
+// levels or inflow it is stream_power, bit for bit; given the whole map's own per-step levels on its
+// ring and the whole map's drainage area entering across the ring, a window reproduces the whole
+// map's inside, bit for bit away from lakes the whole map's fill floods across the ring.
+TEST(StreamPower, WindowGivenTheWholeMapsRingAndInflowReproducesItsInside) {
+  Terrain t = island(129, 8);
+  const Frame f = t.frame;
+  const int nx = f.nx, nz = f.nz;
+  std::vector<float> input = t.get("height").data;
+  hydro::fill_depressions<float>(input.data(), nx, nz, float(f.sea_level), 0.0f);  // as the stage starts
+  erosion::StreamPowerSettings s;
+  s.steps = 20;
+  s.duration_years = 1e6;
+  s.k = 4e-5;
+  std::vector<float> plain = input;
+  erosion::stream_power(plain.data(), f, s);
+  std::vector<std::vector<double>> seen(s.steps), solved(s.steps);
+  erosion::detail::StreamPowerWindow record;
+  record.seen = [&](int step, const double* h) { seen[std::size_t(step)].assign(h, h + f.count()); };
+  record.solved = [&](int step, const double* h) { solved[std::size_t(step)].assign(h, h + f.count()); };
+  std::vector<float> whole = input;
+  erosion::detail::stream_power_window(whole.data(), f, s, record);
+  ASSERT_EQ(whole, plain) << "an empty window is stream_power";
+  ASSERT_NE(whole, input);
+
+  const int x0 = 37, z0 = 29, wnx = 61, wnz = 53;  // well inside the island
+  const Frame wf = f.window(x0, z0, wnx, wnz);
+  auto global = [&](int i, int j) { return std::size_t(z0 + j) * std::size_t(nx) + std::size_t(x0 + i); };
+  auto inside = [&](std::int64_t gi, std::int64_t gj) {  // strictly inside the window's ring
+    return gi > x0 && gi < x0 + wnx - 1 && gj > z0 && gj < z0 + wnz - 1;
+  };
+  auto run_window = [&](bool with_ring, bool with_inflow) {
+    std::vector<float> w(wf.count());
+    for (int j = 0; j < wnz; ++j)
+      for (int i = 0; i < wnx; ++i) w[std::size_t(j) * wnx + i] = input[global(i, j)];
+    erosion::detail::StreamPowerWindow win;
+    if (with_ring)
+      win.ring = [&](int step, bool after, double* h) {
+        const std::vector<double>& src = (after ? solved : seen)[std::size_t(step)];
+        for (int j = 0; j < wnz; ++j)
+          for (int i = 0; i < wnx; ++i)
+            if (hydro::on_border(i, j, wnx, wnz)) h[std::size_t(j) * wnx + i] = src[global(i, j)];
+      };
+    if (with_inflow)
+      win.inflow = [&](int step, double* extra) {
+        // The whole map's receivers and areas on the levels its D8 pass saw: ring cells that drain
+        // inside bring their whole area.
+        const std::vector<double>& h = seen[std::size_t(step)];
+        std::vector<std::uint32_t> rec(h.size()), order, count(h.size());
+        hydro::d8_receivers<double>(h.data(), nx, nz, 0.0, rec.data());
+        hydro::flow_order(rec.data(), h.size(), order, count.data());
+        for (int j = 0; j < wnz; ++j)
+          for (int i = 0; i < wnx; ++i) {
+            if (!hydro::on_border(i, j, wnx, wnz)) continue;
+            const std::size_t d = global(i, j), r = rec[d];
+            const std::int64_t ri = std::int64_t(r % std::size_t(nx)), rj = std::int64_t(r / std::size_t(nx));
+            if (r != d && inside(ri, rj))
+              extra[std::size_t(rj - z0) * std::size_t(wnx) + std::size_t(ri - x0)] += double(count[d]);
+          }
+      };
+    erosion::detail::stream_power_window(w.data(), wf, s, win);
+    return w;
+  };
+  struct Diff {
+    std::size_t differ = 0, cells = 0;
+    double max_abs = 0;
+  };
+  auto compare = [&](const std::vector<float>& w) {
+    Diff d;
+    for (int j = 1; j < wnz - 1; ++j)
+      for (int i = 1; i < wnx - 1; ++i) {
+        const float a = w[std::size_t(j) * wnx + i], b = whole[global(i, j)];
+        ++d.cells;
+        d.differ += a != b;
+        d.max_abs = std::max(d.max_abs, std::fabs(double(a) - double(b)));
+      }
+    return d;
+  };
+  const Diff exact = compare(run_window(true, true));
+  const Diff no_inflow = compare(run_window(true, false));
+  const Diff bare = compare(run_window(false, false));
+  std::printf("window kernel: %zu / %zu inside cells differ (max %.3e); without inflow %zu (max %.3e); "
+              "without ring levels or inflow %zu (max %.3e)\n",
+              exact.differ, exact.cells, exact.max_abs, no_inflow.differ, no_inflow.max_abs, bare.differ, bare.max_abs);
+  EXPECT_EQ(exact.differ, 0u);
+  // Both boundary conditions matter: without them the inside is another landscape.
+  EXPECT_GT(no_inflow.differ, exact.cells / 10);
+  EXPECT_GT(no_inflow.max_abs, 1e-3);
+  EXPECT_GT(bare.max_abs, no_inflow.max_abs / 10);
 }
 
 // ============================================================================== whole recipes

@@ -1,0 +1,38 @@
+#pragma once
+// The stream power kernel on a window of a larger map (world_stream_power's refinement,
+// src/world_bounded.cpp, issue 18), for the library and its tests; not part of the public API.
+#include <functional>
+
+#include "relief/erosion.hpp"
+
+namespace relief::erosion::detail {
+
+// What a window needs from the map around it. The window's outer ring (the cells on its border) stays
+// the solver's outlets, as in stream_power, but its heights are the map's, step by step, and the
+// drainage area that enters the window from outside is added where it enters. Heights are the
+// solver's: metres above the sea surface, h = (e − sea_level) · height_m, nx · nz doubles, row-major.
+struct StreamPowerWindow {
+  // Writes the ring's heights (it may read all of h, and must write nothing else): at the start of
+  // step `step` with after = false (the levels the step's D8 pass and lake fill see: the map's heights
+  // after the previous step and this step's fill), and after the step's uplift with after = true (the
+  // levels the step ends at, against which the cells draining into the ring are solved). Empty: the
+  // ring keeps its input heights (stream_power's behaviour).
+  std::function<void(int step, bool after, double* h)> ring;
+  // Drainage area, in cells of the window, entering from outside at step `step` (after its D8 pass):
+  // added to the cell's own area, and so to every cell downstream. `extra` (nx · nz) is zeroed before
+  // each call. Empty: no inflow.
+  std::function<void(int step, double* extra)> inflow;
+  // Observers (tests): h after the step's D8 pass and fill (the levels D8 saw), and after the solve.
+  std::function<void(int step, const double* h)> seen, solved;
+};
+
+// stream_power (relief/erosion.hpp) on a window with the map's levels on its ring and the map's
+// inflow. With an empty StreamPowerWindow it is stream_power, bit for bit. Given the whole map's own
+// ring levels (seen and solved) and inflow (the whole map's drainage area of ring cells that drain
+// into the window's inside), the window's inside reproduces the whole map's, bit for bit, except
+// near lakes that the whole map's fill floods across the ring (the fill numbers a lake's ε-steps from
+// its spill point, which the window sees elsewhere) — see tests/test_erosion.cpp.
+StreamPowerStats stream_power_window(float* e, const Frame& f, const StreamPowerSettings& s, const StreamPowerWindow& w,
+                                     const std::function<void(double)>& progress = {});
+
+}  // namespace relief::erosion::detail
