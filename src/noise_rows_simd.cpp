@@ -552,19 +552,20 @@ HWY_INLINE void CellVisitAll(const CellTables& t, std::int64_t e0, const typenam
 }
 
 // The same for vectors whose lanes all lie in cell e, through that cell's list of candidates that
-// can win somewhere in it (CellLists), in the reference's order.
+// can win somewhere in it (CellLists), in the reference's order: px from lp, dy² and the cell value
+// at lo in the row's dy2 and cv tables.
 template <class V, int kRet, int kN>
-HWY_INLINE void CellVisitList(const double* lp, const double* ld, const double* lc, int count, const typename V::D* fx,
-                              typename V::D* res) {
+HWY_INLINE void CellVisitList(const double* lp, const std::int32_t* lo, const double* dy2t, const double* cvt,
+                              int count, const typename V::D* fx, typename V::D* res) {
   using D = typename V::D;
   const D inf = V::Set1(HUGE_VAL);
   D d1[kN], d2[kN], h1[kN];
   for (int u = 0; u < kN; ++u) d1[u] = d2[u] = inf, h1[u] = V::Set1(-1.0);
   for (int t = 0; t < count; ++t) {
     D p[kN], dy2[kN], cv[kN];
-    const D pb = V::Bcast(lp + t), db = V::Bcast(ld + t);
+    const D pb = V::Bcast(lp + t), db = V::Bcast(dy2t + lo[t]);
     D cb = pb;
-    if constexpr (kRet == int(CellularReturn::CellValue)) cb = V::Bcast(lc + t);
+    if constexpr (kRet == int(CellularReturn::CellValue)) cb = V::Bcast(cvt + lo[t]);
     for (int u = 0; u < kN; ++u) p[u] = pb, dy2[u] = db, cv[u] = cb;
     CellFold<V, kRet, kN>(p, dy2, cv, fx, d1, d2, h1);
   }
@@ -581,12 +582,15 @@ struct CellOctaveState {
   double* cv = nullptr;   // [b][R]
   double* dy2 = nullptr;  // [b][R]
   // Culling (rows of at least kCullSamples samples per cell): per cell e, the candidates that can
-  // give its F1 (or F2) somewhere in the cell, in visiting order: lp, ld, lc (px, dy², cell value)
-  // at e·9 + t, t < count[e].
+  // give its F1 (or F2) somewhere in the cell, in visiting order: lp (px) and lo (the entry of its
+  // dy² and cell value in dy2, cv: b·R + e + a − 1) at e·9 + t, t < count[e]. They change only when
+  // the set of kept candidates does: CellLists compacts a cell again only then (or after CellBuild:
+  // lists false), comparing each block of cells' keep bits with the previous row's (prev).
   bool cull = false;
+  bool lists = false;
   double* lp = nullptr;
-  double* ld = nullptr;
-  double* lc = nullptr;
+  std::int32_t* lo = nullptr;
+  std::uint32_t* prev = nullptr;
   double* cg = nullptr;  // [b][a][R]: the bounds' terms of px (CellLists)
   double* cm = nullptr;
   std::int32_t* count = nullptr;
@@ -660,29 +664,32 @@ void CellLists(CellOctaveState& s, double fy) {
     CellLists<CellV1, kRet>(s, fy);
     return;
   }
-  if (!std::isfinite(fy)) {  // keep all nine (else every dy² and bound is finite)
-    for (int e = 1; e + 1 < R; ++e) {
-      for (int t = 0; t < 9; ++t) {
-        const int b = t / 3, ee = e + t % 3 - 1;
-        s.lp[e * 9 + t] = s.px[t * R + ee];
-        s.ld[e * 9 + t] = s.dy2[b * R + ee];
-        s.lc[e * 9 + t] = s.cv[b * R + ee];
-      }
-      s.count[e] = 9;
+  auto compact = [&](int c, std::uint32_t bits) {  // cell c's list: the candidates t with bit t set
+    int k = 0;
+    for (int t = 0; t < 9; ++t) {
+      const int ee = c + t % 3 - 1;
+      s.lp[c * 9 + k] = s.px[t * R + ee];
+      s.lo[c * 9 + k] = (t / 3) * R + ee;
+      k += int((bits >> t) & 1u);
     }
+    s.count[c] = k;
+  };
+  if (!std::isfinite(fy)) {  // keep all nine (else every dy² and bound is finite)
+    for (int e = 1; e + 1 < R; ++e) compact(e, 0x1FFu);
+    s.lists = false;
     return;
   }
-  // L cells at a time (the last block overlaps the previous one: the same lists again).
-  for (int e1 = 1; e1 + 1 < R; e1 += L) {
+  // L cells at a time (the last block overlaps the previous one: the same lists again). A cell is
+  // compacted again only when its keep bits differ from the previous row's.
+  int blk = 0;
+  for (int e1 = 1; e1 + 1 < R; e1 += L, ++blk) {
     const int e = std::max(1, std::min(e1, R - 1 - L));
-    alignas(64) double d[9][L];
     std::uint32_t keep[9];
     D lb[9];
     D m1 = V::Set1(HUGE_VAL), m2 = m1;
     for (int t = 0; t < 9; ++t) {
       const int b = t / 3, ee = e + t % 3 - 1;
       const D dt = V::Load(s.dy2 + b * R + ee);
-      V::Store(d[t], dt);
       lb[t] = V::Add(dt, V::Load(s.cg + t * R + ee));
       const D ub = V::Add(dt, V::Load(s.cm + t * R + ee));
       // The two smallest upper bounds: the reference's fold without branches (finite values).
@@ -690,23 +697,23 @@ void CellLists(CellOctaveState& s, double fy) {
       m1 = V::Min(ub, m1);
     }
     const D thr = V::Add(kSecond ? m2 : m1, margin);
-    for (int t = 0; t < 9; ++t) keep[t] = V::LeBits(lb[t], thr);
-    for (int l = 0; l < L && e + l + 1 < R; ++l) {
-      const int c = e + l;
-      double* lp = s.lp + c * 9;
-      double* ld = s.ld + c * 9;
-      double* lc = s.lc + c * 9;
-      int k = 0;
-      for (int t = 0; t < 9; ++t) {
-        const int b = t / 3, ee = c + t % 3 - 1;
-        lp[k] = s.px[t * R + ee];
-        ld[k] = d[t][l];
-        if constexpr (kRet == int(CellularReturn::CellValue)) lc[k] = s.cv[b * R + ee];
-        k += int((keep[t] >> l) & 1u);
-      }
-      s.count[c] = k;
+    std::uint32_t changed = s.lists ? 0u : ~0u;
+    std::uint32_t* prev = s.prev + 9 * blk;
+    for (int t = 0; t < 9; ++t) {
+      keep[t] = V::LeBits(lb[t], thr);
+      changed |= keep[t] ^ prev[t];
+      prev[t] = keep[t];
+    }
+    changed &= (1u << L) - 1u;
+    while (changed) {
+      const int l = __builtin_ctz(changed);
+      changed &= changed - 1u;
+      std::uint32_t bits = 0;
+      for (int t = 0; t < 9; ++t) bits |= ((keep[t] >> l) & 1u) << t;
+      compact(e + l, bits);
     }
   }
+  s.lists = true;
 }
 
 void CellBuild(const NoiseOctave& o, double jitter, std::int64_t j, CellOctaveState& s) {
@@ -732,6 +739,7 @@ void CellBuild(const NoiseOctave& o, double jitter, std::int64_t j, CellOctaveSt
   }
   s.j = j;
   s.built = true;
+  s.lists = false;
 }
 
 template <class V, int kRet, int kFr>
@@ -778,7 +786,7 @@ void CellularRows(const NoiseKernelArgs& a, const double* z, int nrows, int n, f
         // Every lane in cell e0, or in e0 and e0 + 1 (a group across one cell edge: both cells'
         // lists, each lane taking its own cell's result), else gathered.
         auto list = [&](int c, D* res) {
-          CellVisitList<V, kRet, kN>(s.lp + c * 9, s.ld + c * 9, s.lc + c * 9, s.count[c], fx, res);
+          CellVisitList<V, kRet, kN>(s.lp + c * 9, s.lo + c * 9, s.dy2, s.cv, s.count[c], fx, res);
         };
         if (kind == 0) {
           list(e0, nk);
@@ -811,7 +819,7 @@ void CellularRows(const NoiseKernelArgs& a, const double* z, int nrows, int n, f
             D fx[2 * kN];
             for (int u = 0; u < 2 * kN; ++u) fx[u] = V::Load(s.fx + i + L * u);
             const int c = c0 >> 2;
-            CellVisitList<V, kRet, 2 * kN>(s.lp + c * 9, s.ld + c * 9, s.lc + c * 9, s.count[c], fx, nk);
+            CellVisitList<V, kRet, 2 * kN>(s.lp + c * 9, s.lo + c * 9, s.dy2, s.cv, s.count[c], fx, nk);
           } else {
             group(s, tabs[k], i, nk);
             group(s, tabs[k], i + 8, nk + kN);
@@ -848,11 +856,11 @@ bool CellularPrepare(const NoiseKernelArgs& a, std::int64_t i0, double dx, int n
     st[k].R = int(hi - lo + 3);
     st[k].built = false;
     st[k].cull = std::int64_t(st[k].R) * kCullSamples <= std::int64_t(n) + 2 * kCullSamples;
-    total += std::size_t(st[k].R) * (st[k].cull ? 63 : 18) + std::size_t(n8);
+    total += std::size_t(st[k].R) * (st[k].cull ? 45 : 18) + std::size_t(n8);
   }
   double* p = Grow(tls.d, total);
   std::size_t ints = 0;
-  for (int k = 0; k < a.count; ++k) ints += (st[k].cull ? std::size_t(st[k].R) : 0) + std::size_t(n8 + n8 / 8);
+  for (int k = 0; k < a.count; ++k) ints += (st[k].cull ? 19 * std::size_t(st[k].R) + 9 : 0) + std::size_t(n8 + n8 / 8);
   std::int32_t* q = Grow(tls.i, ints + 1);
   for (int k = 0; k < a.count; ++k) {
     const std::size_t R = std::size_t(st[k].R);
@@ -863,13 +871,13 @@ bool CellularPrepare(const NoiseKernelArgs& a, std::int64_t i0, double dx, int n
     p += 18 * R;
     if (st[k].cull) {
       st[k].lp = p;
-      st[k].ld = p + 9 * R;
-      st[k].lc = p + 18 * R;
-      st[k].cg = p + 27 * R;
-      st[k].cm = p + 36 * R;
-      p += 45 * R;
+      st[k].cg = p + 9 * R;
+      st[k].cm = p + 18 * R;
+      p += 27 * R;
       st[k].count = q;
-      q += R;
+      st[k].lo = q + R;
+      st[k].prev = reinterpret_cast<std::uint32_t*>(q + 10 * R);  // 9 per block of cells: at most R + 1 blocks
+      q += 19 * R + 9;
     }
     st[k].fx = p;
     p += n8;
