@@ -554,6 +554,24 @@ HWY_INLINE void CellVisitAll(const CellTables& t, std::int64_t e0, const typenam
 // The same for vectors whose lanes all lie in cell e, through that cell's list of candidates that
 // can win somewhere in it (CellLists), in the reference's order: px from lp, dy² and the cell value
 // at lo in the row's dy2 and cv tables.
+// CellVisitFold: the fold only (d1, d2, h1), for a group across two cells: each lane takes its own
+// cell's fold, then one CellFinish.
+template <class V, int kRet, int kN>
+HWY_INLINE void CellVisitFold(const double* lp, const std::int32_t* lo, const double* dy2t, const double* cvt,
+                              int count, const typename V::D* fx, typename V::D* d1, typename V::D* d2,
+                              typename V::D* h1) {
+  using D = typename V::D;
+  const D inf = V::Set1(HUGE_VAL);
+  for (int u = 0; u < kN; ++u) d1[u] = d2[u] = inf, h1[u] = V::Set1(-1.0);
+  for (int t = 0; t < count; ++t) {
+    D p[kN], dy2[kN], cv[kN];
+    const D pb = V::Bcast(lp + t), db = V::Bcast(dy2t + lo[t]);
+    D cb = pb;
+    if constexpr (kRet == int(CellularReturn::CellValue)) cb = V::Bcast(cvt + lo[t]);
+    for (int u = 0; u < kN; ++u) p[u] = pb, dy2[u] = db, cv[u] = cb;
+    CellFold<V, kRet, kN>(p, dy2, cv, fx, d1, d2, h1);
+  }
+}
 template <class V, int kRet, int kN>
 HWY_INLINE void CellVisitList(const double* lp, const std::int32_t* lo, const double* dy2t, const double* cvt,
                               int count, const typename V::D* fx, typename V::D* res) {
@@ -791,10 +809,18 @@ void CellularRows(const NoiseKernelArgs& a, const double* z, int nrows, int n, f
         if (kind == 0) {
           list(e0, nk);
         } else if (kind == 1) {
-          D n1[kN];
-          list(e0, nk);
-          list(e0 + 1, n1);
-          for (int u = 0; u < kN; ++u) nk[u] = V::SelectEq(e[u], e0 + 1, n1[u], nk[u]);
+          D d1[kN], d2[kN], h1[kN], d1b[kN], d2b[kN], h1b[kN];
+          auto fold = [&](int c, D* f1, D* f2, D* g1) {
+            CellVisitFold<V, kRet, kN>(s.lp + c * 9, s.lo + c * 9, s.dy2, s.cv, s.count[c], fx, f1, f2, g1);
+          };
+          fold(e0, d1, d2, h1);
+          fold(e0 + 1, d1b, d2b, h1b);
+          for (int u = 0; u < kN; ++u) {
+            d1[u] = V::SelectEq(e[u], e0 + 1, d1b[u], d1[u]);
+            d2[u] = V::SelectEq(e[u], e0 + 1, d2b[u], d2[u]);
+            h1[u] = V::SelectEq(e[u], e0 + 1, h1b[u], h1[u]);
+          }
+          CellFinish<V, kRet, kN>(d1, d2, h1, nk);
         } else {
           CellVisitAll<V, kRet, true, kN>(tab, e0, e, fx, nk);
         }
