@@ -112,7 +112,11 @@ StreamPowerStats run(float* e, const Frame& f, const StreamPowerSettings& s, con
     return b;
   });
   std::vector<double> extra;  // the window's inflow per cell (kWindow)
-  if constexpr (kWindow) extra.assign(win->inflow ? n : 0, 0.0);
+  std::vector<double> area_out;  // the drainage areas for win->routed (kWindow)
+  if constexpr (kWindow) {
+    extra.assign(win->inflow ? n : 0, 0.0);
+    area_out.assign(win->routed ? n : 0, 0.0);
+  }
   for (int step = 0; step < s.steps; ++step) {
     if constexpr (kWindow)
       if (win->ring) win->ring(step, false, h.data());
@@ -207,6 +211,9 @@ StreamPowerStats run(float* e, const Frame& f, const StreamPowerSettings& s, con
               if (q + kAhead < cells) __builtin_prefetch(area_m.data() + std::min<std::size_t>(count[q + kAhead], table_size - 1));
               fb[q] = ((link[q] & 1) == 0 ? kdt_straight : kdt_diag) * pow_area(count[q]);
             }
+          if constexpr (kWindow)
+            if (!area_out.empty())
+              for (std::size_t q = 0; q < cells; ++q) area_out[cell[q]] = extra.empty() ? double(count[q]) : b.area[q];
           hb[0] = std::max(hb0[0], 0.0);  // the sea surface is the base level, not the sea floor
           if (linear) {
             // The receiver is usually the previous cell: keep its height in a register.
@@ -232,8 +239,10 @@ StreamPowerStats run(float* e, const Frame& f, const StreamPowerSettings& s, con
           }
         }
     });
-    if constexpr (kWindow)
+    if constexpr (kWindow) {
       if (win->solved) win->solved(step, h.data());
+      if (win->routed) win->routed(step, dir.data(), area_out.data());
+    }
     if (progress) progress(double(step + 1) / double(s.steps));
   }
   relief::detail::parallel_rows(nz, [&](int j) {

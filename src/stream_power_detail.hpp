@@ -1,6 +1,7 @@
 #pragma once
 // The stream power kernel on a window of a larger map (world_stream_power's refinement,
 // src/world_bounded.cpp, issue 18), for the library and its tests; not part of the public API.
+#include <cstdint>
 #include <functional>
 
 #include "relief/erosion.hpp"
@@ -22,8 +23,11 @@ struct StreamPowerWindow {
   // added to the cell's own area, and so to every cell downstream. `extra` (nx · nz) is zeroed before
   // each call. Empty: no inflow.
   std::function<void(int step, double* extra)> inflow;
-  // Observers (tests): h after the step's D8 pass and fill (the levels D8 saw), and after the solve.
+  // Observers: h after the step's D8 pass and fill (the levels D8 saw), and after the solve; the
+  // step's D8 direction codes (hydro::d8_directions) and drainage areas in cells (with the inflow;
+  // 0 for outlets that nothing drains into), after the solve.
   std::function<void(int step, const double* h)> seen, solved;
+  std::function<void(int step, const std::uint8_t* dir, const double* area)> routed;
 };
 
 // stream_power (relief/erosion.hpp) on a window with the map's levels on its ring and the map's

@@ -23,7 +23,9 @@
 
 #include "relief/erosion.hpp"
 #include "relief/error.hpp"
+#include "relief/hydrology.hpp"
 #include "relief/stage.hpp"
+#include "stream_power_detail.hpp"
 #include "world_farm.hpp"
 
 namespace relief {
@@ -66,7 +68,7 @@ erosion::HydraulicSettings hydraulic_settings(const json& p) {
 // process ends, killed or not.
 class Scratch {
  public:
-  Scratch(std::string dir, std::int64_t nx, std::int64_t nz) : nx_(nx) {
+  Scratch(std::string dir, std::int64_t nx, std::int64_t nz, std::string stage = "hydraulic") : nx_(nx), stage_(std::move(stage)) {
     if (dir.empty()) {
       std::error_code ec;
       const std::filesystem::path t = std::filesystem::temp_directory_path(ec);
@@ -76,7 +78,7 @@ class Scratch {
     fd_ = ::open(dir.c_str(), O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);
 #endif
     if (fd_ < 0) {
-      std::string name = (std::filesystem::path(dir) / "relief-hydraulic-XXXXXX").string();
+      std::string name = (std::filesystem::path(dir) / ("relief-" + stage_ + "-XXXXXX")).string();
       fd_ = ::mkstemp(name.data());
       if (fd_ < 0) fail("create, in " + dir + ",");
       ::unlink(name.c_str());
@@ -111,11 +113,12 @@ class Scratch {
       b += got, left -= std::size_t(got), at += got;
     }
   }
-  [[noreturn]] static void fail(const std::string& what) {
-    throw Error("hydraulic", "could not " + what + " the temporary file of the world's heights: " + std::strerror(errno));
+  [[noreturn]] void fail(const std::string& what) const {
+    throw Error(stage_, "could not " + what + " the temporary file of the world's heights: " + std::strerror(errno));
   }
   int fd_ = -1;
   std::int64_t nx_ = 0;
+  std::string stage_;
 };
 
 // One group of one pass as a farm task (src/world_farm.hpp): the input is the job and the group's
@@ -276,14 +279,65 @@ WorldStageAlgorithm world_hydraulic(std::uint64_t seed, int group_blocks) {
   };
 }
 
-WorldStageAlgorithm world_stream_power(int coarse_max) {
+namespace {
+
+// The stage's resolved params (stage_erosion.cpp's table) as the kernel's settings.
+erosion::StreamPowerSettings stream_power_settings(const json& p) {
+  erosion::StreamPowerSettings s;
+  s.uplift_mm_per_year = p.at("uplift_mm_per_year").get<double>();
+  s.uplift_follows_height = p.at("uplift_pattern").get<std::string>() == "height";
+  s.k = p.at("k").get<double>();
+  s.m = p.at("m").get<double>();
+  s.n = p.at("n").get<double>();
+  s.duration_years = p.at("duration_years").get<double>();
+  s.steps = p.at("steps").get<int>();
+  s.rainfall = p.at("rainfall").get<double>();
+  s.max_slope_deg = p.at("max_slope_deg").get<double>();
+  return s;
+}
+
+// One axis of the refinement's blocks: block k's core [k·B, min((k + 1)·B, n − 1)], its window the
+// core grown by the halo (clipped to the world), its weight 1 inside the core away from its ends
+// and a smoothstep across ± r of each inner core end, where the neighbour's weight is its complement.
+struct BlockAxis {
+  std::int64_t n = 0, B = 0, halo = 0, r = 0, count = 0;
+  BlockAxis(std::int64_t n_, std::int64_t B_, std::int64_t halo_) : n(n_), B(B_), halo(halo_), r(halo_ / 2) {
+    count = std::max<std::int64_t>(1, (n - 1 + B - 1) / B);
+  }
+  std::int64_t lo(std::int64_t k) const { return std::max<std::int64_t>(0, k * B - halo); }
+  std::int64_t hi(std::int64_t k) const { return std::min<std::int64_t>(n - 1, (k + 1) * B + halo); }  // inclusive
+  // The share of the upper block at offset u from a core end (u in [−r, r]): 0 → 1.
+  double ramp(std::int64_t u) const {
+    if (u <= -r) return 0;
+    if (u >= r) return 1;
+    const double x = double(u + r) / double(2 * r);
+    return x * x * (3 - 2 * x);
+  }
+  double weight(std::int64_t k, std::int64_t i) const {
+    const double up = k == 0 ? 1.0 : ramp(i - k * B);
+    const double down = k == count - 1 ? 1.0 : 1.0 - ramp(i - (k + 1) * B);
+    return up * down;
+  }
+};
+
+}  // namespace
+
+WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int sweeps) {
   if (coarse_max < 3) throw Error("coarse_max", "expected at least 3 samples, got " + std::to_string(coarse_max));
-  return [coarse_max](const WorldStageIO& io, const RecipeStage& st, int index) {
+  if (halo < 4) throw Error("halo", "expected at least 4 samples, got " + std::to_string(halo));
+  if (block < 2 * halo)
+    throw Error("block", "expected at least 2 × halo = " + std::to_string(2 * halo) + " samples, got " + std::to_string(block));
+  if (sweeps < 1) throw Error("sweeps", "expected at least 1 sweep, got " + std::to_string(sweeps));
+  return [coarse_max, block, halo, sweeps](const WorldStageIO& io, const RecipeStage& st, int index) {
     const WorldGrid& g = io.grid;
     const Frame& W = io.world;
     const std::int64_t cmax = coarse_max - 1;
     const std::int64_t s = std::max<std::int64_t>({1, (g.nx - 1 + cmax - 1) / cmax, (g.nz - 1 + cmax - 1) / cmax});
     const int cnx = int((g.nx - 1 + s - 1) / s + 1), cnz = int((g.nz - 1 + s - 1) / s + 1);
+    const json params = st.stage->params();
+    // A masked stage (stage_masked.cpp) is refined by nothing: the coarse change alone, as the mask
+    // scales it there.
+    const bool refine = s > 1 && !(params.contains("mask") && params["mask"].is_string() && !params["mask"].get<std::string>().empty());
     // Coarse sample c sits at world sample min(c·s, n − 1).
     auto world_of = [&](std::int64_t c, std::int64_t n) { return std::min(c * s, n - 1); };
     Terrain t;
@@ -291,12 +345,21 @@ WorldStageAlgorithm world_stream_power(int coarse_max) {
     t.frame.nx = cnx, t.frame.nz = cnz, t.frame.ix0 = 0, t.frame.iz0 = 0;
     t.frame.spacing_m = W.spacing_m * double(s);
     std::vector<float>& e = t.layer("height", 1).data;
+    // The refinement reads windows of the input and sums the blocks' shares into the output: both
+    // world-sized temporary files (4 bytes per sample each), not memory.
+    std::unique_ptr<Scratch> input, output;
+    if (refine) {
+      input = std::make_unique<Scratch>(io.scratch_dir, g.nx, g.nz, "stream_power");
+      output = std::make_unique<Scratch>(io.scratch_dir, g.nx, g.nz, "stream_power");
+    }
+    const double gather_end = refine ? 0.1 : 0.3, solve_end = refine ? 0.2 : 0.4;
     for (std::int64_t Z = 0; Z < g.tiles_z; ++Z)
       for (std::int64_t X = 0; X < g.tiles_x; ++X) {
         check_cancelled(io);
         const WorldGrid::Window w = g.window(X, Z);
         const WorldTile in = io.load(X, Z);
         const std::vector<float>& h = in.layers.at("height").data;
+        if (input) input->write(w.ix0, w.iz0, w.nx, w.nz, h.data());
         for (int cz = 0; cz < cnz; ++cz) {
           const std::int64_t iz = world_of(cz, g.nz);
           if (iz < w.iz0 || iz >= w.iz0 + w.nz) continue;
@@ -307,18 +370,40 @@ WorldStageAlgorithm world_stream_power(int coarse_max) {
                 h[std::size_t(iz - w.iz0) * std::size_t(w.nx) + std::size_t(ix - w.ix0)];
           }
         }
-        // Progress: the gathering pass spans [0, 0.3), the coarse solve [0.3, 0.4), the pass that
-        // writes the tiles back [0.4, 1] (a step per tile in each pass).
-        if (io.progress) io.progress(0.3 * double(Z * g.tiles_x + X + 1) / double(g.count()));
+        // Progress: the gathering pass, the coarse solve, [the refinement's blocks,] the pass that
+        // writes the tiles (a step per tile or block in each pass).
+        if (io.progress) io.progress(gather_end * double(Z * g.tiles_x + X + 1) / double(g.count()));
       }
     const std::vector<float> before = e;
     Context ctx;
     ctx.stage_index = index;  // stream power draws no random numbers
-    st.stage->apply(t, ctx);
-    if (io.progress) io.progress(0.4);
+    // The refinement's record of the coarse solve: its heights (metres above the sea, as the solver
+    // holds them) at K + 1 times, snapshot k after step_of[k] steps (k = 0: the start).
+    const erosion::StreamPowerSettings sp = refine ? stream_power_settings(params) : erosion::StreamPowerSettings{};
+    const int steps = sp.steps, K = std::min(steps, kStreamPowerSnapshots);
+    std::vector<int> step_of;
+    std::vector<std::vector<float>> snap;
+    if (!refine) {
+      st.stage->apply(t, ctx);
+    } else {
+      for (int k = 0; k <= K; ++k) step_of.push_back(int((std::int64_t(k) * steps + K / 2) / K));
+      snap.resize(std::size_t(K) + 1);
+      erosion::detail::StreamPowerWindow record;
+      record.seen = [&](int step, const double* h) {
+        if (step == 0) snap[0].assign(h, h + e.size());
+      };
+      record.solved = [&](int step, const double* h) {
+        for (int k = 1; k <= K; ++k)
+          if (step_of[std::size_t(k)] == step + 1) snap[std::size_t(k)].assign(h, h + e.size());
+      };
+      erosion::detail::stream_power_window(e.data(), t.frame, sp, record, [&](double f) {
+        if (io.progress) io.progress(gather_end + (solve_end - gather_end) * f);
+      });
+    }
+    if (io.progress) io.progress(solve_end);
     const std::vector<float>& after = t.get("height").data;
     std::vector<float> delta;
-    if (s > 1) {
+    if (s > 1 && !refine) {
       delta.resize(after.size());
       for (std::size_t c = 0; c < after.size(); ++c) delta[c] = after[c] - before[c];
     }
@@ -328,6 +413,264 @@ WorldStageAlgorithm world_stream_power(int coarse_max) {
       const std::int64_t a = world_of(c0, n), b = world_of(c0 + 1, n);
       f = float(double(i - a) / double(b - a));
     };
+    if (refine) {
+      // Refinement (relief/world_bounded.hpp): world blocks, each solved at full resolution on its
+      // window with the coarse solution's levels on the window's ring and the coarse drainage area
+      // that enters it, blended by weights of world position.
+      const BlockAxis ax(g.nx, block, halo), az(g.nz, block, halo);
+      const std::int64_t blocks = ax.count * az.count;
+      // The coarse change since the start at snapshot k, at a world sample (bilinear).
+      auto coarse_change = [&](int k, std::int64_t ix, std::int64_t iz) {
+        int cx = 0, cz = 0;
+        float fx = 0, fz = 0;
+        locate(ix, g.nx, cnx, cx, fx);
+        locate(iz, g.nz, cnz, cz, fz);
+        const std::vector<float>& a = snap[std::size_t(k)];
+        const std::vector<float>& z = snap[0];
+        const std::size_t c = std::size_t(cz) * std::size_t(cnx) + std::size_t(cx), C = std::size_t(cnx);
+        auto d = [&](std::size_t q) { return double(a[q]) - double(z[q]); };
+        return (d(c) * (1 - fx) + d(c + 1) * fx) * (1 - fz) + (d(c + C) * (1 - fx) + d(c + C + 1) * fx) * fz;
+      };
+      // Inflow: for every snapshot, the coarse receivers and drainage areas (on the snapshot's
+      // levels, filled as the solver fills them); a coarse cell outside a window's inside (or on its
+      // ring) whose receiver is inside brings its area, in fine cells (s² per coarse cell), to the
+      // window's inside sample nearest to it. Per block and snapshot, a short list.
+      struct Inflow {
+        std::uint32_t cell;  // in the block's window
+        float cells;
+      };
+      std::vector<std::vector<std::vector<Inflow>>> inflow(std::size_t(blocks), std::vector<std::vector<Inflow>>(std::size_t(K) + 1));
+      {
+        std::vector<double> hk(e.size());
+        std::vector<std::uint32_t> rec(e.size()), order, count(e.size());
+        for (int k = 0; k <= K; ++k) {
+          check_cancelled(io);
+          for (std::size_t c = 0; c < e.size(); ++c) hk[c] = snap[std::size_t(k)][c];
+          hydro::fill_depressions<double>(hk.data(), cnx, cnz, 0.0, 1e-6);
+          hydro::d8_receivers<double>(hk.data(), cnx, cnz, 0.0, rec.data());
+          hydro::flow_order(rec.data(), e.size(), order, count.data());
+          for (std::size_t d = 0; d < e.size(); ++d) {
+            const std::size_t r = rec[d];
+            if (r == d) continue;
+            const std::int64_t dx = world_of(std::int64_t(d % std::size_t(cnx)), g.nx), dz = world_of(std::int64_t(d / std::size_t(cnx)), g.nz);
+            const std::int64_t rx = world_of(std::int64_t(r % std::size_t(cnx)), g.nx), rz = world_of(std::int64_t(r / std::size_t(cnx)), g.nz);
+            const std::int64_t kx0 = std::max<std::int64_t>(0, (rx - halo) / block - 1), kx1 = std::min(ax.count - 1, rx / block + 1);
+            const std::int64_t kz0 = std::max<std::int64_t>(0, (rz - halo) / block - 1), kz1 = std::min(az.count - 1, rz / block + 1);
+            for (std::int64_t bz = kz0; bz <= kz1; ++bz)
+              for (std::int64_t bx = kx0; bx <= kx1; ++bx) {
+                const std::int64_t x0 = ax.lo(bx), x1 = ax.hi(bx), z0 = az.lo(bz), z1 = az.hi(bz);
+                auto in = [&](std::int64_t x, std::int64_t z) { return x > x0 && x < x1 && z > z0 && z < z1; };
+                if (!in(rx, rz) || in(dx, dz)) continue;
+                const std::int64_t ix = std::clamp(dx, x0 + 1, x1 - 1), iz = std::clamp(dz, z0 + 1, z1 - 1);
+                inflow[std::size_t(bz * ax.count + bx)][std::size_t(k)].push_back(
+                    {std::uint32_t((iz - z0) * (x1 - x0 + 1) + (ix - x0)), float(double(count[d]) * double(s * s))});
+              }
+          }
+        }
+      }
+      // Time: the snapshots around `done` steps, and the share of the later one.
+      auto when = [&](int done, int& k, double& a) {
+        k = 0;
+        while (k + 1 < K && step_of[std::size_t(k) + 1] <= done) ++k;
+        a = std::clamp(double(done - step_of[std::size_t(k)]) / double(step_of[std::size_t(k) + 1] - step_of[std::size_t(k)]), 0.0, 1.0);
+      };
+      const double blocks_end = 0.9;
+      // Sweeps (an overlapping Schwarz iteration): the first holds each window's ring at the coarse
+      // levels and gives it the coarse inflow; each later one holds it, step by step, at the blend
+      // of the previous sweep's blocks there (the weights of world position sum to 1 on every ring
+      // sample that is not on the world's edge, where the ring is the world's border, at base level)
+      // and gives it their drainage area entering across it (the blocks' receivers and areas there,
+      // weighted alike). With exact levels and inflow a window is exact
+      // (StreamPower.WindowGivenTheWholeMapsRingAndInflowReproducesItsInside); each sweep carries the
+      // fine solution one block further along the rivers (levels upstream, area downstream).
+      struct Box {
+        std::int64_t x0 = 0, z0 = 0;
+        int wnx = 0, wnz = 0;
+        std::vector<std::uint32_t> ring;  // the window's border samples
+        bool inside(std::int64_t x, std::int64_t z) const { return x > x0 && x < x0 + wnx - 1 && z > z0 && z < z0 + wnz - 1; }
+      };
+      std::vector<Box> boxes(static_cast<std::size_t>(blocks));
+      for (std::int64_t bz = 0; bz < az.count; ++bz)
+        for (std::int64_t bx = 0; bx < ax.count; ++bx) {
+          Box& b = boxes[std::size_t(bz * ax.count + bx)];
+          b.x0 = ax.lo(bx), b.z0 = az.lo(bz);
+          b.wnx = int(ax.hi(bx) - b.x0 + 1), b.wnz = int(az.hi(bz) - b.z0 + 1);
+          for (int j = 0; j < b.wnz; ++j)
+            for (int i = 0; i < b.wnx; ++i)
+              if (hydro::on_border(i, j, b.wnx, b.wnz)) b.ring.push_back(std::uint32_t(j * b.wnx + i));
+        }
+      // A block's levels and inflow for the next sweep: per step, the ring's levels seen and solved
+      // (steps × ring samples), how much weight reached each ring sample, and the inflow.
+      struct History {
+        std::vector<float> seen, solved, weight;
+        std::vector<std::vector<Inflow>> inflow;
+      };
+      auto fresh = [&] {
+        std::vector<History> hs(static_cast<std::size_t>(blocks));
+        for (std::size_t b = 0; b < hs.size(); ++b) {
+          hs[b].seen.assign(std::size_t(steps) * boxes[b].ring.size(), 0.0f);
+          hs[b].solved.assign(std::size_t(steps) * boxes[b].ring.size(), 0.0f);
+          hs[b].weight.assign(boxes[b].ring.size(), 0.0f);
+          hs[b].inflow.resize(std::size_t(steps));
+        }
+        return hs;
+      };
+      std::vector<History> previous, next;
+      // What block j gives to its neighbours' rings: (neighbour, ring index, sample in j's window, weight).
+      struct Target {
+        std::uint32_t block, q, local;
+        double w;
+      };
+      const double work = double(blocks) * double(sweeps);
+      for (int sweep = 0; sweep < sweeps; ++sweep) {
+        const bool last = sweep + 1 == sweeps;
+        if (!last) next = fresh();
+        for (std::int64_t bz = 0; bz < az.count; ++bz)
+          for (std::int64_t bx = 0; bx < ax.count; ++bx) {
+            check_cancelled(io);
+            const std::size_t id = std::size_t(bz * ax.count + bx);
+            const Box& box = boxes[id];
+            const std::int64_t x0 = box.x0, z0 = box.z0;
+            const int wnx = box.wnx, wnz = box.wnz;
+            const std::vector<std::uint32_t>& ring = box.ring;
+            std::vector<float> h(std::size_t(wnx) * std::size_t(wnz));
+            input->read(x0, z0, wnx, wnz, h.data());
+            // The ring: its start levels (the solver's, taken at its first call) and the coarse change
+            // at each snapshot (the first sweep, and the world's edge in every sweep).
+            std::vector<std::vector<double>> change(std::size_t(K) + 1, std::vector<double>(ring.size()));
+            for (int k = 1; k <= K; ++k)
+              for (std::size_t q = 0; q < ring.size(); ++q)
+                change[std::size_t(k)][q] = coarse_change(k, x0 + ring[q] % std::uint32_t(wnx), z0 + ring[q] / std::uint32_t(wnx));
+            std::vector<double> start(ring.size());
+            const History* prev = sweep > 0 ? &previous[id] : nullptr;
+            erosion::detail::StreamPowerWindow win;
+            win.ring = [&](int step, bool after_step, double* hw) {
+              if (step == 0 && !after_step)
+                for (std::size_t q = 0; q < ring.size(); ++q) start[q] = hw[ring[q]];
+              int k = 0;
+              double a = 0;
+              when(step + (after_step ? 1 : 0), k, a);
+              const float* held = prev ? (after_step ? prev->solved : prev->seen).data() + std::size_t(step) * ring.size() : nullptr;
+              for (std::size_t q = 0; q < ring.size(); ++q)
+                hw[ring[q]] = held && prev->weight[q] > 0.5f
+                                  ? double(held[q])
+                                  : start[q] + (1 - a) * change[std::size_t(k)][q] + a * change[std::size_t(k) + 1][q];
+            };
+            const auto& in = inflow[id];
+            win.inflow = [&](int step, double* extra) {
+              if (prev) {
+                for (const Inflow& f : prev->inflow[std::size_t(step)]) extra[f.cell] += double(f.cells);
+                return;
+              }
+              int k = 0;
+              double a = 0;
+              when(step, k, a);
+              for (const Inflow& f : in[std::size_t(k)]) extra[f.cell] += (1 - a) * double(f.cells);
+              for (const Inflow& f : in[std::size_t(k) + 1]) extra[f.cell] += a * double(f.cells);
+            };
+            std::vector<Target> targets;
+            if (!last) {
+              for (std::int64_t nz_ = std::max<std::int64_t>(0, bz - 1); nz_ <= std::min(az.count - 1, bz + 1); ++nz_)
+                for (std::int64_t nx_ = std::max<std::int64_t>(0, bx - 1); nx_ <= std::min(ax.count - 1, bx + 1); ++nx_) {
+                  const std::size_t k = std::size_t(nz_ * ax.count + nx_);
+                  if (k == id) continue;
+                  const Box& o = boxes[k];
+                  for (std::size_t q = 0; q < o.ring.size(); ++q) {
+                    const std::int64_t x = o.x0 + o.ring[q] % std::uint32_t(o.wnx), z = o.z0 + o.ring[q] / std::uint32_t(o.wnx);
+                    if (!box.inside(x, z)) continue;
+                    const double w = ax.weight(bx, x) * az.weight(bz, z);
+                    if (w <= 0) continue;
+                    targets.push_back({std::uint32_t(k), std::uint32_t(q), std::uint32_t((z - z0) * wnx + (x - x0)), w});
+                    next[k].weight[q] += float(w);
+                  }
+                }
+              auto record = [&](bool solved_levels) {
+                return [&, solved_levels](int step, const double* hw) {
+                  for (const Target& t : targets) {
+                    History& o = next[t.block];
+                    float& v = (solved_levels ? o.solved : o.seen)[std::size_t(step) * boxes[t.block].ring.size() + t.q];
+                    v = float(double(v) + t.w * hw[t.local]);
+                  }
+                };
+              };
+              win.seen = record(false);
+              win.solved = record(true);
+              win.routed = [&](int step, const std::uint8_t* dir, const double* area) {
+                for (const Target& t : targets) {
+                  const std::uint8_t d = dir[t.local];
+                  if (d == hydro::kNoReceiver) continue;
+                  const Box& o = boxes[t.block];
+                  const std::int64_t x = x0 + std::int64_t(t.local % std::uint32_t(wnx)) + hydro::kDi[d];
+                  const std::int64_t z = z0 + std::int64_t(t.local / std::uint32_t(wnx)) + hydro::kDj[d];
+                  if (!o.inside(x, z)) continue;
+                  next[t.block].inflow[std::size_t(step)].push_back(
+                      {std::uint32_t((z - o.z0) * o.wnx + (x - o.x0)), float(t.w * area[t.local])});
+                }
+              };
+            }
+            erosion::detail::stream_power_window(h.data(), W.window(x0, z0, wnx, wnz), sp, win);
+            if (io.progress) io.progress(solve_end + (blocks_end - solve_end) * double(sweep * blocks + std::int64_t(id) + 1) / work);
+            if (!last) continue;
+            // This block's share, added to the output in block order (the same order for every tiling).
+            const std::int64_t kx = bx, kz = bz;
+            std::int64_t ux0 = x0, ux1 = x0 + wnx - 1, uz0 = z0, uz1 = z0 + wnz - 1;
+            while (ux0 < ux1 && ax.weight(kx, ux0) == 0) ++ux0;
+            while (ux1 > ux0 && ax.weight(kx, ux1) == 0) --ux1;
+            while (uz0 < uz1 && az.weight(kz, uz0) == 0) ++uz0;
+            while (uz1 > uz0 && az.weight(kz, uz1) == 0) --uz1;
+            const int unx = int(ux1 - ux0 + 1), unz = int(uz1 - uz0 + 1);
+            std::vector<float> sum(std::size_t(unx) * std::size_t(unz));
+            output->read(ux0, uz0, unx, unz, sum.data());
+            for (int j = 0; j < unz; ++j) {
+              const double wz = az.weight(kz, uz0 + j);
+              for (int i = 0; i < unx; ++i) {
+                const double w = wz * ax.weight(kx, ux0 + i);
+                const float v = h[std::size_t(uz0 + j - z0) * std::size_t(wnx) + std::size_t(ux0 + i - x0)];
+                float& o = sum[std::size_t(j) * std::size_t(unx) + std::size_t(i)];
+                if (w == 1.0)
+                  o = v;
+                else if (w > 0)
+                  o = float(double(o) + w * double(v));
+              }
+            }
+            output->write(ux0, uz0, unx, unz, sum.data());
+          }
+        previous = std::move(next);
+        next.clear();
+      }
+      // The whole map's stage ends ε-filled (it drains); so does the world: the blend, clamped to
+      // [0, 1] as the stage clamps, filled across tiles as the world's fill stage fills (exact: the
+      // whole world's fill_depressions, ε = 0), into the input's file (no longer needed).
+      const double fill_end = 0.97;
+      fill_depressions_tiled(
+          g, float(W.sea_level), 0.0f,
+          [&](std::int64_t X, std::int64_t Z) {
+            check_cancelled(io);
+            const WorldGrid::Window w = g.window(X, Z);
+            std::vector<float> h(std::size_t(w.nx) * std::size_t(w.nz));
+            output->read(w.ix0, w.iz0, w.nx, w.nz, h.data());
+            for (float& v : h) v = std::clamp(v, 0.0f, 1.0f);
+            return h;
+          },
+          [&](std::int64_t X, std::int64_t Z, std::vector<float> h) {
+            const WorldGrid::Window w = g.window(X, Z);
+            input->write(w.ix0, w.iz0, w.nx, w.nz, h.data());
+          },
+          [&](double f) {
+            if (io.progress) io.progress(blocks_end + (fill_end - blocks_end) * f);
+          });
+      for (std::int64_t Z = 0; Z < g.tiles_z; ++Z)
+        for (std::int64_t X = 0; X < g.tiles_x; ++X) {
+          check_cancelled(io);
+          const WorldGrid::Window w = g.window(X, Z);
+          WorldTile tile = io.load(X, Z);
+          std::vector<float>& h = tile.layers.at("height").data;
+          input->read(w.ix0, w.iz0, w.nx, w.nz, h.data());
+          io.store(X, Z, std::move(tile));
+          if (io.progress) io.progress(fill_end + (1 - fill_end) * double(Z * g.tiles_x + X + 1) / double(g.count()));
+        }
+      return;
+    }
     for (std::int64_t Z = 0; Z < g.tiles_z; ++Z)
       for (std::int64_t X = 0; X < g.tiles_x; ++X) {
         check_cancelled(io);
@@ -354,7 +697,7 @@ WorldStageAlgorithm world_stream_power(int coarse_max) {
           }
         }
         io.store(X, Z, std::move(tile));
-        if (io.progress) io.progress(0.4 + 0.6 * double(Z * g.tiles_x + X + 1) / double(g.count()));
+        if (io.progress) io.progress(solve_end + (1 - solve_end) * double(Z * g.tiles_x + X + 1) / double(g.count()));
       }
   };
 }
