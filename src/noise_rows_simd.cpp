@@ -6,9 +6,10 @@
 // 1996; classic 2D simplex after Gustavson 2005); this file only reorganises the work. Google
 // Highway for the per-target compilation and run-time dispatch (the kernels themselves are AVX2
 // intrinsics, compiled for the AVX2 target and for the AVX-512 targets, which run them at 256 bits
-// except Perlin's row loop, which has a 512-bit form there: on a Zen 4 they beat noise_simd.cpp's
-// 512-bit per-sample kernels for Perlin 3.5× and for cellular 2.6×, see `relief bench --cases
-// noise`; other targets keep noise_simd.cpp's kernels, with the same values).
+// except Perlin's and cellular's row loops, which have 512-bit forms there: on a Zen 4 they beat
+// noise_simd.cpp's 512-bit per-sample kernels for Perlin 3.5× and for cellular 2.6× (before
+// cellular's 512-bit form and column terms; now cellular F1 is 2.0× gradient 1 octave), see
+// `relief bench --cases noise`; other targets keep noise_simd.cpp's kernels, with the same values).
 //
 // Perlin. In a row, the lattice row (y0, y1) of an octave is fixed, so the four corner hashes
 // p[p[A + y]] & 15 of lattice column c (A = p[c], B = p[c + 1]) depend on c alone: once per
