@@ -557,16 +557,20 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
                                   : start[q] + (1 - a) * change[std::size_t(k)][q] + a * change[std::size_t(k) + 1][q];
             };
             const auto& in = inflow[id];
+            // Inflow in whole cells (rounded once per sample and step): the solver then reads A^m from
+            // its table instead of calling std::pow for every cell downstream (measured: about half
+            // the refinement's time before).
             win.inflow = [&](int step, double* extra) {
               if (prev) {
                 for (const Inflow& f : prev->inflow[std::size_t(step)]) extra[f.cell] += double(f.cells);
-                return;
+              } else {
+                int k = 0;
+                double a = 0;
+                when(step, k, a);
+                for (const Inflow& f : in[std::size_t(k)]) extra[f.cell] += (1 - a) * double(f.cells);
+                for (const Inflow& f : in[std::size_t(k) + 1]) extra[f.cell] += a * double(f.cells);
               }
-              int k = 0;
-              double a = 0;
-              when(step, k, a);
-              for (const Inflow& f : in[std::size_t(k)]) extra[f.cell] += (1 - a) * double(f.cells);
-              for (const Inflow& f : in[std::size_t(k) + 1]) extra[f.cell] += a * double(f.cells);
+              for (std::size_t c = 0; c < std::size_t(wnx) * std::size_t(wnz); ++c) extra[c] = std::nearbyint(extra[c]);
             };
             std::vector<Target> targets;
             if (!last) {

@@ -77,7 +77,8 @@
 //     each window's ring at the coarse levels and gives it the coarse inflow, as above; each later
 //     sweep holds it, step by step, at the blend (weights below) of the previous sweep's blocks there
 //     and gives it their drainage area crossing it (their receivers and areas on the ring, weighted
-//     alike). With the whole map's levels and inflow a window is the whole map's inside, bit for bit
+//     alike), rounded to whole cells (so that the solver reads A^m from its table). With the whole
+//     map's levels and inflow a window is the whole map's inside, bit for bit
 //     (tests/test_erosion.cpp); each sweep carries the fine solution a block further along the rivers
 //     (levels upstream, areas downstream). Memory: the ring's levels and inflow of every block for
 //     every step, twice (floats: 2 × 2 × steps × ring samples, about 120 MB for a 4097² world of 100
@@ -90,7 +91,7 @@
 //     build's process, one after another, each on its threads).
 //   What it guarantees: the stage's valleys and ranges at full resolution, their drainage crossing
 //   the blocks' seams; against one whole-map run, measured (tests/test_world_bounded.cpp, 513², coarse
-//   257², blocks of 128): 0.33 % of the relief (RMS within 2 halos of the seams) with halo 48 and 4
+//   257², blocks of 128): 0.29 % of the relief (RMS within 2 halos of the seams) with halo 48 and 4
 //   sweeps, against 3.0 % for the coarse change alone. Not guaranteed: the sweeps need not converge
 //   to the whole map: with halo 32 there, the world keeps a flat surface at 0.40 (a filled lake)
 //   where the whole map's valley floor is at 0.14, whatever the sweeps (3.3 %; likely a valley dammed
