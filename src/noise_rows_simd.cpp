@@ -437,6 +437,8 @@ struct CellV4 {
   static D Min(D a, D b) { return _mm256_min_pd(a, b); }  // a < b ? a : b
   static D Max(D a, D b) { return _mm256_max_pd(a, b); }  // a > b ? a : b
   static D Sqrt(D a) { return _mm256_sqrt_pd(a); }
+  static D SubF(D a, D b) { return _mm256_fmadd_pd(b, _mm256_set1_pd(-1.0), a); }  // a − b, rounded once
+  static D AddF(D a, D b) { return _mm256_fmadd_pd(a, _mm256_set1_pd(1.0), b); }   // a + b, rounded once
   // a < b ? x : y
   static D SelectLt(D a, D b, D x, D y) { return _mm256_blendv_pd(y, x, _mm256_cmp_pd(a, b, _CMP_LT_OQ)); }
   // e == c ? x : y, per lane
@@ -469,6 +471,8 @@ struct CellV8 {
   static D Min(D a, D b) { return _mm512_min_pd(a, b); }
   static D Max(D a, D b) { return _mm512_max_pd(a, b); }
   static D Sqrt(D a) { return _mm512_sqrt_pd(a); }
+  static D SubF(D a, D b) { return _mm512_fmadd_pd(b, _mm512_set1_pd(-1.0), a); }  // a − b, rounded once
+  static D AddF(D a, D b) { return _mm512_fmadd_pd(a, _mm512_set1_pd(1.0), b); }   // a + b, rounded once
   static D SelectLt(D a, D b, D x, D y) { return _mm512_mask_blend_pd(_mm512_cmp_pd_mask(a, b, _CMP_LT_OQ), y, x); }
   static D SelectEq(I e, int c, D x, D y) {
     return _mm512_mask_blend_pd(_mm256_cmpeq_epi32_mask(e, _mm256_set1_epi32(c)), y, x);
@@ -490,8 +494,11 @@ template <class V, int kRet, int kN>
 HWY_INLINE void CellFold(const typename V::D* p, const typename V::D* dy2, const typename V::D* cv,
                          const typename V::D* fx, typename V::D* d1, typename V::D* d2, typename V::D* h1) {
   for (int u = 0; u < kN; ++u) {
-    const auto ddx = V::Sub(p[u], fx[u]);
-    const auto dist = V::Add(V::Mul(ddx, ddx), dy2[u]);
+    // fx − p and m + dy² as fused multiply-adds by ∓1 and 1: the same single roundings as the
+    // reference's p − fx (negated: the same square) and m + dy², on the multiply-add units (on
+    // Zen 4 the double adders also carry the folds' min and max).
+    const auto ddx = V::SubF(fx[u], p[u]);
+    const auto dist = V::AddF(V::Mul(ddx, ddx), dy2[u]);
     if constexpr (kRet == int(CellularReturn::F1)) {
       d1[u] = V::Min(dist, d1[u]);  // dist < d1 ? dist : d1 (NaN keeps d1, as the reference)
     } else if constexpr (kRet == int(CellularReturn::CellValue)) {
