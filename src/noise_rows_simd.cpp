@@ -438,6 +438,7 @@ struct CellV4 {
   static D Max(D a, D b) { return _mm256_max_pd(a, b); }  // a > b ? a : b
   static D Sqrt(D a) { return _mm256_sqrt_pd(a); }
   static D SubF(D a, D b) { return _mm256_fmadd_pd(b, _mm256_set1_pd(-1.0), a); }  // a − b, rounded once
+  static D Fma(D a, D b, D c) { return _mm256_fmadd_pd(a, b, c); }
   static D AddF(D a, D b) { return _mm256_fmadd_pd(a, _mm256_set1_pd(1.0), b); }   // a + b, rounded once
   // a < b ? x : y
   static D SelectLt(D a, D b, D x, D y) { return _mm256_blendv_pd(y, x, _mm256_cmp_pd(a, b, _CMP_LT_OQ)); }
@@ -472,6 +473,7 @@ struct CellV8 {
   static D Max(D a, D b) { return _mm512_max_pd(a, b); }
   static D Sqrt(D a) { return _mm512_sqrt_pd(a); }
   static D SubF(D a, D b) { return _mm512_fmadd_pd(b, _mm512_set1_pd(-1.0), a); }  // a − b, rounded once
+  static D Fma(D a, D b, D c) { return _mm512_fmadd_pd(a, b, c); }
   static D AddF(D a, D b) { return _mm512_fmadd_pd(a, _mm512_set1_pd(1.0), b); }   // a + b, rounded once
   static D SelectLt(D a, D b, D x, D y) { return _mm512_mask_blend_pd(_mm512_cmp_pd_mask(a, b, _CMP_LT_OQ), y, x); }
   static D SelectEq(I e, int c, D x, D y) {
@@ -515,15 +517,18 @@ HWY_INLINE void CellFold(const typename V::D* p, const typename V::D* dy2, const
 template <class V, int kRet, int kN>
 HWY_INLINE void CellFinish(const typename V::D* d1, const typename V::D* d2, const typename V::D* h1,
                            typename V::D* res) {
-  const auto one = V::Set1(1.0), two = V::Set1(2.0);
-  auto min1 = [&](typename V::D v) { return V::SelectLt(one, v, one, v); };  // std::min(v, 1.0)
+  const auto one = V::Set1(1.0), two = V::Set1(2.0), mone = V::Set1(-1.0);
+  // std::min(v, 1.0) = 1 < v ? 1 : v, the min instruction's operand order (NaN stays NaN).
+  auto min1 = [&](typename V::D v) { return V::Min(one, v); };
+  // 2·m − 1 as one fused multiply-add: 2·m is exact (m ≤ 1), so the same single rounding.
+  auto out = [&](typename V::D m) { return V::Fma(two, m, mone); };
   for (int u = 0; u < kN; ++u) {
     if constexpr (kRet == int(CellularReturn::F1)) {
-      res[u] = V::Sub(V::Mul(two, min1(V::Sqrt(d1[u]))), one);
+      res[u] = out(min1(V::Sqrt(d1[u])));
     } else if constexpr (kRet == int(CellularReturn::F2)) {
-      res[u] = V::Sub(V::Mul(two, min1(V::Mul(V::Sqrt(d2[u]), V::Set1(1.0 / 1.5)))), one);
+      res[u] = out(min1(V::Mul(V::Sqrt(d2[u]), V::Set1(1.0 / 1.5))));
     } else if constexpr (kRet == int(CellularReturn::F2MinusF1)) {
-      res[u] = V::Sub(V::Mul(two, min1(V::Sub(V::Sqrt(d2[u]), V::Sqrt(d1[u])))), one);
+      res[u] = out(min1(V::Sub(V::Sqrt(d2[u]), V::Sqrt(d1[u]))));
     } else {
       res[u] = h1[u];
     }
