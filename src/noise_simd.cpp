@@ -184,8 +184,8 @@ HWY_INLINE VI Next(VI i, std::int64_t period) {
 
 // ---- fractal folding (double) --------------------------------------------------------------------
 
-// kNone: Fractal::None (one octave of amplitude 1, 1/Σa = 1); only the Gradient kernel has its own
-// instance, the double-precision ones treat it as kFbm.
+// kNone: Fractal::None (one octave of amplitude 1, 1/Σa = 1); only the Gradient kernels and
+// Simplex's columns kernel have their own instance, the others treat it as kFbm.
 enum { kFbm = 0, kRidged = 1, kBillow = 2, kNone = 3 };
 
 template <int kFr>
@@ -1220,23 +1220,31 @@ HWY_NOINLINE void RowSimplexColumns(const NoiseKernelArgs& a, double z, const st
     return SimplexCellRow(rows[k], hn::Load(du32, l), hn::BitCast(df, hn::Load(du32, l + S)), hn::Load(du32, u),
                           hn::BitCast(df, hn::Load(du32, u + S)), hn::Set(df, cs[k]));
   };
+  // One octave (kNone): the reference's 0 + 1·n is n + 0 (−0 becomes +0), its ·(1/Σa) = ·1 is
+  // skipped (StoreGradient<kNone>).
+  auto sum = [&](int start) {
+    if constexpr (kFr == kNone) return hn::Add(octave(0, start), hn::Zero(df));
+    VF acc = hn::Zero(df);
+    for (int k = 0; k < a.count; ++k) acc = FoldF<kFr>(acc, hn::Set(df, amp[k]), octave(k, start));
+    return acc;
+  };
   constexpr int kU = 2;  // independent chains in flight, as RowGradientColumns
   const int end = (n + NF - 1) / NF * NF;
   int start = 0;
   for (; start + kU * NF <= end; start += kU * NF) {
     VF acc[kU];
-    for (int u = 0; u < kU; ++u) acc[u] = hn::Zero(df);
-    for (int k = 0; k < a.count; ++k) {
-      const VF ak = hn::Set(df, amp[k]);
-      for (int u = 0; u < kU; ++u) acc[u] = FoldF<kFr>(acc[u], ak, octave(k, start + u * NF));
+    if constexpr (kFr == kNone) {
+      for (int u = 0; u < kU; ++u) acc[u] = sum(start + u * NF);
+    } else {
+      for (int u = 0; u < kU; ++u) acc[u] = hn::Zero(df);
+      for (int k = 0; k < a.count; ++k) {
+        const VF ak = hn::Set(df, amp[k]);
+        for (int u = 0; u < kU; ++u) acc[u] = FoldF<kFr>(acc[u], ak, octave(k, start + u * NF));
+      }
     }
     for (int u = 0; u < kU; ++u) StoreGradient<kFr>(acc[u], inv, start + u * NF, NF, n, out);
   }
-  for (; start < n; start += NF) {
-    VF acc = hn::Zero(df);
-    for (int k = 0; k < a.count; ++k) acc = FoldF<kFr>(acc, hn::Set(df, amp[k]), octave(k, start));
-    StoreGradient<kFr>(acc, inv, start, NF, n, out);
-  }
+  for (; start < n; start += NF) StoreGradient<kFr>(sum(start), inv, start, NF, n, out);
 }
 
 // ---- dispatch on parameters, once per row ---------------------------------------------------------
@@ -1302,8 +1310,9 @@ void RowFromColumnsB(const NoiseKernelArgs& a, double z, const std::uint32_t* co
 }
 
 void RowFromColumns(const NoiseKernelArgs& a, double z, const std::uint32_t* cols, int stride, int n, float* out) {
-  if (a.basis == NoiseBasis::Simplex) {  // Fractal::None as fBm of one octave (RowSimplex)
-    if (a.fractal == Fractal::Ridged) RowSimplexColumns<kRidged>(a, z, cols, stride, n, out);
+  if (a.basis == NoiseBasis::Simplex) {
+    if (a.fractal == Fractal::None) RowSimplexColumns<kNone>(a, z, cols, stride, n, out);
+    else if (a.fractal == Fractal::Ridged) RowSimplexColumns<kRidged>(a, z, cols, stride, n, out);
     else if (a.fractal == Fractal::Billow) RowSimplexColumns<kBillow>(a, z, cols, stride, n, out);
     else RowSimplexColumns<kFbm>(a, z, cols, stride, n, out);
     return;
