@@ -1228,21 +1228,19 @@ HWY_NOINLINE void RowSimplexColumns(const NoiseKernelArgs& a, double z, const st
     for (int k = 0; k < a.count; ++k) acc = FoldF<kFr>(acc, hn::Set(df, amp[k]), octave(k, start));
     return acc;
   };
-  constexpr int kU = 2;  // independent chains in flight, as RowGradientColumns
+  constexpr int kU = 2;  // independent chains in flight, as RowGradientColumns (one octave: one pass)
   const int end = (n + NF - 1) / NF * NF;
   int start = 0;
-  for (; start + kU * NF <= end; start += kU * NF) {
-    VF acc[kU];
-    if constexpr (kFr == kNone) {
-      for (int u = 0; u < kU; ++u) acc[u] = sum(start + u * NF);
-    } else {
+  if constexpr (kFr != kNone) {
+    for (; start + kU * NF <= end; start += kU * NF) {
+      VF acc[kU];
       for (int u = 0; u < kU; ++u) acc[u] = hn::Zero(df);
       for (int k = 0; k < a.count; ++k) {
         const VF ak = hn::Set(df, amp[k]);
         for (int u = 0; u < kU; ++u) acc[u] = FoldF<kFr>(acc[u], ak, octave(k, start + u * NF));
       }
+      for (int u = 0; u < kU; ++u) StoreGradient<kFr>(acc[u], inv, start + u * NF, NF, n, out);
     }
-    for (int u = 0; u < kU; ++u) StoreGradient<kFr>(acc[u], inv, start + u * NF, NF, n, out);
   }
   for (; start < n; start += NF) StoreGradient<kFr>(sum(start), inv, start, NF, n, out);
 }
