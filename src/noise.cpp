@@ -5,8 +5,9 @@
 //     (https://mrl.cs.nyu.edu/~perlin/noise/): quintic fade, 12 gradient directions picked by
 //     the low 4 bits of a permutation hash, published permutation table.
 //   * Ken Perlin, simplex noise (2001), as explained by Stefan Gustavson, "Simplex noise
-//     demystified" (2005): skewed triangular lattice, three vertices per point, kernel
-//     max(0, ½ − |d|²)⁴ (simplex_cell).
+//     demystified" (2005): triangular lattice, three vertices per point, kernel
+//     max(0, r² − |d|²)⁴ with r the triangles' height (simplex_cell; here the lattice's rows run
+//     along x instead of being skewed along the diagonal).
 //   * Steven Worley, "A Cellular Texture Basis Function", SIGGRAPH 1996: F1, F2, cell identity.
 //   * F. K. Musgrave, in Ebert et al., "Texturing and Modeling: A Procedural Approach", ch. 16:
 //     fBm, ridged multifractal, billow. Normalised by the analytic amplitude sum Σ aₖ.
@@ -343,51 +344,78 @@ inline float gradient_core(const detail::NoiseOctave& o, const GRow& r, double u
   return gradient_axis(r, gaxis(u, o.period_x, o.inv_period_x));
 }
 
-// Simplex basis (float after the lattice split, Gradient's 32-bit hash and gradient set): classic
-// 2D simplex noise (Perlin 2001, as described by Gustavson 2005). The position (u, v) is skewed in
-// double, xs = u + (u + v)·F, ys = v + (u + v)·F with F = (√3 − 1)/2, and split into the cell
-// (i, j) (modulo 2³², from the mantissa as gaxis) and the fractions (xi, yi), rounded to float.
-// In float: the offset from vertex (i, j) is (x0, y0) = (xi − t, yi − t), t = (xi + yi)·G with
-// G = (3 − √3)/6; the second vertex is (i + 1, j) when xi > yi, else (i, j + 1), the third
-// (i + 1, j + 1). Each contributes max(0, ½ − |d|²)⁴·(g·d), g = Gradient's direction picked by
-// the top 3 bits of (X·Pₓ ⊕ Z·P_z ⊕ key)·M (8 directions at 22.5° + 45°·k, length √1.375). The
-// sum is scaled by c = kSimplexScale = 65.5 (ridged: 65.5·s, s = ridge_scale). The supremum of
-// the sum over positions and gradient choices is 0.0117213 (found numerically: grid search over
-// the cell, then local refinement), so |n| ≤ 65.5·0.0117213 = 0.768. The positions are in units
-// of the lattice scale √3/2 (kSimplexLattice, folded into each octave's frequency and offset).
-// Both constants make the basis look like the OpenSimplex2S-style one it replaced (r² = ⅔, 24
-// gradients, in double): the same standard deviation (0.417) and RMS derivative (1.73 per cycle),
-// measured over 1.4 M points; the `hills` preset relies on it.
-struct SCell {
-  std::uint32_t i, j;
-  float xi, yi;
+// Simplex basis (issue 17: float after the lattice split, Gradient's 32-bit hash and gradient set):
+// 2D simplex noise (Perlin 2001; kernel and three-vertex sum as described by Gustavson 2005) on a
+// triangular lattice of unit edge whose rows run along x, so that the column work depends on x
+// alone and the row work on z alone (as Gradient's lattice split). Lattice row J lies at height
+// J·h (h = √3/2); its vertices are at x = C (J even) or C + ½ (J odd), labelled (C, J). Positions
+// are in lattice units: u = x·f·Lx + offset (edges), v = z·f·Lz + offset (row heights), the
+// factors kSimplexLx, kSimplexLz folded into each octave's frequency and offset.
+//   Row (simplex_row): v split in double as gaxis, J = ⌊v⌋ modulo 2³², fr = float(v − ⌊v⌋); the
+//   row offsets dyL = fr·h, dyU = dyL − h of rows J and J + 1, and cL = ¾ − dyL², cU = ¾ − dyU².
+//   Column (simplex_col): u split in double as gaxis, i = ⌊u⌋, f = float(u − ⌊u⌋); the left
+//   vertex of an even row is C = i at offset dE = f, of an odd row C = i − 1, dO = f + ½ when
+//   f < ½, else C = i, dO = f − ½ (both in [0, 1]).
+//   Sample (simplex_cell): rows J and J + 1 each contribute their left vertex (offset d) and right
+//   vertex (d − 1, label C + 1), with row J's (dE, ·) or (dO, ·) by the parity of J and row J + 1
+//   the other: four terms max(0, c − d²)²·²·(g·(d, dy)) (c = the row's cL or cU, g = Gradient's
+//   direction picked by the top 3 bits of (C·Pₓ ⊕ J·P_z ⊕ key)·M, 8 directions at 22.5° + 45°·k,
+//   length √1.375), summed as (left J + right J) + (left J+1 + right J+1), times kSimplexScale
+//   (ridged: kSimplexScale·s, s = ridge_scale). The kernel radius is the triangles' height, so
+//   the vertex of the four that is not the containing triangle's is at least a radius away and
+//   adds 0: the classic three-vertex sum, without choosing the triangle.
+// All of u and v's size stays in the double split and the 32-bit labels: the float offsets are
+// within a cell whatever the distance from the origin. The supremum of the unscaled sum over
+// positions and gradient choices is 0.0726755 (grid over a triangle, then local refinement), so
+// |n| ≤ 10.564·0.0726755 = 0.768; the scale gives the standard deviation 0.417 (and the edge
+// length 2√2/3 cycles, the RMS derivative) of the skewed-square classic simplex it replaced
+// (before that, an OpenSimplex2S-style basis); the `hills` and `desert` presets rely on it.
+struct SRow {
+  std::uint32_t zpL, zpU;  // J·P_z ⊕ key, (J + 1)·P_z ⊕ key
+  float dyL, dyU, cL, cU;
+  bool odd;  // J odd
 };
-inline SCell simplex_split(double u, double v) {
-  const double s = (u + v) * detail::kSimplexSkew;
-  const double xs = u + s, ys = v + s;
-  const double fx = std::floor(xs), fy = std::floor(ys);
-  return {low32(fx), low32(fy), float(xs - fx), float(ys - fy)};
+struct SCol {
+  std::uint32_t xpE, xpO;  // C·Pₓ of the even and odd rows' left vertices
+  float dE, dO;
+};
+inline SRow simplex_row(std::uint32_t key32, double v) {
+  const double fl = std::floor(v);
+  const std::uint32_t j = low32(fl);
+  SRow r;
+  r.dyL = float(v - fl) * detail::kSimplexHf;
+  r.dyU = r.dyL - detail::kSimplexHf;
+  r.cL = detail::kSimplexR2f - r.dyL * r.dyL;
+  r.cU = detail::kSimplexR2f - r.dyU * r.dyU;
+  r.zpL = (j * detail::kGradPz) ^ key32;
+  r.zpU = (j * detail::kGradPz + detail::kGradPz) ^ key32;
+  r.odd = (j & 1u) != 0;
+  return r;
 }
-inline float simplex_term(std::uint32_t xp, std::uint32_t zp, float x, float y) {
-  float a = 0.5f - x * x - y * y;
+inline SCol simplex_col(double u) {
+  const double fl = std::floor(u);
+  SCol c;
+  c.dE = float(u - fl);
+  c.xpE = low32(fl) * detail::kGradPx;
+  const bool lo = c.dE < 0.5f;
+  c.xpO = lo ? c.xpE - detail::kGradPx : c.xpE;
+  c.dO = lo ? c.dE + 0.5f : c.dE - 0.5f;
+  return c;
+}
+inline float simplex_term(std::uint32_t xp, std::uint32_t zp, float dx, float dy, float c) {
+  float a = c - dx * dx;
   a = a > 0.0f ? a : 0.0f;
   const float a2 = a * a;
-  return (a2 * a2) * gcorner(xp, zp, x, y);
+  return (a2 * a2) * gcorner(xp, zp, dx, dy);
 }
-inline float simplex_cell(std::uint32_t key32, const SCell& c, float sc) {
-  const std::uint32_t xp0 = c.i * detail::kGradPx, xp1 = xp0 + detail::kGradPx;
-  const std::uint32_t jp = c.j * detail::kGradPz;
-  const std::uint32_t zp0 = jp ^ key32, zp1 = (jp + detail::kGradPz) ^ key32;
-  const float t = (c.xi + c.yi) * detail::kSimplexG2f;
-  const float x0 = c.xi - t, y0 = c.yi - t;
-  const bool m = c.xi > c.yi;
-  const float x1 = x0 + (m ? detail::kSimplexG2m1f : detail::kSimplexG2f);
-  const float y1 = y0 + (m ? detail::kSimplexG2f : detail::kSimplexG2m1f);
-  const float x2 = x0 + detail::kSimplex2G2m1f, y2 = y0 + detail::kSimplex2G2m1f;
-  float sum = simplex_term(xp0, zp0, x0, y0);
-  sum = sum + simplex_term(m ? xp1 : xp0, m ? zp0 : zp1, x1, y1);
-  sum = sum + simplex_term(xp1, zp1, x2, y2);
-  return sum * sc;
+inline float simplex_cell(const SRow& r, const SCol& c, float sc) {
+  const std::uint32_t xL = r.odd ? c.xpO : c.xpE, xU = r.odd ? c.xpE : c.xpO;
+  const float dL = r.odd ? c.dO : c.dE, dU = r.odd ? c.dE : c.dO;
+  const float lower = simplex_term(xL, r.zpL, dL, r.dyL, r.cL) +
+                      simplex_term(xL + detail::kGradPx, r.zpL, dL - 1.0f, r.dyL, r.cL);
+  const float upper = simplex_term(xU, r.zpU, dU, r.dyU, r.cU) +
+                      simplex_term(xU + detail::kGradPx, r.zpU, dU - 1.0f, r.dyU, r.cU);
+  return (lower + upper) * sc;
 }
 
 // Dyadic lattice (Gradient, lacunarity exactly 2, no period). Octave 0 is split in double as
@@ -509,11 +537,11 @@ detail::NoiseOctave make_octave(const NoiseSettings& s, std::uint64_t index, dou
   o.freq_z = o.period_z ? double(o.period_z) / s.period_z_m : fz;
   o.offset_x = 256.0 * unit_double(hash64(s.seed, kTagOffset, 2 * index));
   o.offset_z = 256.0 * unit_double(hash64(s.seed, kTagOffset, 2 * index + 1));
-  if (s.basis == NoiseBasis::Simplex) {  // the lattice scale (simplex_cell)
-    o.freq_x *= detail::kSimplexLattice;
-    o.freq_z *= detail::kSimplexLattice;
-    o.offset_x *= detail::kSimplexLattice;
-    o.offset_z *= detail::kSimplexLattice;
+  if (s.basis == NoiseBasis::Simplex) {  // lattice units: edges along x, row heights along z
+    o.freq_x *= detail::kSimplexLx;
+    o.freq_z *= detail::kSimplexLz;
+    o.offset_x *= detail::kSimplexLx;
+    o.offset_z *= detail::kSimplexLz;
   }
   o.amp = amp;
   o.ridge_scale = detail::ridged_scale(amp);
@@ -649,7 +677,7 @@ void run_simplex_reference(const NoiseSettings& s, const St& st, double z_m, XAt
   const float inv = float(st.inv_amp_sum);
   const float scale = float(detail::kSimplexScale);
   auto at = [](const detail::NoiseOctave& o, double x, double z, float c) {
-    return simplex_cell(o.key32, simplex_split(x * o.freq_x + o.offset_x, z * o.freq_z + o.offset_z), c);
+    return simplex_cell(simplex_row(o.key32, z * o.freq_z + o.offset_z), simplex_col(x * o.freq_x + o.offset_x), c);
   };
   for (int i = 0; i < n; ++i) {
     double x = x_at(i), z = z_m;
@@ -820,14 +848,13 @@ void Noise::row_reference(double z_m, std::int64_t i0, double dx_m, int n, float
 
 // Whether noise_rows_tables_simd is worth trying for `samples` samples: rows long enough to pay for
 // its per-row tables (Perlin builds 256 entries per octave and lattice row; Cellular its lattice
-// row's cells; Simplex only a strip of x terms). Shorter ones, and whatever it declines, take
-// noise_row_simd.
+// row's cells). Shorter ones, and whatever it declines, take noise_row_simd (Simplex always: its
+// blocks of rows take the columns path, Noise::rows).
 inline bool table_rows(const detail::NoiseKernelArgs& a, std::int64_t samples) {
   if (a.warp) return false;
   switch (a.basis) {
     case NoiseBasis::Perlin: return samples >= 128;
     case NoiseBasis::Cellular: return samples >= 32;
-    case NoiseBasis::Simplex: return samples >= 16;
     default: return false;
   }
 }

@@ -1,9 +1,9 @@
 // Block-of-rows noise kernels (issue 17) behind Noise::row and Noise::rows (noise.cpp) for the
-// Perlin, Cellular and Simplex bases without domain warp: per-row lattice tables and per-strip x
+// Perlin and Cellular bases without domain warp: per-row lattice tables and per-strip x
 // terms instead of per-sample lattice work.
 //
 // Sources: the definitions are those of noise.cpp (Perlin 2002 with a seeded permutation; Worley
-// 1996; classic 2D simplex after Gustavson 2005); this file only reorganises the work. Google
+// 1996); this file only reorganises the work. Google
 // Highway for the per-target compilation and run-time dispatch (the kernels themselves are AVX2
 // intrinsics, compiled for the AVX2 target and for the AVX-512 targets, which run them at 256 bits
 // except Perlin's and cellular's row loops, which have 512-bit forms there: on a Zen 4 they beat
@@ -29,8 +29,7 @@
 // the candidates that can win anywhere in it (CellLists); vectors inside one cell broadcast them;
 // the x-only terms once per block of rows (CellColumns). 8 lanes per vector on the AVX-512 targets.
 //
-// Simplex. The x positions' lattice coordinates once per strip of columns for the block; per 8
-// samples the reference's skew and split in double and its three vertices in float.
+// (Simplex's blocks of rows take noise_simd.cpp's columns path since its lattice rows run along x.)
 //
 // Exactness. Every value is computed by the operations of Noise::row_reference in the same order:
 // positions double(i0 + i)·dx (the index formed in double, exact below 2⁵², checked), the lattice
@@ -944,132 +943,6 @@ bool CellularRet(const NoiseKernelArgs& a, const double* z, int nrows, std::int6
   return true;
 }
 
-// ---- Simplex ----------------------------------------------------------------------------------------
-
-// noise.cpp's simplex_split and simplex_cell for 8 samples (two double halves u[0], u[1]; the row's
-// v), in float after the split, with Gradient's hash and gradient set: the same operations in the
-// same order. The x positions' lattice coordinates u come from a strip of columns computed once per
-// block of rows.
-HWY_INLINE __m256 SimplexTerm(__m256i xp, __m256i zp, __m256 x, __m256 y, __m256 gxt, __m256 gyt) {
-  __m256 a = _mm256_sub_ps(_mm256_sub_ps(_mm256_set1_ps(0.5f), _mm256_mul_ps(x, x)), _mm256_mul_ps(y, y));
-  a = _mm256_max_ps(a, _mm256_setzero_ps());  // a > 0 ? a : 0
-  const __m256 a2 = _mm256_mul_ps(a, a);
-  const __m256i k = _mm256_srli_epi32(_mm256_mullo_epi32(_mm256_xor_si256(xp, zp), _mm256_set1_epi32(std::int32_t(kGradM))), 29);
-  const __m256 g = _mm256_add_ps(_mm256_mul_ps(_mm256_permutevar8x32_ps(gxt, k), x), _mm256_mul_ps(_mm256_permutevar8x32_ps(gyt, k), y));
-  return _mm256_mul_ps(_mm256_mul_ps(a2, a2), g);
-}
-HWY_INLINE __m256i PackLow32(__m256d a, __m256d b) {  // low 32 bits of a's then b's int64 (magic-added)
-  const __m256 s = _mm256_shuffle_ps(_mm256_castpd_ps(a), _mm256_castpd_ps(b), _MM_SHUFFLE(2, 0, 2, 0));
-  return _mm256_castpd_si256(_mm256_permute4x64_pd(_mm256_castps_pd(s), _MM_SHUFFLE(3, 1, 2, 0)));
-}
-HWY_INLINE __m256 SimplexCell8(const double* u, __m256d v, __m256i key, __m256 c) {
-  const __m256d skew = _mm256_set1_pd(kSimplexSkew), magic = _mm256_set1_pd(kMagicInt);
-  __m256d fx[2], fy[2];
-  __m128 rx[2], ry[2];
-  for (int h = 0; h < 2; ++h) {
-    const __m256d uh = _mm256_loadu_pd(u + 4 * h);
-    const __m256d sk = _mm256_mul_pd(_mm256_add_pd(uh, v), skew);
-    const __m256d xs = _mm256_add_pd(uh, sk), ys = _mm256_add_pd(v, sk);
-    fx[h] = _mm256_round_pd(xs, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
-    fy[h] = _mm256_round_pd(ys, _MM_FROUND_TO_NEG_INF | _MM_FROUND_NO_EXC);
-    rx[h] = _mm256_cvtpd_ps(_mm256_sub_pd(xs, fx[h]));
-    ry[h] = _mm256_cvtpd_ps(_mm256_sub_pd(ys, fy[h]));
-  }
-  const __m256 xi = _mm256_set_m128(rx[1], rx[0]), yi = _mm256_set_m128(ry[1], ry[0]);
-  const __m256i i = PackLow32(_mm256_add_pd(fx[0], magic), _mm256_add_pd(fx[1], magic));
-  const __m256i j = PackLow32(_mm256_add_pd(fy[0], magic), _mm256_add_pd(fy[1], magic));
-  const __m256i px = _mm256_set1_epi32(std::int32_t(kGradPx)), pz = _mm256_set1_epi32(std::int32_t(kGradPz));
-  const __m256i xp0 = _mm256_mullo_epi32(i, px), xp1 = _mm256_add_epi32(xp0, px);
-  const __m256i jp = _mm256_mullo_epi32(j, pz);
-  const __m256i zp0 = _mm256_xor_si256(jp, key), zp1 = _mm256_xor_si256(_mm256_add_epi32(jp, pz), key);
-  const __m256 g2 = _mm256_set1_ps(kSimplexG2f), g2m1 = _mm256_set1_ps(kSimplexG2m1f), k2 = _mm256_set1_ps(kSimplex2G2m1f);
-  const __m256 t = _mm256_mul_ps(_mm256_add_ps(xi, yi), g2);
-  const __m256 x0 = _mm256_sub_ps(xi, t), y0 = _mm256_sub_ps(yi, t);
-  const __m256 m = _mm256_cmp_ps(xi, yi, _CMP_GT_OQ);
-  const __m256i mi = _mm256_castps_si256(m);
-  const __m256 x1 = _mm256_add_ps(x0, _mm256_blendv_ps(g2, g2m1, m)), y1 = _mm256_add_ps(y0, _mm256_blendv_ps(g2m1, g2, m));
-  const __m256 x2 = _mm256_add_ps(x0, k2), y2 = _mm256_add_ps(y0, k2);
-  const __m256 gxt = _mm256_loadu_ps(kGradDirX), gyt = _mm256_loadu_ps(kGradDirY);
-  __m256 sum = SimplexTerm(xp0, zp0, x0, y0, gxt, gyt);
-  sum = _mm256_add_ps(sum, SimplexTerm(_mm256_blendv_epi8(xp0, xp1, mi), _mm256_blendv_epi8(zp1, zp0, mi), x1, y1, gxt, gyt));
-  sum = _mm256_add_ps(sum, SimplexTerm(xp1, zp1, x2, y2, gxt, gyt));
-  return _mm256_mul_ps(sum, c);
-}
-
-// The x-only lattice coordinate u = double(first + i)·dx·f + offset of columns i in [0, m4).
-void SimplexColumns(const NoiseOctave& o, std::int64_t first, double dx, int m4, double* u) {
-  const __m256d iota = _mm256_setr_pd(0.0, 1.0, 2.0, 3.0), vdx = _mm256_set1_pd(dx);
-  const __m256d f = _mm256_set1_pd(o.freq_x), off = _mm256_set1_pd(o.offset_x);
-  for (int i = 0; i < m4; i += 4) {
-    const __m256d x = _mm256_mul_pd(_mm256_add_pd(_mm256_set1_pd(double(first + i)), iota), vdx);
-    _mm256_storeu_pd(u + i, _mm256_add_pd(_mm256_mul_pd(x, f), off));
-  }
-}
-
-template <int kFr>
-void SimplexRows(const NoiseKernelArgs& a, const double* z, int nrows, std::int64_t i0, double dx, int n, float* out,
-                 std::ptrdiff_t stride) {
-  const int count = a.count;
-  const int strip = std::min(kPerlinStrip, (n + 7) & ~7);
-  double* cu = Grow(tls.d, std::size_t(count) * strip);
-  const float scale = float(kSimplexScale);
-  __m256 amp[kMaxOctaves], cs[kMaxOctaves];
-  __m256i key[kMaxOctaves];
-  for (int k = 0; k < count; ++k) {
-    const NoiseOctave& o = a.octaves[k];
-    amp[k] = _mm256_set1_ps(kFr == 1 ? o.ridge_scale : float(o.amp));
-    cs[k] = _mm256_set1_ps(kFr == 1 ? scale * o.ridge_scale : scale);
-    key[k] = _mm256_set1_epi32(std::int32_t(o.key32));
-  }
-  const float inv = float(a.inv_amp_sum);
-  const __m256 vinv = _mm256_set1_ps(kFr == 1 ? inv + inv : inv), one = _mm256_set1_ps(1.0f), mone = _mm256_set1_ps(-1.0f);
-  for (int c0 = 0; c0 < n; c0 += strip) {
-    const int m = std::min(strip, n - c0), m8 = (m + 7) & ~7;
-    for (int k = 0; k < count; ++k) SimplexColumns(a.octaves[k], i0 + c0, dx, m8, cu + std::size_t(k) * strip);
-    for (int r = 0; r < nrows; ++r) {
-      __m256d v[kMaxOctaves];
-      for (int k = 0; k < count; ++k) v[k] = _mm256_set1_pd(z[r] * a.octaves[k].freq_z + a.octaves[k].offset_z);
-      float* dst = out + r * stride + c0;
-      // Two vectors per step: independent chains side by side.
-      auto step = [&](auto U, int i) {
-        constexpr int kN = decltype(U)::value;
-        __m256 acc[kN];
-        for (int u = 0; u < kN; ++u) acc[u] = _mm256_setzero_ps();
-        for (int k = 0; k < count; ++k) {
-          __m256 nk[kN];
-          for (int u = 0; u < kN; ++u) nk[u] = SimplexCell8(cu + std::size_t(k) * strip + i + 8 * u, v[k], key[k], cs[k]);
-          for (int u = 0; u < kN; ++u) {
-            if constexpr (kFr == 0) {
-              acc[u] = _mm256_add_ps(acc[u], _mm256_mul_ps(amp[k], nk[u]));
-            } else if constexpr (kFr == 1) {
-              const __m256 rr = _mm256_sub_ps(amp[k], _mm256_andnot_ps(_mm256_set1_ps(-0.0f), nk[u]));
-              acc[u] = _mm256_add_ps(acc[u], _mm256_mul_ps(rr, rr));
-            } else {
-              const __m256 an = _mm256_andnot_ps(_mm256_set1_ps(-0.0f), nk[u]);
-              acc[u] = _mm256_add_ps(acc[u], _mm256_mul_ps(amp[k], _mm256_sub_ps(_mm256_mul_ps(_mm256_set1_ps(2.0f), an), one)));
-            }
-          }
-        }
-        for (int u = 0; u < kN; ++u) {
-          // The reference's normalisation and clamp: v > −1 ? v : −1, then v < 1 ? v : 1.
-          __m256 res = kFr == 1 ? _mm256_sub_ps(_mm256_mul_ps(acc[u], vinv), one) : _mm256_mul_ps(acc[u], vinv);
-          res = _mm256_min_ps(_mm256_max_ps(res, mone), one);
-          const int at = i + 8 * u;
-          if (at + 8 <= m) {
-            _mm256_storeu_ps(dst + at, res);
-          } else {
-            alignas(32) float tmp[8];
-            _mm256_store_ps(tmp, res);
-            std::memcpy(dst + at, tmp, std::size_t(m - at) * sizeof(float));
-          }
-        }
-      };
-      int i = 0;
-      for (; i + 16 <= m8; i += 16) step(std::integral_constant<int, 2>(), i);
-      for (; i < m; i += 8) step(std::integral_constant<int, 1>(), i);
-    }
-  }
-}
 
 bool RowsTables(const NoiseKernelArgs& a, const double* z, int nrows, std::int64_t i0, double dx, int n, float* out,
                 std::ptrdiff_t stride) {
@@ -1083,11 +956,6 @@ bool RowsTables(const NoiseKernelArgs& a, const double* z, int nrows, std::int64
       if (fr == 1) PerlinRows<1>(a, z, nrows, i0, dx, n, out, stride);
       else if (fr == 2) PerlinRows<2>(a, z, nrows, i0, dx, n, out, stride);
       else PerlinRows<0>(a, z, nrows, i0, dx, n, out, stride);
-      return true;
-    case NoiseBasis::Simplex:
-      if (fr == 1) SimplexRows<1>(a, z, nrows, i0, dx, n, out, stride);
-      else if (fr == 2) SimplexRows<2>(a, z, nrows, i0, dx, n, out, stride);
-      else SimplexRows<0>(a, z, nrows, i0, dx, n, out, stride);
       return true;
     case NoiseBasis::Cellular:
       switch (a.cellular) {

@@ -30,9 +30,12 @@
 //   Value                             the Gradient kernel's lattice, rows and column terms, with
 //                                     a hashed 24-bit lattice value per corner (ValCorner)
 //                                     instead of a gradient dot product.
-//   Simplex                           skew and split in double, then float with Gradient's hash
-//                                     and gradient set: three vertices, the middle one chosen
-//                                     per lane by a select (RowSimplex).
+//   Simplex                           lattice rows along x (noise.cpp): the column split in
+//                                     double, then float with Gradient's hash and gradient set;
+//                                     the row's terms and its gy·dy products once per row; four
+//                                     vertices (two per lattice row, no triangle choice). Blocks
+//                                     of rows take their column terms from Noise::columns as
+//                                     Gradient does (RowSimplexColumns).
 //
 // Exactness. Every kernel performs the same IEEE operations in the same order as the scalar
 // reference (Noise::row_reference in noise.cpp): no FMA, no reassociation, no approximate
@@ -181,8 +184,8 @@ HWY_INLINE VI Next(VI i, std::int64_t period) {
 
 // ---- fractal folding (double) --------------------------------------------------------------------
 
-// kNone: Fractal::None (one octave of amplitude 1, 1/Σa = 1); only the Gradient kernel has its own
-// instance, the double-precision ones treat it as kFbm.
+// kNone: Fractal::None (one octave of amplitude 1, 1/Σa = 1); only the Gradient kernels and
+// Simplex's columns kernel have their own instance, the others treat it as kFbm.
 enum { kFbm = 0, kRidged = 1, kBillow = 2, kNone = 3 };
 
 template <int kFr>
@@ -826,48 +829,132 @@ HWY_NOINLINE void RowGradient(const NoiseKernelArgs& a, double z, std::int64_t i
   }
 }
 
-// ---- Simplex (float after the split, noise.cpp's simplex_split / simplex_cell) -----------------------
+// ---- Simplex (float after the split, noise.cpp's simplex_row / simplex_col / simplex_cell) ---------
 
-// One octave of simplex noise at lattice positions (u, v) (kHalves double vectors each), scaled
-// by c.
-HWY_INLINE VF SimplexCell(std::uint32_t key32, const VD (&u)[kHalves], const VD (&v)[kHalves], VF c) {
-  const DD d;
+// A lattice row's terms (simplex_row), scalar: the same operations as noise.cpp's.
+struct SimplexRowS {
+  std::uint32_t zpL, zpU;
+  float dyL, dyU, cL, cU;
+  bool odd;
+};
+HWY_INLINE SimplexRowS SimplexRowScalar(std::uint32_t key32, double v) {
+  const double fl = std::floor(v);
+  const double m = fl + kMagicInt;
+  std::uint64_t bits;
+  std::memcpy(&bits, &m, 8);
+  const std::uint32_t j = std::uint32_t(bits);
+  SimplexRowS r;
+  r.dyL = float(v - fl) * kSimplexHf;
+  r.dyU = r.dyL - kSimplexHf;
+  r.cL = kSimplexR2f - r.dyL * r.dyL;
+  r.cU = kSimplexR2f - r.dyU * r.dyU;
+  r.zpL = (j * kGradPz) ^ key32;
+  r.zpU = (j * kGradPz + kGradPz) ^ key32;
+  r.odd = (j & 1u) != 0;
+  return r;
+}
+// Per lattice row and octave: the row's terms broadcast, and the products gy[k]·dy of the 16-entry
+// gradient table (the same products gcorner forms per sample).
+struct SimplexRowV {
+  VU32 zpL, zpU;
+  VF cL, cU;
+  bool odd;
+  HWY_ALIGN float gyL[16];
+  HWY_ALIGN float gyU[16];
+};
+HWY_INLINE void SimplexMakeRow(std::uint32_t key32, double v, SimplexRowV& r) {
   const DF df;
   const DU32 du32;
-  const VD skew = hn::Set(d, kSimplexSkew);
-  VD fx[kHalves], fy[kHalves], rx[kHalves], ry[kHalves];
-  for (int h = 0; h < kHalves; ++h) {
-    const VD s = hn::Mul(hn::Add(u[h], v[h]), skew);
-    const VD xs = hn::Add(u[h], s), ys = hn::Add(v[h], s);
-    fx[h] = hn::Floor(xs);
-    fy[h] = hn::Floor(ys);
-    rx[h] = hn::Sub(xs, fx[h]);
-    ry[h] = hn::Sub(ys, fy[h]);
+  const SimplexRowS s = SimplexRowScalar(key32, v);
+  r.zpL = hn::Set(du32, s.zpL);
+  r.zpU = hn::Set(du32, s.zpU);
+  r.cL = hn::Set(df, s.cL);
+  r.cU = hn::Set(df, s.cU);
+  r.odd = s.odd;
+  for (int k = 0; k < 16; ++k) {
+    r.gyL[k] = kGradDirY[k] * s.dyL;
+    r.gyU[k] = kGradDirY[k] * s.dyU;
   }
-  const VF xi = JoinDemote(rx), yi = JoinDemote(ry);
-  const VU32 i = JoinLow32(fx), j = JoinLow32(fy);
-  const VU32 px = hn::Set(du32, kGradPx), pz = hn::Set(du32, kGradPz), key = hn::Set(du32, key32);
-  const VU32 xp0 = hn::Mul(i, px), xp1 = hn::Add(xp0, px);
+}
+// A column's terms (simplex_col) for a float vector's worth of positions u.
+struct SimplexColV {
+  VU32 xpE, xpO;
+  VF dE, dO;
+};
+HWY_INLINE SimplexColV SimplexCol(const VD (&u)[kHalves]) {
+  const DF df;
+  const DU32 du32;
+  VD fl[kHalves], fr[kHalves];
+  for (int h = 0; h < kHalves; ++h) {
+    fl[h] = hn::Floor(u[h]);
+    fr[h] = hn::Sub(u[h], fl[h]);
+  }
+  const VU32 px = hn::Set(du32, kGradPx);
+  const VF half = hn::Set(df, 0.5f);
+  SimplexColV c;
+  c.dE = JoinDemote(fr);
+  c.xpE = hn::Mul(JoinLow32(fl), px);
+  const auto lo = hn::Lt(c.dE, half);
+  c.xpO = hn::IfThenElse(hn::RebindMask(du32, lo), hn::Sub(c.xpE, px), c.xpE);
+  c.dO = hn::IfThenElse(lo, hn::Add(c.dE, half), hn::Sub(c.dE, half));
+  return c;
+}
+// One vertex's term (simplex_term): max(0, c − dx²)⁴·(gx·dx + gy·dy), gy·dy from the row's table
+// (gyt) or, per lane, from dy (kLaneDy: warped rows).
+HWY_INLINE VF SimplexTermT(VU32 xp, VU32 zp, VF dx, VF c, const float* gyt) {
+  const DF df;
+  const DU32 du32;
+  VF a = hn::Sub(c, hn::Mul(dx, dx));
+  a = hn::Max(a, hn::Zero(df));  // a > 0 ? a : 0 (a = −0 → either zero: a² = +0)
+  const VF a2 = hn::Mul(a, a);
+  const VU32 k = hn::ShiftRight<29>(hn::Mul(hn::Xor(xp, zp), hn::Set(du32, kGradM)));
+  const VF g = hn::Add(hn::Mul(Lookup8(kGradDirX, k), dx), Lookup8(gyt, k));
+  return hn::Mul(hn::Mul(a2, a2), g);
+}
+HWY_INLINE VF SimplexTermV(VU32 xp, VU32 zp, VF dx, VF dy, VF c) {
+  const DF df;
+  VF a = hn::Sub(c, hn::Mul(dx, dx));
+  a = hn::Max(a, hn::Zero(df));
+  const VF a2 = hn::Mul(a, a);
+  return hn::Mul(hn::Mul(a2, a2), GradCorner(xp, zp, dx, dy));
+}
+// simplex_cell from the lower and upper rows' left vertices (xL, dL), (xU, dU) and a row's terms.
+HWY_INLINE VF SimplexCellRow(const SimplexRowV& r, VU32 xL, VF dL, VU32 xU, VF dU, VF c) {
+  const DF df;
+  const DU32 du32;
+  const VU32 px = hn::Set(du32, kGradPx);
+  const VF one = hn::Set(df, 1.0f);
+  const VF lower = hn::Add(SimplexTermT(xL, r.zpL, dL, r.cL, r.gyL), SimplexTermT(hn::Add(xL, px), r.zpL, hn::Sub(dL, one), r.cL, r.gyL));
+  const VF upper = hn::Add(SimplexTermT(xU, r.zpU, dU, r.cU, r.gyU), SimplexTermT(hn::Add(xU, px), r.zpU, hn::Sub(dU, one), r.cU, r.gyU));
+  return hn::Mul(hn::Add(lower, upper), c);
+}
+HWY_INLINE VF SimplexCellFixedRow(const SimplexRowV& r, const SimplexColV& k, VF c) {
+  return r.odd ? SimplexCellRow(r, k.xpO, k.dO, k.xpE, k.dE, c) : SimplexCellRow(r, k.xpE, k.dE, k.xpO, k.dO, c);
+}
+// simplex_cell with the row split per lane (warp).
+HWY_INLINE VF SimplexCellLanes(std::uint32_t key32, const VD (&u)[kHalves], const VD (&v)[kHalves], VF c) {
+  const DF df;
+  const DU32 du32;
+  const SimplexColV k = SimplexCol(u);
+  VD fl[kHalves], fr[kHalves];
+  for (int h = 0; h < kHalves; ++h) {
+    fl[h] = hn::Floor(v[h]);
+    fr[h] = hn::Sub(v[h], fl[h]);
+  }
+  const VF hgt = hn::Set(df, kSimplexHf), r2 = hn::Set(df, kSimplexR2f), one = hn::Set(df, 1.0f);
+  const VF dyL = hn::Mul(JoinDemote(fr), hgt), dyU = hn::Sub(dyL, hgt);
+  const VF cL = hn::Sub(r2, hn::Mul(dyL, dyL)), cU = hn::Sub(r2, hn::Mul(dyU, dyU));
+  const VU32 j = JoinLow32(fl);
+  const VU32 pz = hn::Set(du32, kGradPz), px = hn::Set(du32, kGradPx), key = hn::Set(du32, key32);
   const VU32 jp = hn::Mul(j, pz);
-  const VU32 zp0 = hn::Xor(jp, key), zp1 = hn::Xor(hn::Add(jp, pz), key);
-  const VF g2 = hn::Set(df, kSimplexG2f), g2m1 = hn::Set(df, kSimplexG2m1f), k2 = hn::Set(df, kSimplex2G2m1f);
-  const VF t = hn::Mul(hn::Add(xi, yi), g2);
-  const VF x0 = hn::Sub(xi, t), y0 = hn::Sub(yi, t);
-  const auto m = hn::Gt(xi, yi);
-  const auto mu = hn::RebindMask(du32, m);
-  const VF x1 = hn::Add(x0, hn::IfThenElse(m, g2m1, g2)), y1 = hn::Add(y0, hn::IfThenElse(m, g2, g2m1));
-  const VF x2 = hn::Add(x0, k2), y2 = hn::Add(y0, k2);
-  const VF half = hn::Set(df, 0.5f), zero = hn::Zero(df);
-  auto term = [&](VU32 xp, VU32 zp, VF x, VF y) {
-    VF a = hn::Sub(hn::Sub(half, hn::Mul(x, x)), hn::Mul(y, y));
-    a = hn::IfThenElse(hn::Gt(a, zero), a, zero);
-    const VF a2 = hn::Mul(a, a);
-    return hn::Mul(hn::Mul(a2, a2), GradCorner(xp, zp, x, y));
-  };
-  VF sum = term(xp0, zp0, x0, y0);
-  sum = hn::Add(sum, term(hn::IfThenElse(mu, xp1, xp0), hn::IfThenElse(mu, zp0, zp1), x1, y1));
-  sum = hn::Add(sum, term(xp1, zp1, x2, y2));
-  return hn::Mul(sum, c);
+  const VU32 zpL = hn::Xor(jp, key), zpU = hn::Xor(hn::Add(jp, pz), key);
+  const auto oddu = hn::Ne(hn::And(j, hn::Set(du32, 1u)), hn::Zero(du32));
+  const auto odd = hn::RebindMask(df, oddu);
+  const VU32 xL = hn::IfThenElse(oddu, k.xpO, k.xpE), xU = hn::IfThenElse(oddu, k.xpE, k.xpO);
+  const VF dL = hn::IfThenElse(odd, k.dO, k.dE), dU = hn::IfThenElse(odd, k.dE, k.dO);
+  const VF lower = hn::Add(SimplexTermV(xL, zpL, dL, dyL, cL), SimplexTermV(hn::Add(xL, px), zpL, hn::Sub(dL, one), dyL, cL));
+  const VF upper = hn::Add(SimplexTermV(xU, zpU, dU, dyU, cU), SimplexTermV(hn::Add(xU, px), zpU, hn::Sub(dU, one), dyU, cU));
+  return hn::Mul(hn::Add(lower, upper), c);
 }
 
 // Fractal::None is evaluated as fBm of one octave (amplitude 1, 1/Σa = 1: the same bits).
@@ -880,12 +967,12 @@ HWY_NOINLINE void RowSimplex(const NoiseKernelArgs& a, double z, std::int64_t i0
   constexpr bool kR = kFr == kRidged;
   const float scale = float(kSimplexScale);
   float amp[kMaxOctaves], cs[kMaxOctaves];
-  VD vrow[kMaxOctaves];
+  SimplexRowV rows[kWarp ? 1 : kMaxOctaves];
   for (int k = 0; k < a.count; ++k) {
     const NoiseOctave& o = a.octaves[k];
     amp[k] = kR ? o.ridge_scale : float(o.amp);
     cs[k] = kR ? scale * o.ridge_scale : scale;
-    vrow[k] = hn::Set(d, z * o.freq_z + o.offset_z);
+    if constexpr (!kWarp) SimplexMakeRow(o.key32, z * o.freq_z + o.offset_z, rows[k]);
   }
   const VD vz = hn::Set(d, z), vdx = hn::Set(d, dx), wm = hn::Set(d, a.warp_m);
   const VF inv = hn::Set(df, float(a.inv_amp_sum)), vscale = hn::Set(df, scale);
@@ -906,8 +993,8 @@ HWY_NOINLINE void RowSimplex(const NoiseKernelArgs& a, double z, std::int64_t i0
       lat(zl, w1.freq_z, w1.offset_z, v1);
       lat(x, w0.freq_x, w0.offset_x, u0);
       lat(zl, w0.freq_z, w0.offset_z, v0);
-      SplitPromote(SimplexCell(w1.key32, u1, v1, vscale), n1d);
-      SplitPromote(SimplexCell(w0.key32, u0, v0, vscale), n0d);
+      SplitPromote(SimplexCellLanes(w1.key32, u1, v1, vscale), n1d);
+      SplitPromote(SimplexCellLanes(w0.key32, u0, v0, vscale), n0d);
       for (int h = 0; h < kHalves; ++h) {
         zl[h] = hn::Add(vz, hn::Mul(wm, n1d[h]));
         x[h] = hn::Add(x[h], hn::Mul(wm, n0d[h]));
@@ -916,13 +1003,17 @@ HWY_NOINLINE void RowSimplex(const NoiseKernelArgs& a, double z, std::int64_t i0
     VF acc = hn::Zero(df);
     for (int k = 0; k < a.count; ++k) {
       const NoiseOctave& o = a.octaves[k];
-      VD u[kHalves], v[kHalves];
+      VD u[kHalves];
       lat(x, o.freq_x, o.offset_x, u);
-      if constexpr (kWarp)
+      VF nk;
+      if constexpr (kWarp) {
+        VD v[kHalves];
         lat(zl, o.freq_z, o.offset_z, v);
-      else
-        for (int h = 0; h < kHalves; ++h) v[h] = vrow[k];
-      acc = FoldF<kFr>(acc, hn::Set(df, amp[k]), SimplexCell(o.key32, u, v, hn::Set(df, cs[k])));
+        nk = SimplexCellLanes(o.key32, u, v, hn::Set(df, cs[k]));
+      } else {
+        nk = SimplexCellFixedRow(rows[k], SimplexCol(u), hn::Set(df, cs[k]));
+      }
+      acc = FoldF<kFr>(acc, hn::Set(df, amp[k]), nk);
     }
     StoreGradient<kFr>(acc, inv, start, NF, n, out);
   }
@@ -1063,6 +1154,97 @@ HWY_NOINLINE void RowGradientColumns(const NoiseKernelArgs& a, double z, const s
   }
 }
 
+// ---- Simplex from per-column terms (Noise::columns / rows: no warp) ---------------------------------
+
+// Per octave: simplex_col's xpE, dE, xpO, dO (noise_simd.hpp, kColumnArrays), the same operations
+// as SimplexCol.
+HWY_NOINLINE void ColumnsSimplex(const NoiseKernelArgs& a, std::int64_t i0, double dx, int npad, std::uint32_t* cols,
+                                 int stride) {
+  const DD d;
+  const DI di;
+  const DF df;
+  const DU32 du32;
+  const int N = int(hn::Lanes(d)), NF = kHalves * N;
+  const VD vdx = hn::Set(d, dx);
+  const VI iota = hn::Iota(di, 0);
+  const std::size_t S = std::size_t(stride);
+  for (int start = 0; start < npad; start += NF) {
+    VD x[kHalves];
+    for (int h = 0; h < kHalves; ++h)
+      x[h] = hn::Mul(hn::ConvertTo(d, hn::Add(iota, hn::Set(di, i0 + start + h * N))), vdx);
+    for (int k = 0; k < a.count; ++k) {
+      const NoiseOctave& o = a.octaves[k];
+      VD u[kHalves];
+      for (int h = 0; h < kHalves; ++h) u[h] = hn::Add(hn::Mul(x[h], hn::Set(d, o.freq_x)), hn::Set(d, o.offset_x));
+      const SimplexColV c = SimplexCol(u);
+      std::uint32_t* p = cols + std::size_t(k) * kColumnArrays * S + std::size_t(start);
+      hn::Store(c.xpE, du32, p);
+      hn::Store(hn::BitCast(du32, c.dE), du32, p + S);
+      hn::Store(c.xpO, du32, p + 2 * S);
+      hn::Store(hn::BitCast(du32, c.dO), du32, p + 3 * S);
+      (void)df;
+    }
+  }
+}
+
+// RowSimplex without warp, its per-sample x work replaced by loads of the columns' terms: per
+// octave, the lower lattice row's left vertices are the even (J even) or odd arrays, the upper
+// row's the others.
+template <int kFr>
+HWY_NOINLINE void RowSimplexColumns(const NoiseKernelArgs& a, double z, const std::uint32_t* cols, int stride, int n,
+                                    float* out) {
+  const DD d;
+  const DF df;
+  const DU32 du32;
+  const int NF = kHalves * int(hn::Lanes(d));
+  const std::size_t S = std::size_t(stride);
+  constexpr bool kR = kFr == kRidged;
+  const float scale = float(kSimplexScale);
+  float amp[kMaxOctaves], cs[kMaxOctaves];
+  SimplexRowV rows[kMaxOctaves];
+  const std::uint32_t* lo[kMaxOctaves];
+  const std::uint32_t* up[kMaxOctaves];
+  for (int k = 0; k < a.count; ++k) {
+    const NoiseOctave& o = a.octaves[k];
+    amp[k] = kR ? o.ridge_scale : float(o.amp);
+    cs[k] = kR ? scale * o.ridge_scale : scale;
+    SimplexMakeRow(o.key32, z * o.freq_z + o.offset_z, rows[k]);
+    const std::uint32_t* c = cols + std::size_t(k) * kColumnArrays * S;
+    lo[k] = rows[k].odd ? c + 2 * S : c;
+    up[k] = rows[k].odd ? c : c + 2 * S;
+  }
+  const VF inv = hn::Set(df, float(a.inv_amp_sum));
+  auto octave = [&](int k, int start) {
+    const std::uint32_t* l = lo[k] + start;
+    const std::uint32_t* u = up[k] + start;
+    return SimplexCellRow(rows[k], hn::Load(du32, l), hn::BitCast(df, hn::Load(du32, l + S)), hn::Load(du32, u),
+                          hn::BitCast(df, hn::Load(du32, u + S)), hn::Set(df, cs[k]));
+  };
+  // One octave (kNone): the reference's 0 + 1·n is n + 0 (−0 becomes +0), its ·(1/Σa) = ·1 is
+  // skipped (StoreGradient<kNone>).
+  auto sum = [&](int start) {
+    if constexpr (kFr == kNone) return hn::Add(octave(0, start), hn::Zero(df));
+    VF acc = hn::Zero(df);
+    for (int k = 0; k < a.count; ++k) acc = FoldF<kFr>(acc, hn::Set(df, amp[k]), octave(k, start));
+    return acc;
+  };
+  constexpr int kU = 2;  // independent chains in flight, as RowGradientColumns (one octave: one pass)
+  const int end = (n + NF - 1) / NF * NF;
+  int start = 0;
+  if constexpr (kFr != kNone) {
+    for (; start + kU * NF <= end; start += kU * NF) {
+      VF acc[kU];
+      for (int u = 0; u < kU; ++u) acc[u] = hn::Zero(df);
+      for (int k = 0; k < a.count; ++k) {
+        const VF ak = hn::Set(df, amp[k]);
+        for (int u = 0; u < kU; ++u) acc[u] = FoldF<kFr>(acc[u], ak, octave(k, start + u * NF));
+      }
+      for (int u = 0; u < kU; ++u) StoreGradient<kFr>(acc[u], inv, start + u * NF, NF, n, out);
+    }
+  }
+  for (; start < n; start += NF) StoreGradient<kFr>(sum(start), inv, start, NF, n, out);
+}
+
 // ---- dispatch on parameters, once per row ---------------------------------------------------------
 
 using Fn = void (*)(const NoiseKernelArgs&, double, std::int64_t, double, int, float*);
@@ -1104,6 +1286,10 @@ Fn PickGradientFractal(const NoiseKernelArgs& a, int fr, bool px, bool pz) {
 }  // namespace
 
 void ColumnTerms(const NoiseKernelArgs& a, std::int64_t i0, double dx, int npad, std::uint32_t* cols, int stride) {
+  if (a.basis == NoiseBasis::Simplex) {
+    ColumnsSimplex(a, i0, dx, npad, cols, stride);
+    return;
+  }
   const bool px = a.periodic && a.octaves[0].period_x != 0;
   if (px)
     ColumnsGradient<true>(a, i0, dx, npad, cols, stride);
@@ -1122,6 +1308,13 @@ void RowFromColumnsB(const NoiseKernelArgs& a, double z, const std::uint32_t* co
 }
 
 void RowFromColumns(const NoiseKernelArgs& a, double z, const std::uint32_t* cols, int stride, int n, float* out) {
+  if (a.basis == NoiseBasis::Simplex) {
+    if (a.fractal == Fractal::None) RowSimplexColumns<kNone>(a, z, cols, stride, n, out);
+    else if (a.fractal == Fractal::Ridged) RowSimplexColumns<kRidged>(a, z, cols, stride, n, out);
+    else if (a.fractal == Fractal::Billow) RowSimplexColumns<kBillow>(a, z, cols, stride, n, out);
+    else RowSimplexColumns<kFbm>(a, z, cols, stride, n, out);
+    return;
+  }
   if (a.basis == NoiseBasis::Value)
     RowFromColumnsB<true>(a, z, cols, stride, n, out);
   else

@@ -82,18 +82,18 @@ constexpr float kValueScale = 0x1p-23f;
 // Shared with noise.cpp, which defines the tables from its constexpr generators.
 constexpr std::uint64_t kLatticePx = 0x9E3779B97F4A7C15ull;  // Cellular hashing
 constexpr std::uint64_t kLatticePz = 0xC2B2AE3D27D4EB4Full;
-constexpr double kSimplexSkew = 0.36602540378443864676;    // (√3 − 1)/2: input → lattice space
-constexpr double kSimplexUnskew = 0.21132486540518711775;  // (3 − √3)/6: lattice → input space
-// Simplex (noise.cpp, simplex_cell): G, G − 1 and 2G − 1 in float; the sum's scale (below
-// 1/sup = 85.3144… of the three vertices' kernel sum with Gradient's gradient set, chosen to give
-// the standard deviation of the OpenSimplex2S definition it replaced); the lattice scale √3/2
-// applied to each octave's frequency and offset (the kernel radius √½ of the lattice becomes √⅔
-// cycles of the frequency, OpenSimplex2S's).
-constexpr float kSimplexG2f = float(kSimplexUnskew);
-constexpr float kSimplexG2m1f = kSimplexG2f - 1.0f;
-constexpr float kSimplex2G2m1f = float(2.0 * kSimplexUnskew - 1.0);
-constexpr double kSimplexScale = 65.5;
-constexpr double kSimplexLattice = 0.86602540378443864676;  // √3/2
+// Simplex (noise.cpp, "Simplex basis"): a triangular lattice of unit edge with rows along x. Each
+// octave's x frequency and offset are multiplied by kSimplexLx, its z ones by kSimplexLz, giving
+// the column coordinate in edges and the row coordinate in row heights (√3/2 edges): the edge is
+// 2√2/3 cycles of the frequency, the size the skewed-square definitions before it had. The
+// kernel is max(0, ¾ − |d|²)⁴ (radius = the triangle's height) and the sum is scaled by
+// kSimplexScale (the standard deviation 0.417 of the definitions before it; the supremum of
+// the unscaled sum with Gradient's gradients is 0.0726755, so |n| ≤ 0.768).
+constexpr double kSimplexLx = 1.0606601717798212866;  // 3/(2√2)
+constexpr double kSimplexLz = 1.2247448713915890491;  // √(3/2)
+constexpr float kSimplexHf = float(0.86602540378443864676);  // row height √3/2, in edges
+constexpr float kSimplexR2f = 0.75f;                          // kernel radius², edges²
+constexpr double kSimplexScale = 10.564;
 constexpr double kCell2m21 = 1.0 / 2097152.0;              // 2⁻²¹
 extern const double kPerlinGradX[16], kPerlinGradY[16];    // grad3(h, x, y, 0) = X[h]·x + Y[h]·y
 
@@ -117,14 +117,16 @@ struct NoiseKernelArgs {
 // the best Highway target this CPU supports (or the one forced below).
 void noise_row_simd(const NoiseKernelArgs& a, double z_m, std::int64_t i0, double dx, int n, float* out);
 
-// Per-column terms (Noise::columns): only the Gradient basis without warp has x-only terms.
+// Per-column terms (Noise::columns): the Gradient, Value and Simplex bases without warp have x-only terms.
 // Layout: for octave k and array f (kColumnArrays of them: i0·Pₓ, i1·Pₓ as uint32; fx, fx − 1 and
 // fade(fx) as float bits; ridged: s·fx and s·fx − s, see ridged_scale), entry i is at
 // cols[(k·kColumnArrays + f)·stride + i]; stride is a multiple of 16, cols 64-byte aligned.
+// Simplex's arrays: the even and the odd lattice rows' left vertex, C·Pₓ as uint32 and the
+// offset dX as float bits, then an unused one (noise.cpp, simplex_col).
 // Target-independent (natural lane order, exact values).
 constexpr int kColumnArrays = 5;
 inline bool noise_columns_supported(const NoiseKernelArgs& a) {
-  return (a.basis == NoiseBasis::Gradient || a.basis == NoiseBasis::Value) && !a.warp;
+  return (a.basis == NoiseBasis::Gradient || a.basis == NoiseBasis::Value || a.basis == NoiseBasis::Simplex) && !a.warp;
 }
 // Fills the arrays for x = double(i0 + i)·dx, i in [0, npad) (npad a multiple of 16).
 void noise_columns_simd(const NoiseKernelArgs& a, std::int64_t i0, double dx, int npad, std::uint32_t* cols,

@@ -549,8 +549,10 @@ TEST(Determinism, GoldenHashes) {
   // Value's changed when it moved onto Gradient's lattice (float after the split, 32-bit hash, the
   // dyadic lattice; before: 61294467917285867). Simplex's when it became classic 2D simplex in
   // float after the split with Gradient's hash and gradients (before: OpenSimplex2S-style in
-  // double with mix64, 8073379351779952972).
-  const std::uint64_t golden[] = {14078382463606979733ull, 17386216502324077835ull, 17699549929353863398ull,
+  // double with mix64, 8073379351779952972), and again when its triangular lattice's rows were
+  // laid along x, the column and row splits separate as Gradient's (issue 17; before:
+  // 17386216502324077835, skewed along the diagonal).
+  const std::uint64_t golden[] = {14078382463606979733ull, 5761829219363540081ull, 17699549929353863398ull,
                                   8949554707693066234ull, 14297808085583764422ull};
   int k = 0;
   for (NoiseBasis b : kAllBases) {

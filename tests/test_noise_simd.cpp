@@ -146,8 +146,9 @@ TEST(SimdTargets, SixteenOctavesAndZPeriodOnly) {
   }
 }
 
-// Simplex's vector path picks its middle vertex per lane by a select; dense grids put samples on
-// and near every cell edge, lattice vertex, simplex diagonal and kernel boundary. Perlin's AVX-512 path looks its table
+// Simplex's vector path picks its lattice rows' vertex arrays per lane by selects (warp) or per row;
+// dense grids put samples on and near every cell edge, lattice vertex, triangle edge and kernel
+// boundary. Perlin's AVX-512 path looks its table
 // up with 16-bit permutes: rows of 2048 samples at frequency 1 cross every one of its 256 cells.
 TEST(SimdTargets, SimplexAndPerlinDenseGridsBitIdenticalToScalarReference) {
   for (const auto& t : detail::noise_simd_targets()) {
@@ -650,10 +651,11 @@ TEST(Value, DyadicFbmStatisticsMatchTheSeededOffsets) {
 
 // ---- Simplex: range and isotropy ------------------------------------------------------------------
 
-// The scale bounds |n| by 65.5·0.0117213 = 0.7678 (noise.cpp, simplex_cell); the noise comes close
-// to that bound, has mean 0 and the standard deviation of the OpenSimplex2S-style definition it
-// replaced (0.4174 on these samples), and its derivatives have the same variance along x, z and
-// both diagonals (the triangular lattice and the 8 gradient directions leave no preferred axis).
+// The scale bounds |n| by 10.564·0.0726755 = 0.7678 (noise.cpp, simplex_cell); the noise comes close
+// to that bound, has mean 0 and the standard deviation of the definitions it replaced (0.4174 on
+// these samples for the skewed-square classic simplex), and its derivatives have the same variance
+// along x, z and both diagonals (the triangular lattice and the 8 gradient directions leave no
+// preferred axis, whichever way the lattice's rows run).
 TEST(Simplex, RangeMeanAndIsotropicDerivatives) {
   const Moments s = moments(NoiseBasis::Simplex, 1.0 / 16.0, 64);
   std::printf("simplex sd %.5f mean %.5f extremes %.4f %.4f; 0.1%%/99.9%% quantiles %.3f %.3f; derivative variance "
@@ -667,6 +669,57 @@ TEST(Simplex, RangeMeanAndIsotropicDerivatives) {
   EXPECT_NEAR(s.sd, 0.4174, 0.01);
   const auto [lo, hi] = std::minmax_element(std::begin(s.dvar), std::end(s.dvar));
   EXPECT_LT(*hi / *lo, 1.05);
+}
+
+// The definition (noise.cpp, "Simplex basis"), evaluated independently in double: a triangular
+// lattice of unit edge, rows J at height J·√3/2 along x, vertex (C, J) at x = C (+ ½ for odd J),
+// every vertex within the kernel's radius summed (not only the containing triangle's), Gradient's
+// hash and directions, against Noise::at: equal to float precision, near the origin and a billion
+// metres out (the float offsets are relative to the lattice cell, the position's size stays in
+// the double split). Octave 0's offsets and key are those of make_octave (noise.cpp).
+double simplex_by_definition(std::uint64_t seed, double f, double x, double z) {
+  constexpr std::uint64_t kTagTable = 0x7461626c65ull, kTagOffset = 0x6f6666736574ull;
+  const double ox = 256.0 * unit_double(hash64(seed, kTagOffset, 0)) * detail::kSimplexLx;
+  const double oz = 256.0 * unit_double(hash64(seed, kTagOffset, 1)) * detail::kSimplexLz;
+  const std::uint64_t key = hash64(seed, kTagTable, 0);
+  const std::uint32_t key32 = std::uint32_t(key ^ (key >> 32));
+  const double u = x * (f * detail::kSimplexLx) + ox, v = z * (f * detail::kSimplexLz) + oz;  // edges, row heights
+  const double h = std::sqrt(3.0) / 2.0;
+  const std::int64_t i = std::int64_t(std::floor(u)), j = std::int64_t(std::floor(v));
+  double sum = 0;
+  int near = 0;
+  for (std::int64_t J = j - 2; J <= j + 3; ++J)
+    for (std::int64_t C = i - 3; C <= i + 3; ++C) {
+      const double dx = (u - double(i)) - (double(C - i) + ((J & 1) ? 0.5 : 0.0));
+      const double dy = (v - double(J)) * h;
+      const double att = 0.75 - (dx * dx + dy * dy);
+      if (att <= 0) continue;
+      near += att > 1e-12;
+      const std::uint32_t k = (((std::uint32_t(C) * detail::kGradPx) ^ (std::uint32_t(J) * detail::kGradPz) ^ key32) *
+                               detail::kGradM) >> 29;
+      sum += std::pow(att, 4) * (double(detail::kGradDirX[k]) * dx + double(detail::kGradDirY[k]) * dy);
+    }
+  EXPECT_LE(near, 3) << "more than a triangle's vertices within the kernel's radius at " << x << ", " << z;
+  return sum * detail::kSimplexScale;
+}
+TEST(Simplex, MatchesItsDefinitionEvaluatedIndependently) {
+  for (double far : {0.0, 1e9, -3.7e8}) {
+    const std::uint64_t seed = 41;
+    const double f = 1.0 / 7.0;
+    NoiseSettings s = single(NoiseBasis::Simplex, seed, f);
+    const Noise n(s);
+    double worst = 0, spread = 0;
+    for (std::uint64_t i = 0; i < 20000; ++i) {
+      const double x = far - 300 + 600 * unit_double(hash64(0x51, i)), z = -far - 300 + 600 * unit_double(hash64(0x52, i));
+      const double ref = simplex_by_definition(seed, f, x, z);
+      worst = std::max(worst, std::fabs(double(n.at(x, z)) - ref));
+      spread = std::max(spread, std::fabs(ref));
+    }
+    std::printf("simplex at %.3g m: largest difference to the definition in double %.3g (values up to %.3f)\n", far,
+                worst, spread);
+    EXPECT_LT(worst, 2e-5) << far;
+    EXPECT_GT(spread, 0.6) << far;
+  }
 }
 
 }  // namespace

@@ -6,7 +6,7 @@
 //     With Perlin's published permutation, perlin_reference(x, y, z) reproduces his Java
 //     ImprovedNoise.noise exactly (double precision).
 //   * Simplex noise (Ken Perlin, 2001), as explained by Stefan Gustavson, "Simplex noise
-//     demystified" (2005): gradient noise on the skewed triangular lattice, three vertices per point.
+//     demystified" (2005): gradient noise on a triangular lattice, three vertices per point.
 //   * Steven Worley, "A Cellular Texture Basis Function", SIGGRAPH 1996 (F1, F2, cell id).
 //   * Gradient: our arithmetic-hash gradient noise (Perlin's construction, with the permutation
 //     table replaced by an integer hash of the lattice coordinates as in FastNoise2 and
@@ -62,9 +62,10 @@ struct NoiseSettings {
 class Noise;
 
 // The terms of a window of columns that depend only on x (per octave: the lattice cells' hash
-// terms i0·Pₓ and i1·Pₓ, the fraction fx, fx − 1 and its fade), computed once by Noise::columns()
-// and reused for every row: Noise::row(z_m, columns, out) then only does the per-row work. Only the
-// Gradient and Value bases without domain warp have such terms (warp moves x per row); for every other
+// terms i0·Pₓ and i1·Pₓ, the fraction fx, fx − 1 and its fade; Simplex: the left vertex of an even
+// and of an odd lattice row), computed once by Noise::columns() and reused for every row:
+// Noise::row(z_m, columns, out) then only does the per-row work. Only the Gradient, Value and Simplex bases
+// without domain warp have such terms (warp moves x per row); for every other
 // setting the object just remembers the window and row() falls back to the plain row kernel. The
 // values are the same, bit for bit, either way. Memory: 20 bytes per column per octave.
 class NoiseColumns {
@@ -113,12 +114,14 @@ class NoiseColumns {
 //   Perlin    improved Perlin 2D (exactly perlin2 with the octave's table); one octave repeats
 //             every 256 of its own cells (the table's period), the per-octave tables and offsets
 //             keep the octaves of a sum from repeating together.
-//   Simplex   classic 2D simplex: the position, in units of the lattice scale √3/2, is skewed and
-//             split into a cell in double, then in float Σ over the point's three simplex vertices
-//             of max(0, ½ − |d|²)⁴ · (g·d), g one of Gradient's 8 directions picked by Gradient's
-//             hash, times 65.5: |n| ≤ 0.768, with the standard deviation (0.417) and derivative
-//             variance of the OpenSimplex2S-style basis it replaced (whose look `hills` keeps).
-//             Cell indices modulo 2³² as Gradient's; no period.
+//   Simplex   2D simplex on a triangular lattice whose rows run along x (edge 2√2/3 cycles):
+//             x is split into lattice columns and z into lattice rows in double, as Gradient's
+//             axes, then in float Σ over the two nearest vertices of each of the two lattice rows
+//             around the point (the one not in its triangle adds 0) of max(0, ¾ − |d|²)⁴ · (g·d)
+//             in edge units, g one of Gradient's 8 directions picked by Gradient's hash, times
+//             10.564: |n| ≤ 0.768, with the standard deviation (0.417) and derivative variance of
+//             the skewed classic simplex and the OpenSimplex2S-style basis before it (whose look
+//             `hills` keeps). Indices modulo 2³² as Gradient's; no period.
 //   Value     hashed lattice values in [−1, 1) with quintic interpolation, on Gradient's lattice (the
 //             same split in double, float after it, the same period support and, at lacunarity 2
 //             without a period, the same dyadic lattice): the value of lattice point (X, Z) is the
@@ -130,15 +133,14 @@ class NoiseColumns {
 // Cellular hashes lattice points with mix64(keyₖ + X·Pₓ + Z·P_z).
 //
 // Precision: positions are doubles; Perlin and Cellular do the lattice work in double and round the
-// result to float once; Gradient, Value and Simplex work in float after the lattice split (Simplex
-// after its skew, in double).
+// result to float once; Gradient, Value and Simplex work in float after the lattice split.
 // Lattice coordinates are clamped to ±2⁵¹ cells. Coordinates must be finite (non-finite ones give
 // unspecified values, never UB). No FMA anywhere (see noise.cpp).
 //
 // Evaluation is vectorised with Google Highway, dispatched at run time to the best target this CPU
 // supports (AVX-512, AVX2, SSE4 or a portable scalar emulation): per-sample kernels in
 // src/noise_simd.cpp (src/noise3_simd.cpp in 3D), and on the AVX2 and AVX-512 targets block-of-rows
-// kernels for Perlin, cellular and simplex in src/noise_rows_simd.cpp. Every target gives
+// kernels for Perlin and cellular in src/noise_rows_simd.cpp. Every target gives
 // bit-identical results to row_reference(), the plain scalar implementation.
 class Noise {
  public:
