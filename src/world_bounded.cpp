@@ -327,7 +327,7 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
   if (halo < 4) throw Error("halo", "expected at least 4 samples, got " + std::to_string(halo));
   if (block < 2 * halo)
     throw Error("block", "expected at least 2 × halo = " + std::to_string(2 * halo) + " samples, got " + std::to_string(block));
-  if (sweeps < 1) throw Error("sweeps", "expected at least 1 sweep, got " + std::to_string(sweeps));
+  if (sweeps < 0) throw Error("sweeps", "expected 0 (the coarse change alone) or more sweeps, got " + std::to_string(sweeps));
   return [coarse_max, block, halo, sweeps](const WorldStageIO& io, const RecipeStage& st, int index) {
     const WorldGrid& g = io.grid;
     const Frame& W = io.world;
@@ -337,7 +337,7 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
     const json params = st.stage->params();
     // A masked stage (stage_masked.cpp) is refined by nothing: the coarse change alone, as the mask
     // scales it there.
-    const bool refine = s > 1 && !(params.contains("mask") && params["mask"].is_string() && !params["mask"].get<std::string>().empty());
+    const bool refine = s > 1 && sweeps > 0 && !(params.contains("mask") && params["mask"].is_string() && !params["mask"].get<std::string>().empty());
     // Coarse sample c sits at world sample min(c·s, n − 1).
     auto world_of = [&](std::int64_t c, std::int64_t n) { return std::min(c * s, n - 1); };
     Terrain t;
