@@ -95,9 +95,13 @@
 //   257², blocks of 128): 0.29 % of the relief (RMS within 2 halos of the seams) with halo 48 and 4
 //   sweeps, against 3.0 % for the coarse change alone. Not guaranteed: the sweeps need not converge
 //   to the whole map: with halo 32 there, the world keeps a flat surface at 0.40 (a filled lake)
-//   where the whole map's valley floor is at 0.14, whatever the sweeps (3.3 %; likely a valley dammed
-//   at a window's ring in the first sweep whose spill then carves the neighbour, so that the sweeps
-//   agree on it); larger halos and more sweeps help, not monotonically. The whole map's
+//   where the whole map's valley floor is at 0.14, whatever the sweeps and whether the first sweep's
+//   ring takes the coarse change or not (3.3 %). A window given the whole map's own ring levels and
+//   inflow has that valley right (0.1386 against 0.1387) but differs elsewhere by up to 4 % of the
+//   relief, where lakes cross its ring (src/stream_power_detail.hpp: the window's fill drains them out
+//   across the ring, so their spill is not incised); so the sweeps settle on another drainage than
+//   the whole map's. Larger halos and more sweeps help, not monotonically. The next step is the fill
+//   fix described there. The whole map's
 //   stage ends ε-filled, so the world drains: the blend, clamped to [0, 1], is filled across tiles as
 //   the world's `fill` stage fills (fill_depressions_tiled, relief/world.hpp: the whole world's
 //   fill_depressions, ε = 0, bit for bit).
