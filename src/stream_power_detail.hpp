@@ -24,8 +24,9 @@ struct StreamPowerWindow {
   // each call. Empty: no inflow.
   std::function<void(int step, double* extra)> inflow;
   // Observers: h after the step's D8 pass and fill (the levels D8 saw), and after the solve; the
-  // step's D8 direction codes (hydro::d8_directions) and drainage areas in cells (with the inflow;
-  // 0 for outlets that nothing drains into), after the solve.
+  // step's D8 direction codes (hydro::d8_directions) and drainage areas in cells (with the inflow),
+  // after the solve. An outlet that nothing drains into this step keeps the area of the last step
+  // where something did (0 if none): read areas only where a receiver exists.
   std::function<void(int step, const double* h)> seen, solved;
   std::function<void(int step, const std::uint8_t* dir, const double* area)> routed;
 };

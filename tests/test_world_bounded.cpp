@@ -255,48 +255,51 @@ TEST(WorldHydraulic, TiledWorldIsTheWholeMapAndDrains) {
 }
 
 // Clipped tiles (a world that is not a whole number of tiles), both algorithms (stream power on its
-// coarse path): neighbouring tiles hold the same value for every sample they share, and the world
-// drains after fill.
+// coarse path, without and with the refinement): neighbouring tiles hold the same value for every
+// sample they share, and the world drains after fill.
 TEST(WorldBounded, ClippedTilesAgreeOnSharedSamples) {
-  TempDir d;
-  json doc = eroded_doc(257, true, true, 10);
-  const Recipe r = parse_recipe(doc);
-  WorldSettings s;
-  s.recipe = r;
-  s.nx = 301, s.nz = 217;
-  s.tile = 65;
-  s.out_dir = (d.path / "w").string();
-  s.threads = 2;
-  s.algorithms["hydraulic"] = world_hydraulic(kSeed);
-  s.algorithms["stream_power"] = world_stream_power(101, 64, 16, 2);  // the coarse path (every 3rd sample), refined
-  const WorldReport rep = build_world(s);
-  const WorldGrid& g = rep.grid;
-  ASSERT_EQ(g.tiles_x, 5);
-  ASSERT_EQ(g.tiles_z, 4);
-  std::int64_t shared = 0;
-  for (std::int64_t Z = 0; Z < g.tiles_z; ++Z)
-    for (std::int64_t X = 0; X < g.tiles_x; ++X) {
-      const WorldTile a = read_world_tile(s.out_dir, X, Z);
-      const std::vector<float>& ha = a.layers.at("height").data;
-      for (const auto& [dx, dz] : {std::pair{1, 0}, std::pair{0, 1}, std::pair{1, 1}}) {
-        if (X + dx >= g.tiles_x || Z + dz >= g.tiles_z) continue;
-        const WorldTile b = read_world_tile(s.out_dir, X + dx, Z + dz);
-        const std::vector<float>& hb = b.layers.at("height").data;
-        for (int j = 0; j < a.window.nz; ++j)
-          for (int i = 0; i < a.window.nx; ++i) {
-            const std::int64_t ix = a.window.ix0 + i, iz = a.window.iz0 + j;
-            if (ix < b.window.ix0 || iz < b.window.iz0) continue;
-            const std::size_t cb = std::size_t(iz - b.window.iz0) * std::size_t(b.window.nx) + std::size_t(ix - b.window.ix0);
-            ASSERT_EQ(ha[std::size_t(j) * std::size_t(a.window.nx) + std::size_t(i)], hb[cb])
-                << "tiles (" << X << "," << Z << ") and (" << X + dx << "," << Z + dz << ") at " << ix << "," << iz;
-            ++shared;
-          }
+  for (const int sweeps : {0, 2}) {  // stream power's default coarse path, and refined
+    SCOPED_TRACE("stream power sweeps " + std::to_string(sweeps));
+    TempDir d;
+    json doc = eroded_doc(257, true, true, 10);
+    const Recipe r = parse_recipe(doc);
+    WorldSettings s;
+    s.recipe = r;
+    s.nx = 301, s.nz = 217;
+    s.tile = 65;
+    s.out_dir = (d.path / "w").string();
+    s.threads = 2;
+    s.algorithms["hydraulic"] = world_hydraulic(kSeed);
+    s.algorithms["stream_power"] = world_stream_power(101, 64, 16, sweeps);  // the coarse path (every 3rd sample)
+    const WorldReport rep = build_world(s);
+    const WorldGrid& g = rep.grid;
+    ASSERT_EQ(g.tiles_x, 5);
+    ASSERT_EQ(g.tiles_z, 4);
+    std::int64_t shared = 0;
+    for (std::int64_t Z = 0; Z < g.tiles_z; ++Z)
+      for (std::int64_t X = 0; X < g.tiles_x; ++X) {
+        const WorldTile a = read_world_tile(s.out_dir, X, Z);
+        const std::vector<float>& ha = a.layers.at("height").data;
+        for (const auto& [dx, dz] : {std::pair{1, 0}, std::pair{0, 1}, std::pair{1, 1}}) {
+          if (X + dx >= g.tiles_x || Z + dz >= g.tiles_z) continue;
+          const WorldTile b = read_world_tile(s.out_dir, X + dx, Z + dz);
+          const std::vector<float>& hb = b.layers.at("height").data;
+          for (int j = 0; j < a.window.nz; ++j)
+            for (int i = 0; i < a.window.nx; ++i) {
+              const std::int64_t ix = a.window.ix0 + i, iz = a.window.iz0 + j;
+              if (ix < b.window.ix0 || iz < b.window.iz0) continue;
+              const std::size_t cb = std::size_t(iz - b.window.iz0) * std::size_t(b.window.nx) + std::size_t(ix - b.window.ix0);
+              ASSERT_EQ(ha[std::size_t(j) * std::size_t(a.window.nx) + std::size_t(i)], hb[cb])
+                  << "tiles (" << X << "," << Z << ") and (" << X + dx << "," << Z + dz << ") at " << ix << "," << iz;
+              ++shared;
+            }
+        }
       }
-    }
-  EXPECT_GT(shared, 0);
-  const std::vector<float> h = read_world_window(s.out_dir, 0, 0, 301, 217).get("height").data;
-  const Frame w = world_frame(r, 301, 217);
-  EXPECT_TRUE(hydro::already_drains<float>(h.data(), 301, 217, float(w.sea_level)));
+    EXPECT_GT(shared, 0);
+    const std::vector<float> h = read_world_window(s.out_dir, 0, 0, 301, 217).get("height").data;
+    const Frame w = world_frame(r, 301, 217);
+    EXPECT_TRUE(hydro::already_drains<float>(h.data(), 301, 217, float(w.sea_level)));
+  }
 }
 
 // Up to kStreamPowerCoarseMax samples per axis the coarse grid is the world: the tiles hold the
@@ -343,7 +346,14 @@ TEST(WorldStreamPower, RefinedCoarsePassKeepsSeamsContinuous) {
   const Built c = build_both(doc, 129, (d.path / "w").string(), 257, 0, 2, block, halo, &whole, 0);
   const SeamMetrics m = seam_metrics(c.tiled, c.whole, c.grid, band, c.world);
   print("stream_power coarse 257² alone (sweeps 0) + thermal + fill", 513, 129, band, m);
-  EXPECT_GE(m.rms_fraction, 0.018);
+  EXPECT_GE(m.rms_fraction, 0.018);  // the refinement's gain above is real
+  // What the default path (every world above 2049²) promises: an error of about 2 % of the relief
+  // near seams, seams no rougher than the inside of the tiles or the whole map at the same places,
+  // and a world that drains after fill.
+  EXPECT_LE(m.rms_fraction, 0.025);
+  EXPECT_LE(m.seam_jump_p999, m.interior_jump_p999);
+  EXPECT_LE(m.seam_jump_max, 1.1 * m.whole_seam_jump_max);
+  EXPECT_TRUE(hydro::already_drains<float>(c.tiled.data(), int(c.grid.nx), int(c.grid.nz), float(c.world.sea_level)));
 }
 
 // The stream power stage alone (no fill after it): the world drains as the whole map's stage does.
