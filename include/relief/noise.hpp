@@ -134,8 +134,12 @@ class NoiseColumns {
 //
 // Precision: positions are doubles; Perlin and Cellular do the lattice work in double and round the
 // result to float once; Gradient, Value and Simplex work in float after the lattice split.
-// Lattice coordinates are clamped to ±2⁵¹ cells. Coordinates must be finite (non-finite ones give
-// unspecified values, never UB). No FMA anywhere (see noise.cpp).
+// Perlin and Cellular clamp lattice coordinates to ±2⁵¹ cells; Gradient, Value and Simplex take the
+// split's integer part modulo 2³² unclamped (beyond 2⁵¹ cells a double no longer holds the fraction,
+// so the pattern degrades there, the same bits on every path). Coordinates must be finite
+// (non-finite ones give unspecified values, never UB). No contraction of a product into a sum (see
+// noise.cpp): the few fused multiply-adds in src/noise_rows_simd.cpp multiply by ±1 or 2, exactly,
+// so they round as the plain add or subtract they replace.
 //
 // Evaluation is vectorised with Google Highway, dispatched at run time to the best target this CPU
 // supports (AVX-512, AVX2, SSE4 or a portable scalar emulation): per-sample kernels in
