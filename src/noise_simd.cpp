@@ -1076,6 +1076,43 @@ HWY_NOINLINE void ColumnsGradient(const NoiseKernelArgs& a, std::int64_t i0, dou
   }
 }
 
+// The octave sum of the columns kernels (RowGradientColumns, RowSimplexColumns): octave(k, start) is
+// octave k's vector at sample `start`, folded with amplitude amp[k], normalised and stored by
+// StoreGradient. kU vectors per pass over the octaves: kU independent dependency chains in flight (an
+// octave's lerps and fold are a long chain; gradient 6-octave fBm on 4096²: 28.5 → 26.3 ms on one
+// thread). The columns are padded to a multiple of 16 samples, so every vector that starts below n
+// loads whole. One octave (kNone) takes one pass: the reference's 0 + 1·n is n + 0 (−0 becomes +0),
+// its ·(1/Σa) = ·1 is skipped (StoreGradient<kNone>).
+template <int kFr, class Octave>
+HWY_INLINE void ColumnsOctaveSum(const Octave& octave, int count, const float* amp, VF inv, int NF, int n,
+                                 float* HWY_RESTRICT out) {
+  const DF df;
+  constexpr int kU = 2;
+  const int end = (n + NF - 1) / NF * NF;
+  int start = 0;
+  if constexpr (kFr != kNone) {
+    for (; start + kU * NF <= end; start += kU * NF) {
+      VF acc[kU];
+      for (int u = 0; u < kU; ++u) acc[u] = hn::Zero(df);
+      for (int k = 0; k < count; ++k) {
+        const VF ak = hn::Set(df, amp[k]);
+        for (int u = 0; u < kU; ++u) acc[u] = FoldF<kFr>(acc[u], ak, octave(k, start + u * NF));
+      }
+      for (int u = 0; u < kU; ++u) StoreGradient<kFr>(acc[u], inv, start + u * NF, NF, n, out);
+    }
+  }
+  for (; start < n; start += NF) {
+    VF acc;
+    if constexpr (kFr == kNone) {
+      acc = hn::Add(octave(0, start), hn::Zero(df));
+    } else {
+      acc = hn::Zero(df);
+      for (int k = 0; k < count; ++k) acc = FoldF<kFr>(acc, hn::Set(df, amp[k]), octave(k, start));
+    }
+    StoreGradient<kFr>(acc, inv, start, NF, n, out);
+  }
+}
+
 // RowGradient without warp, its per-sample x work replaced by loads of the columns' terms.
 template <int kFr, bool kVal>
 HWY_NOINLINE void RowGradientColumns(const NoiseKernelArgs& a, double z, const std::uint32_t* cols, int stride, int n,
@@ -1125,33 +1162,7 @@ HWY_NOINLINE void RowGradientColumns(const NoiseKernelArgs& a, double z, const s
     const VF g11 = GradCorner(xp1, r.zp1, fx1, r.fy1);
     return Lerp(r.sy, Lerp(sx, g00, g10), Lerp(sx, g01, g11));
   };
-  // kU vectors per pass over the octaves: kU independent dependency chains in flight (an octave's
-  // lerps and fold are a long chain; 6-octave fBm on 4096²: 28.5 → 26.3 ms on one thread). The
-  // columns are padded to a multiple of 16 samples, so every vector that starts below n loads whole.
-  constexpr int kU = 2;
-  const int end = (n + NF - 1) / NF * NF;
-  int start = 0;
-  if constexpr (kFr != kNone) {
-    for (; start + kU * NF <= end; start += kU * NF) {
-      VF acc[kU];
-      for (int u = 0; u < kU; ++u) acc[u] = hn::Zero(df);
-      for (int k = 0; k < a.count; ++k) {
-        const VF ak = hn::Set(df, amp[k]);
-        for (int u = 0; u < kU; ++u) acc[u] = FoldF<kFr>(acc[u], ak, octave(k, start + u * NF));
-      }
-      for (int u = 0; u < kU; ++u) StoreGradient<kFr>(acc[u], inv, start + u * NF, NF, n, out);
-    }
-  }
-  for (; start < n; start += NF) {
-    VF acc;
-    if constexpr (kFr == kNone) {
-      acc = hn::Add(octave(0, start), hn::Zero(df));
-    } else {
-      acc = hn::Zero(df);
-      for (int k = 0; k < a.count; ++k) acc = FoldF<kFr>(acc, hn::Set(df, amp[k]), octave(k, start));
-    }
-    StoreGradient<kFr>(acc, inv, start, NF, n, out);
-  }
+  ColumnsOctaveSum<kFr>(octave, a.count, amp, inv, NF, n, out);
 }
 
 // ---- Simplex from per-column terms (Noise::columns / rows: no warp) ---------------------------------
@@ -1220,29 +1231,7 @@ HWY_NOINLINE void RowSimplexColumns(const NoiseKernelArgs& a, double z, const st
     return SimplexCellRow(rows[k], hn::Load(du32, l), hn::BitCast(df, hn::Load(du32, l + S)), hn::Load(du32, u),
                           hn::BitCast(df, hn::Load(du32, u + S)), hn::Set(df, cs[k]));
   };
-  // One octave (kNone): the reference's 0 + 1·n is n + 0 (−0 becomes +0), its ·(1/Σa) = ·1 is
-  // skipped (StoreGradient<kNone>).
-  auto sum = [&](int start) {
-    if constexpr (kFr == kNone) return hn::Add(octave(0, start), hn::Zero(df));
-    VF acc = hn::Zero(df);
-    for (int k = 0; k < a.count; ++k) acc = FoldF<kFr>(acc, hn::Set(df, amp[k]), octave(k, start));
-    return acc;
-  };
-  constexpr int kU = 2;  // independent chains in flight, as RowGradientColumns (one octave: one pass)
-  const int end = (n + NF - 1) / NF * NF;
-  int start = 0;
-  if constexpr (kFr != kNone) {
-    for (; start + kU * NF <= end; start += kU * NF) {
-      VF acc[kU];
-      for (int u = 0; u < kU; ++u) acc[u] = hn::Zero(df);
-      for (int k = 0; k < a.count; ++k) {
-        const VF ak = hn::Set(df, amp[k]);
-        for (int u = 0; u < kU; ++u) acc[u] = FoldF<kFr>(acc[u], ak, octave(k, start + u * NF));
-      }
-      for (int u = 0; u < kU; ++u) StoreGradient<kFr>(acc[u], inv, start + u * NF, NF, n, out);
-    }
-  }
-  for (; start < n; start += NF) StoreGradient<kFr>(sum(start), inv, start, NF, n, out);
+  ColumnsOctaveSum<kFr>(octave, a.count, amp, inv, NF, n, out);
 }
 
 // ---- dispatch on parameters, once per row ---------------------------------------------------------
