@@ -154,10 +154,11 @@ namespace detail {
 
 namespace {
 
-// The row-constant half of G[k]·d, t[k] = G_y[k]·dy + G_z[k]·dz (k = 0..7, repeated in 8..15).
+// The row-constant half of G[k]·d, t[k] = G_y[k]·dy + G_z[k]·dz (k = 0..15: the tables repeat 0..7
+// in 8..15, so entries 8..15 equal 0..7; computed, not copied: a wide reload of fresh scalar stores
+// would stall on store forwarding).
 void row_table(float dy, float dz, float* t) {
-  for (int k = 0; k < 8; ++k) t[k] = kG3Y[k] * dy + kG3Z[k] * dz;
-  std::memcpy(t + 8, t, 8 * sizeof(float));
+  for (int k = 0; k < 16; ++k) t[k] = kG3Y[k] * dy + kG3Z[k] * dz;
 }
 
 // Simplex: the four rows of the centred square lattice Z² ∪ (Z² + (½, ½)) around (v, w): the corners
