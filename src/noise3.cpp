@@ -6,8 +6,8 @@
 //   * Ken Perlin, "Improving Noise", SIGGRAPH 2002: quintic fade, gradients along the 12
 //     directions from a cube's centre to its edges (here with 4 tetrahedral ones: 16, isotropic).
 //   * Ken Perlin, "Noise hardware" (SIGGRAPH 2001 course notes), and Stefan Gustavson, "Simplex
-//     noise demystified" (2005): the skewed cubic lattice (F = 1/3, G = 1/6), the simplex found by
-//     ranking the cell coordinates, radial kernels max(0, r² − |d|²)⁴·(g·d).
+//     noise demystified" (2005): radial kernels max(0, r² − |d|²)⁴·(g·d) on the simplex grid's
+//     lattice, which is body-centred cubic (here taken axis-aligned, in rows along x: noise3.hpp).
 //   * F. K. Musgrave, "Texturing and Modeling" ch. 16: fBm, ridged multifractal, billow.
 //
 // Floating point: a fixed sequence of IEEE operations, no FMA contraction (the pragma below; GCC
@@ -91,39 +91,42 @@ inline float gradient3(const detail::Noise3Octave& o, const detail::Noise3Row& r
 
 // ---- Simplex -------------------------------------------------------------------------------------
 
-// One vertex's term max(0, ½ − |d|²)⁴·(G·d), G from the vertex's hash (negated for k ≥ 8, as above).
-inline float s3_term(std::uint32_t xp, std::uint32_t yp, std::uint32_t zp, float dx, float dy, float dz) {
-  float att = ((detail::kS3R2 - dx * dx) - dy * dy) - dz * dz;
+// The two phases of a row's x split: p = 0 for the rows of Z³ (vertices at x = X), p = 1 for those of
+// Z³ + ½ (vertices at x = X' + ½): the lower vertex's X·Pₓ and the offset d from it, in float.
+struct S3Phase {
+  std::uint32_t xp;
+  float d;
+};
+inline void s3_phases(const detail::Noise3Octave& o, double x, S3Phase (&p)[2]) {
+  const Split s = split(x * o.freq_x + o.offset_x);
+  const std::uint32_t xp = s.i * detail::kG3Px;
+  const bool hi = s.f >= 0.5f;  // then X' = X, d' = d − ½ (exact); else X' = X − 1, d' = d + ½
+  p[0] = {xp, s.f};
+  p[1] = {hi ? xp : xp - detail::kG3Px, hi ? s.f - 0.5f : s.f + 0.5f};
+}
+
+// One vertex's term max(0, rc − d_x²)⁴·(G·d), rc = ½ − (d_y² + d_z²) the row's part, G·d as
+// ±(G_x·d_x + t[k & 7]) with t the row's G_y·d_y + G_z·d_z (negated for k ≥ 8).
+inline float s3_term(std::uint32_t xp, std::uint32_t yz, float dx, float rc, const float* t) {
+  float att = rc - dx * dx;
   att = att > 0.0f ? att : 0.0f;
-  const std::uint32_t k = ((xp ^ yp ^ zp) * detail::kG3M) >> 28, g = k & 7;
-  const float v = (detail::kG3X[g] * dx + detail::kG3Y[g] * dy) + detail::kG3Z[g] * dz;
+  const std::uint32_t k = ((xp ^ yz) * detail::kG3M) >> 28;
+  const float v = detail::kG3Xc * dx + t[k & 7];
   const float dot = k & 8 ? -v : v;
   const float a2 = att * att;
   return (a2 * a2) * dot;
 }
 
 inline float simplex3(const detail::Noise3Octave& o, const detail::Noise3Row& r, double x) {
-  const double u = x * o.freq_x + o.offset_x;
-  const double s = (u + r.vw) * detail::kS3Skew;
-  const Split a = split(u + s), b = split(r.v + s), c = split(r.w + s);
-  const float t = ((a.f + b.f) + c.f) * detail::kS3Unskew;
-  const float x0 = a.f - t, y0 = b.f - t, z0 = c.f - t;
-  // The simplex: vertex 1 on the axis of the largest coordinate, vertex 2 on the two largest.
-  const bool cxy = x0 >= y0, cyz = y0 >= z0, cxz = x0 >= z0;
-  const bool i1 = cxy && cxz, j1 = !cxy && cyz, k1 = !cxz && !cyz;
-  const bool i2 = cxy || cxz, j2 = !cxy || cyz, k2 = !cxz || !cyz;
-  const std::uint32_t xp0 = a.i * detail::kG3Px, xp1 = xp0 + detail::kG3Px;
-  const std::uint32_t yp0 = b.i * detail::kG3Py, yp1 = yp0 + detail::kG3Py;
-  const std::uint32_t zr = c.i * detail::kG3Pz;
-  const std::uint32_t zp0 = zr ^ o.key, zp1 = (zr + detail::kG3Pz) ^ o.key;
-  auto one = [](bool v) { return v ? 1.0f : 0.0f; };
-  const float t0 = s3_term(xp0, yp0, zp0, x0, y0, z0);
-  const float t1 = s3_term(i1 ? xp1 : xp0, j1 ? yp1 : yp0, k1 ? zp1 : zp0, (x0 - one(i1)) + detail::kS3Unskew,
-                           (y0 - one(j1)) + detail::kS3Unskew, (z0 - one(k1)) + detail::kS3Unskew);
-  const float t2 = s3_term(i2 ? xp1 : xp0, j2 ? yp1 : yp0, k2 ? zp1 : zp0, (x0 - one(i2)) + detail::kS3Unskew2,
-                           (y0 - one(j2)) + detail::kS3Unskew2, (z0 - one(k2)) + detail::kS3Unskew2);
-  const float t3 = s3_term(xp1, yp1, zp1, x0 - 0.5f, y0 - 0.5f, z0 - 0.5f);
-  return (((t0 + t1) + t2) + t3) * detail::kS3Scale;
+  S3Phase p[2];
+  s3_phases(o, x, p);
+  float tm[8];
+  for (int s = 0; s < 4; ++s) {
+    const S3Phase& q = p[s >> 1];
+    tm[2 * s] = s3_term(q.xp, r.yz[s], q.d, r.rc[s], r.t[s]);
+    tm[2 * s + 1] = s3_term(q.xp + detail::kG3Px, r.yz[s], q.d - 1.0f, r.rc[s], r.t[s]);
+  }
+  return (((tm[0] + tm[1]) + (tm[2] + tm[3])) + ((tm[4] + tm[5]) + (tm[6] + tm[7]))) * detail::kS3Scale;
 }
 
 // ---- validation ------------------------------------------------------------------------------------
@@ -149,11 +152,55 @@ std::string num(double v) {
 
 namespace detail {
 
+namespace {
+
+// The row-constant half of G[k]·d, t[k] = G_y[k]·dy + G_z[k]·dz (k = 0..15: the tables repeat 0..7
+// in 8..15, so entries 8..15 equal 0..7; computed, not copied: a wide reload of fresh scalar stores
+// would stall on store forwarding).
+void row_table(float dy, float dz, float* t) {
+  for (int k = 0; k < 16; ++k) t[k] = kG3Y[k] * dy + kG3Z[k] * dz;
+}
+
+// Simplex: the four rows of the centred square lattice Z² ∪ (Z² + (½, ½)) around (v, w): the corners
+// of its cell (a square of side √½ turned 45°) that holds (v, w). In the unit square [Y, Y + 1] ×
+// [Z, Z + 1] around (v, w), with a = v − Y − ½, b = w − Z − ½: the square's centre (Y + ½, Z + ½), the
+// two corners on the side nearest to (v, w) (y side if |a| ≥ |b|, at Y + 1 if a ≥ 0, else Y; z side
+// likewise) and the centre of the unit square beyond that side. Every other row is at least √½ away,
+// where the kernel is 0. Rows 0, 1: the corners (Z³'s rows; lower z or y first); 2, 3: the centres
+// (Z³ + ½'s rows, the one of this square first), each named by its lower corner.
+void simplex_rows(const Noise3Octave& o, Noise3Row& r) {
+  const double Y = floor_exact(r.v), Z = floor_exact(r.w);
+  const double a = (r.v - Y) - 0.5, b = (r.w - Z) - 0.5;
+  double ry[4], rz[4];  // the rows' lower corners (integers)
+  if (std::fabs(a) >= std::fabs(b)) {
+    const double side = a >= 0.0 ? 1.0 : 0.0;
+    ry[0] = Y + side, rz[0] = Z, ry[1] = Y + side, rz[1] = Z + 1.0;
+    ry[2] = Y, rz[2] = Z, ry[3] = Y + (a >= 0.0 ? 1.0 : -1.0), rz[3] = Z;
+  } else {
+    const double side = b >= 0.0 ? 1.0 : 0.0;
+    ry[0] = Y, rz[0] = Z + side, ry[1] = Y + 1.0, rz[1] = Z + side;
+    ry[2] = Y, rz[2] = Z, ry[3] = Y, rz[3] = Z + (b >= 0.0 ? 1.0 : -1.0);
+  }
+  for (int s = 0; s < 4; ++s) {
+    const double h = s >= 2 ? 0.5 : 0.0;
+    const float dy = float(r.v - (ry[s] + h)), dz = float(r.w - (rz[s] + h));  // exact differences
+    r.yz[s] = (low32(ry[s]) * kG3Py) ^ ((low32(rz[s]) * kG3Pz) ^ (s >= 2 ? o.key_half : o.key));
+    r.ay[s] = dy, r.az[s] = dz;
+    r.rc[s] = kS3R2 - (dy * dy + dz * dz);
+    row_table(dy, dz, r.t[s]);
+  }
+  r.sy = r.sz = 0.0f;
+}
+
+}  // namespace
+
 void noise3_row_terms(const Noise3Octave& o, NoiseBasis basis, double y_m, double z_m, Noise3Row& r) {
   r.v = y_m * o.freq_y + o.offset_y;
   r.w = z_m * o.freq_z + o.offset_z;
-  r.vw = r.v + r.w;
-  if (basis != NoiseBasis::Gradient) return;
+  if (basis != NoiseBasis::Gradient) {
+    simplex_rows(o, r);
+    return;
+  }
   const Split sy = split(r.v), sz = split(r.w);
   const std::uint32_t yp0 = sy.i * kG3Py, yp1 = yp0 + kG3Py;
   const std::uint32_t zr = sz.i * kG3Pz;
@@ -176,6 +223,7 @@ void noise3_row_terms(const Noise3Octave& o, NoiseBasis basis, double y_m, doubl
   for (int c = 0; c < 4; ++c) {
     for (int k = 0; k < 8; ++k) r.t[c][k] = py[c & 1][k] + pz[c >> 1][k];
     std::memcpy(&r.t[c][8], &r.t[c][0], 8 * sizeof(float));  // entries 8..15 repeat 0..7
+    r.rc[c] = 0.0f;
   }
 }
 
@@ -210,6 +258,8 @@ Noise3::Noise3(const NoiseSettings& s) : s_(s) {
     o.amp = float(amp);
     const std::uint64_t key = hash64(s.seed, detail::kTag3Key, ki);
     o.key = std::uint32_t(key ^ (key >> 32));
+    const std::uint64_t key_half = hash64(s.seed, detail::kTag3KeyHalf, ki);
+    o.key_half = std::uint32_t(key_half ^ (key_half >> 32));
     st->octaves.push_back(o);
     amp_sum += amp;
     f *= s.lacunarity;
@@ -265,19 +315,21 @@ void Noise3::rows(const double* y_m, const double* z_m, int nrows, std::int64_t 
                   std::ptrdiff_t stride) const {
   if (n <= 0 || nrows <= 0) return;
   const detail::Noise3Args& a = state_->args;
-  if (a.basis != NoiseBasis::Gradient || nrows == 1) {
-    for (int r = 0; r < nrows; ++r) row(y_m[r], z_m[r], i0, dx_m, n, out + r * stride);
+  if (nrows == 1) {
+    row(y_m[0], z_m[0], i0, dx_m, n, out);
     return;
   }
-  // Strips of columns whose terms (16 bytes per column per octave) fit in about 32 KiB.
-  const int strip = std::max(64, (32768 / (16 * a.count)) / 64 * 64);
+  // Strips of columns whose terms (16 bytes per column per octave for gradient, 40 for simplex) fit
+  // in about 32 KiB.
+  const int arrays = a.basis == NoiseBasis::Gradient ? detail::kG3ColumnArrays : detail::kS3ColumnArrays;
+  const int strip = std::max(64, (32768 / (4 * arrays * a.count)) / 64 * 64);
   const int width = std::min(strip, (n + 15) / 16 * 16);
-  const std::size_t entries = std::size_t(detail::kG3ColumnArrays) * std::size_t(a.count) * std::size_t(width);
+  const std::size_t entries = std::size_t(arrays) * std::size_t(a.count) * std::size_t(width);
   constexpr std::align_val_t kAlign{64};
   std::unique_ptr<std::uint32_t, void (*)(std::uint32_t*)> cols(
       static_cast<std::uint32_t*>(::operator new(entries * sizeof(std::uint32_t), kAlign)),
       [](std::uint32_t* p) { ::operator delete(p, std::align_val_t{64}); });
-  // Every row's (y, z) terms once (384 bytes per row and octave; not zero-filled).
+  // Every row's (y, z) terms once (~400 bytes per row and octave; not zero-filled).
   const std::unique_ptr<detail::Noise3Row[]> rt(new detail::Noise3Row[std::size_t(nrows) * std::size_t(a.count)]);
   for (int r = 0; r < nrows; ++r)
     for (int k = 0; k < a.count; ++k)

@@ -17,9 +17,12 @@
 //             first version, 12 cube edges + 4 tetrahedral directions, needed a G_x permute and
 //             two permutes and a blend for the row table: 2.8x the 2D cost here, this one about 2.)
 //             Noise3::rows precomputes the x terms per strip of columns and reuses them per row.
-//   Simplex   the skew and split in double, the rest in float: ranking by three compares, the
-//             four vertices' hashes by selects between precomputed lattice terms, two table
-//             lookups per vertex (G_y is constant).
+//   Simplex   (body-centred cubic lattice in rows along x, noise3.hpp) per sample and octave the x
+//             split in double (floor, fraction) and, in float, the second phase (the rows of
+//             Z³ + ½); then eight vertices, two on each of the row's four lattice rows: hash, one
+//             table lookup (the row's G_y·d_y + G_z·d_z), G_x·d_x, sign flip, the kernel from the
+//             row's ½ − (d_y² + d_z²) minus d_x². Noise3::rows precomputes the x terms (for both
+//             phases: X·Pₓ, G_x·d, G_x·(d − 1), d², (d − 1)²) per strip of columns, as Gradient does.
 //
 // Exactness: the same IEEE operations in the same order as the scalar reference, no FMA (the
 // preamble turns contraction off), integer work exact; so every target gives the reference's
@@ -216,29 +219,126 @@ HWY_INLINE VF Gradient3(const XTerms& x, const Noise3Row& r) {
   return Lerp(hn::Set(df, r.sz), Lerp(sy, l[0], l[1]), Lerp(sy, l[2], l[3]));
 }
 
-// kCols: the x terms come from Noise3::rows' column arrays instead of the positions.
-template <int kFr, bool kCols>
-HWY_NOINLINE void RowGradient3(const Noise3Args& a, const Noise3Row* rows, std::int64_t i0, double dx,
-                               const std::uint32_t* cols, int stride, int n, float* out) {
+// ---- Simplex -----------------------------------------------------------------------------------------
+
+// One phase of the x split (noise3.cpp's S3Phase) with the terms the vertices need: the lower vertex's
+// X·Pₓ; G_x·d, G_x·(d − 1); d², (d − 1)².
+struct SPhase {
+  VU32 xp;
+  VF g0, g1, q0, q1;
+};
+HWY_INLINE SPhase SPhaseOf(VU32 xp, VF dd) {
+  const DF df;
+  const VF gx = hn::Set(df, kG3Xc), d1 = hn::Sub(dd, hn::Set(df, 1.0f));
+  SPhase p;
+  p.xp = xp;
+  p.g0 = hn::Mul(gx, dd);
+  p.g1 = hn::Mul(gx, d1);
+  p.q0 = hn::Mul(dd, dd);
+  p.q1 = hn::Mul(d1, d1);
+  return p;
+}
+HWY_INLINE void SXSplit(const VD (&x)[kHalves], const Noise3Octave& o, SPhase (&p)[2]) {
+  const DD d;
+  const DF df;
+  const DU32 du32;
+  VD fl[kHalves], fr[kHalves];
+  for (int h = 0; h < kHalves; ++h) {
+    const VD u = hn::Add(hn::Mul(x[h], hn::Set(d, o.freq_x)), hn::Set(d, o.offset_x));
+    fl[h] = hn::Floor(u);
+    fr[h] = hn::Sub(u, fl[h]);
+  }
+  const VF f = JoinDemote(fr), half = hn::Set(df, 0.5f);
+  const VU32 px = hn::Set(du32, kG3Px), xp = hn::Mul(JoinLow32(fl), px);
+  const MF hi = f >= half;
+  p[0] = SPhaseOf(xp, f);
+  p[1] = SPhaseOf(hn::IfThenElse(hn::RebindMask(du32, hi), xp, hn::Sub(xp, px)),
+                  hn::IfThenElse(hi, hn::Sub(f, half), hn::Add(f, half)));
+}
+HWY_INLINE void SLoad(const std::uint32_t* c, std::size_t S, SPhase (&p)[2]) {
+  const DF df;
+  const DU32 du32;
+  for (int q = 0; q < 2; ++q) {
+    const std::uint32_t* b = c + std::size_t(5 * q) * S;
+    p[q].xp = hn::Load(du32, b);
+    p[q].g0 = hn::BitCast(df, hn::Load(du32, b + S));
+    p[q].g1 = hn::BitCast(df, hn::Load(du32, b + 2 * S));
+    p[q].q0 = hn::BitCast(df, hn::Load(du32, b + 3 * S));
+    p[q].q1 = hn::BitCast(df, hn::Load(du32, b + 4 * S));
+  }
+}
+// One vertex: max(0, rc − d_x²)⁴·±(G_x·d_x + t[k & 7]) (noise3.cpp's s3_term).
+HWY_INLINE VF STerm(VU32 xp, VU32 yz, VF gxd, VF sq, VF rc, const float* t) {
+  const DF df;
+  const DU32 du32;
+  VF att = hn::Sub(rc, sq);
+  att = hn::IfThenElseZero(att > hn::Zero(df), att);
+  const VU32 h = hn::Mul(hn::Xor(xp, yz), hn::Set(du32, kG3M));
+  const VF dot = FlipByHash(hn::Add(gxd, Lookup8(t, hn::ShiftRight<28>(h))), h);
+  const VF a2 = hn::Mul(att, att);
+  return hn::Mul(hn::Mul(a2, a2), dot);
+}
+HWY_INLINE VF Simplex3(const SPhase (&p)[2], const Noise3Row& r) {
+  const DF df;
+  const DU32 du32;
+  const VU32 px = hn::Set(du32, kG3Px);
+  VF tm[8];
+  for (int s = 0; s < 4; ++s) {
+    const SPhase& q = p[s >> 1];
+    const VU32 yz = hn::Set(du32, r.yz[s]);
+    const VF rc = hn::Set(df, r.rc[s]);
+    tm[2 * s] = STerm(q.xp, yz, q.g0, q.q0, rc, r.t[s]);
+    tm[2 * s + 1] = STerm(hn::Add(q.xp, px), yz, q.g1, q.q1, rc, r.t[s]);
+  }
+  const VF sum = hn::Add(hn::Add(hn::Add(tm[0], tm[1]), hn::Add(tm[2], tm[3])),
+                         hn::Add(hn::Add(tm[4], tm[5]), hn::Add(tm[6], tm[7])));
+  return hn::Mul(sum, hn::Set(df, kS3Scale));
+}
+
+// ---- rows ---------------------------------------------------------------------------------------------
+
+// One octave's value at a vector of samples: x terms from the positions, or (kCols) from Noise3::rows'
+// column arrays.
+template <bool kSimplex, bool kCols>
+HWY_INLINE VF Octave3(const VD (&x)[kHalves], const Noise3Octave& o, const Noise3Row& r, const std::uint32_t* c,
+                      std::size_t S) {
+  if constexpr (kSimplex) {
+    SPhase p[2];
+    if constexpr (kCols)
+      SLoad(c, S, p);
+    else
+      SXSplit(x, o, p);
+    return Simplex3(p, r);
+  } else {
+    XTerms xt;
+    if constexpr (kCols)
+      xt = XLoad(c, S);
+    else
+      xt = XSplit(x, o);
+    return Gradient3(xt, r);
+  }
+}
+
+template <bool kSimplex, int kFr, bool kCols>
+HWY_NOINLINE void Row3(const Noise3Args& a, const Noise3Row* rows, std::int64_t i0, double dx, const std::uint32_t* cols,
+                       int stride, int n, float* out) {
   const DD d;
   const DF df;
   const int NF = kHalves * int(hn::Lanes(d));
   const std::size_t S = std::size_t(stride);
+  constexpr std::size_t kArrays = kSimplex ? kS3ColumnArrays : kG3ColumnArrays;
   const bool small = SmallIndices(i0, n);
   for (int start = 0; start < n; start += NF) {
     VD x[kHalves];
     if constexpr (!kCols) Positions(i0 + start, dx, small, x);
     VF acc = hn::Zero(df);
     for (int k = 0; k < a.count; ++k) {
-      XTerms xt;
-      if constexpr (kCols)
-        xt = XLoad(cols + std::size_t(k) * kG3ColumnArrays * S + std::size_t(start), S);
-      else
-        xt = XSplit(x, a.octaves[k]);
+      const std::uint32_t* c = kCols ? cols + std::size_t(k) * kArrays * S + std::size_t(start) : nullptr;
+      const VF v = Octave3<kSimplex, kCols>(x, a.octaves[k], rows[k], c, S);
       if constexpr (kFr == kNone)
-        acc = hn::Add(Gradient3(xt, rows[k]), acc);
+        acc = hn::Add(v, acc);
       else
-        acc = Fold<kFr>(acc, hn::Set(df, a.octaves[k].amp), Gradient3(xt, rows[k]));
+        acc = Fold<kFr>(acc, hn::Set(df, a.octaves[k].amp), v);
     }
     Finish<kFr>(acc, a.inv, start, NF, n, out);
   }
@@ -247,7 +347,6 @@ HWY_NOINLINE void RowGradient3(const Noise3Args& a, const Noise3Row* rows, std::
 HWY_NOINLINE void ColumnsGradient3(const Noise3Args& a, std::int64_t i0, double dx, int npad, std::uint32_t* cols,
                                    int stride) {
   const DD d;
-  const DF df;
   const DU32 du32;
   const int NF = kHalves * int(hn::Lanes(d));
   const std::size_t S = std::size_t(stride);
@@ -264,83 +363,30 @@ HWY_NOINLINE void ColumnsGradient3(const Noise3Args& a, std::int64_t i0, double 
       hn::Store(hn::BitCast(du32, t.sx), du32, c + 3 * S);
     }
   }
-  (void)df;
 }
 
-// ---- Simplex -----------------------------------------------------------------------------------------
-
-// One vertex: max(0, ½ − |d|²)⁴·±((G_x·d_x + G_y·d_y) + G_z·d_z), G from the hash of its lattice terms.
-HWY_INLINE VF Term(VU32 hx, VU32 hy, VU32 hz, VF dx, VF dy, VF dz) {
-  const DF df;
-  const DU32 du32;
-  VF att = hn::Sub(hn::Sub(hn::Sub(hn::Set(df, kS3R2), hn::Mul(dx, dx)), hn::Mul(dy, dy)), hn::Mul(dz, dz));
-  att = hn::IfThenElseZero(att > hn::Zero(df), att);
-  const VU32 h = hn::Mul(hn::Xor(hn::Xor(hx, hy), hz), hn::Set(du32, kG3M));
-  const VU32 k = hn::ShiftRight<28>(h);
-  // G_x is the same for every representative (kG3Xc): no lookup.
-  const VF dot = FlipByHash(hn::Add(hn::Add(hn::Mul(hn::Set(df, kG3Xc), dx), hn::Mul(Lookup8(kG3Y, k), dy)),
-                                    hn::Mul(Lookup8(kG3Z, k), dz)),
-                            h);
-  const VF a2 = hn::Mul(att, att);
-  return hn::Mul(hn::Mul(a2, a2), dot);
-}
-
-HWY_INLINE VF Simplex3(const VD (&x)[kHalves], const Noise3Octave& o, const Noise3Row& r) {
+HWY_NOINLINE void ColumnsSimplex3(const Noise3Args& a, std::int64_t i0, double dx, int npad, std::uint32_t* cols,
+                                  int stride) {
   const DD d;
-  const DF df;
   const DU32 du32;
-  const VD v = hn::Set(d, r.v), w = hn::Set(d, r.w), vw = hn::Set(d, r.vw), skew = hn::Set(d, kS3Skew);
-  VD fl[3][kHalves], fr[3][kHalves];
-  for (int h = 0; h < kHalves; ++h) {
-    const VD u = hn::Add(hn::Mul(x[h], hn::Set(d, o.freq_x)), hn::Set(d, o.offset_x));
-    const VD s = hn::Mul(hn::Add(u, vw), skew);
-    const VD p[3] = {hn::Add(u, s), hn::Add(v, s), hn::Add(w, s)};
-    for (int c = 0; c < 3; ++c) {
-      fl[c][h] = hn::Floor(p[c]);
-      fr[c][h] = hn::Sub(p[c], fl[c][h]);
-    }
-  }
-  const VF xf = JoinDemote(fr[0]), yf = JoinDemote(fr[1]), zf = JoinDemote(fr[2]);
-  const VF t = hn::Mul(hn::Add(hn::Add(xf, yf), zf), hn::Set(df, kS3Unskew));
-  const VF x0 = hn::Sub(xf, t), y0 = hn::Sub(yf, t), z0 = hn::Sub(zf, t);
-  const MF cxy = x0 >= y0, cyz = y0 >= z0, cxz = x0 >= z0;
-  const MF i1 = hn::And(cxy, cxz), j1 = hn::AndNot(cxy, cyz), k1 = hn::Not(hn::Or(cxz, cyz));
-  const MF i2 = hn::Or(cxy, cxz), j2 = hn::Or(hn::Not(cxy), cyz), k2 = hn::Not(hn::And(cxz, cyz));
-  const VU32 px = hn::Set(du32, kG3Px), py = hn::Set(du32, kG3Py), pz = hn::Set(du32, kG3Pz), key = hn::Set(du32, o.key);
-  const VU32 xp0 = hn::Mul(JoinLow32(fl[0]), px), xp1 = hn::Add(xp0, px);
-  const VU32 yp0 = hn::Mul(JoinLow32(fl[1]), py), yp1 = hn::Add(yp0, py);
-  const VU32 zr = hn::Mul(JoinLow32(fl[2]), pz);
-  const VU32 zp0 = hn::Xor(zr, key), zp1 = hn::Xor(hn::Add(zr, pz), key);
-  const VF one = hn::Set(df, 1.0f), g1 = hn::Set(df, kS3Unskew), g2 = hn::Set(df, kS3Unskew2), half = hn::Set(df, 0.5f);
-  auto sel = [&](MF m, VU32 a1, VU32 a0) { return hn::IfThenElse(hn::RebindMask(du32, m), a1, a0); };
-  auto off = [&](VF p0, MF m, VF g) { return hn::Add(hn::Sub(p0, hn::IfThenElseZero(m, one)), g); };
-  const VF t0 = Term(xp0, yp0, zp0, x0, y0, z0);
-  const VF t1 = Term(sel(i1, xp1, xp0), sel(j1, yp1, yp0), sel(k1, zp1, zp0), off(x0, i1, g1), off(y0, j1, g1),
-                     off(z0, k1, g1));
-  const VF t2 = Term(sel(i2, xp1, xp0), sel(j2, yp1, yp0), sel(k2, zp1, zp0), off(x0, i2, g2), off(y0, j2, g2),
-                     off(z0, k2, g2));
-  const VF t3 = Term(xp1, yp1, zp1, hn::Sub(x0, half), hn::Sub(y0, half), hn::Sub(z0, half));
-  return hn::Mul(hn::Add(hn::Add(hn::Add(t0, t1), t2), t3), hn::Set(df, kS3Scale));
-}
-
-template <int kFr>
-HWY_NOINLINE void RowSimplex3(const Noise3Args& a, const Noise3Row* rows, std::int64_t i0, double dx, int n,
-                              float* out) {
-  const DD d;
-  const DF df;
   const int NF = kHalves * int(hn::Lanes(d));
-  const bool small = SmallIndices(i0, n);
-  for (int start = 0; start < n; start += NF) {
+  const std::size_t S = std::size_t(stride);
+  const bool small = SmallIndices(i0, npad);
+  for (int start = 0; start < npad; start += NF) {
     VD x[kHalves];
     Positions(i0 + start, dx, small, x);
-    VF acc = hn::Zero(df);
     for (int k = 0; k < a.count; ++k) {
-      if constexpr (kFr == kNone)
-        acc = hn::Add(Simplex3(x, a.octaves[k], rows[k]), acc);
-      else
-        acc = Fold<kFr>(acc, hn::Set(df, a.octaves[k].amp), Simplex3(x, a.octaves[k], rows[k]));
+      SPhase p[2];
+      SXSplit(x, a.octaves[k], p);
+      for (int q = 0; q < 2; ++q) {
+        std::uint32_t* c = cols + (std::size_t(k) * kS3ColumnArrays + std::size_t(5 * q)) * S + std::size_t(start);
+        hn::Store(p[q].xp, du32, c);
+        hn::Store(hn::BitCast(du32, p[q].g0), du32, c + S);
+        hn::Store(hn::BitCast(du32, p[q].g1), du32, c + 2 * S);
+        hn::Store(hn::BitCast(du32, p[q].q0), du32, c + 3 * S);
+        hn::Store(hn::BitCast(du32, p[q].q1), du32, c + 4 * S);
+      }
     }
-    Finish<kFr>(acc, a.inv, start, NF, n, out);
   }
 }
 
@@ -349,34 +395,38 @@ int FractalKind(Fractal f) {
   return f == Fractal::None ? kNone : f == Fractal::Ridged ? kRidged : f == Fractal::Billow ? kBillow : kFbm;
 }
 
+template <bool kSimplex, bool kCols>
+void Row3For(const Noise3Args& a, const Noise3Row* rows, std::int64_t i0, double dx, const std::uint32_t* cols,
+             int stride, int n, float* out) {
+  const int fr = FractalKind(a.fractal);
+  if (fr == kNone) Row3<kSimplex, kNone, kCols>(a, rows, i0, dx, cols, stride, n, out);
+  else if (fr == kRidged) Row3<kSimplex, kRidged, kCols>(a, rows, i0, dx, cols, stride, n, out);
+  else if (fr == kBillow) Row3<kSimplex, kBillow, kCols>(a, rows, i0, dx, cols, stride, n, out);
+  else Row3<kSimplex, kFbm, kCols>(a, rows, i0, dx, cols, stride, n, out);
+}
+
 }  // namespace
 
 void Row3Kernel(const Noise3Args& a, const Noise3Row* rows, std::int64_t i0, double dx, int n, float* out) {
-  const int fr = FractalKind(a.fractal);
-  if (a.basis == NoiseBasis::Gradient) {
-    if (fr == kNone) RowGradient3<kNone, false>(a, rows, i0, dx, nullptr, 0, n, out);
-    else if (fr == kRidged) RowGradient3<kRidged, false>(a, rows, i0, dx, nullptr, 0, n, out);
-    else if (fr == kBillow) RowGradient3<kBillow, false>(a, rows, i0, dx, nullptr, 0, n, out);
-    else RowGradient3<kFbm, false>(a, rows, i0, dx, nullptr, 0, n, out);
-  } else {
-    if (fr == kNone) RowSimplex3<kNone>(a, rows, i0, dx, n, out);
-    else if (fr == kRidged) RowSimplex3<kRidged>(a, rows, i0, dx, n, out);
-    else if (fr == kBillow) RowSimplex3<kBillow>(a, rows, i0, dx, n, out);
-    else RowSimplex3<kFbm>(a, rows, i0, dx, n, out);
-  }
+  if (a.basis == NoiseBasis::Gradient)
+    Row3For<false, false>(a, rows, i0, dx, nullptr, 0, n, out);
+  else
+    Row3For<true, false>(a, rows, i0, dx, nullptr, 0, n, out);
 }
 
 void Columns3Kernel(const Noise3Args& a, std::int64_t i0, double dx, int npad, std::uint32_t* cols, int stride) {
-  ColumnsGradient3(a, i0, dx, npad, cols, stride);
+  if (a.basis == NoiseBasis::Gradient)
+    ColumnsGradient3(a, i0, dx, npad, cols, stride);
+  else
+    ColumnsSimplex3(a, i0, dx, npad, cols, stride);
 }
 
 void RowColumns3Kernel(const Noise3Args& a, const Noise3Row* rows, const std::uint32_t* cols, int stride, int n,
                        float* out) {
-  const int fr = FractalKind(a.fractal);
-  if (fr == kNone) RowGradient3<kNone, true>(a, rows, 0, 0.0, cols, stride, n, out);
-  else if (fr == kRidged) RowGradient3<kRidged, true>(a, rows, 0, 0.0, cols, stride, n, out);
-  else if (fr == kBillow) RowGradient3<kBillow, true>(a, rows, 0, 0.0, cols, stride, n, out);
-  else RowGradient3<kFbm, true>(a, rows, 0, 0.0, cols, stride, n, out);
+  if (a.basis == NoiseBasis::Gradient)
+    Row3For<false, true>(a, rows, 0, 0.0, cols, stride, n, out);
+  else
+    Row3For<true, true>(a, rows, 0, 0.0, cols, stride, n, out);
 }
 
 }  // namespace HWY_NAMESPACE

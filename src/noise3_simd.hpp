@@ -55,17 +55,19 @@ constexpr bool g3_tables_ok() {
 }
 static_assert(g3_tables_ok());
 
-// Simplex: skew (double), unskew (float), kernel radius², scale (see noise3.hpp).
-constexpr double kS3Skew = 1.0 / 3.0;
-constexpr float kS3Unskew = float(1.0 / 6.0);
-constexpr float kS3Unskew2 = 2.0f * kS3Unskew;  // exact
+// Simplex: kernel radius² and scale (see noise3.hpp). The lattice is the body-centred cubic one,
+// Z³ ∪ (Z³ + ½(1, 1, 1)) in lattice units: its rows along x sit on the centred square lattice
+// Z² ∪ (Z² + (½, ½)) of (y, z), and with r² = ½ a sample is reached only by the two vertices that
+// bracket it on each of the four rows around it (the rows of its (y, z) cell of that lattice).
 constexpr float kS3R2 = 0.5f;
 constexpr float kS3Scale = 81.2f;
 
 // Octave k's seeding (Noise3's constructor): offsets oₓ, o_y, o_z = 256·unit_double(hash64(seed,
-// kTag3Offset, 3k + 0, 1, 2)) cells; key = h ⊕ (h >> 32) (low 32 bits), h = hash64(seed, kTag3Key, k).
+// kTag3Offset, 3k + 0, 1, 2)) cells; key = h ⊕ (h >> 32) (low 32 bits), h = hash64(seed, kTag3Key, k);
+// simplex's second key (the vertices of Z³ + ½) likewise from hash64(seed, kTag3KeyHalf, k).
 constexpr std::uint64_t kTag3Key = 0x6b65793344ull;     // "key3D"
 constexpr std::uint64_t kTag3Offset = 0x6f66667333ull;  // "offs3"
+constexpr std::uint64_t kTag3KeyHalf = 0x6b65793348ull;  // "key3H"
 
 // One octave: lattice frequencies (cells per metre), seeded offsets (cells), amplitude, hash key.
 struct Noise3Octave {
@@ -73,21 +75,26 @@ struct Noise3Octave {
   double offset_x = 0.0, offset_y = 0.0, offset_z = 0.0;
   float amp = 1.0f;  // float(persistenceᵏ)
   std::uint32_t key = 0;
+  std::uint32_t key_half = 0;  // simplex: the key of the vertices of Z³ + ½ (hashed by their lower corner)
 };
 
 // The terms of one octave that depend only on the row's (y, z), computed once per row by
 // noise3_row_terms() (src/noise3.cpp) for the reference and the kernels alike.
 struct Noise3Row {
-  // Simplex: the row's lattice positions v, w and their sum (the skew adds u + (v + w)).
-  // No default initialisers: Noise3::row keeps 16 of these on the stack and fills only `count`.
-  double v, w, vw;
+  // The row's lattice positions v, w. No default initialisers: Noise3::row keeps 16 of these on the
+  // stack and fills only `count`.
+  double v, w;
   // Gradient: yz[c] = (Y·P_y) ⊕ (Z·P_z ⊕ key) for the four (y, z) corners c = b + 2·e (b: lower /
   // upper y, e: lower / upper z); ay[c], az[c] the offsets from them; fades sy, sz; and per corner
   // the values t[c][k] = G_y[k]·ay[c] + G_z[k]·az[c] (float), the row-constant half of G[k]·d
   // (k = 0..7; entries 8..15 repeat them, as the gradient tables do).
+  // Simplex: the same for the four lattice rows s around (v, w) (noise3.cpp, simplex_rows): rows 0, 1
+  // of Z³ (key), rows 2, 3 of Z³ + ½ (key_half, hashed by the lower corner (Y, Z) of (Y + ½, Z + ½));
+  // ay, az the offsets from the row, and rc[s] = ½ − (ay² + az²) (float), the kernel's row part.
   std::uint32_t yz[4];
   float ay[4], az[4];
   float sy, sz;
+  float rc[4];
   alignas(64) float t[4][16];
 };
 void noise3_row_terms(const Noise3Octave& o, NoiseBasis basis, double y_m, double z_m, Noise3Row& r);
@@ -110,6 +117,11 @@ void noise3_row_simd(const Noise3Args& a, const Noise3Row* rows, std::int64_t i0
 // octave k, 4 arrays (X·Pₓ as uint32; G_x·fx, G_x·(fx − 1) and fade(fx) as float bits), entry i of
 // array f at cols[(k·kG3ColumnArrays + f)·stride + i]; stride a multiple of 16, cols 64-byte aligned.
 constexpr int kG3ColumnArrays = 4;
+// Simplex's x-only terms, the same way: per octave k, for phase p = 0 (the vertices of Z³ along the
+// row: lower vertex X = floor(u), d = u − X) and p = 1 (of Z³ + ½: lower vertex X' + ½, d' = d − ½ or
+// d + ½), 5 arrays each: X·Pₓ (uint32), G_x·d, G_x·(d − 1), d², (d − 1)² (float bits), array
+// f = 5p + j at cols[(k·kS3ColumnArrays + f)·stride + i].
+constexpr int kS3ColumnArrays = 10;
 void noise3_columns_simd(const Noise3Args& a, std::int64_t i0, double dx, int npad, std::uint32_t* cols, int stride);
 // out[i], i in [0, n), from the columns' terms: bit-identical to noise3_row_simd over that window.
 void noise3_row_columns_simd(const Noise3Args& a, const Noise3Row* rows, const std::uint32_t* cols, int stride, int n,

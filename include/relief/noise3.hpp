@@ -6,8 +6,8 @@
 //   * Ken Perlin, "Improving Noise", SIGGRAPH 2002: gradient noise with quintic fade and a small
 //     fixed set of gradients instead of random ones (his 12 cube edges; here 16 cube corners).
 //   * Ken Perlin, "Noise hardware", SIGGRAPH 2001 course notes, and Stefan Gustavson, "Simplex
-//     noise demystified" (2005): 3D simplex noise on the skewed cubic lattice (skew (x+y+z)/3,
-//     unskew (x+y+z)/6), the simplex picked by ranking the cell coordinates, radial kernels.
+//     noise demystified" (2005): simplex noise's radial kernels max(0, r² − |d|²)⁴·(g·d) on the
+//     lattice of the skewed cubic grid, which is body-centred cubic (here evaluated in rows along x).
 //   * Arithmetic lattice hashing as in the 2D Gradient basis (noise.hpp) and FastNoise2.
 //   * F. K. Musgrave, "Texturing and Modeling" ch. 16: fBm, ridged, billow (as Noise).
 //
@@ -45,19 +45,31 @@
 //             gradient (probability ~16⁻⁸ per cell); results are clamped to [−1, 1].
 //             No dyadic lattice: every octave splits its own position in double (each octave
 //             has its own offsets), at any lacunarity.
-//   Simplex   3D simplex noise (Gustavson's skewed cubic lattice): the position is skewed
-//             in double, s = (u + (v + w))/3, (u, v, w) + s split into a cell (I, J, K) (modulo
-//             2³²) and a fraction, the rest in float: t = ((x + y) + z)/6, d₀ = fraction − t, the
-//             four vertices of the simplex holding the point ((0,0,0), the axis of the largest
-//             coordinate of d₀, the two largest, (1,1,1); ties go to x before y before z),
-//             each contributing max(0, ½ − |d|²)⁴·(G·d) with d its offset in input space and G
-//             from the same 16 gradients and hash as Gradient (G·d = (G_x·d_x + G_y·d_y) +
-//             G_z·d_z here, negated for k ≥ 8), summed in vertex order and scaled by 81.2. r² = ½
-//             keeps the kernel inside the simplex: continuous everywhere. The sup over positions
-//             and gradient draws of the unscaled sum is 0.0123052 (numerically, on the diagonal
-//             at 0.288·(1, 1, 1) of the skewed cell), so |n| ≤ 0.9993.
-//             σ ≈ 0.39 at one octave.
-//
+//   Simplex   3D simplex noise on the body-centred cubic lattice Z³ ∪ (Z³ + ½(1, 1, 1)) (the
+//             lattice of Gustavson's skewed simplex grid, turned so that its rows run along x;
+//             redefined in session 16, issue 17; the skewed form of earlier versions has the same
+//             lattice density, kernel, gradients and so the same spectrum, tests/test_noise3.cpp).
+//             Every vertex p within r² = ½ of the position contributes max(0, ½ − |d|²)⁴·(G·d),
+//             d = position − p, G from the same 16 gradients and hash as Gradient: the vertices of
+//             Z³ by their (X, Y, Z) with the octave's key, those of Z³ + ½ by (X, Y, Z) (their lower
+//             corner) with a second key. The sum, scaled by 81.2, is continuous (the kernel and its
+//             derivative reach 0 at r) and reaches at most 4 vertices (a Delaunay tetrahedron's).
+//             Evaluation: the lattice's rows along x sit on the centred square lattice
+//             Z² ∪ (Z² + (½, ½)) of (v, w); only the four rows at the corners of the square cell
+//             (side √½) holding (v, w) can be within r, and on each row only the two vertices that
+//             bracket u. Per row (once per (y, z), in double then float): the four rows, their
+//             hash terms, offsets d_y, d_z and ½ − (d_y² + d_z²) and the table of G_y·d_y + G_z·d_z.
+//             Per sample: x split in double into X = floor(u) and d = float(u − X) (rows of Z³:
+//             vertices X, X + 1), and for the rows of Z³ + ½, d' = d − ½, X' = X if d ≥ ½, else
+//             d' = d + ½, X' = X − 1 (vertices X' + ½, X' + 3⁄2), in float; each of the 8 terms
+//             is ±(G_x·d_x + table[k & 7])·max(0, (½ − (d_y² + d_z²)) − d_x²)⁴, summed as
+//             ((t₀ + t₁) + (t₂ + t₃)) + ((t₄ + t₅) + (t₆ + t₇)) (rows 0, 1 of Z³, then 2, 3 of Z³ + ½,
+//             lower vertex first) and scaled. Large world coordinates stay exact: all offsets are
+//             relative to the cell. Sup over positions and gradient draws of the unscaled sum
+//             0.0123052 (on the diagonal at 0.356·(1, 1, 1)), so |n| ≤ 0.9992; σ ≈ 0.39 at one
+//             octave. Like Gradient's, the lattice is aligned with the axes: a slice parallel to
+//             them cuts it at one phase (its spectrum varies a little with that phase).
+
 // Fractals, with aₖ = persistenceᵏ and the sum in float: fBm Σ aₖ·nₖ / Σ aₖ; billow
 // Σ aₖ·(2|nₖ| − 1) / Σ aₖ; ridged 2·Σ aₖ·(1 − |nₖ|)² / Σ aₖ − 1 (evaluated as acc·(2·inv) − 1,
 // inv = float(1/Σ aₖ)); None: n₀ (octaves ignored). Normalised by the analytic amplitude sum,
@@ -91,11 +103,13 @@ class Noise3 {
   // Values in [−1, 1]. Thread-safe, const.
   void row(double y_m, double z_m, std::int64_t i0, double dx_m, int n, float* out) const;
   // Row r (0 ≤ r < nrows) at (y_m[r], z_m[r]) goes to out + r·stride: the same bits as
-  // row(y_m[r], z_m[r], i0, dx_m, n, out + r·stride). For Gradient the x-only terms are computed
-  // once per strip of columns (kept within ~32 KiB) and reused by every row; for Simplex it is
-  // plain rows. The way to fill a volume chunk (all its rows in one call): on AVX2, gradient costs
-  // ~1.9 ns per sample and octave in long rows, ~3.3 ns in 32-sample rows (each row and octave
-  // has ~20 ns of (y, z) terms); simplex ~5 ns either way. Allocates (row terms and columns).
+  // row(y_m[r], z_m[r], i0, dx_m, n, out + r·stride). The x-only terms are computed once per strip
+  // of columns (kept within ~32 KiB) and reused by every row. The way to fill a volume chunk (all
+  // its rows in one call): on AVX2, gradient costs ~1.9 ns per sample and octave in long rows,
+  // ~3.3 ns in 32-sample rows (each row and octave has ~20 ns of (y, z) terms). On AVX-512 (Zen 4,
+  // 2-core VM under load, blocks of 16 rows): gradient ~1.8 ns in 4096-sample rows, ~3.1 ns in
+  // 34-sample rows; simplex ~1.3 / ~3.7 ns (~50 ns of (y, z) terms per row and octave). Allocates
+  // (row terms and columns).
   void rows(const double* y_m, const double* z_m, int nrows, std::int64_t i0, double dx_m, int n, float* out,
             std::ptrdiff_t stride) const;
   // Same bits as row(), by the plain scalar reference (no SIMD, no dispatch).
