@@ -32,16 +32,18 @@ struct StreamPowerWindow {
 };
 
 // stream_power (relief/erosion.hpp) on a window with the map's levels on its ring and the map's
-// inflow. With an empty StreamPowerWindow it is stream_power, bit for bit. Given the whole map's own
-// ring levels (seen and solved) and inflow (the whole map's drainage area of ring cells that drain
-// into the window's inside), the window's inside reproduces the whole map's bit for bit when no lake
-// crosses the ring (tests/test_erosion.cpp: a 129² island). Where one does, it does not: the window's
-// fill floods the lake from the ring's cells, which are its outlets, so the lake's cells drain out
-// across the ring instead of towards the lake's spill, and the spill is not incised. Measured on the
-// 513² eroded-mountains world of tests/test_world_bounded.cpp (20 steps), windows of 161 × 193 and
-// 193² given the whole map's ring and inflow: 23714 and 29136 inside samples differ, by at most
-// 0.028 and 0.027 (4 % of the relief). A fix would fill with only the ring cells that drain out of
-// the window as outlets (hydro::fill_depressions_tile takes an outlet mask).
+// inflow. With an empty StreamPowerWindow it is stream_power, bit for bit. Given the map's input as the
+// map's solver starts from it (filled: fill_depressions with ε = 0, which the window's own first fill
+// then leaves as it is), the whole map's own ring levels (seen and solved) and inflow (the whole map's
+// drainage area of ring cells that drain into the window's inside), the window's inside reproduces the
+// whole map's bit for bit, lakes that cross the ring included (tests/test_erosion.cpp: a 129² island;
+// the 16 windows of blocks of 128 grown by 32 on the 513² eroded-mountains world, every one cutting
+// lakes of the map's first fill). Every step's lake fill may hold the whole ring as outlets: the map's
+// filled levels restricted to the window solve the window's fill equation, and a lower solution would
+// give a lower one on the whole map. Given the raw input instead, the window's own first fill drains a
+// lake that crosses the ring across the ring at the ring's raw levels, and the inside differs (there:
+// 253806 of 490000 samples, by up to 10 % of the relief; the cause of world_stream_power's error at
+// 1025² before its input was filled across tiles).
 StreamPowerStats stream_power_window(float* e, const Frame& f, const StreamPowerSettings& s, const StreamPowerWindow& w,
                                      const std::function<void(double)>& progress = {});
 

@@ -35,6 +35,7 @@
 #include "relief/file_output.hpp"
 #include "relief/generate.hpp"
 #include "relief/world.hpp"
+#include "relief/world_bounded.hpp"
 #include "relief/world_features.hpp"
 #include "relief/world_points.hpp"
 #include "world_internal.hpp"
@@ -592,6 +593,12 @@ WorldReport build_world(WorldSettings s) {
       const int step = int((std::max(grid.nx, grid.nz) - 1 + kWorldOverviewMax - 2) / (kWorldOverviewMax - 1));
       const std::uint64_t overview = detail::WorldOverview::memory_bytes((grid.nx - 1) / std::max(1, step) + 1, (grid.nz - 1) / std::max(1, step) + 1);
       rep.tile_memory_bytes = std::uint64_t(at_once) * per_tile + overview + std::uint64_t(grid.count()) * 16;
+      // Stream power's world algorithm holds its coarse solve and refinement besides one tile at a time
+      // (relief/world_bounded.hpp): the phase's memory when it is more.
+      for (const RecipeStage& st : r.stages)
+        if (st.def->name == "stream_power")
+          rep.tile_memory_bytes = std::max(rep.tile_memory_bytes, world_stream_power_memory_bytes(grid.nx, grid.nz, st.stage->params().value("steps", 1)) +
+                                                                       per_tile + overview + std::uint64_t(grid.count()) * 16);
       const std::uint64_t budget = s.memory_budget_bytes ? s.memory_budget_bytes : memory_budget_bytes();
       if (budget && rep.tile_memory_bytes > budget)
         throw Error(s.tile_path, "tiles of " + std::to_string(grid.tile) + " samples (" + std::to_string(at_once) +

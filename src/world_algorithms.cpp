@@ -59,7 +59,9 @@ std::map<std::string, WorldStageAlgorithm> default_world_algorithms() {
 }
 
 std::uint64_t world_scratch_bytes(const StageDef& d, std::int64_t nx, std::int64_t nz) {
-  // world_hydraulic's file of the world's heights between its passes (relief/world_bounded.hpp).
+  // world_hydraulic's file of the world's heights between its passes; world_stream_power's two files
+  // when it refines (relief/world_bounded.hpp).
+  if (d.name == "stream_power") return world_stream_power_scratch_bytes(nx, nz);
   return d.name == "hydraulic" ? 4 * std::uint64_t(std::max<std::int64_t>(0, nx)) * std::uint64_t(std::max<std::int64_t>(0, nz)) : 0;
 }
 

@@ -20,6 +20,7 @@
 #include <memory>
 #include <string>
 #include <system_error>
+#include <utility>
 
 #include "relief/erosion.hpp"
 #include "relief/error.hpp"
@@ -166,6 +167,24 @@ FarmKernel hydraulic_farm_kernel(const WorldStageIO& io, const RecipeStage& st) 
 }
 }  // namespace detail
 
+std::int64_t world_hydraulic_group_blocks(std::int64_t tile, std::int64_t block) {
+  const std::int64_t T = std::max<std::int64_t>(1, tile - 1), B = std::max<std::int64_t>(1, block);
+  return std::max((T + B - 1) / B, std::min<std::int64_t>(kHydraulicGroupBlocks, std::max<std::int64_t>(1, 2 * T / B)));
+}
+
+std::uint64_t world_hydraulic_memory_bytes(const Frame& world, std::int64_t tile, const json& params, int lanes) {
+  const erosion::HydraulicSettings s = hydraulic_settings(params);
+  const std::int64_t reach = erosion::hydraulic_reach_cells(s, world.cell_m()), B = 2 * reach;
+  const std::int64_t G = world_hydraulic_group_blocks(tile, B);
+  const std::uint64_t wx = std::uint64_t(std::min<std::int64_t>(world.nx, G * B + 2 * reach + 2));
+  const std::uint64_t wz = std::uint64_t(std::min<std::int64_t>(world.nz, G * B + 2 * reach + 2));
+  // Per group in flight: its input (the window's floats), the kernel's heights and working copy, the
+  // result (a byte and up to a float per sample) and the merge's window (src/world_farm.cpp: up to
+  // twice the lanes wait to merge, at most one merges at a time).
+  const std::uint64_t per_group = wx * wz * (4 + 4 + 4 + 5);
+  return per_group * std::uint64_t(std::max(1, lanes)) * 2 + wx * wz * 4;
+}
+
 WorldStageAlgorithm world_hydraulic(std::uint64_t seed, int group_blocks) {
   if (group_blocks < 0)
     throw Error("group_blocks", "expected 0 (automatic) or at least 1 block, got " + std::to_string(group_blocks));
@@ -180,7 +199,7 @@ WorldStageAlgorithm world_hydraulic(std::uint64_t seed, int group_blocks) {
     const std::int64_t reach = erosion::hydraulic_reach_cells(s, W.cell_m()), B = 2 * reach;
     // World blocks cover the world's cells [0, n − 1) along each axis.
     const std::int64_t nbx = (g.nx - 2) / B + 1, nbz = (g.nz - 2) / B + 1;
-    std::int64_t G = group_blocks > 0 ? group_blocks : std::max<std::int64_t>(kHydraulicGroupBlocks, (g.tile - 1 + B - 1) / B);
+    std::int64_t G = group_blocks > 0 ? group_blocks : world_hydraulic_group_blocks(g.tile, B);
     // A distributed build: groups halved (down to 2 blocks) until each pass has at least 4 per rank,
     // so that every rank gets some (the bytes do not depend on G).
     const int ranks = io.farm ? io.farm->ranks() : 1;
@@ -322,6 +341,36 @@ struct BlockAxis {
 
 }  // namespace
 
+namespace {
+// The coarse grid's step (world samples per coarse cell) for an nx × nz world.
+std::int64_t coarse_step(std::int64_t nx, std::int64_t nz, int coarse_max) {
+  const std::int64_t cmax = std::max(2, coarse_max) - 1;
+  return std::max<std::int64_t>({1, (nx - 1 + cmax - 1) / cmax, (nz - 1 + cmax - 1) / cmax});
+}
+}  // namespace
+
+std::uint64_t world_stream_power_scratch_bytes(std::int64_t nx, std::int64_t nz, int coarse_max, int sweeps) {
+  if (nx < 1 || nz < 1 || sweeps <= 0 || coarse_step(nx, nz, coarse_max) == 1) return 0;
+  return 2 * 4 * std::uint64_t(nx) * std::uint64_t(nz);
+}
+
+std::uint64_t world_stream_power_memory_bytes(std::int64_t nx, std::int64_t nz, int steps, int coarse_max, int block, int halo,
+                                              int sweeps) {
+  if (nx < 1 || nz < 1) return 0;
+  const std::int64_t s = coarse_step(nx, nz, coarse_max);
+  const std::uint64_t cnx = std::uint64_t((nx - 1 + s - 1) / s + 1), cnz = std::uint64_t((nz - 1 + s - 1) / s + 1);
+  const bool refine = s > 1 && sweeps > 0;
+  const std::uint64_t snapshots = refine ? std::uint64_t(std::min(std::max(steps, 1), kStreamPowerSnapshots)) + 1 : 0;
+  std::uint64_t bytes = cnx * cnz * (40 + (refine ? 4 * snapshots + 20 : 4));
+  if (!refine) return bytes;
+  const BlockAxis ax(nx, std::max(block, 1), halo), az(nz, std::max(block, 1), halo);
+  const std::uint64_t wn = std::uint64_t(std::max(block, 1)) + 2 * std::uint64_t(std::max(halo, 0)) + 1;
+  const std::uint64_t ring = 4 * wn;
+  if (sweeps > 1) bytes += std::uint64_t(ax.count * az.count) * ring * std::uint64_t(std::max(steps, 1)) * 4 * 2 * 2;
+  bytes += wn * wn * 48;
+  return bytes;
+}
+
 WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int sweeps) {
   if (coarse_max < 3) throw Error("coarse_max", "expected at least 3 samples, got " + std::to_string(coarse_max));
   if (halo < 4) throw Error("halo", "expected at least 4 samples, got " + std::to_string(halo));
@@ -374,7 +423,31 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
         // writes the tiles (a step per tile or block in each pass).
         if (io.progress) io.progress(gather_end * double(Z * g.tiles_x + X + 1) / double(g.count()));
       }
-    const std::vector<float> before = e;
+    if (refine) {
+      // The whole map's solver starts from its input filled (ε = 0): so do the blocks, from the world's
+      // input filled across tiles (the same bytes, into the output's file), so that a lake a block's ring cuts starts at its
+      // level and spill, not drained across the ring (stream_power_detail.hpp).
+      fill_depressions_tiled(
+          g, float(W.sea_level), 0.0f,
+          [&](std::int64_t X, std::int64_t Z) {
+            check_cancelled(io);
+            const WorldGrid::Window w = g.window(X, Z);
+            std::vector<float> h(std::size_t(w.nx) * std::size_t(w.nz));
+            input->read(w.ix0, w.iz0, w.nx, w.nz, h.data());
+            return h;
+          },
+          [&](std::int64_t X, std::int64_t Z, std::vector<float> h) {
+            const WorldGrid::Window w = g.window(X, Z);
+            output->write(w.ix0, w.iz0, w.nx, w.nz, h.data());
+          },
+          {});
+      // The filled input becomes the input; the blend starts from a fresh (zero) file.
+      std::swap(input, output);
+      output.reset();
+      output = std::make_unique<Scratch>(io.scratch_dir, g.nx, g.nz, "stream_power");
+    }
+    std::vector<float> before;
+    if (s > 1 && !refine) before = e;
     Context ctx;
     ctx.stage_index = index;  // stream power draws no random numbers
     // The refinement's record of the coarse solve: its heights (metres above the sea, as the solver

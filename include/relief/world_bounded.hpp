@@ -16,7 +16,7 @@
 // position, positions in block coordinates, so a droplet's floats are the same in every window that
 // holds its block grown by the reach). So the world algorithm runs the passes one after another over
 // the whole world, each on groups of G × G blocks (G = group_blocks, or by default
-// max(kHydraulicGroupBlocks, tile / block) rounded up), each group on its blocks' cells grown by the reach
+// world_hydraulic_group_blocks), each group on its blocks' cells grown by the reach
 // (clipped to the world), running only that group's blocks of the pass
 // (erosion::hydraulic_erosion_part): every pass gives, group by group, the whole map's pass bit for
 // bit, and so does the result. Between passes the world's heights live in a temporary file (4 bytes
@@ -31,8 +31,11 @@
 //   samples it changed, and rank 0 writes them into the file in group order (groups of a pass change
 //   disjoint samples and read none that another changes, so the order of reading does not matter).
 //   With several ranks the automatic G is halved (down to 2) until a pass has 4 groups per rank.
-//   Memory: one group's window, (G·block + 2·reach + 2)² floats, and the stage's per-block droplet
-//   starts; not the world. Disk: the temporary file (world samples × 4 bytes) besides the stores;
+//   Memory: the groups in flight, each a window of (G·block + 2·reach + 2)² floats, and the stage's
+//   per-block droplet starts (world_hydraulic_memory_bytes); not the world. The reach is the
+//   droplets' path in cells (lifetime · step_m / cell + the brush), so a world of the same width in
+//   metres with more samples has a longer reach in cells: the automatic G keeps a group within 2
+//   tiles a side, or one block (2·reach) where the reach alone is larger. Disk: the temporary file (world samples × 4 bytes) besides the stores;
 //   build_world's disk check counts it.
 //   Time: the droplets are the whole map's, once each (no grown windows: nothing is computed twice);
 //   the passes add 16 reads and writes of the world's heights through the temporary file, each
@@ -66,8 +69,11 @@
 // (the start, then evenly spaced steps), and the world is refined at full resolution:
 //   * World-aligned blocks (`block` samples: block k's core spans samples [k·block, (k+1)·block]
 //     along each axis) are each solved by the stage's own kernel at full resolution on the core grown
-//     by `halo` samples (clipped to the world), from the world's input heights
-//     (erosion::detail::stream_power_window, src/stream_power_detail.hpp), with the coarse solve as
+//     by `halo` samples (clipped to the world), from the world's input heights filled across tiles
+//     as the stage's solver starts (fill_depressions_tiled, ε = 0: the whole map's filled input, bit
+//     for bit), so that a lake that a window's ring cuts starts at its level, not drained across the
+//     ring by the window's own first fill (erosion::detail::stream_power_window,
+//     src/stream_power_detail.hpp), with the coarse solve as
 //     boundary: the window's border ring, the solver's outlets, is held at its input height plus the
 //     coarse change since the start (bilinear in space, linear in time between snapshots) at every
 //     step, and the drainage area of coarse cells outside the window that drain into it (their coarse
@@ -92,16 +98,14 @@
 //     build's process, one after another, each on its threads).
 //   What it guarantees: the stage's valleys and ranges at full resolution, their drainage crossing
 //   the blocks' seams; against one whole-map run, measured (tests/test_world_bounded.cpp, 513², coarse
-//   257², blocks of 128): 0.29 % of the relief (RMS within 2 halos of the seams) with halo 48 and 4
-//   sweeps, against 2.09 % for the coarse change alone (in the same band). Not guaranteed: the sweeps need not converge
-//   to the whole map: with halo 32 there, the world keeps a flat surface at 0.40 (a filled lake)
-//   where the whole map's valley floor is at 0.14, whatever the sweeps and whether the first sweep's
-//   ring takes the coarse change or not (3.3 %). A window given the whole map's own ring levels and
-//   inflow has that valley right (0.1386 against 0.1387) but differs elsewhere by up to 4 % of the
-//   relief, where lakes cross its ring (src/stream_power_detail.hpp: the window's fill drains them out
-//   across the ring, so their spill is not incised); so the sweeps settle on another drainage than
-//   the whole map's. Larger halos and more sweeps help, not monotonically. The next step is the fill
-//   fix described there. The whole map's
+//   257², blocks of 128): 0.263 % of the relief (RMS within 2 halos of the seams) with halo 48 and 4
+//   sweeps, 0.389 % with halo 32, against 2.09 % for the coarse change alone (in the same band); 1025²
+//   (100 steps, coarse 513², blocks 256, halo 64, tiles 257, 4 sweeps): 0.427 % against 2.02 %. Before
+//   the blocks started from the filled input, halo 32 gave 3.3 % and that 1025² world 3.45 %: a lake of
+//   the input that a ring cut was drained across the ring by the window's own first fill and never
+//   came back (src/stream_power_detail.hpp: given the whole map's filled input, ring levels and
+//   inflow a window is exact, lakes included). Not guaranteed: the sweeps need not converge to the
+//   whole map; more sweeps and larger halos have helped in every case measured. The whole map's
 //   stage ends ε-filled, so the world drains: the blend, clamped to [0, 1], is filled across tiles as
 //   the world's `fill` stage fills (fill_depressions_tiled, relief/world.hpp: the whole world's
 //   fill_depressions, ε = 0, bit for bit).
@@ -122,6 +126,8 @@
 #include <cstdint>
 #include <vector>
 
+#include <nlohmann/json_fwd.hpp>
+
 #include "relief/world.hpp"
 
 namespace relief {
@@ -137,6 +143,20 @@ constexpr int kStreamPowerSnapshots = 8;     // stream power's refinement: coars
 // (see above); on the 513² test (blocks 128, halo 48) 0.29 % against 2.09 %.
 constexpr int kStreamPowerSweeps = 0;
 
+// The memory world_stream_power(coarse_max, block, halo, sweeps) holds besides the tiles on an
+// nx × nz world for a stage of `steps` steps: the coarse solve (its solver's arrays and fill, about
+// 40 bytes per coarse sample), its snapshots and the inflow pass (4 · (snapshots + 1) + 20 bytes per
+// coarse sample), and when it refines (s > 1, sweeps > 0) the sweeps' ring records (2 sweeps' seen
+// and solved levels, floats, per step and ring sample) and one block's window with the solver's arrays
+// (about 48 bytes per sample). An estimate for build_world's memory figure, not a bound.
+std::uint64_t world_stream_power_memory_bytes(std::int64_t nx, std::int64_t nz, int steps, int coarse_max = kStreamPowerCoarseMax,
+                                              int block = kStreamPowerBlock, int halo = kStreamPowerHalo,
+                                              int sweeps = kStreamPowerSweeps);
+// The disk it uses in WorldStageIO::scratch_dir while it runs: when it refines, two files of 4 bytes
+// per world sample (the filled input, the blend); else nothing.
+std::uint64_t world_stream_power_scratch_bytes(std::int64_t nx, std::int64_t nz, int coarse_max = kStreamPowerCoarseMax,
+                                               int sweeps = kStreamPowerSweeps);
+
 constexpr int kHydraulicGroupBlocks = 16;  // hydraulic: at least this many blocks per group side
 // The salt of the hydraulic stage's seed (Context::stage_seed; stage_erosion.cpp's apply_hydraulic
 // uses this constant, so the tiled world and the whole map seed their droplets alike).
@@ -151,6 +171,16 @@ constexpr std::uint64_t kHydraulicSeedSalt = 0x6879647261756cull;
 WorldStageAlgorithm world_hydraulic(std::uint64_t seed, int group_blocks = 0);
 // The same with the build's seed (WorldStageIO::seed): what default_world_algorithms() registers.
 WorldStageAlgorithm world_hydraulic();
+// The automatic G of world_hydraulic for tiles of `tile` samples and blocks of `block` (= 2·reach)
+// cells: at least one tile's width (rounded up to whole blocks), and kHydraulicGroupBlocks blocks
+// when that stays within 2 tiles (at least one block). Before session 16 it was always at least
+// kHydraulicGroupBlocks, so a group of a world with a long reach in cells covered most of the world
+// (a 16385² river-island world peaked at 2.7 GB). The bytes do not depend on G.
+std::int64_t world_hydraulic_group_blocks(std::int64_t tile, std::int64_t block);
+// What world_hydraulic holds in memory besides the build's tiles, for build_world's estimate: the
+// windows of the groups in flight on `lanes` threads, their results and the merge's window, for a
+// stage with resolved params `params` on `world` in tiles of `tile`.
+std::uint64_t world_hydraulic_memory_bytes(const Frame& world, std::int64_t tile, const nlohmann::json& params, int lanes);
 // The world algorithm of the "stream_power" stage (above), with a coarse grid of at most
 // `coarse_max` samples per axis (≥ 3; tests lower it to exercise the coarse path on small worlds),
 // refined on world blocks of `block` samples grown by `halo` in `sweeps` passes (tests lower them).
