@@ -599,6 +599,11 @@ WorldReport build_world(WorldSettings s) {
         if (st.def->name == "stream_power")
           rep.tile_memory_bytes = std::max(rep.tile_memory_bytes, world_stream_power_memory_bytes(grid.nx, grid.nz, st.stage->params().value("steps", 1)) +
                                                                        per_tile + overview + std::uint64_t(grid.count()) * 16);
+      // Hydraulic's groups in flight (relief/world_bounded.hpp), besides one tile at a time.
+      for (const RecipeStage& st : r.stages)
+        if (st.def->name == "hydraulic")
+          rep.tile_memory_bytes = std::max(rep.tile_memory_bytes, world_hydraulic_memory_bytes(frame, grid.tile, st.stage->params(), threads) +
+                                                                       per_tile + overview + std::uint64_t(grid.count()) * 16);
       const std::uint64_t budget = s.memory_budget_bytes ? s.memory_budget_bytes : memory_budget_bytes();
       if (budget && rep.tile_memory_bytes > budget)
         throw Error(s.tile_path, "tiles of " + std::to_string(grid.tile) + " samples (" + std::to_string(at_once) +

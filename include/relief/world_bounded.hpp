@@ -180,7 +180,7 @@ std::int64_t world_hydraulic_group_blocks(std::int64_t tile, std::int64_t block)
 // What world_hydraulic holds in memory besides the build's tiles, for build_world's estimate: the
 // windows of the groups in flight on `lanes` threads, their results and the merge's window, for a
 // stage with resolved params `params` on `world` in tiles of `tile`.
-std::uint64_t world_hydraulic_memory_bytes(const Frame& world, std::int64_t tile, const nlohmann::json& params, int lanes);
+std::uint64_t world_hydraulic_memory_bytes(const Frame& world, std::int64_t tile, const json& params, int lanes);
 // The world algorithm of the "stream_power" stage (above), with a coarse grid of at most
 // `coarse_max` samples per axis (≥ 3; tests lower it to exercise the coarse path on small worlds),
 // refined on world blocks of `block` samples grown by `halo` in `sweeps` passes (tests lower them).
