@@ -258,7 +258,7 @@ TEST(WorldHydraulic, TiledWorldIsTheWholeMapAndDrains) {
 // coarse path, without and with the refinement): neighbouring tiles hold the same value for every
 // sample they share, and the world drains after fill.
 TEST(WorldBounded, ClippedTilesAgreeOnSharedSamples) {
-  for (const int sweeps : {0, 2}) {  // stream power's default coarse path, and refined
+  for (const int sweeps : {0, 2}) {  // stream power's coarse path alone, and refined
     SCOPED_TRACE("stream power sweeps " + std::to_string(sweeps));
     TempDir d;
     json doc = eroded_doc(257, true, true, 10);
@@ -355,7 +355,8 @@ TEST(WorldStreamPower, RefinedCoarsePassKeepsSeamsContinuous) {
   const SeamMetrics m = seam_metrics(c.tiled, c.whole, c.grid, band, c.world);
   print("stream_power coarse 257² alone (sweeps 0) + thermal + fill", 513, 129, band, m);
   EXPECT_GE(m.rms_fraction, 0.018);  // the refinement's gain above is real
-  // What the default path (every world above 2049²) promises: an error of about 2 % of the relief
+  // What the coarse path alone (sweeps = 0, and a masked stage, above the coarse size) promises: an
+  // error of about 2 % of the relief
   // near seams, seams no rougher than the inside of the tiles or the whole map at the same places,
   // and a world that drains after fill.
   EXPECT_LE(m.rms_fraction, 0.025);
@@ -381,6 +382,22 @@ TEST(WorldStreamPower, RefinedWorldDrainsAsTheStageDoes) {
   TempDir d1;
   const Built one = build_both(doc, 33, (d1.path / "w").string(), 65, 0, 1, 64, 16, &b.whole, 4);
   EXPECT_TRUE(one.tiled == b.tiled);
+}
+
+// The disk check and memory estimate count what the refinement holds (4 sweeps, the other defaults):
+// two temporary files of 4 bytes per sample, the coarse solve, the ring records and a block's window
+// (about 585 MB at 4097², 100 steps; measured peak of such a build 566 MB); without sweeps, or when
+// the coarse grid is the world, no file.
+TEST(WorldStreamPower, EstimatesCountTheRefinementsFilesAndMemory) {
+  EXPECT_EQ(world_stream_power_scratch_bytes(2049, 2049, kStreamPowerCoarseMax, 4), 0u);  // the coarse grid is the world
+  EXPECT_EQ(world_stream_power_scratch_bytes(4097, 4097, kStreamPowerCoarseMax, 4), 8ull * 4097 * 4097);
+  EXPECT_EQ(world_stream_power_scratch_bytes(4097, 4097, kStreamPowerCoarseMax, 0), 0u);
+  const std::uint64_t refined = world_stream_power_memory_bytes(4097, 4097, 100, kStreamPowerCoarseMax, kStreamPowerBlock, kStreamPowerHalo, 4);
+  const std::uint64_t alone = world_stream_power_memory_bytes(4097, 4097, 100, kStreamPowerCoarseMax, kStreamPowerBlock, kStreamPowerHalo, 0);
+  EXPECT_GT(refined, 500'000'000u);
+  EXPECT_LT(refined, 700'000'000u);
+  EXPECT_LT(alone, refined / 2);
+  EXPECT_EQ(world_stream_power_scratch_bytes(4097, 4097), kStreamPowerSweeps > 0 ? 8ull * 4097 * 4097 : 0u);
 }
 
 TEST(WorldStreamPower, RefusesBadBlocks) {

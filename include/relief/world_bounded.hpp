@@ -100,7 +100,9 @@
 //   the blocks' seams; against one whole-map run, measured (tests/test_world_bounded.cpp, 513², coarse
 //   257², blocks of 128): 0.263 % of the relief (RMS within 2 halos of the seams) with halo 48 and 4
 //   sweeps, 0.389 % with halo 32, against 2.09 % for the coarse change alone (in the same band); 1025²
-//   (100 steps, coarse 513², blocks 256, halo 64, tiles 257, 4 sweeps): 0.427 % against 2.02 %. Before
+//   (100 steps, coarse 513², blocks 256, halo 64, tiles 257, 4 sweeps): 0.427 % against 2.02 %; 4097²
+//   (100 steps, coarse 2049², blocks 1024 and halo 64 as by default, 4 sweeps; tiles 1025): 0.659 %
+//   against 2.365 % (2 sweeps: 4.20 %, worse than the coarse change alone). Before
 //   the blocks started from the filled input, halo 32 gave 3.3 % and that 1025² world 3.45 %: a lake of
 //   the input that a ring cut was drained across the ring by the window's own first fill and never
 //   came back (src/stream_power_detail.hpp: given the whole map's filled input, ring levels and
@@ -120,13 +122,13 @@
 //   Measured (this 2-core machine, loaded by other work, 2 threads): the eroded-mountains stages up
 //   to stream power (100 steps) at 4097² in tiles of 1025, coarse 2049², blocks 1024, halo 64, 4
 //   sweeps: the stream power phase 182 s and 235 s (two runs; 212 s and 234 s of CPU), peak
-//   memory of the build 566 MB; the coarse solve alone (what the phase was before the refinement,
-//   with its two passes over the tiles) is the stage on 2049², 4.6 s. Disk: two temporary files of 4 bytes per world sample (the input, the
-//   blended output) in io.scratch_dir, as for hydraulic.
+//   memory of the build 566 MB (world_stream_power_memory_bytes estimates 585 MB for the phase); the
+//   coarse solve alone (sweeps = 0: the phase before the refinement, with its two passes over the
+//   tiles) is the stage on 2049², 4.6 s: the refinement costs 40-50× that time. Disk: two temporary
+//   files of 4 bytes per world sample (the filled input, the blended output) in io.scratch_dir
+//   (world_scratch_bytes counts them).
 #include <cstdint>
 #include <vector>
-
-#include <nlohmann/json_fwd.hpp>
 
 #include "relief/world.hpp"
 
@@ -136,11 +138,14 @@ constexpr int kStreamPowerCoarseMax = 2049;  // stream power's coarse grid: at m
 constexpr int kStreamPowerBlock = 1024;      // stream power's refinement: world block side, in samples
 constexpr int kStreamPowerHalo = 64;         // stream power's refinement: samples each block's window adds
 constexpr int kStreamPowerSnapshots = 8;     // stream power's refinement: coarse snapshots after the start
-// Stream power's refinement: passes over the blocks. 0 (the default: no refinement, the coarse
-// change alone) until the refinement beats it on real worlds: measured at 1025² (eroded-mountains,
-// 100 steps, coarse 513², blocks 256, halo 64, tiles 257) RMS within 2 halos of the seams 3.45 % of
-// the relief with 4 sweeps against 2.02 % for the coarse change alone, and 20-40× its time at 4097²
-// (see above); on the 513² test (blocks 128, halo 48) 0.29 % against 2.09 %.
+// Stream power's refinement: passes over the blocks (0: none, the coarse change alone). 4 sweeps beat
+// the coarse change alone at every size measured (RMS within 2 halos of the seams, share of the
+// relief, eroded-mountains): 513² 0.263 % against 2.09 %, 1025² 0.427 % against 2.02 %, 4097² (the
+// other defaults) 0.659 % against 2.365 %; 2 sweeps gave 4.20 % at 4097², worse than none. Still 0 by
+// default: the sweeps' ring records are held in memory for every block and step (2 × 2 × steps × ring
+// floats per block: 118 MB at 4097² and 100 steps, 1.9 GB at 16385², growing with the world's area,
+// where a world build's memory must be bounded by the tile), and the refinement takes 40-50× the
+// coarse solve's time (see above). Keeping the records in a temporary file would lift the first.
 constexpr int kStreamPowerSweeps = 0;
 
 // The memory world_stream_power(coarse_max, block, halo, sweeps) holds besides the tiles on an
