@@ -31,6 +31,7 @@
 #include "relief/erosion.hpp"
 #include "relief/hydrology.hpp"
 #include "relief/world_bounded.hpp"
+#include "stream_power_detail.hpp"
 #include "parallel.hpp"
 #include "relief/error.hpp"
 #include "stages.hpp"
@@ -347,8 +348,7 @@ struct StreamPowerParams {
   double max_slope_deg = 40.0;
 };
 
-void apply_stream_power(Terrain& t, const StreamPowerParams& p, const Context& ctx) {
-  Layer& h = height_layer(t);
+erosion::StreamPowerSettings settings_of(const StreamPowerParams& p) {
   erosion::StreamPowerSettings s;
   s.uplift_mm_per_year = p.uplift_mm_per_year;
   s.uplift_follows_height = p.uplift_pattern == UpliftPattern::Height;
@@ -359,7 +359,29 @@ void apply_stream_power(Terrain& t, const StreamPowerParams& p, const Context& c
   s.steps = p.steps;
   s.rainfall = p.rainfall;
   s.max_slope_deg = p.max_slope_deg;
-  erosion::stream_power(h.data.data(), t.frame, s, stage_progress(ctx, "stream_power"));
+  return s;
+}
+
+void apply_stream_power(Terrain& t, const StreamPowerParams& p, const Context& ctx) {
+  Layer& h = height_layer(t);
+  erosion::stream_power(h.data.data(), t.frame, settings_of(p), stage_progress(ctx, "stream_power"));
+}
+
+Table<StreamPowerParams> stream_power_table() {
+  using P = StreamPowerParams;
+  return Table<P>{{
+      param(&P::uplift_mm_per_year, "uplift_mm_per_year", 0, 100, "mm/yr", "Tectonic uplift rate U"),
+      choice(&P::uplift_pattern, "uplift_pattern", {{UpliftPattern::Height, "height"}, {UpliftPattern::Uniform, "uniform"}},
+             "height: U scaled by the input land height (the input relief is the uplift map); uniform: U everywhere on land"),
+      param(&P::k, "k", 0, 0.01, "m^(1-2m)/yr", "Erodibility K in dh/dt = U − K·A^m·S^n"),
+      param(&P::m, "m", 0.1, 1.5, "", "Drainage-area exponent m (channel concavity θ = m/n)"),
+      param(&P::n, "n", 0.5, 2.0, "", "Slope exponent n"),
+      param(&P::duration_years, "duration_years", 0, 1e9, "yr", "Simulated time"),
+      param(&P::steps, "steps", 1, 100000, "", "Implicit time steps over the duration"),
+      param(&P::rainfall, "rainfall", 0.01, 100, "", "Uniform precipitation factor on the drainage area"),
+      param(&P::max_slope_deg, "max_slope_deg", 1, 89, "deg",
+            "Critical hillslope angle: steeper ground fails down to it (bounds the relief uplift can build)"),
+  }};
 }
 
 }  // namespace
@@ -451,19 +473,7 @@ StageDef flow() {
 
 StageDef stream_power() {
   using P = StreamPowerParams;
-  Table<P> table{{
-      param(&P::uplift_mm_per_year, "uplift_mm_per_year", 0, 100, "mm/yr", "Tectonic uplift rate U"),
-      choice(&P::uplift_pattern, "uplift_pattern", {{UpliftPattern::Height, "height"}, {UpliftPattern::Uniform, "uniform"}},
-             "height: U scaled by the input land height (the input relief is the uplift map); uniform: U everywhere on land"),
-      param(&P::k, "k", 0, 0.01, "m^(1-2m)/yr", "Erodibility K in dh/dt = U − K·A^m·S^n"),
-      param(&P::m, "m", 0.1, 1.5, "", "Drainage-area exponent m (channel concavity θ = m/n)"),
-      param(&P::n, "n", 0.5, 2.0, "", "Slope exponent n"),
-      param(&P::duration_years, "duration_years", 0, 1e9, "yr", "Simulated time"),
-      param(&P::steps, "steps", 1, 100000, "", "Implicit time steps over the duration"),
-      param(&P::rainfall, "rainfall", 0.01, 100, "", "Uniform precipitation factor on the drainage area"),
-      param(&P::max_slope_deg, "max_slope_deg", 1, 89, "deg",
-            "Critical hillslope angle: steeper ground fails down to it (bounds the relief uplift can build)"),
-  }};
+  Table<P> table = stream_power_table();
   StageDef d = make_stage<P>("stream_power",
                        "Stream-power uplift and incision (Braun & Willett 2013, Cordonnier 2016): drainage networks "
                        "and ranges, lakes resolved each step",
@@ -475,3 +485,13 @@ StageDef stream_power() {
 }
 
 }  // namespace relief::stages
+
+namespace relief::erosion::detail {
+StreamPowerSettings stream_power_settings(const json& params) {
+  const Table<stages::StreamPowerParams> table = stages::stream_power_table();
+  json own = json::object();
+  for (const auto& f : table.fields)
+    if (params.contains(f.info.name)) own[f.info.name] = params.at(f.info.name);
+  return stages::settings_of(table.read(own, "stream_power"));
+}
+}  // namespace relief::erosion::detail

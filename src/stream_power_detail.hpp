@@ -5,6 +5,7 @@
 #include <functional>
 
 #include "relief/erosion.hpp"
+#include "relief/params.hpp"
 
 namespace relief::erosion::detail {
 
@@ -44,6 +45,11 @@ struct StreamPowerWindow {
 // lake that crosses the ring across the ring at the ring's raw levels, and the inside differs (there:
 // 253806 of 490000 samples, by up to 10 % of the relief; the cause of world_stream_power's error at
 // 1025² before its input was filled across tiles).
+// The stream_power stage's resolved params (Stage::params(): its table in src/stage_erosion.cpp, read
+// as the stage reads them; keys that are not the table's, such as a masked stage's, are ignored) as
+// the kernel's settings: the one conversion the stage and world_stream_power's refinement share.
+StreamPowerSettings stream_power_settings(const json& params);
+
 StreamPowerStats stream_power_window(float* e, const Frame& f, const StreamPowerSettings& s, const StreamPowerWindow& w,
                                      const std::function<void(double)>& progress = {});
 

@@ -300,21 +300,6 @@ WorldStageAlgorithm world_hydraulic(std::uint64_t seed, int group_blocks) {
 
 namespace {
 
-// The stage's resolved params (stage_erosion.cpp's table) as the kernel's settings.
-erosion::StreamPowerSettings stream_power_settings(const json& p) {
-  erosion::StreamPowerSettings s;
-  s.uplift_mm_per_year = p.at("uplift_mm_per_year").get<double>();
-  s.uplift_follows_height = p.at("uplift_pattern").get<std::string>() == "height";
-  s.k = p.at("k").get<double>();
-  s.m = p.at("m").get<double>();
-  s.n = p.at("n").get<double>();
-  s.duration_years = p.at("duration_years").get<double>();
-  s.steps = p.at("steps").get<int>();
-  s.rainfall = p.at("rainfall").get<double>();
-  s.max_slope_deg = p.at("max_slope_deg").get<double>();
-  return s;
-}
-
 // One axis of the refinement's blocks: block k's core [k·B, min((k + 1)·B, n − 1)], its window the
 // core grown by the halo (clipped to the world), its weight 1 inside the core away from its ends
 // and a smoothstep across ± r of each inner core end, where the neighbour's weight is its complement.
@@ -452,7 +437,7 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
     ctx.stage_index = index;  // stream power draws no random numbers
     // The refinement's record of the coarse solve: its heights (metres above the sea, as the solver
     // holds them) at K + 1 times, snapshot k after step_of[k] steps (k = 0: the start).
-    const erosion::StreamPowerSettings sp = refine ? stream_power_settings(params) : erosion::StreamPowerSettings{};
+    const erosion::StreamPowerSettings sp = refine ? erosion::detail::stream_power_settings(params) : erosion::StreamPowerSettings{};
     const int steps = sp.steps, K = std::min(steps, kStreamPowerSnapshots);
     std::vector<int> step_of;
     std::vector<std::vector<float>> snap;

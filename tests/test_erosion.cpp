@@ -823,16 +823,15 @@ TEST(StreamPower, WindowsThatLakesCrossReproduceTheWholeMapGivenItsFilledInput) 
   const std::vector<float> raw = t.get("height").data;
   std::vector<float> input = raw;
   hydro::fill_depressions<float>(input.data(), nx, nz, float(f.sea_level), 0.0f);  // as the stage starts
-  erosion::StreamPowerSettings s;
-  s.uplift_mm_per_year = sp_params.at("uplift_mm_per_year").get<double>();
-  s.uplift_follows_height = sp_params.at("uplift_pattern").get<std::string>() == "height";
-  s.k = sp_params.at("k").get<double>();
-  s.m = sp_params.at("m").get<double>();
-  s.n = sp_params.at("n").get<double>();
-  s.duration_years = sp_params.at("duration_years").get<double>();
+  // The stage's settings as the stage and the world's refinement take them from its params.
+  erosion::StreamPowerSettings s = erosion::detail::stream_power_settings(sp_params);
+  EXPECT_EQ(s.k, 4e-6);
+  EXPECT_EQ(s.max_slope_deg, 45.0);
+  EXPECT_TRUE(s.uplift_follows_height);
+  EXPECT_EQ(s.steps, 100);
+  sp_params["mask"] = "some_layer";  // a masked stage's key is not the kernel's
+  EXPECT_EQ(erosion::detail::stream_power_settings(sp_params).duration_years, 500000.0);
   s.steps = 20;
-  s.rainfall = sp_params.at("rainfall").get<double>();
-  s.max_slope_deg = sp_params.at("max_slope_deg").get<double>();
   std::vector<std::vector<double>> seen(s.steps), solved(s.steps);
   erosion::detail::StreamPowerWindow record;
   record.seen = [&](int step, const double* h) { seen[std::size_t(step)].assign(h, h + f.count()); };
