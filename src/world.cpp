@@ -593,22 +593,38 @@ WorldReport build_world(WorldSettings s) {
       const int step = int((std::max(grid.nx, grid.nz) - 1 + kWorldOverviewMax - 2) / (kWorldOverviewMax - 1));
       const std::uint64_t overview = detail::WorldOverview::memory_bytes((grid.nx - 1) / std::max(1, step) + 1, (grid.nz - 1) / std::max(1, step) + 1);
       rep.tile_memory_bytes = std::uint64_t(at_once) * per_tile + overview + std::uint64_t(grid.count()) * 16;
-      // Stream power's world algorithm holds its coarse solve and refinement besides one tile at a time
-      // (relief/world_bounded.hpp): the phase's memory when it is more.
-      for (const RecipeStage& st : r.stages)
+      // A world algorithm's phase holds its own state besides one tile at a time (relief/world_bounded.hpp):
+      // stream power its coarse solve (and refinement), hydraulic its groups in flight. The largest phase
+      // counts, and a refusal names what needs the memory.
+      std::string need_what;  // empty: the tiles
+      std::size_t need_stage = 0;
+      for (std::size_t i = 0; i < r.stages.size(); ++i) {
+        const RecipeStage& st = r.stages[i];
+        std::uint64_t phase = 0;
         if (st.def->name == "stream_power")
-          rep.tile_memory_bytes = std::max(rep.tile_memory_bytes, world_stream_power_memory_bytes(grid.nx, grid.nz, st.stage->params().value("steps", 1)) +
-                                                                       per_tile + overview + std::uint64_t(grid.count()) * 16);
-      // Hydraulic's groups in flight (relief/world_bounded.hpp), besides one tile at a time.
-      for (const RecipeStage& st : r.stages)
-        if (st.def->name == "hydraulic")
-          rep.tile_memory_bytes = std::max(rep.tile_memory_bytes, world_hydraulic_memory_bytes(frame, grid.tile, st.stage->params(), threads) +
-                                                                       per_tile + overview + std::uint64_t(grid.count()) * 16);
+          phase = world_stream_power_memory_bytes(grid.nx, grid.nz, st.stage->params().value("steps", 1));
+        else if (st.def->name == "hydraulic")
+          phase = world_hydraulic_memory_bytes(frame, grid.tile, st.stage->params(), threads);
+        else
+          continue;
+        phase += per_tile + overview + std::uint64_t(grid.count()) * 16;
+        if (phase > rep.tile_memory_bytes) rep.tile_memory_bytes = phase, need_what = st.def->name, need_stage = i;
+      }
+      rep.memory_stage = need_what;
       const std::uint64_t budget = s.memory_budget_bytes ? s.memory_budget_bytes : memory_budget_bytes();
-      if (budget && rep.tile_memory_bytes > budget)
+      if (budget && rep.tile_memory_bytes > budget) {
+        if (!need_what.empty())
+          throw Error("stages[" + std::to_string(need_stage) + "]",
+                      "the world algorithm of stage '" + need_what + "' needs about " + human_bytes(rep.tile_memory_bytes) + " on a " +
+                          std::to_string(grid.nx) + "x" + std::to_string(grid.nz) + " world in tiles of " + std::to_string(grid.tile) +
+                          (need_what == "hydraulic" ? " (its groups of blocks: a droplet's reach in cells sets their size)" : " (its coarse solve)") +
+                          ", but the limit here is " + human_bytes(budget) +
+                          (need_what == "hydraulic" ? "; choose fewer threads, a coarser world or shorter droplet paths (lifetime, step_m)"
+                                                    : "; choose a smaller world or fewer steps"));
         throw Error(s.tile_path, "tiles of " + std::to_string(grid.tile) + " samples (" + std::to_string(at_once) +
                                      " at once) need about " + human_bytes(rep.tile_memory_bytes) + ", but the limit here is " +
                                      human_bytes(budget) + "; choose a smaller tile or fewer threads");
+      }
     }
 
     if (s.dry_run)

@@ -178,11 +178,13 @@ std::uint64_t world_hydraulic_memory_bytes(const Frame& world, std::int64_t tile
   const std::int64_t G = world_hydraulic_group_blocks(tile, B);
   const std::uint64_t wx = std::uint64_t(std::min<std::int64_t>(world.nx, G * B + 2 * reach + 2));
   const std::uint64_t wz = std::uint64_t(std::min<std::int64_t>(world.nz, G * B + 2 * reach + 2));
-  // Per group in flight: its input (the window's floats), the kernel's heights and working copy, the
-  // result (a byte and up to a float per sample) and the merge's window (src/world_farm.cpp: up to
-  // twice the lanes wait to merge, at most one merges at a time).
-  const std::uint64_t per_group = wx * wz * (4 + 4 + 4 + 5);
-  return per_group * std::uint64_t(std::max(1, lanes)) * 2 + wx * wz * 4;
+  // Per lane computing a group: its input (the window's floats), the kernel's heights and its result
+  // (a byte and at most a float per sample: 13 bytes per sample) and its blocks' droplet starts (two
+  // floats each, in the round it runs); per result waiting for its turn to merge (src/world_farm.cpp),
+  // at most 5 bytes per sample; and the merge's copy of the window (4 bytes per sample).
+  const std::uint64_t n = wx * wz, L = std::uint64_t(std::max(1, lanes));
+  const double droplets = s.droplets_per_km2 * world.cell_m() * world.cell_m() * 1e-6 * double(n);
+  return L * (13 * n + std::uint64_t(droplets * 8.0)) + L * 5 * n + 4 * n;
 }
 
 WorldStageAlgorithm world_hydraulic(std::uint64_t seed, int group_blocks) {
@@ -205,7 +207,21 @@ WorldStageAlgorithm world_hydraulic(std::uint64_t seed, int group_blocks) {
     const int ranks = io.farm ? io.farm->ranks() : 1;
     while (group_blocks == 0 && ranks > 1 && G > 2 && ((nbx + G - 1) / G) * ((nbz + G - 1) / G) < 4 * ranks) G = (G + 1) / 2;
     const std::int64_t ngx = (nbx + G - 1) / G, ngz = (nbz + G - 1) / G;
-    const double steps = double(g.count()) * 2 + 16.0 * double(ngx * ngz);
+    // Pass p runs the blocks of colour p % 4 ((bx & 1) + 2·(bz & 1), erosion::hydraulic_erosion_part):
+    // a group with no block of that colour (a group of one block, in three passes of four) changes
+    // nothing, so it is not run (its window is not read nor sent).
+    auto has_colour = [&](std::int64_t q, int colour) {
+      const std::int64_t gx = q % ngx, gz = q / ngx;
+      const std::int64_t bx0 = gx * G, bx1 = std::min(nbx, (gx + 1) * G), bz0 = gz * G, bz1 = std::min(nbz, (gz + 1) * G);
+      const bool x_ok = bx1 - bx0 >= 2 || (bx0 & 1) == (colour & 1);
+      const bool z_ok = bz1 - bz0 >= 2 || (bz0 & 1) == (colour >> 1);
+      return x_ok && z_ok;
+    };
+    std::vector<std::int64_t> live[4];
+    for (int c = 0; c < 4; ++c)
+      for (std::int64_t q = 0; q < ngx * ngz; ++q)
+        if (has_colour(q, c)) live[c].push_back(q);
+    const double steps = double(g.count()) * 2 + 4.0 * double(live[0].size() + live[1].size() + live[2].size() + live[3].size());
     double done = 0;
     auto step = [&] {
       done += 1;
@@ -232,8 +248,6 @@ WorldStageAlgorithm world_hydraulic(std::uint64_t seed, int group_blocks) {
       farm = own.get();
     }
     const detail::FarmKernel kernel = hydraulic_kernel(W, s);
-    std::vector<std::int64_t> groups(static_cast<std::size_t>(ngx * ngz));
-    for (std::int64_t q = 0; q < ngx * ngz; ++q) groups[std::size_t(q)] = q;
     for (int pass = 0; pass < 16; ++pass) {
       auto job_of = [&](std::int64_t q) {
         HydraulicJob j;
@@ -249,7 +263,7 @@ WorldStageAlgorithm world_hydraulic(std::uint64_t seed, int group_blocks) {
         return j;
       };
       farm->run(
-          "hydraulic", groups,
+          "hydraulic", live[pass % 4],
           [&](std::int64_t q) {
             check_cancelled(io);
             const HydraulicJob j = job_of(q);

@@ -368,6 +368,31 @@ TEST(WorldErrors, TilesTooLargeForTheMemoryBudgetAreRefused) {
   }
 }
 
+// A world whose tiles fit but whose droplet erosion's groups do not: the refusal names the stage,
+// not the tile (a droplet's reach of about 1000 cells of 1 m makes a group's window most of a 2049²
+// world, far more than a tile of 129).
+TEST(WorldErrors, AWorldAlgorithmTooLargeForTheMemoryBudgetNamesItsStage) {
+  const Recipe r = recipe_of(json::parse(R"({"name": "rain", "world": {"size": 2049, "width_m": 2048, "height_m": 300, "sea_level": 0.1},
+    "stages": [{"stage": "noise", "basis": "gradient", "fractal": "fbm", "octaves": 4, "frequency": 4},
+               {"stage": "hydraulic", "droplets_per_km2": 2000, "lifetime": 200, "step_m": 5, "brush_radius_m": 6}]})"));
+  TempDir d("world-mem-stage");
+  WorldSettings s = settings(r, 2049, 2049, 129, d / "w");
+  s.memory_budget_bytes = 64 << 20;
+  try {
+    build_world(s);
+    ADD_FAILURE() << "accepted";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.path(), "stages[1]") << e.what();
+    EXPECT_NE(e.message().find("'hydraulic'"), std::string::npos) << e.what();
+    EXPECT_NE(e.message().find("lifetime"), std::string::npos) << e.what();
+  }
+  s.memory_budget_bytes = 0;  // the machine's: it fits, and only the dry run is asked for
+  s.dry_run = true;
+  const WorldReport dry = build_world(s);
+  EXPECT_EQ(dry.memory_stage, "hydraulic");
+  EXPECT_GT(dry.tile_memory_bytes, std::uint64_t(64) << 20);
+}
+
 // ---- the CLI -----------------------------------------------------------------------------------
 
 TEST(WorldCli, BuildsAStoreAndRefusesBadInputWithExitCode2) {

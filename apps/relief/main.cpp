@@ -565,8 +565,12 @@ int cmd_world(const CliWorld& w) {
                 "of 2), %s free in %s\n",
                 human_bytes(rep.estimated_bytes).c_str(), human_bytes(rep.estimated_store_bytes).c_str(),
                 rep.disk_free_bytes == UINT64_MAX ? "unknown" : human_bytes(rep.disk_free_bytes).c_str(), s.out_dir.c_str());
-    std::printf("memory: about %s for %d tile%s built at once\n", human_bytes(rep.tile_memory_bytes).c_str(), rep.tiles_at_once,
-                rep.tiles_at_once == 1 ? "" : "s");
+    if (rep.memory_stage.empty())
+      std::printf("memory: about %s for %d tile%s built at once\n", human_bytes(rep.tile_memory_bytes).c_str(), rep.tiles_at_once,
+                  rep.tiles_at_once == 1 ? "" : "s");
+    else
+      std::printf("memory: about %s in the %s phase (its world algorithm and a tile; %d tile%s built at once elsewhere)\n",
+                  human_bytes(rep.tile_memory_bytes).c_str(), rep.memory_stage.c_str(), rep.tiles_at_once, rep.tiles_at_once == 1 ? "" : "s");
     std::printf("seed %llu%s; nothing was written (--dry-run)\n", (unsigned long long)rep.seed,
                 seed_given ? "" : rep.seed_reused ? " (the world in the folder's)" : " (random: a build draws its own)");
     return 0;

@@ -341,7 +341,8 @@ struct WorldReport {
   std::uint64_t store_bytes = 0;        // tile files, as written or found
   std::uint64_t estimated_bytes = 0;    // the disk check's estimate of the whole need (see "Disk and memory")
   std::uint64_t estimated_store_bytes = 0;  // its part for the last store (tiles/), comparable with store_bytes
-  std::uint64_t tile_memory_bytes = 0;  // the memory check's estimate for the tiles built at once
+  std::uint64_t tile_memory_bytes = 0;  // the memory check's estimate: the largest phase's need
+  std::string memory_stage;  // "": the tiles built at once need it most; else the stage whose world algorithm does
   std::uint64_t disk_free_bytes = 0;    // the free space the disk check saw (plus this world's tiles already there)
   bool dry_run = false;                 // WorldSettings::dry_run: nothing was built or written
   int tiles_at_once = 1;

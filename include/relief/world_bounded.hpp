@@ -32,16 +32,23 @@
 //   disjoint samples and read none that another changes, so the order of reading does not matter).
 //   With several ranks the automatic G is halved (down to 2) until a pass has 4 groups per rank.
 //   Memory: the groups in flight, each a window of (G·block + 2·reach + 2)² floats, and the stage's
-//   per-block droplet starts (world_hydraulic_memory_bytes); not the world. The reach is the
-//   droplets' path in cells (lifetime · step_m / cell + the brush), so a world of the same width in
-//   metres with more samples has a longer reach in cells: the automatic G keeps a group within 2
-//   tiles a side, or one block (2·reach) where the reach alone is larger. Disk: the temporary file (world samples × 4 bytes) besides the stores;
+//   per-block droplet starts (world_hydraulic_memory_bytes: about 18 bytes per window sample per
+//   thread); not the world. The reach is the droplets' path in cells (lifetime · step_m / cell + the
+//   brush), so a world of the same width in metres with more samples has a longer reach in cells: the
+//   automatic G keeps a group within 2 tiles a side, or one block (2·reach) where the reach alone is
+//   larger. So memory per thread is about 18·(max(tile, 2·reach) + 2·reach)² bytes: bounded by the
+//   tile while a block fits in one, else by the reach, which grows with the world's samples per
+//   metre (the river-island preset's 8 km in tiles of 1025: reach 249, 494 and 986 cells at 4097²,
+//   8193² and 16385²). Disk: the temporary file (world samples × 4 bytes) besides the stores;
 //   build_world's disk check counts it.
 //   Time: the droplets are the whole map's, once each (no grown windows: nothing is computed twice);
 //   the passes add 16 reads and writes of the world's heights through the temporary file, each
 //   pass draws the starts of its blocks' droplets of its round only, and a group runs only its
-//   blocks of the pass's colour at once (G²/4 blocks in the vector lanes and threads, hence G ≥ 16
-//   by default). Measured on this 2-core machine (loaded by other work; the hydraulic phase's time
+//   blocks of the pass's colour at once (G²/4 blocks in the vector lanes and threads); a group with
+//   no block of the pass's colour is skipped. Small groups (G of 1 or 2, a long reach) leave vector
+//   lanes idle: a 2049² world with 1 m cells and a reach of 108 took 9.0–9.8 s of CPU with G = 1 or
+//   2 against 7.5 s with G = 16 (before the skip), the price of the bounded memory. Measured earlier
+//   (G ≥ 16) on this 2-core machine (loaded by other work; the hydraulic phase's time
 //   in build_world, 2 threads, droplets alone on the eroded-mountains terrain, two runs each): 513²
 //   world, tiles of 129: 1.0 s against 3.9 s for the former method (each tile on its window grown
 //   by one halo, then blended: 0.26×); tiles of 257: 1.1 s against 1.7 s (0.67×); 1025²: 2.3 s
