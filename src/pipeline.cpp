@@ -246,7 +246,8 @@ RunResult run(const Recipe& r, const RunOptions& opt) {
     }
   });
   if (!same_frame(res.terrain.frame, window)) crop(res.terrain, window);
-  res.terrain.spare.clear();  // unused spare buffers go back to the allocator
+  for (auto& b : res.terrain.spare) detail::cache_buffer(std::move(b));  // unused spare buffers: to the
+  res.terrain.spare.clear();                                                 // process-wide cache or freed
   res.terrain.spare.shrink_to_fit();
   if (opt.progress) opt.progress("done", 1.0);
   res.total_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_all).count();
