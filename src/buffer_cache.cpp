@@ -24,6 +24,20 @@ struct Cache {
     std::uint64_t stamp = 0;  // order of arrival: the oldest leaves first
   };
   std::vector<Entry> entries;
+  // Demand: per size asked for (floats), the credits left. Every request of a large buffer
+  // (Terrain::layer, layer_for_overwrite, a Layer's copy) gives its size a credit (at most
+  // kMaxCredits); a buffer enters the cache only by spending a credit of a size it serves. So the
+  // cache holds no more buffers of a size than were asked for: a buffer nobody asks for again (a
+  // world tile's cropped layers, say) is freed, and what a sequence of same-size runs keeps
+  // between two runs is what one run asked for.
+  struct Demand {
+    std::size_t floats = 0;
+    unsigned credits = 0;
+    std::uint64_t stamp = 0;
+  };
+  static constexpr unsigned kMaxCredits = 16;
+  static constexpr std::size_t kMaxSizes = 64;
+  std::vector<Demand> demand;
   std::size_t bytes = 0;
   std::size_t limit = 0;
   std::uint64_t next_stamp = 0;
@@ -44,6 +58,32 @@ struct Cache {
     // As detail::set_buffer_cache_poison(true) from the start: to run any test or command with
     // every recycled buffer holding NaN.
     if (const char* env = std::getenv("RELIEF_BUFFER_CACHE_POISON")) poison = env[0] == '1';
+  }
+
+  // Records a request of `want` floats.
+  void note(std::size_t want) {
+    ++next_stamp;
+    for (Demand& d : demand)
+      if (d.floats == want) {
+        d.credits = std::min(d.credits + 1, kMaxCredits);
+        d.stamp = next_stamp;
+        return;
+      }
+    if (demand.size() >= kMaxSizes)
+      demand.erase(std::min_element(demand.begin(), demand.end(),
+                                    [](const Demand& a, const Demand& b) { return a.stamp < b.stamp; }));
+    demand.push_back({want, 1, next_stamp});
+  }
+  // Spends a credit of the size nearest below `capacity` that it serves (capacity ≤ 1.5x size).
+  bool spend(std::size_t capacity) {
+    Demand* best = nullptr;
+    for (Demand& d : demand)
+      if (d.credits > 0 && d.floats <= capacity && capacity - d.floats <= d.floats / 2 &&
+          (!best || d.floats > best->floats))
+        best = &d;
+    if (!best) return false;
+    --best->credits;
+    return true;
   }
 
   // Removes the oldest entries until `bytes` ≤ `cap`; the buffers are moved to `out` (freed by the
@@ -74,6 +114,7 @@ std::size_t release_cached_buffers() {
   {
     std::lock_guard lock(c.mutex);
     gone.swap(c.entries);
+    c.demand.clear();
     bytes = c.bytes;
     c.bytes = 0;
   }
@@ -123,6 +164,7 @@ void cache_buffer(std::vector<float>&& buffer) noexcept {
     if (size > c.limit) return;
     c.entries.reserve(c.entries.size() + 1);  // may throw: then `b` is simply freed
     gone.reserve(c.entries.size());
+    if (!c.spend(b.capacity())) return;  // nobody asked for a buffer of this size
     c.evict_to(c.limit - size, gone);
     c.entries.push_back({std::move(b), c.next_stamp++});
     c.bytes += size;
@@ -136,6 +178,10 @@ bool take_cached_buffer(std::vector<float>& data, std::size_t want) {
   std::vector<float> found;
   {
     std::lock_guard lock(c.mutex);
+    try {
+      c.note(want);
+    } catch (...) {  // out of memory for the demand record: the buffer will be freed, not kept
+    }
     auto best = c.entries.end();
     for (auto it = c.entries.begin(); it != c.entries.end(); ++it) {
       const std::size_t cap = it->buffer.capacity();
@@ -149,6 +195,16 @@ bool take_cached_buffer(std::vector<float>& data, std::size_t want) {
   data.swap(found);
   cache_buffer(std::move(found));  // the old (smaller) buffer, if large enough to keep
   return true;
+}
+
+void note_buffer_request(std::size_t want) {
+  if (want * sizeof(float) < kLayerCacheMinBytes) return;
+  Cache& c = cache();
+  std::lock_guard lock(c.mutex);
+  try {
+    c.note(want);
+  } catch (...) {
+  }
 }
 
 void set_buffer_cache_poison(bool on) { cache().poison.store(on, std::memory_order_relaxed); }

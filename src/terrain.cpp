@@ -46,7 +46,11 @@ void reserve_huge(std::vector<float>& data, std::size_t want) {
 void provide(std::vector<std::vector<float>>& spare, std::vector<float>& data, std::size_t want) {
   if (data.capacity() >= want) return;
   take_spare(spare, data, want);
-  if (data.capacity() >= want || want * sizeof(float) < kLayerCacheMinBytes) return;
+  if (want * sizeof(float) < kLayerCacheMinBytes) return;
+  if (data.capacity() >= want) {
+    detail::note_buffer_request(want);  // the cache may keep this buffer when the layer gives it up
+    return;
+  }
   if (!detail::take_cached_buffer(data, want)) reserve_huge(data, want);
 }
 

@@ -129,6 +129,33 @@ TEST(BufferCache, OnlyLargeBuffersAndCloseSizes) {
   }
 }
 
+// The cache keeps no more buffers of a size than were asked for: one a layer() never asked for
+// (here a vector made elsewhere and moved into a layer, as a world tile's cropped layers) is freed.
+TEST(BufferCache, KeepsOnlyWhatWasAskedFor) {
+  CacheScope scope;
+  set_buffer_cache_limit(std::size_t(256) << 20);
+  const std::size_t n = std::size_t(kN) * kN;
+  { Terrain t = sized(kN); t.layers["made"] = Layer{1, std::vector<float>(n)}; }
+  EXPECT_EQ(cached_buffer_count(), 0u) << "nobody asked for a buffer of this size";
+  {
+    Terrain t = sized(kN);
+    t.layer("asked");  // one request of this size: one buffer may come in
+    t.layers["made"] = Layer{1, std::vector<float>(n)};
+    t.layers["made too"] = Layer{1, std::vector<float>(n)};
+  }
+  EXPECT_EQ(cached_buffer_count(), 1u);
+  {
+    Terrain t = sized(kN);
+    t.layer("a");  // a hit, and a request: its buffer may come back
+    t.layer("b");  // a miss, and a request
+  }
+  EXPECT_EQ(cached_buffer_count(), 2u);
+  // release forgets the demand.
+  release_cached_buffers();
+  { Terrain t = sized(kN); t.layers["made"] = Layer{1, std::vector<float>(n)}; }
+  EXPECT_EQ(cached_buffer_count(), 0u);
+}
+
 TEST(BufferCache, HonoursTheLimitOldestFirstAndReleases) {
   CacheScope scope;
   const std::size_t one = std::size_t(kN) * kN * sizeof(float);

@@ -66,7 +66,11 @@ struct Frame {
 // Repeated runs in one process (the bench, `relief studio`, the Python module in a loop, a world's
 // tiles built one after another) then touch memory that is already mapped.
 //
-// Bounded: the cache holds at most buffer_cache_limit() bytes, the oldest buffers leaving first.
+// Bounded by demand: a buffer is kept only if a buffer of its size (to within 1.5x) was asked for
+// (each large request of layer(), layer_for_overwrite() or a copy allows one buffer of its size in,
+// at most 16 outstanding per size), so the cache holds no more buffers of a size than were asked
+// for, and a buffer nobody asks for again (say a world tile's cropped layers) is freed at once.
+// And bounded in bytes: at most buffer_cache_limit(), the oldest buffers leaving first.
 // The default limit is max(256 MiB, 1/8 of the machine's physical memory); the environment
 // variable RELIEF_BUFFER_CACHE_MB (read once, at the first use) sets it in MiB, 0 turning the cache
 // off. What it holds is only what the last runs gave up and the next have not taken back yet:
@@ -75,8 +79,8 @@ struct Frame {
 // layer_for_overwrite() leaves it to a stage that writes every value (its promise), so no output
 // depends on what a buffer held (the tests poison cached buffers with NaN to check that).
 inline constexpr std::size_t kLayerCacheMinBytes = std::size_t(4) << 20;
-// Frees every cached buffer (back to the OS); returns the bytes released. Call it when a long-lived
-// process is done generating for a while (or before measuring a first run).
+// Frees every cached buffer (back to the OS) and forgets the demand; returns the bytes released.
+// Call it when a long-lived process is done generating for a while (or before measuring a first run).
 std::size_t release_cached_buffers();
 // The cache's byte limit; setting it evicts down to it at once (0: no caching).
 void set_buffer_cache_limit(std::size_t bytes);
@@ -85,13 +89,16 @@ std::size_t buffer_cache_limit();
 std::size_t cached_buffer_bytes();
 std::size_t cached_buffer_count();
 namespace detail {
-// Gives `buffer` to the cache (kept if its capacity is kLayerCacheMinBytes or more and it fits the
-// limit; freed otherwise). Leaves `buffer` empty. Never throws.
+// Gives `buffer` to the cache (kept if its capacity is kLayerCacheMinBytes or more, a request of its
+// size has a credit left and it fits the limit; freed otherwise). Leaves `buffer` empty. Never throws.
 void cache_buffer(std::vector<float>&& buffer) noexcept;
 // If `data`'s capacity is below `want` floats and the cache holds a buffer of capacity
 // want..1.5 want, swaps it into `data` (its size unchanged: stale values) and gives `data`'s old
 // buffer to the cache; returns whether it did.
 bool take_cached_buffer(std::vector<float>& data, std::size_t want);
+// Records a request of a buffer of `want` floats met otherwise (a Terrain's spare buffer), so that
+// the cache may keep that buffer when the layer gives it up (take_cached_buffer records its own).
+void note_buffer_request(std::size_t want);
 // Test hook: while on, every buffer entering the cache is filled with NaN over its whole capacity
 // (size set to its capacity), so that an output reading a stale value shows it. The environment
 // variable RELIEF_BUFFER_CACHE_POISON=1 turns it on from the start.
