@@ -187,7 +187,22 @@ bool take_cached_buffer(std::vector<float>& data, std::size_t want) {
       const std::size_t cap = it->buffer.capacity();
       if (cap >= want && cap - want <= want / 2 && (best == c.entries.end() || cap < best->buffer.capacity())) best = it;
     }
-    if (best == c.entries.end()) return false;
+    if (best == c.entries.end()) {
+      // A miss: the caller allocates a new buffer. A cached one a little too small for it (2/3 of
+      // `want` or more: a run of a slightly larger size, say the next world tile's grown window)
+      // is replaced by that one, not kept beside it: the oldest such leaves now.
+      auto stale = c.entries.end();
+      for (auto it = c.entries.begin(); it != c.entries.end(); ++it) {
+        const std::size_t cap = it->buffer.capacity();
+        if (cap < want && cap >= want - want / 3 && (stale == c.entries.end() || it->stamp < stale->stamp)) stale = it;
+      }
+      if (stale != c.entries.end()) {
+        c.bytes -= stale->buffer.capacity() * sizeof(float);
+        found.swap(stale->buffer);  // freed on return, outside the lock
+        c.entries.erase(stale);
+      }
+      return false;
+    }
     c.bytes -= best->buffer.capacity() * sizeof(float);
     found.swap(best->buffer);
     c.entries.erase(best);

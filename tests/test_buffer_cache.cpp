@@ -156,6 +156,28 @@ TEST(BufferCache, KeepsOnlyWhatWasAskedFor) {
   EXPECT_EQ(cached_buffer_count(), 0u);
 }
 
+// A run of a slightly larger size (the next world tile's grown window) misses; the cached buffer a
+// little too small for it is freed then, not kept beside the new one.
+TEST(BufferCache, AMissReplacesABufferALittleTooSmall) {
+  CacheScope scope;
+  set_buffer_cache_limit(std::size_t(256) << 20);
+  { Terrain t = sized(kN); t.layer("h"); }
+  EXPECT_EQ(cached_buffer_count(), 1u);
+  {
+    Terrain t = sized(kN + 4);
+    t.layer("h");
+    EXPECT_EQ(cached_buffer_count(), 0u) << "the smaller buffer left on the miss";
+  }
+  EXPECT_EQ(cached_buffer_count(), 1u);
+  // One much smaller (below 2/3 of the request) stays: it serves other layers.
+  {
+    Terrain t = sized(kN);
+    t.layer("c", 3);
+    EXPECT_EQ(cached_buffer_count(), 1u);
+  }
+  EXPECT_EQ(cached_buffer_count(), 2u);
+}
+
 TEST(BufferCache, HonoursTheLimitOldestFirstAndReleases) {
   CacheScope scope;
   const std::size_t one = std::size_t(kN) * kN * sizeof(float);
