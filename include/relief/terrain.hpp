@@ -70,11 +70,15 @@ struct Frame {
 // (each large request of layer(), layer_for_overwrite() or a copy allows one buffer of its size in,
 // at most 16 outstanding per size), so the cache holds no more buffers of a size than were asked
 // for, and a buffer nobody asks for again (say a world tile's cropped layers) is freed at once.
-// And bounded in bytes: at most buffer_cache_limit(), the oldest buffers leaving first.
+// A request that finds no buffer (a run of a slightly larger size, e.g. the next world tile's
+// grown window) frees the oldest cached buffer a little too small for it (2/3 of it or more), which
+// the new buffer replaces. And bounded in bytes: at most buffer_cache_limit(), the oldest first out.
 // The default limit is max(256 MiB, 1/8 of the machine's physical memory); the environment
 // variable RELIEF_BUFFER_CACHE_MB (read once, at the first use) sets it in MiB, 0 turning the cache
 // off. What it holds is only what the last runs gave up and the next have not taken back yet:
-// about one terrain's (one tile's) large layers in a sequence of same-size runs.
+// about one terrain's (one tile's) large layers in a sequence of same-size runs (measured: an
+// island 4097² world, tiles of 1025 or 2049, 1 thread, peaks 32 and 127 MiB above the uncached
+// build's, one tile's layers; per thread building tiles at once).
 // Contents: a recycled buffer holds stale values. layer() zero-fills it as before;
 // layer_for_overwrite() leaves it to a stage that writes every value (its promise), so no output
 // depends on what a buffer held (the tests poison cached buffers with NaN to check that).
