@@ -528,6 +528,9 @@ PYBIND11_MODULE(_relief, m) {
     }
     return l;
   });
+  m.def("release_cached_buffers", [] { return relief::release_cached_buffers(); },
+        "Frees the process-wide cache of large layer buffers (those of Terrains already gone, kept so that "
+        "the next generate() of that size touches memory already mapped); returns the bytes released.");
   m.def("preset", [](const std::string& name) { return from_json(preset_doc(name)); }, py::arg("name"));
   m.def("explain", [](const std::string& stage) { return from_json(relief::parameter_table_json(stage)); }, py::arg("stage") = "");
   m.def("writers", [] {

@@ -107,11 +107,14 @@ void crop(Terrain& t, const Frame& window) {
   for (auto& entry : t.layers) {
     Layer& l = entry.second;  // (not a structured binding: clang 14 cannot capture one in the lambda)
     const std::size_t c = std::size_t(l.channels), row = std::size_t(window.nx) * c;
+    // The grown layer's buffer goes back to the process-wide buffer cache: the next tile of a world
+    // takes it. (The cropped one is allocated: a cache holding both would keep two tiles' layers.)
     std::vector<float> out(window.count() * c);
     detail::parallel_rows(window.nz, [&](int j) {
       const float* src = l.data.data() + ((dj + std::size_t(j)) * std::size_t(f.nx) + di) * c;
       std::copy(src, src + row, out.data() + std::size_t(j) * row);
     });
+    detail::cache_buffer(std::move(l.data));
     l.data = std::move(out);
   }
   const double x0 = window.x0_m(), x1 = window.x_m(window.nx - 1), z0 = window.z0_m(), z1 = window.z_m(window.nz - 1);
@@ -246,7 +249,8 @@ RunResult run(const Recipe& r, const RunOptions& opt) {
     }
   });
   if (!same_frame(res.terrain.frame, window)) crop(res.terrain, window);
-  res.terrain.spare.clear();  // unused spare buffers go back to the allocator
+  for (auto& b : res.terrain.spare) detail::cache_buffer(std::move(b));  // unused spare buffers: to the
+  res.terrain.spare.clear();                                                 // process-wide cache or freed
   res.terrain.spare.shrink_to_fit();
   if (opt.progress) opt.progress("done", 1.0);
   res.total_ms = std::chrono::duration<double, std::milli>(std::chrono::steady_clock::now() - t_all).count();

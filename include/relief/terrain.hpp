@@ -20,6 +20,7 @@
 #include <map>
 #include <memory>
 #include <string>
+#include <utility>
 #include <vector>
 
 namespace relief {
@@ -54,10 +55,83 @@ struct Frame {
   }
 };
 
+// ---- The process-wide cache of large layer buffers ----
+// glibc hands every block this large back to the OS when it is freed (mmap/munmap), so a run that
+// allocates its layers afresh pays the page faults (and the kernel's zeroing) of all of them again:
+// for a 4097² float layer about 10-40 ms, as much as a fast stage's whole work. So the buffers of
+// kLayerCacheMinBytes (4 MiB) or more that layers give up (a Layer destroyed, or replaced by
+// assignment, or a layer re-created at another size) go to one process-wide cache (thread-safe),
+// and Terrain::layer(), layer_for_overwrite() and a Layer's copy take from it before allocating:
+// the smallest cached buffer whose capacity holds the layer and is at most 1.5x its size.
+// Repeated runs in one process (the bench, `relief studio`, the Python module in a loop, a world's
+// tiles built one after another) then touch memory that is already mapped.
+//
+// Bounded by demand: a buffer is kept only if a buffer of its size (to within 1.5x) was asked for
+// (each large request of layer(), layer_for_overwrite() or a copy allows one buffer of its size in,
+// at most 16 outstanding per size), so the cache holds no more buffers of a size than were asked
+// for, and a buffer nobody asks for again (say a world tile's cropped layers) is freed at once.
+// A request that finds no buffer (a run of a slightly larger size, e.g. the next world tile's
+// grown window) frees the oldest cached buffer a little too small for it (2/3 of it or more), which
+// the new buffer replaces. And bounded in bytes: at most buffer_cache_limit(), the oldest first out.
+// The default limit is max(256 MiB, 1/8 of the machine's physical memory); the environment
+// variable RELIEF_BUFFER_CACHE_MB (read once, at the first use) sets it in MiB, 0 turning the cache
+// off. What it holds is only what the last runs gave up and the next have not taken back yet:
+// about one terrain's (one tile's) large layers in a sequence of same-size runs (measured: an
+// island 4097² world, tiles of 1025 or 2049, 1 thread, peaks 32 and 127 MiB above the uncached
+// build's, one tile's layers; per thread building tiles at once).
+// Contents: a recycled buffer holds stale values. layer() zero-fills it as before;
+// layer_for_overwrite() leaves it to a stage that writes every value (its promise), so no output
+// depends on what a buffer held (the tests poison cached buffers with NaN to check that).
+inline constexpr std::size_t kLayerCacheMinBytes = std::size_t(4) << 20;
+// Frees every cached buffer (back to the OS) and forgets the demand; returns the bytes released.
+// Call it when a long-lived process is done generating for a while (or before measuring a first run).
+std::size_t release_cached_buffers();
+// The cache's byte limit; setting it evicts down to it at once (0: no caching).
+void set_buffer_cache_limit(std::size_t bytes);
+std::size_t buffer_cache_limit();
+// Bytes (capacity) and buffers held now.
+std::size_t cached_buffer_bytes();
+std::size_t cached_buffer_count();
+namespace detail {
+// Gives `buffer` to the cache (kept if its capacity is kLayerCacheMinBytes or more, a request of its
+// size has a credit left and it fits the limit; freed otherwise). Leaves `buffer` empty. Never throws.
+void cache_buffer(std::vector<float>&& buffer) noexcept;
+// If `data`'s capacity is below `want` floats and the cache holds a buffer of capacity
+// want..1.5 want, swaps it into `data` (its size unchanged: stale values) and gives `data`'s old
+// buffer to the cache; returns whether it did.
+bool take_cached_buffer(std::vector<float>& data, std::size_t want);
+// Records a request of a buffer of `want` floats met otherwise (a Terrain's spare buffer), so that
+// the cache may keep that buffer when the layer gives it up (take_cached_buffer records its own).
+void note_buffer_request(std::size_t want);
+// Test hook: while on, every buffer entering the cache is filled with NaN over its whole capacity
+// (size set to its capacity), so that an output reading a stale value shows it. The environment
+// variable RELIEF_BUFFER_CACHE_POISON=1 turns it on from the start.
+void set_buffer_cache_poison(bool on);
+}  // namespace detail
+
 // A named grid of floats with one or more channels (colour layers have 3, in 0..1 linear-free sRGB).
+// Its buffer goes to the process-wide cache above when it is destroyed or replaced by assignment.
 struct Layer {
   int channels = 1;
   std::vector<float> data;
+
+  Layer() = default;
+  Layer(int channels, std::vector<float> data) : channels(channels), data(std::move(data)) {}
+  Layer(const Layer& o);  // a large buffer comes from the cache when it holds one
+  Layer(Layer&& o) noexcept = default;
+  Layer& operator=(const Layer& o);
+  Layer& operator=(Layer&& o) noexcept {
+    if (this != &o) {
+      if (data.capacity() * sizeof(float) >= kLayerCacheMinBytes) detail::cache_buffer(std::move(data));
+      channels = o.channels;
+      data = std::move(o.data);
+    }
+    return *this;
+  }
+  ~Layer() {
+    if (data.capacity() * sizeof(float) >= kLayerCacheMinBytes) detail::cache_buffer(std::move(data));
+  }
+
   float* row(int j, int nx) { return data.data() + std::size_t(j) * nx * channels; }
   const float* row(int j, int nx) const { return data.data() + std::size_t(j) * nx * channels; }
 };
@@ -124,16 +198,16 @@ struct Terrain {
 
   bool has(const std::string& name) const { return layers.count(name) != 0; }
   // Returns the layer, creating it (zero-filled) with `channels` channels if missing or if its
-  // channel count differs (reusing a spare buffer when one is large enough). A buffer of 4 MiB or
-  // more allocated afresh asks for transparent huge pages first, as layer_for_overwrite() does: on
-  // this project's VMs a 4 KiB page fault costs about as much as writing the page three times over,
+  // channel count differs (reusing a spare buffer when one is large enough, else one of the
+  // process-wide cache, see kLayerCacheMinBytes). A buffer of 4 MiB or more allocated afresh asks
+  // for transparent huge pages first, as layer_for_overwrite() does: on this project's VMs a 4 KiB page fault costs about as much as writing the page three times over,
   // and the island recipe at 4097² (1 thread, in memory) took about 0.65 s without them against 0.41 s.
   Layer& layer(const std::string& name, int channels = 1);
   // As layer(), for a stage that writes every value of the layer before anything reads it: the
   // values are unspecified on return (stale values of an earlier run may be left in it). Used by
   // the slope and hillshade stages. The layer's own buffer, or the smallest spare buffer that
-  // holds it, is sized without being cleared (shrinking a vector writes nothing; growing one
-  // within its capacity value-initialises the added tail only). Only a buffer allocated afresh is
+  // holds it, or a cached one (see kLayerCacheMinBytes), is sized without being cleared (shrinking
+  // a vector writes nothing; growing one within its capacity value-initialises the added tail only). Only a buffer allocated afresh is
   // zero-filled, because a std::vector<float> cannot hold uninitialised floats; for one of 4 MiB
   // or more, transparent huge pages are requested first (madvise MADV_HUGEPAGE on Linux), which
   // makes the page faults of that first touch up to 512 times fewer. Same results as layer() for

@@ -12,11 +12,11 @@ Bad input raises relief.Error (a ValueError) whose .path names the field, as the
 Long calls release the GIL; progress callbacks run on the calling thread; Ctrl-C cancels cleanly.
 """
 from . import _relief
-from ._relief import Error, Cancelled, Terrain, presets, preset, explain, writers, resolve, __version__
+from ._relief import Error, Cancelled, Terrain, presets, preset, explain, writers, resolve, release_cached_buffers, __version__
 from . import noise, compat
 
 __all__ = ["generate", "Terrain", "Error", "Cancelled", "presets", "preset", "explain", "writers", "resolve",
-           "noise", "compat", "__version__"]
+           "release_cached_buffers", "noise", "compat", "__version__"]
 
 
 def generate(recipe="island", seed=None, size=None, threads=0, set=None, progress=None):
