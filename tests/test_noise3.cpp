@@ -25,35 +25,18 @@
 #include "relief/noise.hpp"
 #include "relief/noise3.hpp"
 #include "relief/random.hpp"
+#include "spectrum_support.hpp"
 #include "support.hpp"
 
 namespace relief {
 namespace {
 
+using test::fft;
+using test::ks;
+
 using test::fnv1a;
 using test::same_bits;
 
-// In-place radix-2 FFT (size a power of 2).
-void fft(std::vector<std::complex<double>>& a) {
-  const std::size_t n = a.size();
-  for (std::size_t i = 1, j = 0; i < n; ++i) {
-    std::size_t bit = n >> 1;
-    for (; j & bit; bit >>= 1) j ^= bit;
-    j ^= bit;
-    if (i < j) std::swap(a[i], a[j]);
-  }
-  for (std::size_t len = 2; len <= n; len <<= 1) {
-    const std::complex<double> w = std::polar(1.0, -2.0 * M_PI / double(len));
-    for (std::size_t i = 0; i < n; i += len) {
-      std::complex<double> wk = 1.0;
-      for (std::size_t k = 0; k < len / 2; ++k, wk *= w) {
-        const std::complex<double> u = a[i + k], v = a[i + k + len / 2] * wk;
-        a[i + k] = u + v;
-        a[i + k + len / 2] = u - v;
-      }
-    }
-  }
-}
 
 const NoiseBasis kBases3[] = {NoiseBasis::Gradient, NoiseBasis::Simplex};
 const Fractal kFractals[] = {Fractal::None, Fractal::Fbm, Fractal::Ridged, Fractal::Billow};
@@ -558,15 +541,6 @@ std::vector<double> slice_spectrum(const std::function<double(std::uint64_t, dou
   }
   for (double& b : bins) b /= sum;
   return bins;
-}
-double ks(const std::vector<double>& a, const std::vector<double>& b) {
-  double ca = 0, cb = 0, worst = 0;
-  for (std::size_t r = 0; r < a.size(); ++r) {
-    ca += a[r];
-    cb += b[r];
-    worst = std::max(worst, std::fabs(ca - cb));
-  }
-  return worst;
 }
 
 TEST(Simplex3, RadialPowerSpectrumMatchesTheDefinitionItReplaced) {

@@ -21,10 +21,14 @@
 #include "relief/noise.hpp"
 #include "relief/noise_classic.hpp"
 #include "relief/random.hpp"
+#include "spectrum_support.hpp"
 #include "support.hpp"
 
 namespace relief {
 namespace {
+
+using test::fft;
+using test::ks;
 
 using test::fnv1a;
 using test::same_bits;
@@ -408,27 +412,6 @@ TEST(GradientVsPerlin, DerivativesAreIsotropic) {
   EXPECT_NEAR(gsum / psum, 1.0, 0.08) << gsum << " vs " << psum;
 }
 
-// In-place radix-2 FFT (Cooley–Tukey, iterative), n a power of two: enough for a test's spectra.
-void fft(std::vector<std::complex<double>>& a) {
-  const std::size_t n = a.size();
-  for (std::size_t i = 1, j = 0; i < n; ++i) {
-    std::size_t bit = n >> 1;
-    for (; j & bit; bit >>= 1) j ^= bit;
-    j ^= bit;
-    if (i < j) std::swap(a[i], a[j]);
-  }
-  for (std::size_t len = 2; len <= n; len <<= 1) {
-    const std::complex<double> w = std::polar(1.0, -2.0 * M_PI / double(len));
-    for (std::size_t i = 0; i < n; i += len) {
-      std::complex<double> wk = 1.0;
-      for (std::size_t k = 0; k < len / 2; ++k, wk *= w) {
-        const std::complex<double> u = a[i + k], v = a[i + k + len / 2] * wk;
-        a[i + k] = u + v;
-        a[i + k + len / 2] = u - v;
-      }
-    }
-  }
-}
 
 // Radially averaged power spectrum of 256² patches, each normalised to total power 1, averaged
 // over 16 seeds (seeds from `first`); bin r holds the wave vectors with round(|k|) = r cycles per
@@ -474,16 +457,6 @@ std::vector<double> spectrum(NoiseBasis b, double frequency, std::uint64_t first
   return spectrum_of([&](std::uint64_t seed) { return single(b, seed, frequency); }, first);
 }
 
-// Largest difference between the cumulative power distributions (a Kolmogorov–Smirnov distance).
-double ks(const std::vector<double>& a, const std::vector<double>& b) {
-  double ca = 0, cb = 0, worst = 0;
-  for (std::size_t r = 0; r < a.size(); ++r) {
-    ca += a[r];
-    cb += b[r];
-    worst = std::max(worst, std::fabs(ca - cb));
-  }
-  return worst;
-}
 
 TEST(GradientVsPerlin, RadialPowerSpectrumMatches) {
   const auto g = spectrum(NoiseBasis::Gradient, 1.0 / 8.0), p = spectrum(NoiseBasis::Perlin, 1.0 / 8.0);
