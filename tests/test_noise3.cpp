@@ -1,7 +1,7 @@
 // Tests for Noise3 (include/relief/noise3.hpp): 3D gradient and simplex noise.
 //   * every compiled Highway target this CPU runs (forced one at a time) gives the scalar
 //     reference's bits, for both bases and every fractal, odd lengths, negative and large
-//     coordinates, dense grids (simplex ties), through row() and rows();
+//     coordinates, dense grids, through row() and rows();
 //   * at() equals row(); golden hashes per basis (pinned on the scalar reference);
 //   * statistics per basis: range, mean, spread (Gradient: the 2D Gradient basis's; Simplex: the
 //     value its definition gives by quadrature), isotropy of the derivatives along x, y and z,
@@ -147,9 +147,11 @@ TEST(Noise3Simd, SixteenOctavesAndLongBlocksBitIdentical) {
   }
 }
 
-// Dense grids at one sample per 1/8 cell: samples on cell faces, edges and corners, and (simplex)
-// exact ties between the ranked coordinates, where a select or comparison that differs from the
-// reference would show.
+// Dense grids at one sample per 1/8 cell of the frequency. Each octave's seeded offsets are arbitrary
+// doubles, so no sample lands exactly on a cell face or on one of simplex's ties (|a| = |b| when the
+// (y, z) rows are chosen, d = ½ between a row's two vertices); those choices are made by scalar code
+// that the reference and the kernels share (noise3_row_terms) or on identical floats. What this
+// covers is many phases of every term in one run.
 TEST(Noise3Simd, DenseGridsBitIdentical) {
   for (const auto& t : detail::noise_simd_targets()) {
     ForceTarget f(t.bits);
