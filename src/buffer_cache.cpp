@@ -2,7 +2,9 @@
 #include <algorithm>
 #include <atomic>
 #include <cstdint>
+#include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <limits>
 #include <mutex>
 #include <vector>
@@ -51,9 +53,16 @@ struct Cache {
 #endif
     limit = std::max(std::size_t(256) << 20, physical / 8);
     if (const char* env = std::getenv("RELIEF_BUFFER_CACHE_MB")) {
-      char* end = nullptr;
-      const unsigned long long mb = std::strtoull(env, &end, 10);
-      if (end != env && *end == '\0' && mb <= (std::numeric_limits<std::size_t>::max() >> 20)) limit = std::size_t(mb) << 20;
+      // Plain decimal digits only (strtoull alone would take "+5", " 5" and wrap "-1"); anything
+      // else keeps the default and says so once (this runs inside allocations and destructors, where
+      // a relief::Error cannot be thrown).
+      bool digits = env[0] != '\0' && std::strlen(env) <= 15;
+      for (const char* c = env; digits && *c; ++c) digits = *c >= '0' && *c <= '9';
+      if (digits)
+        limit = std::size_t(std::strtoull(env, nullptr, 10)) << 20;
+      else
+        std::fprintf(stderr, "relief: RELIEF_BUFFER_CACHE_MB: expected a whole number of MiB (0 turns the cache off), got '%s'; using %zu MiB\n",
+                     env, limit >> 20);
     }
     // As detail::set_buffer_cache_poison(true) from the start: to run any test or command with
     // every recycled buffer holding NaN.

@@ -32,6 +32,11 @@ struct StreamPowerWindow {
   std::function<void(int step, const std::uint8_t* dir, const double* area)> routed;
 };
 
+// The stream_power stage's resolved params (Stage::params(): its table in src/stage_erosion.cpp, read
+// as the stage reads them; keys that are not the table's, such as a masked stage's, are ignored) as
+// the kernel's settings: the one conversion the stage and world_stream_power's refinement share.
+StreamPowerSettings stream_power_settings(const json& params);
+
 // stream_power (relief/erosion.hpp) on a window with the map's levels on its ring and the map's
 // inflow. With an empty StreamPowerWindow it is stream_power, bit for bit. Given the map's input as the
 // map's solver starts from it (filled: fill_depressions with ε = 0, which the window's own first fill
@@ -45,11 +50,6 @@ struct StreamPowerWindow {
 // lake that crosses the ring across the ring at the ring's raw levels, and the inside differs (there:
 // 253806 of 490000 samples, by up to 10 % of the relief; the cause of world_stream_power's error at
 // 1025² before its input was filled across tiles).
-// The stream_power stage's resolved params (Stage::params(): its table in src/stage_erosion.cpp, read
-// as the stage reads them; keys that are not the table's, such as a masked stage's, are ignored) as
-// the kernel's settings: the one conversion the stage and world_stream_power's refinement share.
-StreamPowerSettings stream_power_settings(const json& params);
-
 StreamPowerStats stream_power_window(float* e, const Frame& f, const StreamPowerSettings& s, const StreamPowerWindow& w,
                                      const std::function<void(double)>& progress = {});
 

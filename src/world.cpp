@@ -1065,6 +1065,10 @@ WorldReport build_world(WorldSettings s) {
       agree_all(tr, opened, nullptr);
     }
     if (ph.global) {
+      // The tiles' large layers that the last tile runs gave to the process-wide buffer cache
+      // (relief/terrain.hpp) would sit unused through the world algorithm, which holds its own state
+      // (the memory check counts one tile beside it): freed first, on every rank.
+      release_cached_buffers();
       // The world algorithm runs on rank 0; the other ranks run the tile solves it hands out
       // (src/world_farm.hpp: the fill algorithm's), then wait for its outcome.
       const RecipeStage& st = r.stages[ph.first];

@@ -268,3 +268,18 @@ TEST(BufferCache, PoisonedRecycledBuffersChangeNoByte) {
     release_cached_buffers();
   }
 }
+
+// RELIEF_BUFFER_CACHE_MB takes plain decimal digits only: anything else keeps the default and says
+// so on stderr, naming the variable (strtoull alone took "+64" and " 64" and wrapped "-1").
+TEST(BufferCache, AMalformedLimitInTheEnvironmentIsNamedAndIgnored) {
+  test::TempDir d("cache-env");
+  for (const std::string& v : {"abc", "+64", "-1", "64M", "1e3"}) {
+    const auto r = test::sh("RELIEF_BUFFER_CACHE_MB='" + v + "' " + std::string(RELIEF_BINARY) + " generate island --size 1025 -f heightmap -q -o " +
+                            (d / "o"));
+    EXPECT_EQ(r.code, 0) << v << "\n" << r.out;
+    EXPECT_NE(r.out.find("RELIEF_BUFFER_CACHE_MB: expected a whole number of MiB"), std::string::npos) << v << "\n" << r.out;
+  }
+  const auto ok = test::sh("RELIEF_BUFFER_CACHE_MB=64 " + std::string(RELIEF_BINARY) + " generate island --size 1025 -f heightmap -q -o " + (d / "o"));
+  EXPECT_EQ(ok.code, 0) << ok.out;
+  EXPECT_EQ(ok.out.find("RELIEF_BUFFER_CACHE_MB"), std::string::npos) << ok.out;
+}

@@ -384,7 +384,8 @@ TEST(WorldStreamPower, RefinedWorldDrainsAsTheStageDoes) {
   EXPECT_TRUE(one.tiled == b.tiled);
 }
 
-// The disk check and memory estimate count what the refinement holds (4 sweeps, the other defaults):
+// The disk and memory figures of the refinement (4 sweeps, the other defaults), as the free functions
+// give them (build_world's checks take the default algorithm's, which does not refine):
 // two temporary files of 4 bytes per sample, the coarse solve, the ring records and a block's window
 // (about 585 MB at 4097², 100 steps; measured peak of such a build 566 MB); without sweeps, or when
 // the coarse grid is the world, no file.

@@ -56,7 +56,9 @@ struct Frame {
 };
 
 // ---- The process-wide cache of large layer buffers ----
-// glibc hands every block this large back to the OS when it is freed (mmap/munmap), so a run that
+// glibc maps blocks above its mmap threshold afresh and unmaps them when freed (the threshold rises
+// to the largest block freed, up to 32 MiB: a 4097² layer, 64 MiB, is always mapped afresh; 4-32 MiB
+// layers, tiles of 1025 or 2049, may come back from the heap already mapped), so a run that
 // allocates its layers afresh pays the page faults (and the kernel's zeroing) of all of them again:
 // for a 4097² float layer about 10-40 ms, as much as a fast stage's whole work. So the buffers of
 // kLayerCacheMinBytes (4 MiB) or more that layers give up (a Layer destroyed, or replaced by

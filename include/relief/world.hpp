@@ -277,8 +277,9 @@ struct WorldGuarantee {
 WorldGuarantee world_guarantee(const StageDef& stage);
 // The disk the library's world algorithm of `stage` uses besides the tile stores while it runs, in
 // WorldStageIO::scratch_dir, for an nx × nz world (hydraulic: the world's heights, 4 bytes per
-// sample; stream_power: 8 bytes per sample when it refines, world_stream_power_scratch_bytes; 0 for
-// the others). build_world's disk check adds it to the stores that coexist then.
+// sample; stream_power: 0, as the default algorithm does not refine (a refining one needs 8 bytes per
+// sample, world_stream_power_scratch_bytes, which this does not see); 0 for the others).
+// build_world's disk check adds it to the stores that coexist then.
 std::uint64_t world_scratch_bytes(const StageDef& stage, std::int64_t nx, std::int64_t nz);
 
 struct WorldSettings {

@@ -133,7 +133,9 @@
 //   coarse solve alone (sweeps = 0: the phase before the refinement, with its two passes over the
 //   tiles) is the stage on 2049², 4.6 s: the refinement costs 40-50× that time. Disk: two temporary
 //   files of 4 bytes per world sample (the filled input, the blended output) in io.scratch_dir
-//   (world_scratch_bytes counts them).
+//   (world_stream_power_scratch_bytes gives them; build_world's disk and memory checks take the
+//   default algorithms' figures, so a build that registers a refining world_stream_power in
+//   WorldSettings::algorithms is not checked for them).
 #include <cstdint>
 #include <vector>
 
