@@ -31,6 +31,28 @@ inline void fft(std::vector<std::complex<double>>& a) {
   }
 }
 
+// The power of an n × n patch whose rows already went through fft(), binned by radius: the columns
+// are transformed here, and bin r (local.size() ≥ n/2 + 1) gains the power of the wave vectors with
+// round(|k|) = r cycles per patch (|k| ≤ n/2). Returns the power binned.
+inline double radial_power(const std::vector<std::vector<std::complex<double>>>& rows, std::vector<double>& local) {
+  const int n = int(rows.size());
+  std::vector<std::complex<double>> col(static_cast<std::size_t>(n));
+  double total = 0;
+  for (int i = 0; i < n; ++i) {
+    for (int j = 0; j < n; ++j) col[std::size_t(j)] = rows[std::size_t(j)][std::size_t(i)];
+    fft(col);
+    for (int j = 0; j < n; ++j) {
+      const int kx = i <= n / 2 ? i : i - n, kz = j <= n / 2 ? j : j - n;
+      const int r = int(std::lround(std::sqrt(double(kx * kx + kz * kz))));
+      if (r > n / 2) continue;
+      const double pw = std::norm(col[std::size_t(j)]);
+      local[std::size_t(r)] += pw;
+      total += pw;
+    }
+  }
+  return total;
+}
+
 // Largest difference between two cumulative power distributions (a Kolmogorov–Smirnov distance).
 inline double ks(const std::vector<double>& a, const std::vector<double>& b) {
   double ca = 0, cb = 0, worst = 0;

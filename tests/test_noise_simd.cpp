@@ -29,6 +29,7 @@ namespace {
 
 using test::fft;
 using test::ks;
+using test::radial_power;
 
 using test::fnv1a;
 using test::same_bits;
@@ -434,21 +435,8 @@ std::vector<double> spectrum_of(Make make, std::uint64_t first) {
       for (int i = 0; i < n; ++i) rows[std::size_t(j)][std::size_t(i)] = v[std::size_t(j) * n + i] - mean;
       fft(rows[std::size_t(j)]);
     }
-    std::vector<std::complex<double>> col(static_cast<std::size_t>(n));
     std::vector<double> local(bins.size(), 0.0);
-    double total = 0;
-    for (int i = 0; i < n; ++i) {
-      for (int j = 0; j < n; ++j) col[std::size_t(j)] = rows[std::size_t(j)][std::size_t(i)];
-      fft(col);
-      for (int j = 0; j < n; ++j) {
-        const int kx = i <= n / 2 ? i : i - n, kz = j <= n / 2 ? j : j - n;
-        const int r = int(std::lround(std::sqrt(double(kx * kx + kz * kz))));
-        if (r > n / 2) continue;
-        const double pw = std::norm(col[std::size_t(j)]);
-        local[std::size_t(r)] += pw;
-        total += pw;
-      }
-    }
+    const double total = radial_power(rows, local);
     for (std::size_t r = 0; r < bins.size(); ++r) bins[r] += local[r] / total / seeds;
   }
   return bins;
