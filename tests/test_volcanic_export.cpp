@@ -36,7 +36,18 @@ class VolcanicExport : public ::testing::Test {
  protected:
   static fs::path dir;
   static json props;
-  static void SetUpTestSuite() {
+  // The shared files are made by the first test that runs, not in SetUpTestSuite: GoogleTest turns a
+  // failure there into a skip of every test of the suite, which CTest counts as skipped, not failed.
+  static inline bool prepared_ = false, prepare_failed_ = false;
+  void SetUp() override {
+    if (!prepared_) {
+      prepared_ = prepare_failed_ = true;
+      prepare();
+      prepare_failed_ = HasFailure();
+    }
+    ASSERT_FALSE(prepare_failed_) << "the suite's shared files could not be made: see the first test's failure";
+  }
+  static void prepare() {
     dir = fs::temp_directory_path() / ("relief-volcanic-" + std::to_string(::getpid()));
     fs::remove_all(dir);
     const Shell r = sh(std::string(RELIEF_BINARY) + " generate volcanic-island --seed 7 --size " + std::to_string(kSize) +

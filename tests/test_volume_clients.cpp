@@ -29,7 +29,18 @@ class VolumeClients : public ::testing::Test {
   static inline fs::path dir;
   static inline long triangles = 0, chunks = 0;
 
-  static void SetUpTestSuite() {
+  // The shared files are made by the first test that runs, not in SetUpTestSuite: GoogleTest turns a
+  // failure there into a skip of every test of the suite, which CTest counts as skipped, not failed.
+  static inline bool prepared_ = false, prepare_failed_ = false;
+  void SetUp() override {
+    if (!prepared_) {
+      prepared_ = prepare_failed_ = true;
+      prepare();
+      prepare_failed_ = HasFailure();
+    }
+    ASSERT_FALSE(prepare_failed_) << "the suite's shared files could not be made: see the first test's failure";
+  }
+  static void prepare() {
     dir = fs::temp_directory_path() / ("relief_volume_clients_" + std::to_string(::getpid()));
     fs::remove_all(dir);
     fs::create_directories(dir);
