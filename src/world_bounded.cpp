@@ -13,6 +13,7 @@
 #include <unistd.h>
 
 #include <algorithm>
+#include <array>
 #include <cerrno>
 #include <cmath>
 #include <cstring>
@@ -62,38 +63,64 @@ erosion::HydraulicSettings hydraulic_settings(const json& p) {
   return s;
 }
 
-// The world's heights between the passes: one float per sample, row-major, in a temporary file of
-// `dir` (WorldStageIO::scratch_dir; when empty the temporary folder, std::filesystem::
-// temp_directory_path(): $TMPDIR, else /tmp) that has no name (O_TMPFILE; where the file system
-// cannot, one made with mkstemp and unlinked at once), so that it disappears when closed or when the
-// process ends, killed or not.
-class Scratch {
+// A temporary file of `dir` (WorldStageIO::scratch_dir; when empty the temporary folder, std::
+// filesystem::temp_directory_path(): $TMPDIR, else /tmp) that has no name (O_TMPFILE; where the file
+// system cannot, one made with mkstemp and unlinked at once), so that it disappears when closed or
+// when the process ends, killed or not. Read and written at byte offsets; a failure throws
+// Error(stage, …) naming the folder, what the file holds and the system's reason.
+class TempFile {
  public:
-  Scratch(std::string dir, std::int64_t nx, std::int64_t nz, std::string stage = "hydraulic") : nx_(nx), stage_(std::move(stage)) {
+  TempFile(std::string dir, std::string stage, std::string what) : stage_(std::move(stage)), what_(std::move(what)) {
     if (dir.empty()) {
       std::error_code ec;
       const std::filesystem::path t = std::filesystem::temp_directory_path(ec);
       dir = ec ? std::string("/tmp") : t.string();
     }
+    dir_ = dir;
 #ifdef O_TMPFILE
     fd_ = ::open(dir.c_str(), O_TMPFILE | O_RDWR | O_CLOEXEC, 0600);
 #endif
     if (fd_ < 0) {
       std::string name = (std::filesystem::path(dir) / ("relief-" + stage_ + "-XXXXXX")).string();
       fd_ = ::mkstemp(name.data());
-      if (fd_ < 0) fail("create, in " + dir + ",");
+      if (fd_ < 0) fail("create");
       ::unlink(name.c_str());
     }
-    if (::ftruncate(fd_, off_t(nx * nz * 4)) != 0) {
-      const int err = errno;
-      ::close(fd_);
-      errno = err;
-      fail("size");
+  }
+  ~TempFile() { ::close(fd_); }
+  TempFile(const TempFile&) = delete;
+  TempFile& operator=(const TempFile&) = delete;
+  void resize(std::uint64_t bytes) const {
+    if (::ftruncate(fd_, off_t(bytes)) != 0) fail("size");
+  }
+  void io(bool write, std::uint64_t at, void* p, std::size_t bytes) const {
+    char* b = static_cast<char*>(p);
+    while (bytes > 0) {
+      const ssize_t got = write ? ::pwrite(fd_, b, bytes, off_t(at)) : ::pread(fd_, b, bytes, off_t(at));
+      if (got < 0 && errno == EINTR) continue;
+      if (got <= 0) {
+        if (got == 0) errno = write ? ENOSPC : EIO;  // a short file or a full disk
+        fail(write ? "write" : "read");
+      }
+      b += got, bytes -= std::size_t(got), at += std::uint64_t(got);
     }
   }
-  ~Scratch() { ::close(fd_); }
-  Scratch(const Scratch&) = delete;
-  Scratch& operator=(const Scratch&) = delete;
+
+ private:
+  [[noreturn]] void fail(const std::string& verb) const {
+    throw Error(stage_, "could not " + verb + " the temporary file of " + what_ + " in " + dir_ + ": " + std::strerror(errno));
+  }
+  int fd_ = -1;
+  std::string stage_, what_, dir_;
+};
+
+// The world's heights between the passes: one float per sample, row-major, in a TempFile.
+class Scratch {
+ public:
+  Scratch(std::string dir, std::int64_t nx, std::int64_t nz, std::string stage = "hydraulic")
+      : file_(std::move(dir), std::move(stage), "the world's heights"), nx_(nx) {
+    file_.resize(std::uint64_t(nx) * std::uint64_t(nz) * 4);
+  }
   // Rows [z0, z0 + nz) × columns [x0, x0 + nx) to or from `data` (nx × nz, row-major).
   void read(std::int64_t x0, std::int64_t z0, int nx, int nz, float* data) const {
     for (int j = 0; j < nz; ++j) io(false, x0, z0 + j, nx, data + std::size_t(j) * std::size_t(nx));
@@ -104,22 +131,10 @@ class Scratch {
 
  private:
   void io(bool write, std::int64_t x0, std::int64_t z, int n, float* p) const {
-    char* b = reinterpret_cast<char*>(p);
-    std::size_t left = std::size_t(n) * 4;
-    off_t at = off_t((z * nx_ + x0) * 4);
-    while (left > 0) {
-      const ssize_t got = write ? ::pwrite(fd_, b, left, at) : ::pread(fd_, b, left, at);
-      if (got < 0 && errno == EINTR) continue;
-      if (got <= 0) fail(write ? "write" : "read");
-      b += got, left -= std::size_t(got), at += got;
-    }
+    file_.io(write, std::uint64_t(z * nx_ + x0) * 4, p, std::size_t(n) * 4);
   }
-  [[noreturn]] void fail(const std::string& what) const {
-    throw Error(stage_, "could not " + what + " the temporary file of the world's heights: " + std::strerror(errno));
-  }
-  int fd_ = -1;
+  TempFile file_;
   std::int64_t nx_ = 0;
-  std::string stage_;
 };
 
 // One group of one pass as a farm task (src/world_farm.hpp): the input is the job and the group's
@@ -558,8 +573,17 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
       struct Box {
         std::int64_t x0 = 0, z0 = 0;
         int wnx = 0, wnz = 0;
-        std::vector<std::uint32_t> ring;  // the window's border samples
         bool inside(std::int64_t x, std::int64_t z) const { return x > x0 && x < x0 + wnx - 1 && z > z0 && z < z0 + wnz - 1; }
+        // The window's border samples (row-major order), made when needed: a block's and its
+        // neighbours' at a time, never the world's.
+        std::vector<std::uint32_t> ring() const {
+          std::vector<std::uint32_t> r;
+          r.reserve(2 * std::size_t(wnx + wnz));
+          for (int j = 0; j < wnz; ++j)
+            for (int i = 0; i < wnx; ++i)
+              if (hydro::on_border(i, j, wnx, wnz)) r.push_back(std::uint32_t(j * wnx + i));
+          return r;
+        }
       };
       std::vector<Box> boxes(static_cast<std::size_t>(blocks));
       for (std::int64_t bz = 0; bz < az.count; ++bz)
@@ -567,36 +591,115 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
           Box& b = boxes[std::size_t(bz * ax.count + bx)];
           b.x0 = ax.lo(bx), b.z0 = az.lo(bz);
           b.wnx = int(ax.hi(bx) - b.x0 + 1), b.wnz = int(az.hi(bz) - b.z0 + 1);
-          for (int j = 0; j < b.wnz; ++j)
-            for (int i = 0; i < b.wnx; ++i)
-              if (hydro::on_border(i, j, b.wnx, b.wnz)) b.ring.push_back(std::uint32_t(j * b.wnx + i));
         }
-      // A block's levels and inflow for the next sweep: per step, the ring's levels seen and solved
-      // (steps × ring samples), how much weight reached each ring sample, and the inflow.
+      // What block j gives to block k's ring (k a neighbour of j, k ≠ j): the ring samples q of k
+      // inside j's window where j's weight w is positive, in ring order, with the sample in j's
+      // window. Geometry only: the writer (j) and the reader (k, next sweep) make the same list.
+      struct Target {
+        std::uint32_t q, local;
+        double w;
+      };
+      auto targets_of = [&](std::size_t j, std::size_t k, const std::vector<std::uint32_t>& kring) {
+        std::vector<Target> ts;
+        const Box& b = boxes[j];
+        const Box& o = boxes[k];
+        const std::int64_t bx = std::int64_t(j) % ax.count, bz = std::int64_t(j) / ax.count;
+        for (std::size_t q = 0; q < kring.size(); ++q) {
+          const std::int64_t x = o.x0 + kring[q] % std::uint32_t(o.wnx), z = o.z0 + kring[q] / std::uint32_t(o.wnx);
+          if (!b.inside(x, z)) continue;
+          const double w = ax.weight(bx, x) * az.weight(bz, z);
+          if (w <= 0) continue;
+          ts.push_back({std::uint32_t(q), std::uint32_t((z - b.z0) * b.wnx + (x - b.x0)), w});
+        }
+        return ts;
+      };
+      // The neighbours of block j (k ≠ j), in block order, and their slot (0..8) around j.
+      auto neighbours = [&](std::size_t j) {
+        std::vector<std::pair<std::size_t, int>> ns;
+        const std::int64_t bx = std::int64_t(j) % ax.count, bz = std::int64_t(j) / ax.count;
+        for (std::int64_t nz_ = std::max<std::int64_t>(0, bz - 1); nz_ <= std::min(az.count - 1, bz + 1); ++nz_)
+          for (std::int64_t nx_ = std::max<std::int64_t>(0, bx - 1); nx_ <= std::min(ax.count - 1, bx + 1); ++nx_) {
+            const std::size_t k = std::size_t(nz_ * ax.count + nx_);
+            if (k != j) ns.push_back({k, int((nz_ - bz + 1) * 3 + (nx_ - bx + 1))});
+          }
+        return ns;
+      };
+      // A block's levels and inflow for the next sweep, as block k reads them: per step, the ring's
+      // levels seen and solved (steps × ring samples), how much weight reached each ring sample, and
+      // the inflow.
       struct History {
         std::vector<float> seen, solved, weight;
         std::vector<std::vector<Inflow>> inflow;
       };
-      auto fresh = [&] {
-        std::vector<History> hs(static_cast<std::size_t>(blocks));
-        for (std::size_t b = 0; b < hs.size(); ++b) {
-          hs[b].seen.assign(std::size_t(steps) * boxes[b].ring.size(), 0.0f);
-          hs[b].solved.assign(std::size_t(steps) * boxes[b].ring.size(), 0.0f);
-          hs[b].weight.assign(boxes[b].ring.size(), 0.0f);
-          hs[b].inflow.resize(std::size_t(steps));
+      // The records between sweeps live in two temporary files (a sweep reads the one the previous
+      // sweep wrote and writes the other), not in memory: block j, once solved, writes what it gives
+      // each neighbour k (a segment: for its targets, in their order, the weighted levels w · h
+      // seen, then solved, as doubles, steps × targets each; then the inflow entries' count per step
+      // (uint32) and the entries, step after step), and block k, in the next sweep, reads the
+      // segments its neighbours wrote for it and sums them in block order, as the blocks' shares
+      // were summed in memory before (the same float sums, bit for bit). Memory: one block's
+      // segments and one block's History; the index (a segment's offset per block and neighbour
+      // slot, 72 bytes per block).
+      std::unique_ptr<TempFile> records[2];
+      std::vector<std::array<std::uint64_t, 9>> offsets[2];
+      if (sweeps > 1)
+        for (int f = 0; f < 2; ++f) {
+          records[f] = std::make_unique<TempFile>(io.scratch_dir, "stream_power", "the refinement's ring records");
+          offsets[f].assign(std::size_t(blocks), std::array<std::uint64_t, 9>{});
+        }
+      const std::size_t S = std::size_t(steps);
+      auto read_history = [&](std::size_t k, const std::vector<std::uint32_t>& kring, int from) {
+        History hs;
+        const std::size_t R = kring.size();
+        hs.seen.assign(S * R, 0.0f);
+        hs.solved.assign(S * R, 0.0f);
+        hs.weight.assign(R, 0.0f);
+        hs.inflow.resize(S);
+        std::vector<double> levels;
+        std::vector<std::uint32_t> counts(S);
+        std::vector<Inflow> entries;
+        for (const auto& nj : neighbours(k)) {
+          const std::size_t j = nj.first;
+          const std::vector<Target> ts = targets_of(j, k, kring);
+          for (const Target& t : ts) hs.weight[t.q] += float(t.w);
+          // j's slot around k is the mirror of k's slot around j.
+          int slot = -1;
+          for (const auto& [kk, s2] : neighbours(j))
+            if (kk == k) slot = s2;
+          std::uint64_t at = offsets[from][j][std::size_t(slot)];
+          const std::size_t n = ts.size();
+          levels.resize(2 * S * n);
+          records[from]->io(false, at, levels.data(), levels.size() * sizeof(double));
+          at += levels.size() * sizeof(double);
+          for (int half = 0; half < 2; ++half) {
+            std::vector<float>& v = half == 0 ? hs.seen : hs.solved;
+            const double* src = levels.data() + std::size_t(half) * S * n;
+            for (std::size_t step = 0; step < S; ++step)
+              for (std::size_t i = 0; i < n; ++i) {
+                float& x = v[step * R + ts[i].q];
+                x = float(double(x) + src[step * n + i]);
+              }
+          }
+          records[from]->io(false, at, counts.data(), S * sizeof(std::uint32_t));
+          at += S * sizeof(std::uint32_t);
+          std::size_t total = 0;
+          for (std::uint32_t c : counts) total += c;
+          entries.resize(total);
+          if (total > 0) records[from]->io(false, at, entries.data(), total * sizeof(Inflow));
+          std::size_t e0 = 0;
+          for (std::size_t step = 0; step < S; ++step) {
+            hs.inflow[step].insert(hs.inflow[step].end(), entries.begin() + std::ptrdiff_t(e0), entries.begin() + std::ptrdiff_t(e0 + counts[step]));
+            e0 += counts[step];
+          }
         }
         return hs;
       };
-      std::vector<History> previous, next;
-      // What block j gives to its neighbours' rings: (neighbour, ring index, sample in j's window, weight).
-      struct Target {
-        std::uint32_t block, q, local;
-        double w;
-      };
+      static_assert(sizeof(Inflow) == 8, "an inflow entry is written as 8 bytes");
       const double work = double(blocks) * double(sweeps);
       for (int sweep = 0; sweep < sweeps; ++sweep) {
         const bool last = sweep + 1 == sweeps;
-        if (!last) next = fresh();
+        const int from = (sweep + 1) % 2, to = sweep % 2;  // the files read and written by this sweep
+        std::uint64_t written = 0;
         for (std::int64_t bz = 0; bz < az.count; ++bz)
           for (std::int64_t bx = 0; bx < ax.count; ++bx) {
             check_cancelled(io);
@@ -604,7 +707,7 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
             const Box& box = boxes[id];
             const std::int64_t x0 = box.x0, z0 = box.z0;
             const int wnx = box.wnx, wnz = box.wnz;
-            const std::vector<std::uint32_t>& ring = box.ring;
+            const std::vector<std::uint32_t> ring = box.ring();
             std::vector<float> h(std::size_t(wnx) * std::size_t(wnz));
             input->read(x0, z0, wnx, wnz, h.data());
             // The ring: its start levels (the solver's, taken at its first call) and the coarse change
@@ -614,7 +717,9 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
               for (std::size_t q = 0; q < ring.size(); ++q)
                 change[std::size_t(k)][q] = coarse_change(k, x0 + ring[q] % std::uint32_t(wnx), z0 + ring[q] / std::uint32_t(wnx));
             std::vector<double> start(ring.size());
-            const History* prev = sweep > 0 ? &previous[id] : nullptr;
+            History history;
+            if (sweep > 0) history = read_history(id, ring, from);
+            const History* prev = sweep > 0 ? &history : nullptr;
             erosion::detail::StreamPowerWindow win;
             win.ring = [&](int step, bool after_step, double* hw) {
               if (step == 0 && !after_step)
@@ -644,49 +749,71 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
               }
               for (std::size_t c = 0; c < std::size_t(wnx) * std::size_t(wnz); ++c) extra[c] = std::nearbyint(extra[c]);
             };
-            std::vector<Target> targets;
+            // What this block gives its neighbours (not in the last sweep): per neighbour, its
+            // targets, their weighted levels (seen, then solved: 2 × steps × targets) and inflow.
+            struct Out {
+              std::size_t k = 0;
+              int slot = 0;
+              std::vector<Target> ts;
+              std::vector<double> levels;
+              std::vector<std::vector<Inflow>> inflow;
+            };
+            std::vector<Out> outs;
             if (!last) {
-              for (std::int64_t nz_ = std::max<std::int64_t>(0, bz - 1); nz_ <= std::min(az.count - 1, bz + 1); ++nz_)
-                for (std::int64_t nx_ = std::max<std::int64_t>(0, bx - 1); nx_ <= std::min(ax.count - 1, bx + 1); ++nx_) {
-                  const std::size_t k = std::size_t(nz_ * ax.count + nx_);
-                  if (k == id) continue;
-                  const Box& o = boxes[k];
-                  for (std::size_t q = 0; q < o.ring.size(); ++q) {
-                    const std::int64_t x = o.x0 + o.ring[q] % std::uint32_t(o.wnx), z = o.z0 + o.ring[q] / std::uint32_t(o.wnx);
-                    if (!box.inside(x, z)) continue;
-                    const double w = ax.weight(bx, x) * az.weight(bz, z);
-                    if (w <= 0) continue;
-                    targets.push_back({std::uint32_t(k), std::uint32_t(q), std::uint32_t((z - z0) * wnx + (x - x0)), w});
-                    next[k].weight[q] += float(w);
-                  }
-                }
+              for (const auto& [k, slot] : neighbours(id)) {
+                Out o;
+                o.k = k, o.slot = slot;
+                o.ts = targets_of(id, k, boxes[k].ring());
+                o.levels.assign(2 * S * o.ts.size(), 0.0);
+                o.inflow.resize(S);
+                outs.push_back(std::move(o));
+              }
               auto record = [&](bool solved_levels) {
                 return [&, solved_levels](int step, const double* hw) {
-                  for (const Target& t : targets) {
-                    History& o = next[t.block];
-                    float& v = (solved_levels ? o.solved : o.seen)[std::size_t(step) * boxes[t.block].ring.size() + t.q];
-                    v = float(double(v) + t.w * hw[t.local]);
+                  for (Out& o : outs) {
+                    double* dst = o.levels.data() + (solved_levels ? S * o.ts.size() : 0) + std::size_t(step) * o.ts.size();
+                    for (std::size_t i = 0; i < o.ts.size(); ++i) dst[i] = o.ts[i].w * hw[o.ts[i].local];
                   }
                 };
               };
               win.seen = record(false);
               win.solved = record(true);
               win.routed = [&](int step, const std::uint8_t* dir, const double* area) {
-                for (const Target& t : targets) {
-                  const std::uint8_t d = dir[t.local];
-                  if (d == hydro::kNoReceiver) continue;
-                  const Box& o = boxes[t.block];
-                  const std::int64_t x = x0 + std::int64_t(t.local % std::uint32_t(wnx)) + hydro::kDi[d];
-                  const std::int64_t z = z0 + std::int64_t(t.local / std::uint32_t(wnx)) + hydro::kDj[d];
-                  if (!o.inside(x, z)) continue;
-                  next[t.block].inflow[std::size_t(step)].push_back(
-                      {std::uint32_t((z - o.z0) * o.wnx + (x - o.x0)), float(t.w * area[t.local])});
+                for (Out& o : outs) {
+                  const Box& ob = boxes[o.k];
+                  for (const Target& t : o.ts) {
+                    const std::uint8_t d = dir[t.local];
+                    if (d == hydro::kNoReceiver) continue;
+                    const std::int64_t x = x0 + std::int64_t(t.local % std::uint32_t(wnx)) + hydro::kDi[d];
+                    const std::int64_t z = z0 + std::int64_t(t.local / std::uint32_t(wnx)) + hydro::kDj[d];
+                    if (!ob.inside(x, z)) continue;
+                    o.inflow[std::size_t(step)].push_back(
+                        {std::uint32_t((z - ob.z0) * ob.wnx + (x - ob.x0)), float(t.w * area[t.local])});
+                  }
                 }
               };
             }
             erosion::detail::stream_power_window(h.data(), W.window(x0, z0, wnx, wnz), sp, win);
             if (io.progress) io.progress(solve_end + (blocks_end - solve_end) * double(sweep * blocks + std::int64_t(id) + 1) / work);
-            if (!last) continue;
+            if (!last) {
+              // This block's segments, appended to the sweep's file.
+              for (Out& o : outs) {
+                offsets[to][id][std::size_t(o.slot)] = written;
+                records[to]->io(true, written, o.levels.data(), o.levels.size() * sizeof(double));
+                written += o.levels.size() * sizeof(double);
+                std::vector<std::uint32_t> counts(S);
+                std::vector<Inflow> entries;
+                for (std::size_t step = 0; step < S; ++step) {
+                  counts[step] = std::uint32_t(o.inflow[step].size());
+                  entries.insert(entries.end(), o.inflow[step].begin(), o.inflow[step].end());
+                }
+                records[to]->io(true, written, counts.data(), S * sizeof(std::uint32_t));
+                written += S * sizeof(std::uint32_t);
+                if (!entries.empty()) records[to]->io(true, written, entries.data(), entries.size() * sizeof(Inflow));
+                written += entries.size() * sizeof(Inflow);
+              }
+              continue;
+            }
             // This block's share, added to the output in block order (the same order for every tiling).
             const std::int64_t kx = bx, kz = bz;
             std::int64_t ux0 = x0, ux1 = x0 + wnx - 1, uz0 = z0, uz1 = z0 + wnz - 1;
@@ -711,8 +838,6 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
             }
             output->write(ux0, uz0, unx, unz, sum.data());
           }
-        previous = std::move(next);
-        next.clear();
       }
       // The whole map's stage ends ε-filled (it drains); so does the world: the blend, clamped to
       // [0, 1] as the stage clamps, filled across tiles as the world's fill stage fills (exact: the
