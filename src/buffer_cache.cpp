@@ -11,7 +11,9 @@
 
 #include "relief/terrain.hpp"
 
+
 #if defined(__unix__)
+#include <pthread.h>
 #include <unistd.h>
 #endif
 
@@ -41,6 +43,7 @@ struct Cache {
   static constexpr std::size_t kMaxSizes = 64;
   std::vector<Demand> demand;
   std::size_t bytes = 0;
+  std::size_t hits = 0;
   std::size_t limit = 0;
   std::uint64_t next_stamp = 0;
   std::atomic<bool> poison{false};
@@ -109,8 +112,22 @@ struct Cache {
 };
 
 // Never destroyed: layers in static storage may give their buffers back after main returns.
+// fork() copies the cache's mutex as it is: had another thread of the parent held it at that
+// moment (a layer freed or made on a TBB worker, a Python thread), the child's first large layer
+// would wait for it forever (Python's multiprocessing forks by default on Linux). The handlers take
+// the lock around the fork, so the child starts with it free.
+Cache* g_cache = nullptr;
+void lock_for_fork() { g_cache->mutex.lock(); }
+void unlock_after_fork() { g_cache->mutex.unlock(); }
+
 Cache& cache() {
-  static Cache* c = new Cache();
+  static Cache* c = [] {
+    g_cache = new Cache();
+#if defined(__unix__)
+    pthread_atfork(lock_for_fork, unlock_after_fork, unlock_after_fork);
+#endif
+    return g_cache;
+  }();
   return *c;
 }
 
@@ -156,7 +173,19 @@ std::size_t cached_buffer_count() {
   return c.entries.size();
 }
 
+std::size_t cached_buffer_hits() {
+  Cache& c = cache();
+  std::lock_guard lock(c.mutex);
+  return c.hits;
+}
+
 namespace detail {
+
+void with_buffer_cache_locked(void (*f)()) {
+  Cache& c = cache();
+  std::lock_guard lock(c.mutex);
+  f();
+}
 
 void cache_buffer(std::vector<float>&& buffer) noexcept {
   std::vector<float> b = std::move(buffer);  // `buffer` is left empty whatever happens
@@ -213,6 +242,7 @@ bool take_cached_buffer(std::vector<float>& data, std::size_t want) {
       return false;
     }
     c.bytes -= best->buffer.capacity() * sizeof(float);
+    ++c.hits;
     found.swap(best->buffer);
     c.entries.erase(best);
   }

@@ -4,18 +4,22 @@
 // recycled buffer held (cached buffers poisoned with NaN give the bytes of a run without the cache).
 #include <gtest/gtest.h>
 
+#include <sys/wait.h>
 #include <tbb/parallel_for.h>
+#include <unistd.h>
 
 #include <atomic>
 #include <cmath>
 #include <cstring>
 #include <string>
+#include <thread>
 #include <vector>
 
 #include "relief/pipeline.hpp"
 #include "relief/recipe.hpp"
 #include "relief/terrain.hpp"
 #include "support.hpp"
+#include "world_support.hpp"
 
 using namespace relief;
 
@@ -267,6 +271,92 @@ TEST(BufferCache, PoisonedRecycledBuffersChangeNoByte) {
     detail::set_buffer_cache_poison(false);
     release_cached_buffers();
   }
+}
+
+// The same for a `slope` stage (no preset has one; it writes its layers through
+// layer_for_overwrite, as hillshade does, so a sample it skipped would keep the poison) and for a
+// world build, whose tiles after the first take the buffers the earlier tiles (or an earlier run in
+// the process) dropped: the store's files are those of a build with the cache off.
+TEST(BufferCache, PoisonedBuffersChangeNoByteOfASlopeStageOrAWorldStore) {
+  CacheScope scope;
+  json doc = load_preset("hills");
+  doc["stages"].push_back({{"stage", "slope"}});
+  doc["world"]["size"] = kN;
+  doc["seed"] = 3;
+  const Recipe r = parse_recipe(doc);
+  RunOptions o;
+  o.threads = 2;
+  set_buffer_cache_limit(0);
+  const std::vector<unsigned char> plain = bytes_of(run(r, o).terrain);
+  test::TempDir d("cache-world");
+  build_world(test::world::settings(r, 2 * kN - 1, kN, kN, d / "off"));
+  set_buffer_cache_limit(std::size_t(1) << 30);
+  detail::set_buffer_cache_poison(true);
+  { RunResult warm = run(r, o); }
+  ASSERT_GT(cached_buffer_count(), 0u);
+  const RunResult again = run(r, o);
+  ASSERT_TRUE(again.terrain.has("slope"));
+  EXPECT_TRUE(bytes_of(again.terrain) == plain);
+  { RunResult warm = run(r, o); }
+  const std::size_t hits = cached_buffer_hits();
+  build_world(test::world::settings(r, 2 * kN - 1, kN, kN, d / "poisoned"));
+  EXPECT_GE(cached_buffer_hits(), hits + 4) << "the world build took few cached buffers: " << cached_buffer_hits() - hits;
+  test::world::expect_same_store(d.path / "off", d.path / "poisoned");
+}
+
+// fork() while another thread holds the cache's lock: the child's cache works (without the fork
+// handlers the child inherits the lock held and its first large layer waits forever).
+TEST(BufferCache, AForkWhileAnotherThreadHoldsTheCacheLeavesTheChildsCacheUsable) {
+  CacheScope scope;
+  set_buffer_cache_limit(std::size_t(64) << 20);
+  std::atomic<bool> holding{false};
+  static std::atomic<bool>* flag;
+  flag = &holding;
+  std::thread holder([] { detail::with_buffer_cache_locked([] {
+    flag->store(true);
+    std::this_thread::sleep_for(std::chrono::milliseconds(300));
+  }); });
+  while (!holding.load()) std::this_thread::yield();
+  const pid_t pid = ::fork();
+  if (pid == 0) {  // the child: one large layer made and dropped (the cache's lock, twice)
+    { Terrain t = sized(kN); t.layer("h", 1); }
+    ::_exit(0);
+  }
+  ASSERT_GT(pid, 0);
+  holder.join();
+  int status = -1;
+  pid_t done = 0;
+  for (int k = 0; k < 500 && done == 0; ++k) {  // up to 10 s
+    done = ::waitpid(pid, &status, WNOHANG);
+    if (done == 0) std::this_thread::sleep_for(std::chrono::milliseconds(20));
+  }
+  if (done == 0) {
+    ::kill(pid, SIGKILL);
+    ::waitpid(pid, &status, 0);
+    FAIL() << "the child's cache stayed locked";
+  }
+  EXPECT_TRUE(WIFEXITED(status) && WEXITSTATUS(status) == 0) << status;
+}
+
+// A layer assigned to itself (copy or move) keeps its samples and its buffer.
+TEST(BufferCache, ALayerAssignedToItselfKeepsItsSamples) {
+  CacheScope scope;
+  set_buffer_cache_limit(std::size_t(64) << 20);
+  Terrain t = sized(kN);
+  Layer& l = t.layer("h", 1);
+  for (std::size_t k = 0; k < l.data.size(); ++k) l.data[k] = float(k % 977);
+  const float* address = l.data.data();
+  Layer& alias = l;
+  l = alias;
+  ASSERT_EQ(l.data.size(), std::size_t(kN) * kN);
+  EXPECT_EQ(l.data.data(), address);
+  l = std::move(alias);
+  ASSERT_EQ(l.data.size(), std::size_t(kN) * kN);
+  EXPECT_EQ(l.data.data(), address);
+  bool same = true;
+  for (std::size_t k = 0; k < l.data.size(); ++k) same = same && l.data[k] == float(k % 977);
+  EXPECT_TRUE(same);
+  EXPECT_EQ(cached_buffer_count(), 0u);
 }
 
 // RELIEF_BUFFER_CACHE_MB takes plain decimal digits only: anything else keeps the default and says

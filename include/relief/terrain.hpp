@@ -94,6 +94,8 @@ std::size_t buffer_cache_limit();
 // Bytes (capacity) and buffers held now.
 std::size_t cached_buffer_bytes();
 std::size_t cached_buffer_count();
+// Buffers the cache has handed out since the process started (its hits; never reset).
+std::size_t cached_buffer_hits();
 namespace detail {
 // Gives `buffer` to the cache (kept if its capacity is kLayerCacheMinBytes or more, a request of its
 // size has a credit left and it fits the limit; freed otherwise). Leaves `buffer` empty. Never throws.
@@ -109,6 +111,8 @@ void note_buffer_request(std::size_t want);
 // (size set to its capacity), so that an output reading a stale value shows it. The environment
 // variable RELIEF_BUFFER_CACHE_POISON=1 turns it on from the start.
 void set_buffer_cache_poison(bool on);
+// Test hook: runs `f` holding the cache's lock (a fork() meanwhile waits for it: see buffer_cache.cpp).
+void with_buffer_cache_locked(void (*f)());
 }  // namespace detail
 
 // A named grid of floats with one or more channels (colour layers have 3, in 0..1 linear-free sRGB).

@@ -49,6 +49,26 @@ def test_arrays_outlive_the_terrain():
     assert np.array_equal(albedo, expected_a)
 
 
+def test_cached_buffers_never_back_a_live_array_and_release_frees_them():
+    # Layers of 4 MiB or more go to the process-wide buffer cache when their Terrain is freed; an
+    # array still viewing one keeps its Terrain, so its buffer is never handed to the next run.
+    relief.release_cached_buffers()
+    t = relief.generate("island", seed=7, size=1025)
+    h = t.height
+    expected = h.copy()
+    del t
+    gc.collect()
+    for seed in (1, 2):
+        u = relief.generate("island", seed=seed, size=1025)
+        assert not np.shares_memory(u.height, h)
+        del u
+        gc.collect()
+    assert np.array_equal(h, expected)
+    # The second run's layers sit in the cache: released, then nothing is left.
+    assert relief.release_cached_buffers() >= 1025 * 1025 * 4
+    assert relief.release_cached_buffers() == 0
+
+
 def test_points_rivers_lakes_are_plain_data():
     t = relief.generate("volcanic-island", seed=3, size=129, threads=1)
     props = t.props
