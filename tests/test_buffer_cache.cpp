@@ -363,7 +363,7 @@ TEST(BufferCache, ALayerAssignedToItselfKeepsItsSamples) {
 // so on stderr, naming the variable (strtoull alone took "+64" and " 64" and wrapped "-1").
 TEST(BufferCache, AMalformedLimitInTheEnvironmentIsNamedAndIgnored) {
   test::TempDir d("cache-env");
-  for (const std::string& v : {"abc", "+64", "-1", "64M", "1e3"}) {
+  for (const std::string v : {"abc", "+64", "-1", "64M", "1e3"}) {
     const auto r = test::sh("RELIEF_BUFFER_CACHE_MB='" + v + "' " + std::string(RELIEF_BINARY) + " generate island --size 1025 -f heightmap -q -o " +
                             (d / "o"));
     EXPECT_EQ(r.code, 0) << v << "\n" << r.out;
