@@ -526,35 +526,64 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
         std::uint32_t cell;  // in the block's window
         float cells;
       };
-      std::vector<std::vector<std::vector<Inflow>>> inflow(std::size_t(blocks), std::vector<std::vector<Inflow>>(std::size_t(K) + 1));
+      // The lists go to a temporary file as they are made, block after block for each snapshot
+      // (memory: the coarse grid's receivers and one list; the index, 12 bytes per block and
+      // snapshot). A block's list holds its entries in the order of the coarse cells d: its own
+      // scan covers every d whose receiver can be inside its window (a D8 neighbour of d, so d
+      // within one coarse cell of the coarse cells inside).
+      static_assert(sizeof(Inflow) == 8, "an inflow entry is written as 8 bytes");
+      TempFile coarse_inflow(io.scratch_dir, "stream_power", "the refinement's coarse inflow");
+      struct Span {
+        std::uint64_t at = 0;
+        std::uint32_t count = 0;
+      };
+      std::vector<Span> inflow_at(std::size_t(blocks) * (std::size_t(K) + 1));
       {
         std::vector<double> hk(e.size());
         std::vector<std::uint32_t> rec(e.size()), order, count(e.size());
+        std::vector<Inflow> list;
+        std::uint64_t written = 0;
         for (int k = 0; k <= K; ++k) {
           check_cancelled(io);
           for (std::size_t c = 0; c < e.size(); ++c) hk[c] = snap[std::size_t(k)][c];
           hydro::fill_depressions<double>(hk.data(), cnx, cnz, 0.0, 1e-6);
           hydro::d8_receivers<double>(hk.data(), cnx, cnz, 0.0, rec.data());
           hydro::flow_order(rec.data(), e.size(), order, count.data());
-          for (std::size_t d = 0; d < e.size(); ++d) {
-            const std::size_t r = rec[d];
-            if (r == d) continue;
-            const std::int64_t dx = world_of(std::int64_t(d % std::size_t(cnx)), g.nx), dz = world_of(std::int64_t(d / std::size_t(cnx)), g.nz);
-            const std::int64_t rx = world_of(std::int64_t(r % std::size_t(cnx)), g.nx), rz = world_of(std::int64_t(r / std::size_t(cnx)), g.nz);
-            const std::int64_t kx0 = std::max<std::int64_t>(0, (rx - halo) / block - 1), kx1 = std::min(ax.count - 1, rx / block + 1);
-            const std::int64_t kz0 = std::max<std::int64_t>(0, (rz - halo) / block - 1), kz1 = std::min(az.count - 1, rz / block + 1);
-            for (std::int64_t bz = kz0; bz <= kz1; ++bz)
-              for (std::int64_t bx = kx0; bx <= kx1; ++bx) {
-                const std::int64_t x0 = ax.lo(bx), x1 = ax.hi(bx), z0 = az.lo(bz), z1 = az.hi(bz);
-                auto in = [&](std::int64_t x, std::int64_t z) { return x > x0 && x < x1 && z > z0 && z < z1; };
-                if (!in(rx, rz) || in(dx, dz)) continue;
-                const std::int64_t ix = std::clamp(dx, x0 + 1, x1 - 1), iz = std::clamp(dz, z0 + 1, z1 - 1);
-                inflow[std::size_t(bz * ax.count + bx)][std::size_t(k)].push_back(
-                    {std::uint32_t((iz - z0) * (x1 - x0 + 1) + (ix - x0)), float(double(count[d]) * double(s * s))});
-              }
-          }
+          for (std::int64_t bz = 0; bz < az.count; ++bz)
+            for (std::int64_t bx = 0; bx < ax.count; ++bx) {
+              const std::int64_t x0 = ax.lo(bx), x1 = ax.hi(bx), z0 = az.lo(bz), z1 = az.hi(bz);
+              auto in = [&](std::int64_t x, std::int64_t z) { return x > x0 && x < x1 && z > z0 && z < z1; };
+              const std::int64_t cx0 = std::max<std::int64_t>(0, x0 / s - 1), cx1 = std::min<std::int64_t>(cnx - 1, x1 / s + 1);
+              const std::int64_t cz0 = std::max<std::int64_t>(0, z0 / s - 1), cz1 = std::min<std::int64_t>(cnz - 1, z1 / s + 1);
+              list.clear();
+              for (std::int64_t cz = cz0; cz <= cz1; ++cz)
+                for (std::int64_t cx = cx0; cx <= cx1; ++cx) {
+                  const std::size_t d = std::size_t(cz) * std::size_t(cnx) + std::size_t(cx);
+                  const std::size_t r = rec[d];
+                  if (r == d) continue;
+                  const std::int64_t dx = world_of(cx, g.nx), dz = world_of(cz, g.nz);
+                  const std::int64_t rx = world_of(std::int64_t(r % std::size_t(cnx)), g.nx), rz = world_of(std::int64_t(r / std::size_t(cnx)), g.nz);
+                  if (!in(rx, rz) || in(dx, dz)) continue;
+                  const std::int64_t ix = std::clamp(dx, x0 + 1, x1 - 1), iz = std::clamp(dz, z0 + 1, z1 - 1);
+                  list.push_back({std::uint32_t((iz - z0) * (x1 - x0 + 1) + (ix - x0)), float(double(count[d]) * double(s * s))});
+                }
+              Span& sp_ = inflow_at[std::size_t(bz * ax.count + bx) * (std::size_t(K) + 1) + std::size_t(k)];
+              sp_.at = written, sp_.count = std::uint32_t(list.size());
+              if (!list.empty()) coarse_inflow.io(true, written, list.data(), list.size() * sizeof(Inflow));
+              written += list.size() * sizeof(Inflow);
+            }
         }
       }
+      // Block b's lists, one per snapshot, read back from the file.
+      auto coarse_inflow_of = [&](std::size_t b) {
+        std::vector<std::vector<Inflow>> lists(std::size_t(K) + 1);
+        for (std::size_t k = 0; k <= std::size_t(K); ++k) {
+          const Span& sp_ = inflow_at[b * (std::size_t(K) + 1) + k];
+          lists[k].resize(sp_.count);
+          if (sp_.count > 0) coarse_inflow.io(false, sp_.at, lists[k].data(), lists[k].size() * sizeof(Inflow));
+        }
+        return lists;
+      };
       // Time: the snapshots around `done` steps, and the share of the later one.
       auto when = [&](int done, int& k, double& a) {
         k = 0;
@@ -694,7 +723,6 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
         }
         return hs;
       };
-      static_assert(sizeof(Inflow) == 8, "an inflow entry is written as 8 bytes");
       const double work = double(blocks) * double(sweeps);
       for (int sweep = 0; sweep < sweeps; ++sweep) {
         const bool last = sweep + 1 == sweeps;
@@ -733,7 +761,7 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
                                   ? double(held[q])
                                   : start[q] + (1 - a) * change[std::size_t(k)][q] + a * change[std::size_t(k) + 1][q];
             };
-            const auto& in = inflow[id];
+            const std::vector<std::vector<Inflow>> in = sweep == 0 ? coarse_inflow_of(id) : std::vector<std::vector<Inflow>>();
             // Inflow in whole cells (rounded once per sample and step): the solver then reads A^m from
             // its table instead of calling std::pow for every cell downstream (the time did not change
             // measurably on a 4097² world: the solver's walk dominates).
