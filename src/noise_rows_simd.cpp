@@ -396,6 +396,7 @@ void PerlinRows(const NoiseKernelArgs& a, const double* z, int nrows, std::int64
 }
 
 
+#if 0  // CELLFLOAT-WIP
 // ---- Cellular ---------------------------------------------------------------------------------------
 
 // Per octave and lattice row j (cached while j stays), for the cells X = base + e, e in [0, R), of
@@ -944,6 +945,7 @@ bool CellularRet(const NoiseKernelArgs& a, const double* z, int nrows, std::int6
 }
 
 
+#endif  // CELLFLOAT-WIP
 bool RowsTables(const NoiseKernelArgs& a, const double* z, int nrows, std::int64_t i0, double dx, int n, float* out,
                 std::ptrdiff_t stride) {
   if (a.warp || n <= 0 || nrows <= 0) return false;
@@ -957,14 +959,7 @@ bool RowsTables(const NoiseKernelArgs& a, const double* z, int nrows, std::int64
       else if (fr == 2) PerlinRows<2>(a, z, nrows, i0, dx, n, out, stride);
       else PerlinRows<0>(a, z, nrows, i0, dx, n, out, stride);
       return true;
-    case NoiseBasis::Cellular:
-      switch (a.cellular) {
-        case CellularReturn::F1: return CellularRet<0>(a, z, nrows, i0, dx, n, out, stride, fr);
-        case CellularReturn::F2: return CellularRet<1>(a, z, nrows, i0, dx, n, out, stride, fr);
-        case CellularReturn::F2MinusF1: return CellularRet<2>(a, z, nrows, i0, dx, n, out, stride, fr);
-        case CellularReturn::CellValue: return CellularRet<3>(a, z, nrows, i0, dx, n, out, stride, fr);
-      }
-      return false;
+    case NoiseBasis::Cellular: return false;  // CELLFLOAT-WIP
     default: return false;
   }
 }
