@@ -885,29 +885,35 @@ void CellularRows(const NoiseKernelArgs& a, const double* z, int nrows, int n, f
         CellVisitAll<V, kRet, true, 1>(tab, e0, e, fx, nk);
       }
     };
-    // kG vectors at a time: when all kM lie in the same cell, through its list together (kM
-    // independent chains); else one after the other.
+    // kG vectors at i (a power of two): when all lie in one cell, through its list together (kG
+    // independent chains, the list's loads shared); else each half the same way, down to single
+    // vectors (group). Offsets stay compile-time constants, so nk stays in registers.
+    auto visit = [&](auto self, auto G, const CellOctaveState& s, const CellTables& tab, int i, D* nk) -> void {
+      constexpr int kG = decltype(G)::value;
+      if constexpr (kG == 1) {
+        group(s, tab, i, nk);
+      } else {
+        const std::int32_t c0 = s.code[i / L];
+        bool together = s.cull && (c0 & 3) == 0;
+        for (int u = 1; u < kG; ++u) together = together && s.code[i / L + u] == c0;
+        if (together) {
+          D fx[kG];
+          for (int u = 0; u < kG; ++u) fx[u] = V::Load(s.fx + i + L * u);
+          const int c = c0 >> 2;
+          CellVisitList<V, kRet, kG>(s.lp + c * 9, s.lo + c * 9, s.dy2, s.cv, s.count[c], fx, nk);
+        } else {
+          self(self, std::integral_constant<int, kG / 2>(), s, tab, i, nk);
+          self(self, std::integral_constant<int, kG / 2>(), s, tab, i + L * (kG / 2), nk + kG / 2);
+        }
+      }
+    };
     auto step = [&](auto G, int i) {
       constexpr int kG = decltype(G)::value;
       D acc[kG];
       for (int u = 0; u < kG; ++u) acc[u] = V::Set1(0.0f);
       for (int k = 0; k < count; ++k) {
-        const CellOctaveState& s = mst[k];
         D nk[kG];
-        bool together = false;
-        if constexpr (kG > 1) {
-          const std::int32_t c0 = s.code[i / L];
-          together = s.cull && (c0 & 3) == 0;
-          for (int u = 1; u < kG; ++u) together = together && s.code[i / L + u] == c0;
-          if (together) {
-            D fx[kG];
-            for (int u = 0; u < kG; ++u) fx[u] = V::Load(s.fx + i + L * u);
-            const int c = c0 >> 2;
-            CellVisitList<V, kRet, kG>(s.lp + c * 9, s.lo + c * 9, s.dy2, s.cv, s.count[c], fx, nk);
-          }
-        }
-        if (!together)
-          for (int u = 0; u < kG; ++u) group(s, tabs[k], i + L * u, nk + u);
+        visit(visit, G, mst[k], tabs[k], i, nk);
         for (int u = 0; u < kG; ++u) acc[u] = CellFoldF<V, kFr>(acc[u], amp[k], nk[u]);
       }
       for (int u = 0; u < kG; ++u)
