@@ -7,9 +7,10 @@
 // Highway for the per-target compilation and run-time dispatch (the kernels themselves are AVX2
 // intrinsics, compiled for the AVX2 target and for the AVX-512 targets, which run them at 256 bits
 // except Perlin's and cellular's row loops, which have 512-bit forms there: on a Zen 4 they beat
-// noise_simd.cpp's 512-bit per-sample kernels for Perlin 3.5× and for cellular 2.6× (before
-// cellular's 512-bit form and column terms; now cellular F1 is 2.0× gradient 1 octave), see
-// `relief bench --cases noise`; other targets keep noise_simd.cpp's kernels, with the same values).
+// noise_simd.cpp's 512-bit per-sample kernels for Perlin 3.5× and for cellular 2.6× (in double,
+// before cellular's 512-bit form and column terms; in float, cellular F1 is about 1.3× gradient
+// 1 octave and F2 − F1 about 1.6–1.8×), see `relief bench --cases noise`; other targets keep
+// noise_simd.cpp's kernels, with the same values).
 //
 // Perlin. In a row, the lattice row (y0, y1) of an octave is fixed, so the four corner hashes
 // p[p[A + y]] & 15 of lattice column c (A = p[c], B = p[c + 1]) depend on c alone: once per
@@ -24,16 +25,19 @@
 // strip of columns for the whole block of rows. Same IEEE operations as the reference (the
 // products are exact: coefficients ±1, ±0), so the same bits.
 //
-// Cellular. The feature points of the cells of a lattice row (three rows of them) are hashed once
-// per row of cells, not nine times per sample; per sample row, the squared row distances; per cell
-// the candidates that can win anywhere in it (CellLists); vectors inside one cell broadcast them;
-// the x-only terms once per block of rows (CellColumns). 8 lanes per vector on the AVX-512 targets.
+// Cellular (float after the lattice split, as noise.cpp's cellular_cell). The feature points of the
+// cells of a lattice row (three rows of them) are hashed once per row of cells, not nine times per
+// sample; per sample row, the squared row distances; per cell the candidates that can win anywhere
+// in it (CellLists, by float bounds computed with the kernel's own roundings); vectors inside one
+// cell broadcast them, up to 32 samples through one list; the x-only terms once per block of rows
+// (CellColumns). 8 float lanes per vector on AVX2, 16 on the AVX-512 targets.
 //
 // (Simplex's blocks of rows take noise_simd.cpp's columns path since its lattice rows run along x.)
 //
 // Exactness. Every value is computed by the operations of Noise::row_reference in the same order:
 // positions double(i0 + i)·dx (the index formed in double, exact below 2⁵², checked), the lattice
-// split with the same clamp, floor and wrap, the same products and sums. tests/test_noise_simd.cpp
+// split with the same clamp, floor and wrap (cellular: gaxis's floor, wrap and 32-bit labels), the
+// same products and sums. tests/test_noise_simd.cpp
 // and tests/test_noise_rows.cpp compare each target with the scalar reference.
 #include <algorithm>
 #include <cmath>
