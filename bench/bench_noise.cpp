@@ -27,6 +27,7 @@ struct Case {
   NoiseBasis basis;
   Fractal fractal;
   int octaves;
+  relief::CellularReturn cellular = relief::CellularReturn::F1;
 };
 
 const Case kCases[] = {
@@ -38,6 +39,7 @@ const Case kCases[] = {
     {"simplex", NoiseBasis::Simplex, Fractal::None, 1},
     {"value", NoiseBasis::Value, Fractal::None, 1},
     {"cellular", NoiseBasis::Cellular, Fractal::None, 1},
+    {"cellular f2-f1", NoiseBasis::Cellular, Fractal::None, 1, relief::CellularReturn::F2MinusF1},
 };
 
 NoiseSettings settings_of(const Case& c) {
@@ -45,6 +47,7 @@ NoiseSettings settings_of(const Case& c) {
   s.basis = c.basis;
   s.fractal = c.fractal;
   s.octaves = c.octaves;
+  s.cellular = c.cellular;
   s.frequency = 1.0 / 64.0;
   s.seed = 1;
   return s;

@@ -15,14 +15,15 @@
 //   * D. Lemire, "Fast random integer generation in an interval" (2019): the multiply-shift
 //     reduction used to draw Fisher–Yates indices and gradient indices from 64-bit hashes.
 //
-// Structure. Noise::run() walks a row in chunks of kChunk samples. For each chunk it computes the
+// Structure. Perlin: Noise::run() walks a row in chunks of kChunk samples. For each chunk it computes the
 // world positions (from the integer sample index, in double), optionally displaces them by the
 // two warp noises, then evaluates each octave into a scratch buffer with a basis kernel and folds
 // it into an accumulator with the fractal's shaping function. Kernels are templates over whether z
 // is the same for the whole chunk (no warp): then everything that depends only on z (lattice row,
-// fade, hash row keys) is computed once per octave per chunk. No virtual calls, no allocation.
-// All arithmetic is plain double (floor via truncation, table lookups, 64-bit integer hashing),
-// which is what a later Highway port needs.
+// fade) is computed once per octave per chunk. No virtual calls, no allocation. Its arithmetic is
+// plain double (floor via truncation, table lookups). Gradient, Value, Simplex and Cellular are
+// float after a double lattice split with 32-bit hashing (run_gradient, run_simplex_reference,
+// run_cellular_reference), the definitions the SIMD kernels reproduce bit for bit.
 //
 // Floating point: every result is a fixed sequence of IEEE double operations, so values are
 // reproducible across compilers and machines as long as a·b + c is not contracted to an FMA. GCC
@@ -178,67 +179,6 @@ inline double perlin_core(const std::uint8_t* p, const Axis& ax, const PerlinRow
   const double g11 = kGrad2.x[h11] * fx1 + kGrad2.y[h11] * fy1;
   const double sx = fade(fx);
   return lerp(r.sy, lerp(sx, g00, g10), lerp(sx, g01, g11));
-}
-
-// ---- lattice hashing (Cellular) ---------------------------------------------------
-
-// mix64(key + X·Px + Z·Pz). The linear part is injective for |ΔX|, |ΔZ| far beyond any terrain
-// (odd 64-bit multipliers), mix64 is a bijective finaliser, and the z part is hoisted per row.
-constexpr std::uint64_t kPx = detail::kLatticePx;
-constexpr std::uint64_t kPz = detail::kLatticePz;
-inline std::uint64_t row_key(std::uint64_t key, std::int64_t z) { return key + std::uint64_t(z) * kPz; }
-inline std::uint64_t lattice_hash(std::uint64_t rowkey, std::int64_t x) {
-  return mix64(rowkey + std::uint64_t(x) * kPx);
-}
-
-// ---- cellular (Worley) ----------------------------------------------------------------------------
-
-constexpr double k2m21 = detail::kCell2m21;  // 2⁻²¹
-
-struct CellRow {
-  std::uint64_t k[3];  // row keys of lattice rows z−1, z, z+1 (wrapped)
-  double fy;
-};
-template <class Oct>
-inline CellRow cell_row(const Oct& o, double v) {
-  const std::int64_t j = floor_i64(v);
-  CellRow r;
-  for (int b = -1; b <= 1; ++b) r.k[b + 1] = row_key(o.key, wrap(j + b, o.period_z));
-  r.fy = v - double(j);
-  return r;
-}
-
-// Feature point of a cell: centre + jitter·(U − ½) per axis, U from 21 hash bits each; the cell's
-// value uses the lowest 22 bits. Returns the basis value mapped to [−1, 1].
-inline double cellular_core(const CellRow& r, double u, std::int64_t period_x, double jitter,
-                            CellularReturn ret) {
-  const std::int64_t i = floor_i64(u);
-  const double fx = u - double(i);
-  double d1 = std::numeric_limits<double>::infinity(), d2 = d1;  // squared distances, F1 ≤ F2
-  std::uint64_t h1 = 0;
-  for (int b = -1; b <= 1; ++b) {
-    for (int a = -1; a <= 1; ++a) {
-      const std::uint64_t h = lattice_hash(r.k[b + 1], wrap(i + a, period_x));
-      const double px = double(a) + 0.5 + jitter * (double(h >> 43) * k2m21 - 0.5);
-      const double py = double(b) + 0.5 + jitter * (double((h >> 22) & 0x1FFFFF) * k2m21 - 0.5);
-      const double dx = px - fx, dy = py - r.fy;
-      const double d = dx * dx + dy * dy;
-      if (d < d1) {
-        d2 = d1;
-        d1 = d;
-        h1 = h;
-      } else if (d < d2) {
-        d2 = d;
-      }
-    }
-  }
-  switch (ret) {
-    case CellularReturn::F1: return 2.0 * std::min(std::sqrt(d1), 1.0) - 1.0;
-    case CellularReturn::F2: return 2.0 * std::min(std::sqrt(d2) * (1.0 / 1.5), 1.0) - 1.0;
-    case CellularReturn::F2MinusF1: return 2.0 * std::min(std::sqrt(d2) - std::sqrt(d1), 1.0) - 1.0;
-    case CellularReturn::CellValue: break;
-  }
-  return double(h1 & 0x3FFFFF) * k2m21 - 1.0;
 }
 
 // ---- arithmetic-hash gradient noise (Gradient) -----------------------------------------------------
@@ -418,6 +358,89 @@ inline float simplex_cell(const SRow& r, const SCol& c, float sc) {
   return (lower + upper) * sc;
 }
 
+// Cellular basis (Worley 1996; issue 17: float after the lattice split, on Gradient's lattice and
+// 32-bit labels). Per octave, u = x·fₓ + offₓ and v = z·f_z + off_z are split in double as gaxis:
+// X = ⌊u⌋ modulo 2³² (wrapped into [0, P) with a period; neighbours X ± 1 modulo 2³², or modulo P),
+// fx = float(u − ⌊u⌋) ∈ [0, 1] (1.0f just below an integer), the same for v → (Z, fy).
+//   Hash of cell (X′, Z′): s = X′·Pₓ ⊕ (Z′·P_z ⊕ key32) (the z part hoisted per row), the point's
+//   h = cell_mix32(s), the cell value's c = cell_mix32(s ⊕ kCellCvKey) (noise_simd.hpp).
+//   Feature point, one per cell: ox = J·(float(h >> 16)·2⁻¹⁶ − ½), oy = J·(float(h & 0xFFFF)·2⁻¹⁶
+//   − ½) (J = float(jitter); only the product rounds), seen from the sample's cell at offsets
+//   a, b ∈ {−1, 0, 1} as px = (a + ½) + ox, py = (b + ½) + oy: inside [X′, X′ + 1) × [Z′, Z′ + 1).
+//   Distance (float, no FMA): dx = px − fx, dy = py − fy, d = dx·dx + dy·dy over the 3×3 block,
+//   b outer, a inner; d1, d2 the two smallest (strict <), the owner the first with the smallest.
+//   Outputs: F1 2·min(√d1, 1) − 1, F2 2·min(√d2·kCellF2Scale, 1) − 1, F2 − F1 2·min(√d2 − √d1, 1)
+//   − 1, CellValue float(int32(c_owner) >> 8)·2⁻²³ ∈ [−1, 1).
+// A point two or more cells away along x or z is at |dx| ≥ 1 or |dy| ≥ 1 (1 is representable and
+// rounding is monotone), so its d ≥ 1 while the own cell's point has d ≤ 2: F1 (clamped at 1) is
+// exact against an exhaustive search; F2, F2 − F1 and CellValue are defined over the 3×3 block.
+// All of u and v's size stays in the double split and the labels: the offsets have float
+// precision within the cell whatever the distance from the origin (|u| < 2²⁸ cells for 24
+// fraction bits); one octave repeats every 2³² cells.
+struct CRow {
+  std::uint32_t zp[3];  // Z′·P_z ⊕ key32 of the lattice rows Z − 1, Z, Z + 1 (wrapped)
+  float fy;
+};
+struct CCol {
+  std::uint32_t xp[3];  // X′·Pₓ of the columns X − 1, X, X + 1 (wrapped)
+  float fx;
+};
+inline std::uint32_t cprev(std::uint32_t i, std::int64_t period) {
+  return period != 0 && i == 0u ? std::uint32_t(period - 1) : i - 1u;
+}
+inline CRow crow(const detail::NoiseOctave& o, double v) {
+  const GAxis a = gaxis(v, o.period_z, o.inv_period_z);
+  CRow r;
+  r.zp[0] = (cprev(a.i0, o.period_z) * detail::kGradPz) ^ o.key32;
+  r.zp[1] = (a.i0 * detail::kGradPz) ^ o.key32;
+  r.zp[2] = (a.i1 * detail::kGradPz) ^ o.key32;
+  r.fy = a.f;
+  return r;
+}
+inline CCol ccol(const detail::NoiseOctave& o, double u) {
+  const GAxis a = gaxis(u, o.period_x, o.inv_period_x);
+  CCol c;
+  c.xp[0] = cprev(a.i0, o.period_x) * detail::kGradPx;
+  c.xp[1] = a.i0 * detail::kGradPx;
+  c.xp[2] = a.i1 * detail::kGradPx;
+  c.fx = a.f;
+  return c;
+}
+// The feature point's offsets (ox, oy) from the cell's centre, from its hash h.
+inline float coff_x(std::uint32_t h, float J) { return J * (float(h >> 16) * detail::kCell2m16 - 0.5f); }
+inline float coff_y(std::uint32_t h, float J) { return J * (float(h & 0xFFFFu) * detail::kCell2m16 - 0.5f); }
+inline float cell_value(std::uint32_t s) {
+  return float(std::int32_t(detail::cell_mix32(s ^ detail::kCellCvKey)) >> 8) * detail::kValueScale;
+}
+inline float cellular_cell(const CRow& r, const CCol& c, float J, CellularReturn ret) {
+  float d1 = std::numeric_limits<float>::infinity(), d2 = d1;  // squared distances, F1 ≤ F2
+  std::uint32_t s1 = 0;
+  for (int b = 0; b < 3; ++b) {
+    for (int a = 0; a < 3; ++a) {
+      const std::uint32_t s = c.xp[a] ^ r.zp[b];
+      const std::uint32_t h = detail::cell_mix32(s);
+      const float px = (float(a - 1) + 0.5f) + coff_x(h, J);
+      const float py = (float(b - 1) + 0.5f) + coff_y(h, J);
+      const float dx = px - c.fx, dy = py - r.fy;
+      const float d = dx * dx + dy * dy;
+      if (d < d1) {
+        d2 = d1;
+        d1 = d;
+        s1 = s;
+      } else if (d < d2) {
+        d2 = d;
+      }
+    }
+  }
+  switch (ret) {
+    case CellularReturn::F1: return 2.0f * std::min(std::sqrt(d1), 1.0f) - 1.0f;
+    case CellularReturn::F2: return 2.0f * std::min(std::sqrt(d2) * detail::kCellF2Scale, 1.0f) - 1.0f;
+    case CellularReturn::F2MinusF1: return 2.0f * std::min(std::sqrt(d2) - std::sqrt(d1), 1.0f) - 1.0f;
+    case CellularReturn::CellValue: break;
+  }
+  return cell_value(s1);
+}
+
 // Dyadic lattice (Gradient, lacunarity exactly 2, no period). Octave 0 is split in double as
 // above (u₀ = x·f₀ + offset₀); octave k ≥ 1 is evaluated at u_k = 2ᵏ·u₀ + ½ in its own cells.
 // B_k = 2ᵏ·u₀ is carried in 32.32 fixed point: cell c (modulo 2³², as the hash uses it) and
@@ -468,7 +491,7 @@ inline GAxis dy_step(DyAxis& s) {
 // out[i] = basis value at lattice position (x[i]·fx + ox, z·fz + oz), z = zc when kUniformZ, else
 // z[i]. Only the x work is inside the loop when z is uniform.
 template <bool kUniformZ, class Oct>
-void octave_chunk(NoiseBasis basis, CellularReturn ret, double jitter, const Oct& o, const double* x,
+void octave_chunk(NoiseBasis basis, const Oct& o, const double* x,
                   const double* z, double zc, int m, double* out) {
   auto vz = [&](int i) { return (kUniformZ ? zc : z[i]) * o.freq_z + o.offset_z; };
   auto ux = [&](int i) { return x[i] * o.freq_x + o.offset_x; };
@@ -487,16 +510,7 @@ void octave_chunk(NoiseBasis basis, CellularReturn ret, double jitter, const Oct
     case NoiseBasis::Gradient:
     case NoiseBasis::Value:
     case NoiseBasis::Simplex: break;  // float pipeline: Noise::run_gradient
-    case NoiseBasis::Cellular: {
-      if constexpr (kUniformZ) {
-        const CellRow r = cell_row(o, vz(0));
-        for (int i = 0; i < m; ++i) out[i] = cellular_core(r, ux(i), o.period_x, jitter, ret);
-      } else {
-        for (int i = 0; i < m; ++i)
-          out[i] = cellular_core(cell_row(o, vz(i)), ux(i), o.period_x, jitter, ret);
-      }
-      break;
-    }
+    case NoiseBasis::Cellular: break;  // float pipeline: run_cellular_reference
   }
 }
 
@@ -707,30 +721,73 @@ void run_simplex_reference(const NoiseSettings& s, const St& st, double z_m, XAt
   }
 }
 
+// The Cellular basis (cellular_cell) with the fractals and warp of run_gradient, in float: the
+// rows hoisted per octave without warp; the warp noises promoted to double as Simplex's; ridged
+// takes the octave's value as s·n (s = ridge_scale) and folds (s − |s·n|)², Value's convention.
+// Fractal::None is fBm of one octave (amplitude 1, 1/Σa = 1).
+template <class St, class XAt>
+void run_cellular_reference(const NoiseSettings& s, const St& st, double z_m, XAt x_at, int n, float* out) {
+  const bool warp = s.warp_m > 0.0, ridged = s.fractal == Fractal::Ridged;
+  const float inv = float(st.inv_amp_sum), J = float(s.jitter);
+  const CellularReturn ret = s.cellular;
+  auto lat_u = [](const detail::NoiseOctave& o, double x) { return x * o.freq_x + o.offset_x; };
+  auto lat_v = [](const detail::NoiseOctave& o, double z) { return z * o.freq_z + o.offset_z; };
+  CRow rows[kMaxOctaves];
+  if (!warp)
+    for (std::size_t k = 0; k < st.octaves.size(); ++k) rows[k] = crow(st.octaves[k], lat_v(st.octaves[k], z_m));
+  for (int i = 0; i < n; ++i) {
+    double x = x_at(i), z = z_m;
+    if (warp) {
+      const detail::NoiseOctave &w0 = st.warp[0], &w1 = st.warp[1];
+      const float n1 = cellular_cell(crow(w1, lat_v(w1, z)), ccol(w1, lat_u(w1, x)), J, ret);
+      const float n0 = cellular_cell(crow(w0, lat_v(w0, z)), ccol(w0, lat_u(w0, x)), J, ret);
+      z = z_m + s.warp_m * double(n1);
+      x = x + s.warp_m * double(n0);
+    }
+    float acc = 0.0f;
+    for (std::size_t k = 0; k < st.octaves.size(); ++k) {
+      const detail::NoiseOctave& o = st.octaves[k];
+      const float sc = o.ridge_scale, a = float(o.amp);
+      const float nb = cellular_cell(warp ? crow(o, lat_v(o, z)) : rows[k], ccol(o, lat_u(o, x)), J, ret);
+      switch (s.fractal) {
+        case Fractal::None:
+        case Fractal::Fbm: acc = acc + a * nb; break;
+        case Fractal::Ridged: {
+          const float r = sc - std::fabs(sc * nb);
+          acc = acc + r * r;
+          break;
+        }
+        case Fractal::Billow: acc = acc + a * (2.0f * std::fabs(nb) - 1.0f); break;
+      }
+    }
+    float v = ridged ? acc * (2.0f * inv) - 1.0f : acc * inv;
+    v = v > -1.0f ? v : -1.0f;
+    out[i] = v < 1.0f ? v : 1.0f;
+  }
+}
+
 template <class XAt>
 void Noise::run(double z_m, XAt x_at, int n, float* out) const {
   constexpr int kChunk = 256;
   double xs[kChunk], zs[kChunk], nb[kChunk], acc[kChunk];
   const NoiseBasis basis = s_.basis;
-  const CellularReturn ret = s_.cellular;
-  const double jitter = s_.jitter;
   const bool warp = s_.warp_m > 0.0;
   for (int start = 0; start < n; start += kChunk) {
     const int m = std::min(kChunk, n - start);
     for (int i = 0; i < m; ++i) xs[i] = x_at(start + i);
     if (warp) {
       // Both displacements are sampled at the unwarped position, then applied together.
-      octave_chunk<true>(basis, ret, jitter, state_->warp[1], xs, nullptr, z_m, m, nb);
+      octave_chunk<true>(basis, state_->warp[1], xs, nullptr, z_m, m, nb);
       for (int i = 0; i < m; ++i) zs[i] = z_m + s_.warp_m * nb[i];
-      octave_chunk<true>(basis, ret, jitter, state_->warp[0], xs, nullptr, z_m, m, nb);
+      octave_chunk<true>(basis, state_->warp[0], xs, nullptr, z_m, m, nb);
       for (int i = 0; i < m; ++i) xs[i] = xs[i] + s_.warp_m * nb[i];
     }
     for (int i = 0; i < m; ++i) acc[i] = 0.0;
     for (const detail::NoiseOctave& o : state_->octaves) {
       if (warp)
-        octave_chunk<false>(basis, ret, jitter, o, xs, zs, 0.0, m, nb);
+        octave_chunk<false>(basis, o, xs, zs, 0.0, m, nb);
       else
-        octave_chunk<true>(basis, ret, jitter, o, xs, nullptr, z_m, m, nb);
+        octave_chunk<true>(basis, o, xs, nullptr, z_m, m, nb);
       const double a = o.amp;
       switch (s_.fractal) {
         case Fractal::None:
@@ -769,6 +826,10 @@ void Noise::run_gradient(double z_m, XAt x_at, int n, float* out) const {
   const float inv = float(state_->inv_amp_sum);
   if (s_.basis == NoiseBasis::Simplex) {
     run_simplex_reference(s_, *state_, z_m, x_at, n, out);
+    return;
+  }
+  if (s_.basis == NoiseBasis::Cellular) {
+    run_cellular_reference(s_, *state_, z_m, x_at, n, out);
     return;
   }
   for (int start = 0; start < n; start += kChunk) {
@@ -840,7 +901,7 @@ void Noise::run_gradient(double z_m, XAt x_at, int n, float* out) const {
 }
 
 void Noise::row_reference(double z_m, std::int64_t i0, double dx_m, int n, float* out) const {
-  if (s_.basis == NoiseBasis::Gradient || s_.basis == NoiseBasis::Value || s_.basis == NoiseBasis::Simplex)
+  if (s_.basis != NoiseBasis::Perlin)
     run_gradient(z_m, [=](int i) { return double(i0 + i) * dx_m; }, n, out);
   else
     run(z_m, [=](int i) { return double(i0 + i) * dx_m; }, n, out);

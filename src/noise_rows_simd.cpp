@@ -7,9 +7,10 @@
 // Highway for the per-target compilation and run-time dispatch (the kernels themselves are AVX2
 // intrinsics, compiled for the AVX2 target and for the AVX-512 targets, which run them at 256 bits
 // except Perlin's and cellular's row loops, which have 512-bit forms there: on a Zen 4 they beat
-// noise_simd.cpp's 512-bit per-sample kernels for Perlin 3.5× and for cellular 2.6× (before
-// cellular's 512-bit form and column terms; now cellular F1 is 2.0× gradient 1 octave), see
-// `relief bench --cases noise`; other targets keep noise_simd.cpp's kernels, with the same values).
+// noise_simd.cpp's 512-bit per-sample kernels for Perlin 3.5× and for cellular 2.6× (in double,
+// before cellular's 512-bit form and column terms; in float, cellular F1 is about 1.3× gradient
+// 1 octave and F2 − F1 about 1.6–1.8×), see `relief bench --cases noise`; other targets keep
+// noise_simd.cpp's kernels, with the same values).
 //
 // Perlin. In a row, the lattice row (y0, y1) of an octave is fixed, so the four corner hashes
 // p[p[A + y]] & 15 of lattice column c (A = p[c], B = p[c + 1]) depend on c alone: once per
@@ -24,16 +25,19 @@
 // strip of columns for the whole block of rows. Same IEEE operations as the reference (the
 // products are exact: coefficients ±1, ±0), so the same bits.
 //
-// Cellular. The feature points of the cells of a lattice row (three rows of them) are hashed once
-// per row of cells, not nine times per sample; per sample row, the squared row distances; per cell
-// the candidates that can win anywhere in it (CellLists); vectors inside one cell broadcast them;
-// the x-only terms once per block of rows (CellColumns). 8 lanes per vector on the AVX-512 targets.
+// Cellular (float after the lattice split, as noise.cpp's cellular_cell). The feature points of the
+// cells of a lattice row (three rows of them) are hashed once per row of cells, not nine times per
+// sample; per sample row, the squared row distances; per cell the candidates that can win anywhere
+// in it (CellLists, by float bounds computed with the kernel's own roundings); vectors inside one
+// cell broadcast them, up to 32 samples through one list; the x-only terms once per block of rows
+// (CellColumns). 8 float lanes per vector on AVX2, 16 on the AVX-512 targets.
 //
 // (Simplex's blocks of rows take noise_simd.cpp's columns path since its lattice rows run along x.)
 //
 // Exactness. Every value is computed by the operations of Noise::row_reference in the same order:
 // positions double(i0 + i)·dx (the index formed in double, exact below 2⁵², checked), the lattice
-// split with the same clamp, floor and wrap, the same products and sums. tests/test_noise_simd.cpp
+// split with the same clamp, floor and wrap (cellular: gaxis's floor, wrap and 32-bit labels), the
+// same products and sums. tests/test_noise_simd.cpp
 // and tests/test_noise_rows.cpp compare each target with the scalar reference.
 #include <algorithm>
 #include <cmath>
@@ -175,6 +179,7 @@ T* Grow(std::vector<T>& v, std::size_t n) {
 }
 struct Scratch {
   std::vector<double> d;
+  std::vector<float> f;
   std::vector<std::int32_t> i;
   std::vector<std::uint64_t> q;
 };
@@ -398,96 +403,133 @@ void PerlinRows(const NoiseKernelArgs& a, const double* z, int nrows, std::int64
 
 // ---- Cellular ---------------------------------------------------------------------------------------
 
-// Per octave and lattice row j (cached while j stays), for the cells X = base + e, e in [0, R), of
-// the block's columns (one cell of margin each side): the feature point terms of rows j − 1, j, j + 1
-// (b = 0, 1, 2) exactly as cellular_core() computes them, px(a) = (a − 1 + ½) + jitter·ux for the
-// three column offsets a it is seen from, py = (b − 1 + ½) + jitter·uy, and the cell value; per row
-// (fy) the squared row distance (py − fy)². A sample in cell X visits the nine entries X + a − 1:
-// dist = (px − fx)² + dy², the reference's operations. The x-only terms (fx, the entry of each
-// sample's cell, and per group of 8 samples whether they share one cell or two) are computed once
-// per block of rows (CellColumns). When the 8 samples of a group share their cell (every group but
-// the few that straddle a cell edge, at a few samples per cell and more), the entries are broadcast;
-// otherwise they are gathered per lane. The vector code is written once over a lane type: 2 vectors
-// of 4 doubles on AVX2, 1 of 8 on the AVX-512 targets.
+// Float after the lattice split (noise.cpp, "Cellular basis"). Per octave and lattice row Z (cached
+// while the row's label stays), for the cells X = base + e, e in [0, R), of the block's columns (one
+// cell of margin each side): the feature point terms of rows Z − 1, Z, Z + 1 (b = 0, 1, 2) exactly as
+// cellular_cell() computes them, px(a) = (a − 1 + ½) + ox for the three column offsets a it is seen
+// from, py = (b − 1 + ½) + oy, and the cell value; per row (fy) the squared row distance
+// (py − fy)². A sample in cell X visits the nine entries X + a − 1: dist = (px − fx)² + dy², the
+// reference's operations. The x-only terms (fx, the entry of each sample's cell, and per vector of
+// L samples whether they share one cell or two) are computed once per block of rows (CellColumns).
+// When the L samples of a vector share their cell (every vector but the few that straddle a cell
+// edge, at a few samples per cell and more), the entries are broadcast; otherwise they are gathered
+// per lane. The vector code is written once over a lane type: 8 floats on AVX2, 16 on the AVX-512
+// targets.
 struct CellTables {
-  const double* px[3][3];  // [b][a]
-  const double* dy2[3];    // [b]
-  const double* cv[3];     // [b]
+  const float* px[3][3];  // [b][a]
+  const float* dy2[3];    // [b]
+  const float* cv[3];     // [b]
 };
 
-constexpr double kK21 = kCell2m21;
+// The scalar lattice split of noise.cpp (gaxis, wrap_double, low32, cprev, cell_value).
+inline double WrapDouble(double fl, double period, double inv_period) {
+  double w = fl - std::floor(fl * inv_period) * period;
+  w = w < 0.0 ? w + period : w;
+  return w >= period ? w - period : w;
+}
+inline std::uint32_t Low32D(double integral) {
+  const double m = integral + kMagicInt;
+  std::uint64_t bits;
+  std::memcpy(&bits, &m, 8);
+  return std::uint32_t(bits);
+}
+inline float CellValueS(std::uint32_t s) {
+  return float(std::int32_t(cell_mix32(s ^ kCellCvKey)) >> 8) * kValueScale;
+}
 
-// 4 lanes (AVX2): doubles in __m256d, their int32 entries in __m128i.
-struct CellV4 {
-  using D = __m256d;
-  using I = __m128i;
-  static constexpr int L = 4;
-  static D Set1(double v) { return _mm256_set1_pd(v); }
-  static D Bcast(const double* p) { return _mm256_broadcast_sd(p); }
-  static D Load(const double* p) { return _mm256_loadu_pd(p); }
-  static void Store(double* p, D v) { _mm256_storeu_pd(p, v); }
-  static std::uint32_t LeBits(D a, D b) { return std::uint32_t(_mm256_movemask_pd(_mm256_cmp_pd(a, b, _CMP_LE_OQ))); }
-  static I LoadI(const std::int32_t* p) { return _mm_loadu_si128(reinterpret_cast<const __m128i*>(p)); }
-  static I AddI(I e, int c) { return _mm_add_epi32(e, _mm_set1_epi32(c)); }
-  static D Gather(const double* t, I e) { return _mm256_i32gather_pd(t, e, 8); }
-  static D Sub(D a, D b) { return _mm256_sub_pd(a, b); }
-  static D Add(D a, D b) { return _mm256_add_pd(a, b); }
-  static D Mul(D a, D b) { return _mm256_mul_pd(a, b); }
-  static D Min(D a, D b) { return _mm256_min_pd(a, b); }  // a < b ? a : b
-  static D Max(D a, D b) { return _mm256_max_pd(a, b); }  // a > b ? a : b
-  static D Sqrt(D a) { return _mm256_sqrt_pd(a); }
-  static D SubF(D a, D b) { return _mm256_fmadd_pd(b, _mm256_set1_pd(-1.0), a); }  // a − b, rounded once
-  static D Fma(D a, D b, D c) { return _mm256_fmadd_pd(a, b, c); }
-  static D AddF(D a, D b) { return _mm256_fmadd_pd(a, _mm256_set1_pd(1.0), b); }   // a + b, rounded once
+// 8 lanes (AVX2): floats in __m256, their int32 entries in __m256i.
+struct CellF8 {
+  using D = __m256;
+  using I = __m256i;
+  static constexpr int L = 8;
+  static D Set1(float v) { return _mm256_set1_ps(v); }
+  static D Bcast(const float* p) { return _mm256_broadcast_ss(p); }
+  static D Load(const float* p) { return _mm256_loadu_ps(p); }
+  static std::uint32_t LeBits(D a, D b) { return std::uint32_t(_mm256_movemask_ps(_mm256_cmp_ps(a, b, _CMP_LE_OQ))); }
+  static I LoadI(const std::int32_t* p) { return _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p)); }
+  static I AddI(I e, int c) { return _mm256_add_epi32(e, _mm256_set1_epi32(c)); }
+  static D Gather(const float* t, I e) { return _mm256_i32gather_ps(t, e, 4); }
+  static D Sub(D a, D b) { return _mm256_sub_ps(a, b); }
+  static D Add(D a, D b) { return _mm256_add_ps(a, b); }
+  static D Mul(D a, D b) { return _mm256_mul_ps(a, b); }
+  static D Abs(D a) { return _mm256_andnot_ps(_mm256_set1_ps(-0.0f), a); }
+  static D Min(D a, D b) { return _mm256_min_ps(a, b); }  // a < b ? a : b
+  static D Max(D a, D b) { return _mm256_max_ps(a, b); }  // a > b ? a : b
+  static D Sqrt(D a) { return _mm256_sqrt_ps(a); }
+  static D SubF(D a, D b) { return _mm256_fmadd_ps(b, _mm256_set1_ps(-1.0f), a); }  // a − b, rounded once
+  static D Fma(D a, D b, D c) { return _mm256_fmadd_ps(a, b, c); }
+  static D AddF(D a, D b) { return _mm256_fmadd_ps(a, _mm256_set1_ps(1.0f), b); }   // a + b, rounded once
   // a < b ? x : y
-  static D SelectLt(D a, D b, D x, D y) { return _mm256_blendv_pd(y, x, _mm256_cmp_pd(a, b, _CMP_LT_OQ)); }
+  static D SelectLt(D a, D b, D x, D y) { return _mm256_blendv_ps(y, x, _mm256_cmp_ps(a, b, _CMP_LT_OQ)); }
   // e == c ? x : y, per lane
   static D SelectEq(I e, int c, D x, D y) {
-    return _mm256_blendv_pd(y, x, _mm256_castsi256_pd(_mm256_cvtepi32_epi64(_mm_cmpeq_epi32(e, _mm_set1_epi32(c)))));
+    return _mm256_blendv_ps(y, x, _mm256_castsi256_ps(_mm256_cmpeq_epi32(e, _mm256_set1_epi32(c))));
   }
-  template <int kFr>
-  static D Fold(D acc, D amp, D n) { return FoldV<kFr>(acc, amp, n); }
-  template <int kFr>
-  static void Finish(D acc, D inv, float* out, int count) { Store4(FinishV<kFr>(acc, inv), out, count); }
+  static void Store(float* out, D v, int count) {
+    if (count >= L) {
+      _mm256_storeu_ps(out, v);
+    } else {
+      alignas(32) float t[L];
+      _mm256_store_ps(t, v);
+      std::memcpy(out, t, std::size_t(count) * sizeof(float));
+    }
+  }
 };
 
 #if HWY_TARGET <= HWY_AVX3
-// 8 lanes (AVX-512): doubles in __m512d, their int32 entries in __m256i.
-struct CellV8 {
-  using D = __m512d;
-  using I = __m256i;
-  static constexpr int L = 8;
-  static D Set1(double v) { return _mm512_set1_pd(v); }
-  static D Bcast(const double* p) { return _mm512_set1_pd(*p); }
-  static D Load(const double* p) { return _mm512_loadu_pd(p); }
-  static void Store(double* p, D v) { _mm512_storeu_pd(p, v); }
-  static std::uint32_t LeBits(D a, D b) { return std::uint32_t(_mm512_cmp_pd_mask(a, b, _CMP_LE_OQ)); }
-  static I LoadI(const std::int32_t* p) { return _mm256_loadu_si256(reinterpret_cast<const __m256i*>(p)); }
-  static I AddI(I e, int c) { return _mm256_add_epi32(e, _mm256_set1_epi32(c)); }
-  static D Gather(const double* t, I e) { return _mm512_i32gather_pd(e, t, 8); }
-  static D Sub(D a, D b) { return _mm512_sub_pd(a, b); }
-  static D Add(D a, D b) { return _mm512_add_pd(a, b); }
-  static D Mul(D a, D b) { return _mm512_mul_pd(a, b); }
-  static D Min(D a, D b) { return _mm512_min_pd(a, b); }
-  static D Max(D a, D b) { return _mm512_max_pd(a, b); }
-  static D Sqrt(D a) { return _mm512_sqrt_pd(a); }
-  static D SubF(D a, D b) { return _mm512_fmadd_pd(b, _mm512_set1_pd(-1.0), a); }  // a − b, rounded once
-  static D Fma(D a, D b, D c) { return _mm512_fmadd_pd(a, b, c); }
-  static D AddF(D a, D b) { return _mm512_fmadd_pd(a, _mm512_set1_pd(1.0), b); }   // a + b, rounded once
-  static D SelectLt(D a, D b, D x, D y) { return _mm512_mask_blend_pd(_mm512_cmp_pd_mask(a, b, _CMP_LT_OQ), y, x); }
+// 16 lanes (AVX-512): floats in __m512, their int32 entries in __m512i.
+struct CellF16 {
+  using D = __m512;
+  using I = __m512i;
+  static constexpr int L = 16;
+  static D Set1(float v) { return _mm512_set1_ps(v); }
+  static D Bcast(const float* p) { return _mm512_set1_ps(*p); }
+  static D Load(const float* p) { return _mm512_loadu_ps(p); }
+  static std::uint32_t LeBits(D a, D b) { return std::uint32_t(_mm512_cmp_ps_mask(a, b, _CMP_LE_OQ)); }
+  static I LoadI(const std::int32_t* p) { return _mm512_loadu_si512(p); }
+  static I AddI(I e, int c) { return _mm512_add_epi32(e, _mm512_set1_epi32(c)); }
+  static D Gather(const float* t, I e) { return _mm512_i32gather_ps(e, t, 4); }
+  static D Sub(D a, D b) { return _mm512_sub_ps(a, b); }
+  static D Add(D a, D b) { return _mm512_add_ps(a, b); }
+  static D Mul(D a, D b) { return _mm512_mul_ps(a, b); }
+  static D Abs(D a) { return _mm512_abs_ps(a); }
+  static D Min(D a, D b) { return _mm512_min_ps(a, b); }
+  static D Max(D a, D b) { return _mm512_max_ps(a, b); }
+  static D Sqrt(D a) { return _mm512_sqrt_ps(a); }
+  static D SubF(D a, D b) { return _mm512_fmadd_ps(b, _mm512_set1_ps(-1.0f), a); }  // a − b, rounded once
+  static D Fma(D a, D b, D c) { return _mm512_fmadd_ps(a, b, c); }
+  static D AddF(D a, D b) { return _mm512_fmadd_ps(a, _mm512_set1_ps(1.0f), b); }   // a + b, rounded once
+  static D SelectLt(D a, D b, D x, D y) { return _mm512_mask_blend_ps(_mm512_cmp_ps_mask(a, b, _CMP_LT_OQ), y, x); }
   static D SelectEq(I e, int c, D x, D y) {
-    return _mm512_mask_blend_pd(_mm256_cmpeq_epi32_mask(e, _mm256_set1_epi32(c)), y, x);
+    return _mm512_mask_blend_ps(_mm512_cmpeq_epi32_mask(e, _mm512_set1_epi32(c)), y, x);
   }
-  template <int kFr>
-  static D Fold(D acc, D amp, D n) { return FoldV8<kFr>(acc, amp, n); }
-  template <int kFr>
-  static void Finish(D acc, D inv, float* out, int count) {
-    const __m256 v = FinishV8<kFr>(acc, inv);
-    if (count >= 8) _mm256_storeu_ps(out, v);
-    else _mm256_mask_storeu_ps(out, __mmask8((1u << count) - 1u), v);
+  static void Store(float* out, D v, int count) {
+    if (count >= L) _mm512_storeu_ps(out, v);
+    else _mm512_mask_storeu_ps(out, __mmask16((1u << count) - 1u), v);
   }
 };
 #endif
+
+// The fractal fold and the end of a vector in float: noise_simd.cpp's FoldF and StoreGradient (x86
+// min/max return their second operand when either is NaN: the reference's v > −1 ? v : −1 and
+// v < 1 ? v : 1). Ridged: amp is s = ridge_scale and the octave's value s·n.
+template <class V, int kFr>
+HWY_INLINE typename V::D CellFoldF(typename V::D acc, typename V::D amp, typename V::D n) {
+  if constexpr (kFr == 0) {
+    return V::Add(acc, V::Mul(amp, n));
+  } else if constexpr (kFr == 1) {
+    const auto r = V::Sub(amp, V::Abs(V::Mul(amp, n)));
+    return V::Add(acc, V::Mul(r, r));
+  } else {
+    return V::Add(acc, V::Mul(amp, V::Sub(V::Mul(V::Set1(2.0f), V::Abs(n)), V::Set1(1.0f))));
+  }
+}
+template <class V, int kFr>
+HWY_INLINE void CellStoreF(typename V::D acc, typename V::D inv, float* out, int count) {
+  auto v = kFr == 1 ? V::Sub(V::Mul(acc, V::Add(inv, inv)), V::Set1(1.0f)) : V::Mul(acc, inv);
+  v = V::Min(V::Max(v, V::Set1(-1.0f)), V::Set1(1.0f));
+  V::Store(out, v, count);
+}
 
 // One candidate feature point seen from kN vectors: dist = (p − fx)² + dy², folded into the
 // running F1 (d1), F2 (d2) or owner's cell value (h1) as the reference folds it.
@@ -496,8 +538,7 @@ HWY_INLINE void CellFold(const typename V::D* p, const typename V::D* dy2, const
                          const typename V::D* fx, typename V::D* d1, typename V::D* d2, typename V::D* h1) {
   for (int u = 0; u < kN; ++u) {
     // fx − p and m + dy² as fused multiply-adds by ∓1 and 1: the same single roundings as the
-    // reference's p − fx (negated: the same square) and m + dy², on the multiply-add units (on
-    // Zen 4 the double adders also carry the folds' min and max).
+    // reference's p − fx (negated: the same square) and m + dy², on the multiply-add units.
     const auto ddx = V::SubF(fx[u], p[u]);
     const auto dist = V::AddF(V::Mul(ddx, ddx), dy2[u]);
     if constexpr (kRet == int(CellularReturn::F1)) {
@@ -507,25 +548,31 @@ HWY_INLINE void CellFold(const typename V::D* p, const typename V::D* dy2, const
       d1[u] = V::Min(dist, d1[u]);
     } else {
       // The reference's "if (d < d1) {d2 = d1; d1 = d;} else if (d < d2) d2 = d;" as
-      // d2 = min(max(d, d1), d2), d1 = min(d, d1) (NaN d leaves both).
+      // d2 = min(max(d, d1), d2), d1 = min(d, d1) (a row's distances are all NaN or none).
       d2[u] = V::Min(V::Max(dist, d1[u]), d2[u]);
       d1[u] = V::Min(dist, d1[u]);
     }
   }
 }
+template <class V, int kN>
+HWY_INLINE void CellInit(typename V::D* d1, typename V::D* d2, typename V::D* h1) {
+  // h1: the reference's owner s = 0 when no distance is below +inf (NaN rows).
+  const auto inf = V::Set1(HUGE_VALF), h0 = V::Set1(CellValueS(0u));
+  for (int u = 0; u < kN; ++u) d1[u] = d2[u] = inf, h1[u] = h0;
+}
 template <class V, int kRet, int kN>
 HWY_INLINE void CellFinish(const typename V::D* d1, const typename V::D* d2, const typename V::D* h1,
                            typename V::D* res) {
-  const auto one = V::Set1(1.0), two = V::Set1(2.0), mone = V::Set1(-1.0);
-  // std::min(v, 1.0) = 1 < v ? 1 : v, the min instruction's operand order (NaN stays NaN).
+  const auto one = V::Set1(1.0f), two = V::Set1(2.0f), mone = V::Set1(-1.0f);
+  // std::min(v, 1.0f) = 1 < v ? 1 : v, the min instruction's operand order (NaN stays NaN).
   auto min1 = [&](typename V::D v) { return V::Min(one, v); };
-  // 2·m − 1 as one fused multiply-add: 2·m is exact (m ≤ 1), so the same single rounding.
+  // 2·m − 1 as one fused multiply-add: 2·m is exact, so the same single rounding.
   auto out = [&](typename V::D m) { return V::Fma(two, m, mone); };
   for (int u = 0; u < kN; ++u) {
     if constexpr (kRet == int(CellularReturn::F1)) {
       res[u] = out(min1(V::Sqrt(d1[u])));
     } else if constexpr (kRet == int(CellularReturn::F2)) {
-      res[u] = out(min1(V::Mul(V::Sqrt(d2[u]), V::Set1(1.0 / 1.5))));
+      res[u] = out(min1(V::Mul(V::Sqrt(d2[u]), V::Set1(kCellF2Scale))));
     } else if constexpr (kRet == int(CellularReturn::F2MinusF1)) {
       res[u] = out(min1(V::Sub(V::Sqrt(d2[u]), V::Sqrt(d1[u]))));
     } else {
@@ -540,9 +587,8 @@ template <class V, int kRet, bool kGather, int kN>
 HWY_INLINE void CellVisitAll(const CellTables& t, std::int64_t e0, const typename V::I* e, const typename V::D* fx,
                              typename V::D* res) {
   using D = typename V::D;
-  const D inf = V::Set1(HUGE_VAL);
   D d1[kN], d2[kN], h1[kN];
-  for (int u = 0; u < kN; ++u) d1[u] = d2[u] = inf, h1[u] = V::Set1(-1.0);
+  CellInit<V, kN>(d1, d2, h1);
   for (int b = 0; b < 3; ++b)
     for (int a = 0; a < 3; ++a) {
       D p[kN], dy2[kN], cv[kN];
@@ -563,18 +609,14 @@ HWY_INLINE void CellVisitAll(const CellTables& t, std::int64_t e0, const typenam
   CellFinish<V, kRet, kN>(d1, d2, h1, res);
 }
 
-// The same for vectors whose lanes all lie in cell e, through that cell's list of candidates that
-// can win somewhere in it (CellLists), in the reference's order: px from lp, dy² and the cell value
-// at lo in the row's dy2 and cv tables.
-// CellVisitFold: the fold only (d1, d2, h1), for a group across two cells: each lane takes its own
-// cell's fold, then one CellFinish.
+// The fold of kN vectors whose lanes all lie in one cell through that cell's list of candidates
+// that can win somewhere in it (CellLists), in the reference's order: px from lp, dy² and the cell
+// value at lo in the row's dy2 and cv tables.
 template <class V, int kRet, int kN>
-HWY_INLINE void CellVisitFold(const double* lp, const std::int32_t* lo, const double* dy2t, const double* cvt,
-                              int count, const typename V::D* fx, typename V::D* d1, typename V::D* d2,
-                              typename V::D* h1) {
+HWY_INLINE void CellVisitFold(const float* lp, const std::int32_t* lo, const float* dy2t, const float* cvt, int count,
+                              const typename V::D* fx, typename V::D* d1, typename V::D* d2, typename V::D* h1) {
   using D = typename V::D;
-  const D inf = V::Set1(HUGE_VAL);
-  for (int u = 0; u < kN; ++u) d1[u] = d2[u] = inf, h1[u] = V::Set1(-1.0);
+  CellInit<V, kN>(d1, d2, h1);
   for (int t = 0; t < count; ++t) {
     D p[kN], dy2[kN], cv[kN];
     const D pb = V::Bcast(lp + t), db = V::Bcast(dy2t + lo[t]);
@@ -585,32 +627,23 @@ HWY_INLINE void CellVisitFold(const double* lp, const std::int32_t* lo, const do
   }
 }
 template <class V, int kRet, int kN>
-HWY_INLINE void CellVisitList(const double* lp, const std::int32_t* lo, const double* dy2t, const double* cvt,
-                              int count, const typename V::D* fx, typename V::D* res) {
+HWY_INLINE void CellVisitList(const float* lp, const std::int32_t* lo, const float* dy2t, const float* cvt, int count,
+                              const typename V::D* fx, typename V::D* res) {
   using D = typename V::D;
-  const D inf = V::Set1(HUGE_VAL);
   D d1[kN], d2[kN], h1[kN];
-  for (int u = 0; u < kN; ++u) d1[u] = d2[u] = inf, h1[u] = V::Set1(-1.0);
-  for (int t = 0; t < count; ++t) {
-    D p[kN], dy2[kN], cv[kN];
-    const D pb = V::Bcast(lp + t), db = V::Bcast(dy2t + lo[t]);
-    D cb = pb;
-    if constexpr (kRet == int(CellularReturn::CellValue)) cb = V::Bcast(cvt + lo[t]);
-    for (int u = 0; u < kN; ++u) p[u] = pb, dy2[u] = db, cv[u] = cb;
-    CellFold<V, kRet, kN>(p, dy2, cv, fx, d1, d2, h1);
-  }
+  CellVisitFold<V, kRet, kN>(lp, lo, dy2t, cvt, count, fx, d1, d2, h1);
   CellFinish<V, kRet, kN>(d1, d2, h1, res);
 }
 
 struct CellOctaveState {
-  std::int64_t base = 0;  // cell of entry 0
-  int R = 0;              // entries
-  std::int64_t j = 0;     // lattice row the cached terms are for
+  std::int64_t base = 0;   // cell of entry 0
+  int R = 0;               // entries
+  std::uint64_t zkey = 0;  // bits of the (wrapped) floor of v the cached terms are for
   bool built = false;
-  double* px = nullptr;   // [b][a][R]
-  double* py = nullptr;   // [b][R]
-  double* cv = nullptr;   // [b][R]
-  double* dy2 = nullptr;  // [b][R]
+  float* px = nullptr;   // [b][a][R]
+  float* py = nullptr;   // [b][R]
+  float* cv = nullptr;   // [b][R]
+  float* dy2 = nullptr;  // [b][R]
   // Culling (rows of at least kCullSamples samples per cell): per cell e, the candidates that can
   // give its F1 (or F2) somewhere in the cell, in visiting order: lp (px) and lo (the entry of its
   // dy² and cell value in dy2, cv: b·R + e + a − 1) at e·9 + t, t < count[e]. They change only when
@@ -618,44 +651,44 @@ struct CellOctaveState {
   // lists false), comparing each block of cells' keep bits with the previous row's (prev).
   bool cull = false;
   bool lists = false;
-  double* lp = nullptr;
+  float* lp = nullptr;
   std::int32_t* lo = nullptr;
   std::uint32_t* prev = nullptr;
-  double* cg = nullptr;  // [b][a][R]: the bounds' terms of px (CellLists)
-  double* cm = nullptr;
+  float* cg = nullptr;  // [b][a][R]: the bounds' terms of px (CellLists)
+  float* cm = nullptr;
   std::int32_t* count = nullptr;
-  // The block's columns (CellColumns), n rounded up to 8: each sample's fx and cell entry (clamped
-  // into [1, R − 2]), and per group of 8 samples code = 4·e0 + kind, e0 its first sample's entry,
-  // kind 0 when all 8 are in e0, 1 when all are in e0 or e0 + 1, else 2.
-  double* fx = nullptr;
+  // The block's columns (CellColumns), n rounded up to 32: each sample's fx and cell entry (clamped
+  // into [1, R − 2]), and per vector of L samples code = 4·e0 + kind, e0 its first sample's entry,
+  // kind 0 when all L are in e0, 1 when all are in e0 or e0 + 1, else 2.
+  float* fx = nullptr;
   std::int32_t* e = nullptr;
   std::int32_t* code = nullptr;
 };
 
 constexpr int kCullSamples = 8;
 
-// The x-only terms of octave o over the block's n columns (n8 = n rounded up to 8; the lanes past
-// n are computed as the kernels used to compute them, clamped into the table, never stored):
-// x = double(i0 + i)·dx, u = x·fₓ + offₓ, the reference's clamped floor, fx = u − floor.
-void CellColumns(const NoiseOctave& o, std::int64_t i0, double dx, int n8, CellOctaveState& s) {
+// The x-only terms of octave o over the block's columns (np = n rounded up to 32; the lanes past n
+// are computed the same way, clamped into the table, never stored): x = double(i0 + i)·dx,
+// u = x·fₓ + offₓ, fx = float(u − ⌊u⌋) (|u| < 2⁵⁰: the clamp of FloorClampedV does nothing).
+void CellColumns(const NoiseOctave& o, std::int64_t i0, double dx, int np, int L, CellOctaveState& s) {
   const __m256d iota = _mm256_setr_pd(0.0, 1.0, 2.0, 3.0), vdx = _mm256_set1_pd(dx);
   const __m256d f = _mm256_set1_pd(o.freq_x), off = _mm256_set1_pd(o.offset_x);
   const __m128i vb = _mm_set1_epi32(std::int32_t(std::uint32_t(s.base))), emax = _mm_set1_epi32(s.R - 2);
-  for (int i = 0; i < n8; i += 4) {
+  for (int i = 0; i < np; i += 4) {
     const __m256d x = _mm256_mul_pd(_mm256_add_pd(_mm256_set1_pd(double(i0 + i)), iota), vdx);
     const __m256d uu = _mm256_add_pd(_mm256_mul_pd(x, f), off);
     const __m256d fl = FloorClampedV(uu);
-    _mm256_storeu_pd(s.fx + i, _mm256_sub_pd(uu, fl));
+    _mm_storeu_ps(s.fx + i, _mm256_cvtpd_ps(_mm256_sub_pd(uu, fl)));
     // Entry of each lane's cell: its index modulo 2³² minus the base's (the range is small).
     __m128i e = _mm_sub_epi32(Low32V(fl), vb);
     e = _mm_max_epi32(_mm_min_epi32(e, emax), _mm_set1_epi32(1));
     _mm_storeu_si128(reinterpret_cast<__m128i*>(s.e + i), e);
   }
-  for (int g = 0; g < n8 / 8; ++g) {
-    const std::int32_t* e = s.e + 8 * g;
+  for (int g = 0; g < np / L; ++g) {
+    const std::int32_t* e = s.e + L * g;
     const std::int32_t e0 = e[0];
     int kind = 0;
-    for (int l = 1; l < 8; ++l) {
+    for (int l = 1; l < L; ++l) {
       if (e[l] == e0) continue;
       kind = std::max(kind, e[l] == e0 + 1 ? 1 : 2);
     }
@@ -663,20 +696,21 @@ void CellColumns(const NoiseOctave& o, std::int64_t i0, double dx, int n8, CellO
   }
 }
 
-// The candidate lists of one row (after dy2). Candidate i is dist_i(fx) = (p_i − fx)² + dy²_i over
-// the cell, fx in [0, 1): at least LB_i = dy²_i + gap(p_i, [0, 1])², at most UB_i = dy²_i +
-// max(p_i², (p_i − 1)²). F1 is at most min UB everywhere in the cell, so a candidate with LB_i above
-// it (by a margin far beyond the rounding of dist, about 1e-15 here) is never the minimum, nor ties
-// it; F2 likewise with the second smallest UB (two candidates are below it everywhere). The kept
-// candidates include the ones attaining those bounds, so the fold over the list gives the same
-// d1, d2 and first owner as over all nine. A row at a non-finite fy keeps all nine.
-// One lane (CellLists on windows of few cells).
-struct CellV1 {
-  using D = double;
+// The candidate lists of one row (after dy2). Candidate i's computed distance over the cell, fx in
+// [0, 1] (1.0f included), is at least LB_i = dy²_i + g_i² (g = −p or p − 1 outside [0, 1], else 0:
+// exact, and |fl(fx − p)| ≥ g since rounding is monotone and g representable) and at most UB_i =
+// dy²_i + max(p², (p − 1)²) (the computed distance at fx = 0 or 1, |fl(p − 1)| = |fl(1 − p)|),
+// each sum rounded as the kernel rounds it. F1 is at most min UB everywhere in the cell, so a
+// candidate with LB_i above it is never the minimum, nor ties it; F2 likewise with the second
+// smallest UB (two candidates are below it everywhere). A margin 0 would already be exact; 1e-6
+// only keeps more. The kept candidates include the ones attaining those bounds, so the fold over
+// the list gives the same d1, d2 and first owner as over all nine. A row at a non-finite fy keeps
+// all nine. One lane (CellLists on windows of few cells):
+struct CellF1 {
+  using D = float;
   static constexpr int L = 1;
-  static D Set1(double v) { return v; }
-  static D Load(const double* p) { return *p; }
-  static void Store(double* p, D v) { *p = v; }
+  static D Set1(float v) { return v; }
+  static D Load(const float* p) { return *p; }
   static D Add(D a, D b) { return a + b; }
   static D Min(D a, D b) { return a < b ? a : b; }
   static D Max(D a, D b) { return a > b ? a : b; }
@@ -684,14 +718,14 @@ struct CellV1 {
 };
 
 template <class V, int kRet>
-void CellLists(CellOctaveState& s, double fy) {
+void CellLists(CellOctaveState& s, float fy) {
   using D = typename V::D;
   constexpr int L = V::L;
   constexpr bool kSecond = kRet == int(CellularReturn::F2) || kRet == int(CellularReturn::F2MinusF1);
-  const D margin = V::Set1(1e-9);
+  const D margin = V::Set1(1e-6f);
   const int R = s.R;
   if (L > 1 && R < L + 2) {  // fewer than L cells: one at a time
-    CellLists<CellV1, kRet>(s, fy);
+    CellLists<CellF1, kRet>(s, fy);
     return;
   }
   auto compact = [&](int c, std::uint32_t bits) {  // cell c's list: the candidates t with bit t set
@@ -716,12 +750,12 @@ void CellLists(CellOctaveState& s, double fy) {
     const int e = std::max(1, std::min(e1, R - 1 - L));
     std::uint32_t keep[9];
     D lb[9];
-    D m1 = V::Set1(HUGE_VAL), m2 = m1;
+    D m1 = V::Set1(HUGE_VALF), m2 = m1;
     for (int t = 0; t < 9; ++t) {
       const int b = t / 3, ee = e + t % 3 - 1;
       const D dt = V::Load(s.dy2 + b * R + ee);
-      lb[t] = V::Add(dt, V::Load(s.cg + t * R + ee));
-      const D ub = V::Add(dt, V::Load(s.cm + t * R + ee));
+      lb[t] = V::Add(V::Load(s.cg + t * R + ee), dt);
+      const D ub = V::Add(V::Load(s.cm + t * R + ee), dt);
       // The two smallest upper bounds: the reference's fold without branches (finite values).
       m2 = V::Min(V::Max(ub, m1), m2);
       m1 = V::Min(ub, m1);
@@ -746,28 +780,31 @@ void CellLists(CellOctaveState& s, double fy) {
   s.lists = true;
 }
 
-void CellBuild(const NoiseOctave& o, double jitter, std::int64_t j, CellOctaveState& s) {
-  std::uint64_t rk[3];
-  for (int b = 0; b < 3; ++b) rk[b] = o.key + std::uint64_t(WrapI(j + b - 1, o.period_z)) * kLatticePz;
+// The feature points of lattice rows zl[0..2] (labels of Z − 1, Z, Z + 1) for every entry.
+void CellBuild(const NoiseOctave& o, float J, const std::uint32_t (&zl)[3], CellOctaveState& s) {
+  std::uint32_t zp[3];
+  for (int b = 0; b < 3; ++b) zp[b] = (zl[b] * kGradPz) ^ o.key32;
   for (int e = 0; e < s.R; ++e) {
-    const std::uint64_t xw = std::uint64_t(WrapI(s.base + e, o.period_x)) * kLatticePx;
+    const std::int64_t c = s.base + e;
+    const std::uint32_t xp = std::uint32_t(o.period_x ? WrapI(c, o.period_x) : c) * kGradPx;
     for (int b = 0; b < 3; ++b) {
-      const std::uint64_t h = mix64(rk[b] + xw);
-      const double ux = double(h >> 43) * kK21 - 0.5, uy = double((h >> 22) & 0x1FFFFF) * kK21 - 0.5;
+      const std::uint32_t sh = xp ^ zp[b];
+      const std::uint32_t h = cell_mix32(sh);
+      const float ox = J * (float(h >> 16) * kCell2m16 - 0.5f), oy = J * (float(h & 0xFFFFu) * kCell2m16 - 0.5f);
       for (int a = 0; a < 3; ++a) {
-        const double p = double(a - 1) + 0.5 + jitter * ux;
+        const float p = (float(a - 1) + 0.5f) + ox;
         s.px[(b * 3 + a) * s.R + e] = p;
         if (s.cull) {  // CellLists' bounds: gap(p, [0, 1])² and max(p², (p − 1)²)
-          const double g = p < 0.0 ? -p : p > 1.0 ? p - 1.0 : 0.0;
+          const float g = p < 0.0f ? -p : p > 1.0f ? p - 1.0f : 0.0f;
           s.cg[(b * 3 + a) * s.R + e] = g * g;
-          s.cm[(b * 3 + a) * s.R + e] = std::max(p * p, (p - 1.0) * (p - 1.0));
+          const float q = p - 1.0f;
+          s.cm[(b * 3 + a) * s.R + e] = std::max(p * p, q * q);
         }
       }
-      s.py[b * s.R + e] = double(b - 1) + 0.5 + jitter * uy;
-      s.cv[b * s.R + e] = double(h & 0x3FFFFF) * kK21 - 1.0;
+      s.py[b * s.R + e] = (float(b - 1) + 0.5f) + oy;
+      s.cv[b * s.R + e] = CellValueS(sh);
     }
   }
-  s.j = j;
   s.built = true;
   s.lists = false;
 }
@@ -777,24 +814,43 @@ void CellularRows(const NoiseKernelArgs& a, const double* z, int nrows, int n, f
                   CellOctaveState* mst) {
   using D = typename V::D;
   using I = typename V::I;
-  constexpr int L = V::L, kN = 8 / L;  // a group of 8 samples: kN vectors of L lanes
+  constexpr int L = V::L, kM = 32 / L;  // a step of 32 samples: kM vectors of L lanes
   const int count = a.count;
-  const D inv = V::Set1(a.inv_amp_sum);
+  const D inv = V::Set1(float(a.inv_amp_sum));
+  const float J = float(a.jitter);
   for (int r = 0; r < nrows; ++r) {
     CellTables tabs[kMaxOctaves];
     D amp[kMaxOctaves];
     for (int k = 0; k < count; ++k) {
       const NoiseOctave& o = a.octaves[k];
       CellOctaveState& s = mst[k];
+      // noise.cpp's crow(): gaxis of v, the previous and next labels.
       const double v = z[r] * o.freq_z + o.offset_z;
-      const std::int64_t j = FloorI64(v);
-      const double fy = v - double(j);
-      if (!s.built || s.j != j) CellBuild(o, a.jitter, j, s);
+      double fl = std::floor(v);
+      const float fy = float(v - fl);
+      if (o.period_z) fl = WrapDouble(fl, double(o.period_z), o.inv_period_z);
+      std::uint64_t key;
+      std::memcpy(&key, &fl, 8);
+      if (!s.built || s.zkey != key) {
+        const std::uint32_t zc = Low32D(fl);
+        std::uint32_t zl[3];
+        if (o.period_z) {
+          const std::uint32_t P = std::uint32_t(o.period_z);
+          zl[0] = zc == 0u ? P - 1u : zc - 1u;
+          zl[2] = zc + 1u == P ? 0u : zc + 1u;
+        } else {
+          zl[0] = zc - 1u;
+          zl[2] = zc + 1u;
+        }
+        zl[1] = zc;
+        CellBuild(o, J, zl, s);
+        s.zkey = key;
+      }
       for (int b = 0; b < 3; ++b) {
-        const double* py = s.py + b * s.R;
-        double* dy2 = s.dy2 + b * s.R;
+        const float* py = s.py + b * s.R;
+        float* dy2 = s.dy2 + b * s.R;
         for (int e = 0; e < s.R; ++e) {
-          const double dy = py[e] - fy;
+          const float dy = py[e] - fy;
           dy2[e] = dy * dy;
         }
         for (int aa = 0; aa < 3; ++aa) tabs[k].px[b][aa] = s.px + (b * 3 + aa) * s.R;
@@ -802,85 +858,82 @@ void CellularRows(const NoiseKernelArgs& a, const double* z, int nrows, int n, f
         tabs[k].cv[b] = s.cv + b * s.R;
       }
       if (s.cull) CellLists<V, kRet>(s, fy);
-      amp[k] = V::Set1(o.amp);
+      amp[k] = V::Set1(kFr == 1 ? o.ridge_scale : float(o.amp));
     }
     float* dst = out + r * stride;
-    // One octave over one group of 8 samples at i (kN vectors).
+    // One octave over one vector of L samples at i.
     auto group = [&](const CellOctaveState& s, const CellTables& tab, int i, D* nk) {
-      D fx[kN];
-      for (int u = 0; u < kN; ++u) fx[u] = V::Load(s.fx + i + L * u);
-      const std::int32_t code = s.code[i / 8], e0 = code >> 2, kind = code & 3;
-      I e[kN];
-      for (int u = 0; u < kN; ++u) e[u] = V::LoadI(s.e + i + L * u);
+      D fx[1] = {V::Load(s.fx + i)};
+      const std::int32_t code = s.code[i / L], e0 = code >> 2, kind = code & 3;
+      const I e[1] = {V::LoadI(s.e + i)};
       if (s.cull) {
-        // Every lane in cell e0, or in e0 and e0 + 1 (a group across one cell edge: both cells'
+        // Every lane in cell e0, or in e0 and e0 + 1 (a vector across one cell edge: both cells'
         // lists, each lane taking its own cell's result), else gathered.
-        auto list = [&](int c, D* res) {
-          CellVisitList<V, kRet, kN>(s.lp + c * 9, s.lo + c * 9, s.dy2, s.cv, s.count[c], fx, res);
-        };
         if (kind == 0) {
-          list(e0, nk);
+          CellVisitList<V, kRet, 1>(s.lp + e0 * 9, s.lo + e0 * 9, s.dy2, s.cv, s.count[e0], fx, nk);
         } else if (kind == 1) {
-          D d1[kN], d2[kN], h1[kN], d1b[kN], d2b[kN], h1b[kN];
-          auto fold = [&](int c, D* f1, D* f2, D* g1) {
-            CellVisitFold<V, kRet, kN>(s.lp + c * 9, s.lo + c * 9, s.dy2, s.cv, s.count[c], fx, f1, f2, g1);
-          };
-          fold(e0, d1, d2, h1);
-          fold(e0 + 1, d1b, d2b, h1b);
-          for (int u = 0; u < kN; ++u) {
-            d1[u] = V::SelectEq(e[u], e0 + 1, d1b[u], d1[u]);
-            d2[u] = V::SelectEq(e[u], e0 + 1, d2b[u], d2[u]);
-            h1[u] = V::SelectEq(e[u], e0 + 1, h1b[u], h1[u]);
-          }
-          CellFinish<V, kRet, kN>(d1, d2, h1, nk);
+          D d1[1], d2[1], h1[1], d1b[1], d2b[1], h1b[1];
+          CellVisitFold<V, kRet, 1>(s.lp + e0 * 9, s.lo + e0 * 9, s.dy2, s.cv, s.count[e0], fx, d1, d2, h1);
+          const int c1 = e0 + 1;
+          CellVisitFold<V, kRet, 1>(s.lp + c1 * 9, s.lo + c1 * 9, s.dy2, s.cv, s.count[c1], fx, d1b, d2b, h1b);
+          d1[0] = V::SelectEq(e[0], c1, d1b[0], d1[0]);
+          d2[0] = V::SelectEq(e[0], c1, d2b[0], d2[0]);
+          h1[0] = V::SelectEq(e[0], c1, h1b[0], h1[0]);
+          CellFinish<V, kRet, 1>(d1, d2, h1, nk);
         } else {
-          CellVisitAll<V, kRet, true, kN>(tab, e0, e, fx, nk);
+          CellVisitAll<V, kRet, true, 1>(tab, e0, e, fx, nk);
         }
       } else if (kind == 0) {
-        CellVisitAll<V, kRet, false, kN>(tab, e0, e, fx, nk);
+        CellVisitAll<V, kRet, false, 1>(tab, e0, e, fx, nk);
       } else {
-        CellVisitAll<V, kRet, true, kN>(tab, e0, e, fx, nk);
+        CellVisitAll<V, kRet, true, 1>(tab, e0, e, fx, nk);
       }
     };
-    // Two groups at a time (16 samples, 2·kN independent chains): when both lie in the same cell,
-    // through its list together; else one after the other.
-    auto step = [&](auto M, int i) {
-      constexpr int kM = decltype(M)::value;  // groups
-      D acc[kM * kN];
-      for (int u = 0; u < kM * kN; ++u) acc[u] = V::Set1(0.0);
-      for (int k = 0; k < count; ++k) {
-        const CellOctaveState& s = mst[k];
-        D nk[kM * kN];
-        if constexpr (kM == 2) {
-          const std::int32_t c0 = s.code[i / 8];
-          if (s.cull && (c0 & 3) == 0 && s.code[i / 8 + 1] == c0) {
-            D fx[2 * kN];
-            for (int u = 0; u < 2 * kN; ++u) fx[u] = V::Load(s.fx + i + L * u);
-            const int c = c0 >> 2;
-            CellVisitList<V, kRet, 2 * kN>(s.lp + c * 9, s.lo + c * 9, s.dy2, s.cv, s.count[c], fx, nk);
-          } else {
-            group(s, tabs[k], i, nk);
-            group(s, tabs[k], i + 8, nk + kN);
-          }
+    // kG vectors at i (a power of two): when all lie in one cell, through its list together (kG
+    // independent chains, the list's loads shared); else each half the same way, down to single
+    // vectors (group). Offsets stay compile-time constants, so nk stays in registers.
+    auto visit = [&](auto self, auto G, const CellOctaveState& s, const CellTables& tab, int i, D* nk) -> void {
+      constexpr int kG = decltype(G)::value;
+      if constexpr (kG == 1) {
+        group(s, tab, i, nk);
+      } else {
+        const std::int32_t c0 = s.code[i / L];
+        bool together = s.cull && (c0 & 3) == 0;
+        for (int u = 1; u < kG; ++u) together = together && s.code[i / L + u] == c0;
+        if (together) {
+          D fx[kG];
+          for (int u = 0; u < kG; ++u) fx[u] = V::Load(s.fx + i + L * u);
+          const int c = c0 >> 2;
+          CellVisitList<V, kRet, kG>(s.lp + c * 9, s.lo + c * 9, s.dy2, s.cv, s.count[c], fx, nk);
         } else {
-          group(s, tabs[k], i, nk);
+          self(self, std::integral_constant<int, kG / 2>(), s, tab, i, nk);
+          self(self, std::integral_constant<int, kG / 2>(), s, tab, i + L * (kG / 2), nk + kG / 2);
         }
-        for (int u = 0; u < kM * kN; ++u) acc[u] = V::template Fold<kFr>(acc[u], amp[k], nk[u]);
       }
-      for (int u = 0; u < kM * kN; ++u)
-        if (i + L * u < n) V::template Finish<kFr>(acc[u], inv, dst + i + L * u, n - i - L * u);
+    };
+    auto step = [&](auto G, int i) {
+      constexpr int kG = decltype(G)::value;
+      D acc[kG];
+      for (int u = 0; u < kG; ++u) acc[u] = V::Set1(0.0f);
+      for (int k = 0; k < count; ++k) {
+        D nk[kG];
+        visit(visit, G, mst[k], tabs[k], i, nk);
+        for (int u = 0; u < kG; ++u) acc[u] = CellFoldF<V, kFr>(acc[u], amp[k], nk[u]);
+      }
+      for (int u = 0; u < kG; ++u)
+        if (i + L * u < n) CellStoreF<V, kFr>(acc[u], inv, dst + i + L * u, n - i - L * u);
     };
     int i = 0;
-    for (; i + 16 <= n; i += 16) step(std::integral_constant<int, 2>(), i);
-    for (; i < n; i += 8) step(std::integral_constant<int, 1>(), i);
+    for (; i + 32 <= n; i += 32) step(std::integral_constant<int, kM>(), i);
+    for (; i < n; i += L) step(std::integral_constant<int, 1>(), i);
   }
 }
 
 // The cell range of every octave over the row window; false when a table would be much larger than
-// the window (more than about a cell per sample: up to 144 bytes of tables per sample otherwise,
-// for little gain over the per-sample kernel). Then the block's x-only terms (CellColumns).
-bool CellularPrepare(const NoiseKernelArgs& a, std::int64_t i0, double dx, int n, CellOctaveState* st) {
-  const int n8 = (n + 7) / 8 * 8;
+// the window (more than about a cell per sample: up to 72 bytes of tables per cell otherwise, for
+// little gain over the per-sample kernel). Then the block's x-only terms (CellColumns).
+bool CellularPrepare(const NoiseKernelArgs& a, std::int64_t i0, double dx, int n, int L, CellOctaveState* st) {
+  const int np = (n + 31) / 32 * 32;
   std::size_t total = 0;
   for (int k = 0; k < a.count; ++k) {
     const NoiseOctave& o = a.octaves[k];
@@ -888,17 +941,18 @@ bool CellularPrepare(const NoiseKernelArgs& a, std::int64_t i0, double dx, int n
     const std::int64_t c0 = FloorI64(u0), c1 = FloorI64(u1);
     const std::int64_t lo = std::min(c0, c1), hi = std::max(c0, c1);
     if (hi - lo > std::int64_t(n) + 64) return false;
-    // The culling bounds take fx in [0, 1): positions within ±2⁵⁰ cells (far beyond any terrain).
+    // Cell indices as int64 and the floors exact: positions within ±2⁵⁰ cells (far beyond any terrain).
     if (!(std::fabs(u0) < 0x1p50 && std::fabs(u1) < 0x1p50)) return false;
     st[k].base = lo - 1;
     st[k].R = int(hi - lo + 3);
     st[k].built = false;
     st[k].cull = std::int64_t(st[k].R) * kCullSamples <= std::int64_t(n) + 2 * kCullSamples;
-    total += std::size_t(st[k].R) * (st[k].cull ? 45 : 18) + std::size_t(n8);
+    total += std::size_t(st[k].R) * (st[k].cull ? 45 : 18) + std::size_t(np);
   }
-  double* p = Grow(tls.d, total);
+  float* p = Grow(tls.f, total);
   std::size_t ints = 0;
-  for (int k = 0; k < a.count; ++k) ints += (st[k].cull ? 19 * std::size_t(st[k].R) + 9 : 0) + std::size_t(n8 + n8 / 8);
+  for (int k = 0; k < a.count; ++k)
+    ints += (st[k].cull ? 19 * std::size_t(st[k].R) + 9 : 0) + std::size_t(np + np / L);
   std::int32_t* q = Grow(tls.i, ints + 1);
   for (int k = 0; k < a.count; ++k) {
     const std::size_t R = std::size_t(st[k].R);
@@ -918,11 +972,11 @@ bool CellularPrepare(const NoiseKernelArgs& a, std::int64_t i0, double dx, int n
       q += 19 * R + 9;
     }
     st[k].fx = p;
-    p += n8;
+    p += np;
     st[k].e = q;
-    st[k].code = q + n8;
-    q += n8 + n8 / 8;
-    CellColumns(a.octaves[k], i0, dx, n8, st[k]);
+    st[k].code = q + np;
+    q += np + np / L;
+    CellColumns(a.octaves[k], i0, dx, np, L, st[k]);
   }
   return true;
 }
@@ -930,13 +984,13 @@ bool CellularPrepare(const NoiseKernelArgs& a, std::int64_t i0, double dx, int n
 template <int kRet>
 bool CellularRet(const NoiseKernelArgs& a, const double* z, int nrows, std::int64_t i0, double dx, int n, float* out,
                  std::ptrdiff_t stride, int fr) {
-  CellOctaveState st[kMaxOctaves];
-  if (!CellularPrepare(a, i0, dx, n, st)) return false;
 #if HWY_TARGET <= HWY_AVX3
-  using V = CellV8;
+  using V = CellF16;
 #else
-  using V = CellV4;
+  using V = CellF8;
 #endif
+  CellOctaveState st[kMaxOctaves];
+  if (!CellularPrepare(a, i0, dx, n, V::L, st)) return false;
   if (fr == 1) CellularRows<V, kRet, 1>(a, z, nrows, n, out, stride, st);
   else if (fr == 2) CellularRows<V, kRet, 2>(a, z, nrows, n, out, stride, st);
   else CellularRows<V, kRet, 0>(a, z, nrows, n, out, stride, st);

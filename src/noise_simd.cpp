@@ -14,8 +14,8 @@
 // keys) is computed once per octave into `rows[]`; then each vector of samples runs through all
 // octaves (and both warp noises) with the accumulator in a register: octaves are fused.
 //
-//   Perlin, Cellular                  in double, Lanes(double) samples per step; 64-bit hashing
-//                                     with 64-bit multiplies. On AVX-512 Perlin's 256-byte table
+//   Perlin                            in double, Lanes(double) samples per step. On AVX-512
+//                                     Perlin's 256-byte table
 //                                     sits in four registers (16-bit permutes, PermLookup) and
 //                                     its gradient table in registers (vpermt2pd); elsewhere
 //                                     they are gathers (int32 table).
@@ -36,6 +36,10 @@
 //                                     vertices (two per lattice row, no triangle choice). Blocks
 //                                     of rows take their column terms from Noise::columns as
 //                                     Gradient does (RowSimplexColumns).
+//   Cellular                          the column split in double as Gradient's, then float on
+//                                     2·Lanes(double) lanes: Gradient's labels and pre-hash,
+//                                     cell_mix32, nine candidates folded by selects (RowCellular);
+//                                     the rows' z work once per octave without warp.
 //
 // Exactness. Every kernel performs the same IEEE operations in the same order as the scalar
 // reference (Noise::row_reference in noise.cpp): no FMA, no reassociation, no approximate
@@ -96,7 +100,7 @@ using VU32 = hn::Vec<DU32>;
 
 constexpr int kMaxOctaves = 16;
 
-// ---- shared double helpers (mirror noise.cpp's floor_i64, axis, wrap, fade, lerp, mix64) -------
+// ---- shared double helpers (mirror noise.cpp's floor_i64, axis, wrap, fade, lerp) --------------
 
 // floor_i64(u) as a double: u clamped to ±2⁵¹ (NaN → −2⁵¹), floored; + 0 turns −0 into +0 like
 // double(int64).
@@ -133,17 +137,6 @@ template <class V>
 HWY_INLINE V Lerp(V t, V a, V b) {
   return hn::Add(a, hn::Mul(t, hn::Sub(b, a)));
 }
-HWY_INLINE VU Mix64(VU x) {
-  const DU du;
-  x = hn::Add(x, hn::Set(du, 0x9E3779B97F4A7C15ull));
-  x = hn::Mul(hn::Xor(x, hn::ShiftRight<30>(x)), hn::Set(du, 0xBF58476D1CE4E5B9ull));
-  x = hn::Mul(hn::Xor(x, hn::ShiftRight<27>(x)), hn::Set(du, 0x94D049BB133111EBull));
-  return hn::Xor(x, hn::ShiftRight<31>(x));
-}
-HWY_INLINE VD U64ToDouble(VU v) {  // v < 2⁵³
-  return hn::ConvertTo(DD(), hn::BitCast(DI(), v));
-}
-
 // axis(u, period): cell index, next cell index (wrapped) and fraction.
 struct VAxis {
   VI i0, i1;
@@ -166,22 +159,6 @@ HWY_INLINE VAxis Axis(VD u, std::int64_t period, double inv_period) {
   }
   return a;
 }
-// i ± 1 modulo the period, for an index already in [0, period).
-template <bool kPeriodic>
-HWY_INLINE VI Prev(VI i, std::int64_t period) {
-  const DI di;
-  const VI p = hn::Sub(i, hn::Set(di, 1));
-  if constexpr (!kPeriodic) return p;
-  return hn::IfThenElse(i == hn::Zero(di), hn::Set(di, period - 1), p);
-}
-template <bool kPeriodic>
-HWY_INLINE VI Next(VI i, std::int64_t period) {
-  const DI di;
-  const VI n = hn::Add(i, hn::Set(di, 1));
-  if constexpr (!kPeriodic) return n;
-  return hn::IfThenZeroElse(n == hn::Set(di, period), n);
-}
-
 // ---- fractal folding (double) --------------------------------------------------------------------
 
 // kNone: Fractal::None (one octave of amplitude 1, 1/Σa = 1); only the Gradient kernels and
@@ -284,109 +261,6 @@ struct Perlin {
     const VD sx = Fade(fx);
     return Lerp(r.sy, Lerp(sx, g00, g10), Lerp(sx, g01, g11));
   }
-};
-
-// ---- Cellular (Worley, 3×3 search) -----------------------------------------------------------------
-
-struct CellRow {
-  VU k[3];  // row keys of lattice rows z−1, z, z+1 (wrapped)
-  VD fy;
-};
-template <bool kPZ>
-HWY_INLINE CellRow CellMakeRow(const NoiseOctave& o, VD v) {
-  const DD d;
-  const DU du;
-  const VD fl = FloorClamped(v);
-  VI j = ToInt(fl);
-  if constexpr (kPZ) j = ToInt(WrapD(fl, hn::Set(d, double(o.period_z)), hn::Set(d, o.inv_period_z)));
-  const VU key = hn::Set(du, o.key), pz = hn::Set(du, kLatticePz);
-  CellRow r;
-  r.k[0] = hn::Add(key, hn::Mul(hn::BitCast(du, Prev<kPZ>(j, o.period_z)), pz));
-  r.k[1] = hn::Add(key, hn::Mul(hn::BitCast(du, j), pz));
-  r.k[2] = hn::Add(key, hn::Mul(hn::BitCast(du, Next<kPZ>(j, o.period_z)), pz));
-  r.fy = hn::Sub(v, fl);
-  return r;
-}
-template <int kRet>
-struct CellularR {
-  template <bool kPX, bool kPZ>
-  struct B {
-    using Row = CellRow;
-    static HWY_INLINE Row RowHoisted(const NoiseOctave& o, VD v) {
-      return o.period_z ? CellMakeRow<true>(o, v) : CellMakeRow<false>(o, v);
-    }
-    static HWY_INLINE Row MakeRow(const NoiseOctave& o, VD v) { return CellMakeRow<kPZ>(o, v); }
-    static HWY_INLINE VD Eval(const NoiseOctave& o, const Row& r, VD u, VD jitter) {
-      const DD d;
-      const DU du;
-      const VD fl = FloorClamped(u);
-      const VD fx = hn::Sub(u, fl);
-      VI i = ToInt(fl);
-      if constexpr (kPX) i = ToInt(WrapD(fl, hn::Set(d, double(o.period_x)), hn::Set(d, o.inv_period_x)));
-      const VU px = hn::Set(du, kLatticePx);
-      const VU xk[3] = {hn::Mul(hn::BitCast(du, Prev<kPX>(i, o.period_x)), px), hn::Mul(hn::BitCast(du, i), px),
-                        hn::Mul(hn::BitCast(du, Next<kPX>(i, o.period_x)), px)};
-      const VD inf = hn::Set(d, HUGE_VAL), half = hn::Set(d, 0.5), k21 = hn::Set(d, kCell2m21);
-      VD d1 = inf, d2 = inf;
-      VU h1 = hn::Zero(du);
-      auto visit = [&](int a, int b) {
-        const VU h = Mix64(hn::Add(r.k[b], xk[a]));
-        const VD ux = hn::Sub(hn::Mul(U64ToDouble(hn::ShiftRight<43>(h)), k21), half);
-        const VD uy = hn::Sub(hn::Mul(U64ToDouble(hn::And(hn::ShiftRight<22>(h), hn::Set(du, 0x1FFFFF))), k21), half);
-        const VD ppx = hn::Add(hn::Set(d, double(a - 1) + 0.5), hn::Mul(jitter, ux));
-        const VD ppy = hn::Add(hn::Set(d, double(b - 1) + 0.5), hn::Mul(jitter, uy));
-        const VD ddx = hn::Sub(ppx, fx), ddy = hn::Sub(ppy, r.fy);
-        const VD dist = hn::Add(hn::Mul(ddx, ddx), hn::Mul(ddy, ddy));
-        const auto m1 = dist < d1;
-        const auto m2 = hn::AndNot(m1, dist < d2);
-        d2 = hn::IfThenElse(m1, d1, hn::IfThenElse(m2, dist, d2));
-        d1 = hn::IfThenElse(m1, dist, d1);
-        if constexpr (kRet == int(CellularReturn::CellValue)) h1 = hn::IfThenElse(hn::RebindMask(du, m1), h, h1);
-      };
-      if constexpr (kRet != int(CellularReturn::F1)) {
-        // CellValue: the owner's hash depends on the visiting order when distances tie, so the
-        // reference's order. F2, F2 − F1: skipping against d2 rarely pays (measured), so no skip.
-        for (int b = 0; b < 3; ++b)
-          for (int a = 0; a < 3; ++a) visit(a, b);
-      } else {
-        // F1 is the smallest of the nine squared distances, whatever the order: visit the own cell
-        // first, then the edge and corner neighbours, and skip a neighbour when, in every lane, no
-        // point of it can come closer than d1 (d2 may then differ; F1 does not use it). Feature points of column offset a − 1 lie within
-        // [a − ½ − j/2, a − ½ + j/2] (likewise rows), so the gap to them is at least g below; the
-        // bound is shrunk by 2⁻⁴⁰ (relative and absolute), far more than the rounding of dist.
-        const VD hj = hn::Mul(jitter, half), zero = hn::Zero(d);
-        auto pos = [&](VD v) { return hn::IfThenElse(v > zero, v, zero); };
-        const VD gx[3] = {pos(hn::Add(fx, hn::Sub(half, hj))), zero, pos(hn::Sub(hn::Sub(hn::Set(d, 1.5), hj), fx))};
-        const VD gy[3] = {pos(hn::Add(r.fy, hn::Sub(half, hj))), zero, pos(hn::Sub(hn::Sub(hn::Set(d, 1.5), hj), r.fy))};
-        const VD shrink = hn::Set(d, 1.0 - 0x1p-40), eps = hn::Set(d, 0x1p-40);
-        auto maybe = [&](int a, int b) {
-          const VD lb = hn::Sub(hn::Mul(hn::Add(hn::Mul(gx[a], gx[a]), hn::Mul(gy[b], gy[b])), shrink), eps);
-          if (hn::AllTrue(d, lb >= d1)) return;
-          visit(a, b);
-        };
-        visit(1, 1);
-        maybe(0, 1);
-        maybe(2, 1);
-        maybe(1, 0);
-        maybe(1, 2);
-        maybe(0, 0);
-        maybe(2, 0);
-        maybe(0, 2);
-        maybe(2, 2);
-      }
-      const VD one = hn::Set(d, 1.0), two = hn::Set(d, 2.0);
-      auto min1 = [&](VD v) { return hn::IfThenElse(one < v, one, v); };  // std::min(v, 1.0)
-      if constexpr (kRet == int(CellularReturn::F1)) {
-        return hn::Sub(hn::Mul(two, min1(hn::Sqrt(d1))), one);
-      } else if constexpr (kRet == int(CellularReturn::F2)) {
-        return hn::Sub(hn::Mul(two, min1(hn::Mul(hn::Sqrt(d2), hn::Set(d, 1.0 / 1.5)))), one);
-      } else if constexpr (kRet == int(CellularReturn::F2MinusF1)) {
-        return hn::Sub(hn::Mul(two, min1(hn::Sub(hn::Sqrt(d2), hn::Sqrt(d1)))), one);
-      } else {
-        return hn::Sub(hn::Mul(U64ToDouble(hn::And(h1, hn::Set(du, 0x3FFFFF))), k21), one);
-      }
-    }
-  };
 };
 
 // Bases other than cellular ignore the jitter argument. (Tag dispatch: `int` prefers the
@@ -1019,6 +893,190 @@ HWY_NOINLINE void RowSimplex(const NoiseKernelArgs& a, double z, std::int64_t i0
   }
 }
 
+// ---- Cellular (Worley, 3×3 search; float after the lattice split) -----------------------------------
+
+// noise.cpp's cellular_cell on 2·Lanes(double) samples: the lattice split of GAxis (x per sample; z
+// per row when hoisted), Gradient's 32-bit labels and pre-hash, cell_mix32, the feature points and
+// the fold in float, the same operations in the same order.
+struct CellRowV {
+  VU32 zp[3];  // Z′·P_z ⊕ key32 of lattice rows Z − 1, Z, Z + 1 (wrapped)
+  VF fy;
+};
+// The previous label: i − 1 modulo 2³², or modulo the period (noise.cpp, cprev).
+template <bool kPeriodic>
+HWY_INLINE VU32 PrevLabel(VU32 i, std::int64_t period) {
+  const DU32 du32;
+  const VU32 p = hn::Sub(i, hn::Set(du32, 1u));
+  if constexpr (!kPeriodic) return p;
+  return hn::IfThenElse(hn::Eq(i, hn::Zero(du32)), hn::Set(du32, std::uint32_t(period - 1)), p);
+}
+template <bool kPZ>
+HWY_INLINE CellRowV CellMakeRowV(const NoiseOctave& o, const VD (&v)[kHalves]) {
+  const DU32 du32;
+  const GAxisV az = GAxis<kPZ>(v, o.period_z, o.inv_period_z);
+  const VU32 pz = hn::Set(du32, kGradPz), key = hn::Set(du32, o.key32);
+  CellRowV r;
+  r.zp[0] = hn::Xor(hn::Mul(PrevLabel<kPZ>(az.i0, o.period_z), pz), key);
+  r.zp[1] = hn::Xor(hn::Mul(az.i0, pz), key);
+  r.zp[2] = hn::Xor(hn::Mul(az.i1, pz), key);
+  r.fy = az.f;
+  return r;
+}
+HWY_INLINE CellRowV CellRowHoisted(const NoiseOctave& o, VD v) {
+  VD vv[kHalves];
+  for (int h = 0; h < kHalves; ++h) vv[h] = v;
+  return o.period_z ? CellMakeRowV<true>(o, vv) : CellMakeRowV<false>(o, vv);
+}
+HWY_INLINE VU32 CellMix32(VU32 t) {
+  const DU32 du32;
+  t = hn::Mul(t, hn::Set(du32, kGradM));
+  t = hn::Xor(t, hn::ShiftRight<16>(t));
+  t = hn::Mul(t, hn::Set(du32, kCellM));
+  return hn::Xor(t, hn::ShiftRight<15>(t));
+}
+template <int kRet, bool kPX>
+HWY_INLINE VF CellEval(const NoiseOctave& o, const CellRowV& r, const VD (&u)[kHalves], VF J) {
+  const DF df;
+  const DU32 du32;
+  const DI32 di32;
+  const GAxisV ax = GAxis<kPX>(u, o.period_x, o.inv_period_x);
+  const VU32 px = hn::Set(du32, kGradPx);
+  const VU32 xp[3] = {hn::Mul(PrevLabel<kPX>(ax.i0, o.period_x), px), hn::Mul(ax.i0, px), hn::Mul(ax.i1, px)};
+  const VF fx = ax.f;
+  const VF inf = hn::Set(df, HUGE_VALF), half = hn::Set(df, 0.5f), k16 = hn::Set(df, kCell2m16);
+  const VU32 lo16 = hn::Set(du32, 0xFFFFu);
+  VF d1 = inf, d2 = inf;
+  VU32 s1 = hn::Zero(du32);
+  auto visit = [&](int a, int b) {
+    const VU32 s = hn::Xor(xp[a], r.zp[b]);
+    const VU32 h = CellMix32(s);
+    const VF hx = hn::ConvertTo(df, hn::BitCast(di32, hn::ShiftRight<16>(h)));
+    const VF hy = hn::ConvertTo(df, hn::BitCast(di32, hn::And(h, lo16)));
+    const VF ppx = hn::Add(hn::Set(df, float(a - 1) + 0.5f), hn::Mul(J, hn::Sub(hn::Mul(hx, k16), half)));
+    const VF ppy = hn::Add(hn::Set(df, float(b - 1) + 0.5f), hn::Mul(J, hn::Sub(hn::Mul(hy, k16), half)));
+    const VF ddx = hn::Sub(ppx, fx), ddy = hn::Sub(ppy, r.fy);
+    const VF dist = hn::Add(hn::Mul(ddx, ddx), hn::Mul(ddy, ddy));
+    // The reference's if (d < d1) … else if (d < d2) … by selects (NaN leaves both).
+    const auto m1 = hn::Lt(dist, d1);
+    const auto m2 = hn::AndNot(m1, hn::Lt(dist, d2));
+    d2 = hn::IfThenElse(m1, d1, hn::IfThenElse(m2, dist, d2));
+    d1 = hn::IfThenElse(m1, dist, d1);
+    if constexpr (kRet == int(CellularReturn::CellValue)) s1 = hn::IfThenElse(hn::RebindMask(du32, m1), s, s1);
+  };
+  if constexpr (kRet != int(CellularReturn::F1)) {
+    // CellValue's owner depends on the visiting order when distances tie, so the reference's order;
+    // F2 and F2 − F1 visit all nine.
+    for (int b = 0; b < 3; ++b)
+      for (int a = 0; a < 3; ++a) visit(a, b);
+  } else {
+    // F1 is the smallest of the nine distances whatever the order: the own cell first, then a
+    // neighbour only when, in some lane, one of its points can come closer than d1. Points of
+    // column offset a − 1 lie within [a − ½ − J/2, a − ½ + J/2] (likewise rows), so their gap is
+    // at least g below; the bound is shrunk by 2⁻¹⁸ (relative and absolute), far more than the
+    // float rounding of the offsets, the gap and dist (a few 2⁻²⁴).
+    const VF hj = hn::Mul(J, half), zero = hn::Zero(df);
+    auto pos = [&](VF v) { return hn::IfThenElse(hn::Gt(v, zero), v, zero); };
+    const VF c15 = hn::Sub(hn::Set(df, 1.5f), hj), c05 = hn::Sub(half, hj);
+    const VF gx[3] = {pos(hn::Add(fx, c05)), zero, pos(hn::Sub(c15, fx))};
+    const VF gy[3] = {pos(hn::Add(r.fy, c05)), zero, pos(hn::Sub(c15, r.fy))};
+    const VF shrink = hn::Set(df, 1.0f - 0x1p-18f), eps = hn::Set(df, 0x1p-18f);
+    auto maybe = [&](int a, int b) {
+      const VF lb = hn::Sub(hn::Mul(hn::Add(hn::Mul(gx[a], gx[a]), hn::Mul(gy[b], gy[b])), shrink), eps);
+      if (hn::AllTrue(df, hn::Ge(lb, d1))) return;
+      visit(a, b);
+    };
+    visit(1, 1);
+    maybe(0, 1);
+    maybe(2, 1);
+    maybe(1, 0);
+    maybe(1, 2);
+    maybe(0, 0);
+    maybe(2, 0);
+    maybe(0, 2);
+    maybe(2, 2);
+  }
+  const VF one = hn::Set(df, 1.0f), two = hn::Set(df, 2.0f);
+  auto min1 = [&](VF v) { return hn::IfThenElse(hn::Lt(one, v), one, v); };  // std::min(v, 1.0f)
+  if constexpr (kRet == int(CellularReturn::F1)) {
+    return hn::Sub(hn::Mul(two, min1(hn::Sqrt(d1))), one);
+  } else if constexpr (kRet == int(CellularReturn::F2)) {
+    return hn::Sub(hn::Mul(two, min1(hn::Mul(hn::Sqrt(d2), hn::Set(df, kCellF2Scale)))), one);
+  } else if constexpr (kRet == int(CellularReturn::F2MinusF1)) {
+    return hn::Sub(hn::Mul(two, min1(hn::Sub(hn::Sqrt(d2), hn::Sqrt(d1)))), one);
+  } else {
+    const VU32 c = CellMix32(hn::Xor(s1, hn::Set(du32, kCellCvKey)));
+    return hn::Mul(hn::ConvertTo(df, hn::ShiftRight<8>(hn::BitCast(di32, c))), hn::Set(df, kValueScale));
+  }
+}
+
+// Fractal::None is evaluated as fBm of one octave (amplitude 1, 1/Σa = 1: the same bits). Ridged:
+// the octave's value s·n (s = ridge_scale) folded by FoldF as (s − |s·n|)².
+template <int kRet, int kFr, bool kWarp, bool kPX, bool kPZ>
+HWY_NOINLINE void RowCellular(const NoiseKernelArgs& a, double z, std::int64_t i0, double dx, int n, float* out) {
+  const DD d;
+  const DI di;
+  const DF df;
+  const int N = int(hn::Lanes(d)), NF = kHalves * N;
+  constexpr bool kR = kFr == kRidged;
+  float amp[kMaxOctaves];
+  CellRowV rows[kWarp ? 1 : kMaxOctaves];
+  CellRowV wrows[2];
+  const VD vz = hn::Set(d, z);
+  auto lattice_v = [&](const NoiseOctave& o, VD zz) {
+    return hn::Add(hn::Mul(zz, hn::Set(d, o.freq_z)), hn::Set(d, o.offset_z));
+  };
+  for (int k = 0; k < a.count; ++k) {
+    const NoiseOctave& o = a.octaves[k];
+    amp[k] = kR ? o.ridge_scale : float(o.amp);
+    if constexpr (!kWarp) rows[k] = CellRowHoisted(o, lattice_v(o, vz));
+  }
+  if constexpr (kWarp)
+    for (int w = 0; w < 2; ++w) wrows[w] = CellRowHoisted(a.warp_octaves[w], lattice_v(a.warp_octaves[w], vz));
+  const VD vdx = hn::Set(d, dx), wm = hn::Set(d, a.warp_m);
+  const VF inv = hn::Set(df, float(a.inv_amp_sum)), J = hn::Set(df, float(a.jitter));
+  const VI iota = hn::Iota(di, 0);
+  auto lat = [&](const VD (&p)[kHalves], double f, double off, VD (&o_)[kHalves]) {
+    for (int h = 0; h < kHalves; ++h) o_[h] = hn::Add(hn::Mul(p[h], hn::Set(d, f)), hn::Set(d, off));
+  };
+  for (int start = 0; start < n; start += NF) {
+    VD x[kHalves], zl[kHalves];
+    for (int h = 0; h < kHalves; ++h) {
+      x[h] = hn::Mul(hn::ConvertTo(d, hn::Add(iota, hn::Set(di, i0 + start + h * N))), vdx);
+      zl[h] = vz;
+    }
+    if constexpr (kWarp) {
+      const NoiseOctave &w0 = a.warp_octaves[0], &w1 = a.warp_octaves[1];
+      VD u1[kHalves], u0[kHalves], n1d[kHalves], n0d[kHalves];
+      lat(x, w1.freq_x, w1.offset_x, u1);
+      lat(x, w0.freq_x, w0.offset_x, u0);
+      SplitPromote(CellEval<kRet, kPX>(w1, wrows[1], u1, J), n1d);
+      SplitPromote(CellEval<kRet, kPX>(w0, wrows[0], u0, J), n0d);
+      for (int h = 0; h < kHalves; ++h) {
+        zl[h] = hn::Add(vz, hn::Mul(wm, n1d[h]));
+        x[h] = hn::Add(x[h], hn::Mul(wm, n0d[h]));
+      }
+    }
+    VF acc = hn::Zero(df);
+    for (int k = 0; k < a.count; ++k) {
+      const NoiseOctave& o = a.octaves[k];
+      VD u[kHalves];
+      lat(x, o.freq_x, o.offset_x, u);
+      VF nk;
+      if constexpr (kWarp) {
+        VD v[kHalves];
+        lat(zl, o.freq_z, o.offset_z, v);
+        nk = CellEval<kRet, kPX>(o, CellMakeRowV<kPZ>(o, v), u, J);
+      } else {
+        nk = CellEval<kRet, kPX>(o, rows[k], u, J);
+      }
+      const VF ak = hn::Set(df, amp[k]);
+      if constexpr (kR) nk = hn::Mul(ak, nk);
+      acc = FoldF<kFr>(acc, ak, nk);
+    }
+    StoreGradient<kFr>(acc, inv, start, NF, n, out);
+  }
+}
+
 // ---- Gradient from per-column terms (Noise::columns / rows: no warp) -------------------------------
 
 // Fills the x-only terms, the values GradEvalAxis derives from each octave's x axis (GAxis, or
@@ -1252,6 +1310,20 @@ Fn PickDouble(int fr, bool warp, bool px, bool pz) {
     default: return PickPeriodic<BT, kFbm>(warp, px, pz);
   }
 }
+template <int kRet, int kFr>
+Fn PickCellularP(bool warp, bool px, bool pz) {
+  if (!warp) return px ? &RowCellular<kRet, kFr, false, true, false> : &RowCellular<kRet, kFr, false, false, false>;
+  if (px) return pz ? &RowCellular<kRet, kFr, true, true, true> : &RowCellular<kRet, kFr, true, true, false>;
+  return pz ? &RowCellular<kRet, kFr, true, false, true> : &RowCellular<kRet, kFr, true, false, false>;
+}
+template <int kRet>
+Fn PickCellular(int fr, bool warp, bool px, bool pz) {
+  switch (fr) {
+    case kRidged: return PickCellularP<kRet, kRidged>(warp, px, pz);
+    case kBillow: return PickCellularP<kRet, kBillow>(warp, px, pz);
+    default: return PickCellularP<kRet, kFbm>(warp, px, pz);
+  }
+}
 template <int kFr>
 Fn PickSimplex(bool warp) {
   return warp ? &RowSimplex<kFr, true> : &RowSimplex<kFr, false>;
@@ -1323,10 +1395,10 @@ void NoiseRow(const NoiseKernelArgs& a, double z, std::int64_t i0, double dx, in
       break;
     case NoiseBasis::Cellular:
       switch (a.cellular) {
-        case CellularReturn::F1: fn = PickDouble<CellularR<0>::B>(fr, a.warp, px, pz); break;
-        case CellularReturn::F2: fn = PickDouble<CellularR<1>::B>(fr, a.warp, px, pz); break;
-        case CellularReturn::F2MinusF1: fn = PickDouble<CellularR<2>::B>(fr, a.warp, px, pz); break;
-        case CellularReturn::CellValue: fn = PickDouble<CellularR<3>::B>(fr, a.warp, px, pz); break;
+        case CellularReturn::F1: fn = PickCellular<0>(fr, a.warp, px, pz); break;
+        case CellularReturn::F2: fn = PickCellular<1>(fr, a.warp, px, pz); break;
+        case CellularReturn::F2MinusF1: fn = PickCellular<2>(fr, a.warp, px, pz); break;
+        case CellularReturn::CellValue: fn = PickCellular<3>(fr, a.warp, px, pz); break;
       }
       break;
     case NoiseBasis::Gradient: fn = PickGradientFractal<false>(a, fr, px, pz); break;

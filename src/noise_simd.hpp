@@ -20,8 +20,8 @@ struct NoiseOctave {
   double inv_period_x = 0.0, inv_period_z = 0.0;  // 1 / period (0 when not periodic)
   double amp = 1.0;                         // persistenceᵏ
   float ridge_scale = 1.0f;                 // float(√amp): ridged Gradient's corner-offset scale
-  std::uint64_t key = 0;                    // lattice hash key (Value, Simplex, Cellular)
-  std::uint32_t key32 = 0;                  // lattice hash key (Gradient)
+  std::uint64_t key = 0;                    // lattice hash key (key32's source)
+  std::uint32_t key32 = 0;                  // lattice hash key (Gradient, Value, Simplex, Cellular)
   std::array<std::uint8_t, 512> perm{};     // doubled permutation (Perlin)
   std::array<std::int32_t, 512> perm32{};   // the same, widened for SIMD gathers (Perlin)
 };
@@ -79,9 +79,22 @@ inline float ridged_scale(double amp) { return float(std::sqrt(amp)); }
 // (ridged: by ridge_scale·2⁻²³, exact) after the blend.
 constexpr float kValueScale = 0x1p-23f;
 
+// Cellular (noise.cpp, "Cellular basis"): Gradient's lattice split and pre-hash
+// s = X·Pₓ ⊕ Z·P_z ⊕ key32, finished by cell_mix32 (lowbias32's second half after Gradient's
+// multiply: two multiplies, two xor-shifts; a bijection of the 32-bit words). The feature point's
+// offsets are its top and low 16 bits, ·2⁻¹⁶ − ½, ·jitter; the cell value is
+// cell_mix32(s ⊕ kCellCvKey)'s top 24 bits as a signed integer ·2⁻²³, Value's lattice value.
+constexpr std::uint32_t kCellM = 0x7FEB352Du;
+constexpr std::uint32_t kCellCvKey = 0x5BD1E995u;
+constexpr float kCell2m16 = 1.0f / 65536.0f;            // 2⁻¹⁶
+constexpr float kCellF2Scale = float(1.0 / 1.5);         // F2's scale: the output reaches 1 at F2 = 1.5
+inline std::uint32_t cell_mix32(std::uint32_t t) {
+  t *= kGradM;
+  t ^= t >> 16;
+  t *= kCellM;
+  return t ^ (t >> 15);
+}
 // Shared with noise.cpp, which defines the tables from its constexpr generators.
-constexpr std::uint64_t kLatticePx = 0x9E3779B97F4A7C15ull;  // Cellular hashing
-constexpr std::uint64_t kLatticePz = 0xC2B2AE3D27D4EB4Full;
 // Simplex (noise.cpp, "Simplex basis"): a triangular lattice of unit edge with rows along x. Each
 // octave's x frequency and offset are multiplied by kSimplexLx, its z ones by kSimplexLz, giving
 // the column coordinate in edges and the row coordinate in row heights (√3/2 edges): the edge is
@@ -94,7 +107,6 @@ constexpr double kSimplexLz = 1.2247448713915890491;  // √(3/2)
 constexpr float kSimplexHf = float(0.86602540378443864676);  // row height √3/2, in edges
 constexpr float kSimplexR2f = 0.75f;                          // kernel radius², edges²
 constexpr double kSimplexScale = 10.564;
-constexpr double kCell2m21 = 1.0 / 2097152.0;              // 2⁻²¹
 extern const double kPerlinGradX[16], kPerlinGradY[16];    // grad3(h, x, y, 0) = X[h]·x + Y[h]·y
 
 // Everything a row kernel needs, gathered by Noise::row once per call.

@@ -184,9 +184,10 @@ TEST(SimdTargets, SimplexAndPerlinDenseGridsBitIdenticalToScalarReference) {
 }
 
 // Cellular F1 visits the 3×3 neighbourhood own cell first and skips neighbours that cannot come
-// closer (a bound on the feature points' position, per jitter); dense grids for every return at several
-// jitters, including 0 (every point at its cell's centre: equal distances everywhere) and with a
-// period, must still give the reference's bits.
+// closer (a bound on the feature points' position, per jitter, shrunk by 2⁻¹⁸ for float rounding);
+// the rows kernel culls each cell's candidates by float bounds (noise_rows_simd.cpp, CellLists).
+// Dense grids for every return at several jitters, including 0 (every point at its cell's centre:
+// equal distances everywhere) and with a period, must still give the reference's bits.
 TEST(SimdTargets, CellularDenseGridsBitIdenticalToScalarReference) {
   for (const auto& t : detail::noise_simd_targets()) {
     ForceTarget f(t.bits);
@@ -718,6 +719,155 @@ TEST(Simplex, MatchesItsDefinitionEvaluatedIndependently) {
     EXPECT_LT(worst, 2e-5) << far;
     EXPECT_GT(spread, 0.6) << far;
   }
+}
+
+// ---- Cellular: the definition, and the hash's independence ------------------------------------------
+
+// The definition (noise.cpp, "Cellular basis"), evaluated independently in double: the cell
+// labels ⌊u⌋ + a modulo 2³², lowbias32's second half after Gradient's multiply, the feature point
+// X + ½ + J·(hi16·2⁻¹⁶ − ½) (likewise z with the low 16 bits), the two smallest distances over the
+// 3×3 block, against Noise::at: equal to float precision near the origin and a billion metres out
+// (the float offsets are relative to the cell; the position's size stays in the double split).
+// Octave 0's offsets and key are those of make_octave (noise.cpp).
+std::uint32_t mix32_by_definition(std::uint32_t t) {
+  t *= 0x27D4EB2Fu;
+  t ^= t >> 16;
+  t *= 0x7FEB352Du;
+  return t ^ (t >> 15);
+}
+double cellular_by_definition(std::uint64_t seed, double f, double jitter, CellularReturn ret, double x, double z) {
+  constexpr std::uint64_t kTagTable = 0x7461626c65ull, kTagOffset = 0x6f6666736574ull;
+  const double ox = 256.0 * unit_double(hash64(seed, kTagOffset, 0));
+  const double oz = 256.0 * unit_double(hash64(seed, kTagOffset, 1));
+  const std::uint64_t key = hash64(seed, kTagTable, 0);
+  const std::uint32_t key32 = std::uint32_t(key ^ (key >> 32));
+  const double u = x * f + ox, v = z * f + oz;
+  const double fu = std::floor(u), fv = std::floor(v);
+  const double fx = u - fu, fy = v - fv;  // in the sample's cell
+  const std::int64_t i = std::int64_t(fu), j = std::int64_t(fv);
+  double d1 = HUGE_VAL, d2 = HUGE_VAL;
+  for (int b = -1; b <= 1; ++b)
+    for (int a = -1; a <= 1; ++a) {
+      const std::uint32_t h = mix32_by_definition((std::uint32_t(i + a) * 0x9E3779B1u) ^
+                                                  (std::uint32_t(j + b) * 0x85EBCA6Bu) ^ key32);
+      const double px = a + 0.5 + jitter * (double(h >> 16) / 65536.0 - 0.5);
+      const double py = b + 0.5 + jitter * (double(h & 0xFFFFu) / 65536.0 - 0.5);
+      const double d = (px - fx) * (px - fx) + (py - fy) * (py - fy);
+      if (d < d1) {
+        d2 = d1;
+        d1 = d;
+      } else if (d < d2) {
+        d2 = d;
+      }
+    }
+  switch (ret) {
+    case CellularReturn::F1: return 2.0 * std::min(std::sqrt(d1), 1.0) - 1.0;
+    case CellularReturn::F2: return 2.0 * std::min(std::sqrt(d2) / 1.5, 1.0) - 1.0;
+    default: return 2.0 * std::min(std::sqrt(d2) - std::sqrt(d1), 1.0) - 1.0;
+  }
+}
+TEST(Cellular, MatchesItsDefinitionEvaluatedIndependently) {
+  for (CellularReturn ret : {CellularReturn::F1, CellularReturn::F2, CellularReturn::F2MinusF1})
+    for (double jitter : {1.0, 0.7})
+      for (double far : {0.0, 1e9, -3.7e8}) {
+        const std::uint64_t seed = 43;
+        const double f = 1.0 / 7.0;
+        NoiseSettings s = single(NoiseBasis::Cellular, seed, f);
+        s.cellular = ret;
+        s.jitter = jitter;
+        const Noise n(s);
+        double worst = 0, lo = 1, hi = -1;
+        for (std::uint64_t i = 0; i < 20000; ++i) {
+          const double x = far - 300 + 600 * unit_double(hash64(0x53, i)),
+                       z = -far - 300 + 600 * unit_double(hash64(0x54, i));
+          const double ref = cellular_by_definition(seed, f, jitter, ret, x, z);
+          worst = std::max(worst, std::fabs(double(n.at(x, z)) - ref));
+          lo = std::min(lo, ref);
+          hi = std::max(hi, ref);
+        }
+        std::printf("cellular return %d jitter %.1f at %.3g m: largest difference to the definition in double %.3g "
+                    "(values %.3f..%.3f)\n",
+                    int(ret), jitter, far, worst, lo, hi);
+        EXPECT_LT(worst, 2e-5) << int(ret) << " " << far;
+        EXPECT_GT(hi - lo, 1.0) << int(ret) << " " << far;  // not constant
+      }
+}
+
+// The 32-bit cell hash's outputs (noise_simd.hpp, cell_mix32) over 10⁵ random cells: the feature
+// point's offsets ox (top 16 bits) and oy (low 16 bits) are uniform (Kolmogorov–Smirnov distance of
+// 64-bin histograms to the uniform one), and ox, oy, the cell value and the right and upper
+// neighbours' ox, oy are pairwise uncorrelated (|r| < 0.02; 4.5σ at 10⁵ samples); each of the 32
+// hash bits agrees with the same bit of the right and of the upper neighbour's hash half the time
+// (|P − ½| < 0.01, 6σ; Gradient's single multiply fails this: its low bits follow the labels' low
+// bits, bit 0 alternating from cell to cell).
+TEST(Cellular, HashOffsetsUniformAndUncorrelated) {
+  const std::uint32_t key32 = 0x2545F491u;
+  const int count = 100000, bins = 64;
+  std::vector<double> hx(bins, 0.0), hy(bins, 0.0), uni(bins, 1.0 / bins);
+  std::vector<double> v[7];  // ox, oy, cell value, right ox, right oy, upper ox, upper oy
+  for (auto& w : v) w.reserve(count);
+  auto point = [&](std::uint32_t X, std::uint32_t Z, double& px, double& py) {
+    const std::uint32_t h = detail::cell_mix32((X * detail::kGradPx) ^ (Z * detail::kGradPz) ^ key32);
+    px = double(h >> 16) * detail::kCell2m16 - 0.5;
+    py = double(h & 0xFFFFu) * detail::kCell2m16 - 0.5;
+  };
+  auto hash = [&](std::uint32_t X, std::uint32_t Z) {
+    return detail::cell_mix32((X * detail::kGradPx) ^ (Z * detail::kGradPz) ^ key32);
+  };
+  int same_right[32] = {}, same_up[32] = {};
+  for (int i = 0; i < count; ++i) {
+    const std::uint64_t r = hash64(0xCE11, std::uint64_t(i));
+    const std::uint32_t X = std::uint32_t(r), Z = std::uint32_t(r >> 32);
+    const std::uint32_t h = hash(X, Z), hr = hash(X + 1u, Z), hu = hash(X, Z + 1u);
+    for (int b = 0; b < 32; ++b) {
+      same_right[b] += int(((h ^ hr) >> b & 1u) == 0u);
+      same_up[b] += int(((h ^ hu) >> b & 1u) == 0u);
+    }
+    double ox, oy, rx, ry, ux, uy;
+    point(X, Z, ox, oy);
+    point(X + 1u, Z, rx, ry);
+    point(X, Z + 1u, ux, uy);
+    const std::uint32_t s = (X * detail::kGradPx) ^ (Z * detail::kGradPz) ^ key32;
+    const double cv = double(std::int32_t(detail::cell_mix32(s ^ detail::kCellCvKey)) >> 8) * 0x1p-23;
+    hx[std::size_t((ox + 0.5) * bins)] += 1.0 / count;
+    hy[std::size_t((oy + 0.5) * bins)] += 1.0 / count;
+    const double vals[7] = {ox, oy, cv, rx, ry, ux, uy};
+    for (int k = 0; k < 7; ++k) v[k].push_back(vals[k]);
+  }
+  auto corr = [&](const std::vector<double>& a, const std::vector<double>& b) {
+    double ma = 0, mb = 0;
+    for (int i = 0; i < count; ++i) ma += a[std::size_t(i)], mb += b[std::size_t(i)];
+    ma /= count;
+    mb /= count;
+    double sab = 0, saa = 0, sbb = 0;
+    for (int i = 0; i < count; ++i) {
+      const double da = a[std::size_t(i)] - ma, db = b[std::size_t(i)] - mb;
+      sab += da * db;
+      saa += da * da;
+      sbb += db * db;
+    }
+    return sab / std::sqrt(saa * sbb);
+  };
+  double worst = 0;
+  for (int a = 0; a < 7; ++a)
+    for (int b = a + 1; b < 7; ++b) {
+      if ((a == 3 && b == 4) || (a == 5 && b == 6)) continue;  // the same pairs as (0, 1)
+      const double r = corr(v[a], v[b]);
+      worst = std::max(worst, std::fabs(r));
+      EXPECT_LT(std::fabs(r), 0.02) << a << " " << b;
+    }
+  double bit_worst = 0;
+  for (int b = 0; b < 32; ++b)
+    for (int c : {same_right[b], same_up[b]}) {
+      const double dev = std::fabs(double(c) / count - 0.5);
+      bit_worst = std::max(bit_worst, dev);
+      EXPECT_LT(dev, 0.01) << "bit " << b;
+    }
+  std::printf("cellular hash: KS distance to uniform ox %.4f oy %.4f; largest |correlation| %.4f; largest bit "
+              "agreement bias with a neighbour %.4f\n",
+              ks(hx, uni), ks(hy, uni), worst, bit_worst);
+  EXPECT_LT(ks(hx, uni), 0.01);
+  EXPECT_LT(ks(hy, uni), 0.01);
 }
 
 }  // namespace

@@ -126,17 +126,23 @@ class NoiseColumns {
 //             same split in double, float after it, the same period support and, at lacunarity 2
 //             without a period, the same dyadic lattice): the value of lattice point (X, Z) is the
 //             top 24 bits of hash32((X·Pₓ) ⊕ (Z·P_z ⊕ keyₖ)) as a signed integer times 2⁻²³.
-//   Cellular  Worley, one feature point per cell at its centre + jitter·U(−½, ½)², 3×3 search.
-//             F1 is exact after clamping to 1 cell. F2, F2−F1 and (only where F1 ≥ 1 cell)
-//             CellValue can differ from an exhaustive search in the rare cases where the point
-//             they need lies outside the 3×3 block.
-// Cellular hashes lattice points with mix64(keyₖ + X·Pₓ + Z·P_z).
+//   Cellular  Worley on Gradient's lattice (the same split in double, float after it, the same
+//             period support): one feature point per cell at its centre + jitter·(U − ½, V − ½),
+//             U and V the top and low 16 bits of h = mix32((X·Pₓ) ⊕ (Z·P_z ⊕ keyₖ)) times 2⁻¹⁶
+//             (mix32: Gradient's multiply, then lowbias32's xor-shift, multiply, xor-shift), the
+//             distances in float over the 3×3 block; F1, F2 the two smallest. F1 is exact after
+//             clamping to 1 cell. F2, F2−F1 and (only where F1 ≥ 1 cell) CellValue can differ
+//             from an exhaustive search in the rare cases where the point they need lies outside
+//             the 3×3 block. CellValue: the top 24 bits of mix32(s ⊕ 0x5BD1E995) (s the owning
+//             cell's pre-hash) as a signed integer times 2⁻²³. Continuous to float rounding:
+//             a point seen from two neighbouring cells is rounded at different offsets, so F1
+//             can step by about 1e-6 at a cell edge.
 //
-// Precision: positions are doubles; Perlin and Cellular do the lattice work in double and round the
-// result to float once; Gradient, Value and Simplex work in float after the lattice split.
-// Perlin and Cellular clamp lattice coordinates to ±2⁵¹ cells; Gradient, Value and Simplex take the
-// split's integer part modulo 2³² unclamped (beyond 2⁵¹ cells a double no longer holds the fraction,
-// so the pattern degrades there, the same bits on every path). Coordinates must be finite
+// Precision: positions are doubles; Perlin does the lattice work in double and rounds the result to
+// float once, clamping lattice coordinates to ±2⁵¹ cells; Gradient, Value, Simplex and Cellular work
+// in float after the lattice split and take the split's integer part modulo 2³² unclamped (beyond
+// 2⁵¹ cells a double no longer holds the fraction, so the pattern degrades there, the same bits on
+// every path; the float offsets keep float precision within the cell below about 2²⁸ cells). Coordinates must be finite
 // (non-finite ones give unspecified values, never UB). No contraction of a product into a sum (see
 // noise.cpp): the few fused multiply-adds in src/noise_rows_simd.cpp multiply by ±1 or 2, exactly,
 // so they round as the plain add or subtract they replace.
@@ -156,7 +162,8 @@ class Noise {
   //   fBm: Σ aₖ·nₖ / Σ aₖ;  billow: Σ aₖ·(2|nₖ|−1) / Σ aₖ;  ridged: 2·Σ aₖ·(1−|nₖ|)² / Σ aₖ − 1;
   //   None: n₀ (only the first octave is evaluated; octaves is ignored).
   //   Cellular F1/F2 are mapped from distance d (in cells) as 2·min(d,1)−1 (F2: d/1.5, F2−F1: d),
-  //   CellValue is a hash of the owning cell in [−1, 1).
+  //   CellValue is a hash of the owning cell in [−1, 1), all in float; ridged cellular takes octave
+  //   k's value as sₖ·nₖ (sₖ = float(√aₖ)) and sums (sₖ − |sₖ·nₖ|)², as Gradient and Value do.
   void row(double z_m, std::int64_t i0, double dx_m, int n, float* out) const;
   // Precomputes the x-only terms of the window x = double(i0 + i) · dx_m, i in [0, n) (NoiseColumns).
   NoiseColumns columns(std::int64_t i0, double dx_m, int n) const;

@@ -106,7 +106,7 @@ class CallbackTimes:
 
 # Two fused cellular noise stages of 12 octaves: one stretch of ~0.5 s of C++ between the "stage
 # noise" reports and "stage done".
-SLOW_RECIPE = {"name": "gil", "world": {"size": 1025},
+SLOW_RECIPE = {"name": "gil", "world": {"size": 2049},
                "stages": [{"stage": "noise", "basis": "cellular", "octaves": 12},
                           {"stage": "noise", "basis": "cellular", "octaves": 12}]}
 
