@@ -553,7 +553,11 @@ WorldReport build_world(WorldSettings s) {
       };
       // What a world algorithm keeps on disk besides the stores while its phase runs.
       auto scratch = [&](std::size_t k) -> std::uint64_t {
-        return phases[k].global ? world_scratch_bytes(*r.stages[phases[k].first].def, grid.nx, grid.nz) : 0;
+        if (!phases[k].global) return 0;
+        const RecipeStage& st = r.stages[phases[k].first];
+        const auto needs = s.algorithm_needs.find(st.def->name);  // the caller's figures, when given
+        if (needs != s.algorithm_needs.end() && needs->second) return needs->second(st, grid).scratch_bytes;
+        return world_scratch_bytes(*st.def, grid.nx, grid.nz);
       };
       std::uint64_t stores = store_estimate(phase_layers[0]) + scratch(0);
       for (std::size_t k = 0; k + 1 < phases.size(); ++k)
@@ -601,7 +605,10 @@ WorldReport build_world(WorldSettings s) {
       for (std::size_t i = 0; i < r.stages.size(); ++i) {
         const RecipeStage& st = r.stages[i];
         std::uint64_t phase = 0;
-        if (st.def->name == "stream_power")
+        const auto needs = s.algorithm_needs.find(st.def->name);  // the caller's figures, when given
+        if (needs != s.algorithm_needs.end() && needs->second && s.algorithms.count(st.def->name))
+          phase = needs->second(st, grid).memory_bytes;
+        else if (st.def->name == "stream_power")
           phase = world_stream_power_memory_bytes(grid.nx, grid.nz, st.stage->params().value("steps", 1));
         else if (st.def->name == "hydraulic")
           phase = world_hydraulic_memory_bytes(frame, grid.tile, st.stage->params(), threads);

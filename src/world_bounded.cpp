@@ -363,9 +363,44 @@ std::int64_t coarse_step(std::int64_t nx, std::int64_t nz, int coarse_max) {
 }
 }  // namespace
 
-std::uint64_t world_stream_power_scratch_bytes(std::int64_t nx, std::int64_t nz, int coarse_max, int sweeps) {
+namespace {
+// The refinement's record figures for blocks of `block` grown by `halo` on an nx × nz world (the
+// files' and one block's, by the code above): per block, the window and its ring (4 · window side
+// samples), and the targets a block gives its neighbours: about block + halo on each edge
+// neighbour's ring and 3 · halo on each diagonal one's (so at most 4 · block + 16 · halo per block;
+// all blocks' sum within 1.5 % over the count on 1025² and 4097² worlds, blocks 256 and 1024, halo 64).
+struct RecordFigures {
+  std::uint64_t blocks = 0, ring = 0, window = 0, targets = 0, all_targets = 0, segments = 0;
+};
+RecordFigures record_figures(std::int64_t nx, std::int64_t nz, int block, int halo) {
+  const BlockAxis ax(nx, std::max(block, 1), halo), az(nz, std::max(block, 1), halo);
+  RecordFigures f;
+  const std::uint64_t B = std::uint64_t(std::max(block, 1)), h = std::uint64_t(std::max(halo, 0));
+  const std::uint64_t wn = B + 2 * h + 1, cx = std::uint64_t(ax.count), cz = std::uint64_t(az.count);
+  f.blocks = cx * cz;
+  f.window = wn * wn;
+  f.ring = 4 * wn;
+  f.targets = 4 * B + 16 * h;
+  const std::uint64_t edges = 2 * (cx - 1) * cz + 2 * cx * (cz - 1), diagonals = 4 * (cx - 1) * (cz - 1);  // ordered pairs
+  f.all_targets = edges * (B + h) + diagonals * 3 * h;
+  f.segments = edges + diagonals;
+  return f;
+}
+}  // namespace
+
+std::uint64_t world_stream_power_scratch_bytes(std::int64_t nx, std::int64_t nz, int coarse_max, int sweeps, int steps, int block,
+                                               int halo) {
   if (nx < 1 || nz < 1 || sweeps <= 0 || coarse_step(nx, nz, coarse_max) == 1) return 0;
-  return 2 * 4 * std::uint64_t(nx) * std::uint64_t(nz);
+  const RecordFigures f = record_figures(nx, nz, block, halo);
+  const std::uint64_t S = std::uint64_t(std::max(steps, 1)), K = std::uint64_t(std::min(std::max(steps, 1), kStreamPowerSnapshots)) + 1;
+  // The filled input and the blend (4 bytes per world sample each); the coarse inflow's lists (8
+  // bytes per entry, at most a ring per block and snapshot); with more than one sweep the two ring
+  // record files, each per step the targets' levels seen and solved (doubles), inflow entries (8
+  // bytes; measured on 31 % of the targets and steps on a 1025² world, counted on half) and a count
+  // per segment (a block and a neighbour: 4 bytes).
+  std::uint64_t bytes = 2 * 4 * std::uint64_t(nx) * std::uint64_t(nz) + f.blocks * K * f.ring * 8;
+  if (sweeps > 1) bytes += 2 * S * (f.all_targets * (16 + 4) + f.segments * 4);
+  return bytes;
 }
 
 std::uint64_t world_stream_power_memory_bytes(std::int64_t nx, std::int64_t nz, int steps, int coarse_max, int block, int halo,
@@ -374,15 +409,37 @@ std::uint64_t world_stream_power_memory_bytes(std::int64_t nx, std::int64_t nz, 
   const std::int64_t s = coarse_step(nx, nz, coarse_max);
   const std::uint64_t cnx = std::uint64_t((nx - 1 + s - 1) / s + 1), cnz = std::uint64_t((nz - 1 + s - 1) / s + 1);
   const bool refine = s > 1 && sweeps > 0;
-  const std::uint64_t snapshots = refine ? std::uint64_t(std::min(std::max(steps, 1), kStreamPowerSnapshots)) + 1 : 0;
-  std::uint64_t bytes = cnx * cnz * (40 + (refine ? 4 * snapshots + 20 : 4));
-  if (!refine) return bytes;
-  const BlockAxis ax(nx, std::max(block, 1), halo), az(nz, std::max(block, 1), halo);
-  const std::uint64_t wn = std::uint64_t(std::max(block, 1)) + 2 * std::uint64_t(std::max(halo, 0)) + 1;
-  const std::uint64_t ring = 4 * wn;
-  if (sweeps > 1) bytes += std::uint64_t(ax.count * az.count) * ring * std::uint64_t(std::max(steps, 1)) * 4 * 2 * 2;
-  bytes += wn * wn * 48;
-  return bytes;
+  if (!refine) return cnx * cnz * (40 + 4);
+  const std::uint64_t snapshots = std::uint64_t(std::min(std::max(steps, 1), kStreamPowerSnapshots)) + 1;
+  const RecordFigures f = record_figures(nx, nz, block, halo);
+  const std::uint64_t S = std::uint64_t(std::max(steps, 1));
+  // The coarse heights and snapshots, held throughout; then either the coarse solve and the inflow
+  // pass (40 + 20 bytes per coarse sample), or one block at a time: its window with the solver's
+  // arrays (128 bytes per sample: measured 45 to 195 on windows of 161² at 2 threads, the solver's
+  // per-thread buffers growing with the largest drainage basin met), its coarse inflow lists (at
+  // most a ring per snapshot), and with more than one sweep its records: what it gives its
+  // neighbours (levels seen and solved as doubles, at most an inflow entry per target and step),
+  // what it reads (levels as floats, inflow) and one neighbour's segment being read. The index: 2 · 9
+  // file offsets and a list span per snapshot, per block.
+  const std::uint64_t coarse = cnx * cnz * (4 * snapshots + 4);
+  const std::uint64_t solve = cnx * cnz * (40 + 20);
+  std::uint64_t blocks = f.window * 128 + snapshots * f.ring * 8;
+  if (sweeps > 1) blocks += S * (f.targets * (16 + 8) + f.ring * (8 + 8) + f.ring / 4 * 16);
+  return coarse + std::max(solve, blocks) + f.blocks * (2 * 9 * 8 + snapshots * 16);
+}
+
+WorldAlgorithmNeedsFn world_stream_power_needs(int coarse_max, int block, int halo, int sweeps) {
+  return [coarse_max, block, halo, sweeps](const RecipeStage& st, const WorldGrid& g) {
+    const json params = st.stage->params();
+    const int steps = params.value("steps", 1);
+    // A masked stage is not refined (below).
+    const bool masked = params.contains("mask") && params["mask"].is_string() && !params["mask"].get<std::string>().empty();
+    const int passes = masked ? 0 : sweeps;
+    WorldAlgorithmNeeds n;
+    n.memory_bytes = world_stream_power_memory_bytes(g.nx, g.nz, steps, coarse_max, block, halo, passes);
+    n.scratch_bytes = world_stream_power_scratch_bytes(g.nx, g.nz, coarse_max, passes, steps, block, halo);
+    return n;
+  };
 }
 
 WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int sweeps) {

@@ -385,20 +385,75 @@ TEST(WorldStreamPower, RefinedWorldDrainsAsTheStageDoes) {
 }
 
 // The disk and memory figures of the refinement (4 sweeps, the other defaults), as the free functions
-// give them (build_world's checks take the default algorithm's, which does not refine):
-// two temporary files of 4 bytes per sample, the coarse solve, the ring records and a block's window
-// (about 585 MB at 4097², 100 steps; measured peak of such a build 566 MB); without sweeps, or when
-// the coarse grid is the world, no file.
+// give them: on disk two temporary files of 4 bytes per sample, the coarse inflow's lists and two
+// files of ring records (measured at 1025², blocks 256, halo 64, 40 steps: 15.9 MB a sweep, counted
+// 17.8 MB); in memory the coarse solve or one block (its window, its records), whichever is larger,
+// beside the snapshots (about 420 MB at 4097², 100 steps; measured peak of such a build 378 MB).
+// Without sweeps, or when the coarse grid is the world, no file. The memory does not grow with the
+// world past the coarse grid's cap (only the records' index: a few hundred bytes per block); the
+// records on disk do.
 TEST(WorldStreamPower, EstimatesCountTheRefinementsFilesAndMemory) {
   EXPECT_EQ(world_stream_power_scratch_bytes(2049, 2049, kStreamPowerCoarseMax, 4), 0u);  // the coarse grid is the world
-  EXPECT_EQ(world_stream_power_scratch_bytes(4097, 4097, kStreamPowerCoarseMax, 4), 8ull * 4097 * 4097);
   EXPECT_EQ(world_stream_power_scratch_bytes(4097, 4097, kStreamPowerCoarseMax, 0), 0u);
+  const std::uint64_t world_files = 8ull * 4097 * 4097;
+  const std::uint64_t one = world_stream_power_scratch_bytes(4097, 4097, kStreamPowerCoarseMax, 1, 100);  // no ring records
+  const std::uint64_t four = world_stream_power_scratch_bytes(4097, 4097, kStreamPowerCoarseMax, 4, 100);
+  EXPECT_GT(one, world_files);
+  EXPECT_LT(one, world_files + 10'000'000u);
+  EXPECT_GT(four - one, 2 * 100 * 58284ull * 16);  // levels of the 58284 targets (counted), seen and solved
+  EXPECT_LT(four - one, 2 * 100 * 58284ull * 24);
+  EXPECT_EQ(world_stream_power_scratch_bytes(1025, 1025, 513, 4, 40, 256, 64) - world_stream_power_scratch_bytes(1025, 1025, 513, 1, 40, 256, 64),
+            2ull * 40 * (22272 * 20 + 84 * 4));
   const std::uint64_t refined = world_stream_power_memory_bytes(4097, 4097, 100, kStreamPowerCoarseMax, kStreamPowerBlock, kStreamPowerHalo, 4);
   const std::uint64_t alone = world_stream_power_memory_bytes(4097, 4097, 100, kStreamPowerCoarseMax, kStreamPowerBlock, kStreamPowerHalo, 0);
-  EXPECT_GT(refined, 500'000'000u);
-  EXPECT_LT(refined, 700'000'000u);
-  EXPECT_LT(alone, refined / 2);
-  EXPECT_EQ(world_stream_power_scratch_bytes(4097, 4097), kStreamPowerSweeps > 0 ? 8ull * 4097 * 4097 : 0u);
+  EXPECT_GT(refined, 380'000'000u);
+  EXPECT_LT(refined, 460'000'000u);
+  EXPECT_LT(alone, refined);
+  const std::uint64_t big = world_stream_power_memory_bytes(16385, 16385, 100, kStreamPowerCoarseMax, kStreamPowerBlock, kStreamPowerHalo, 4);
+  EXPECT_LT(double(big), 1.01 * double(refined));  // bounded: the same coarse grid and block, 16 times the blocks
+  EXPECT_EQ(world_stream_power_scratch_bytes(4097, 4097), kStreamPowerSweeps > 0 ? world_stream_power_scratch_bytes(4097, 4097, kStreamPowerCoarseMax, kStreamPowerSweeps) : 0u);
+}
+
+// A caller's refining world_stream_power with its needs registered (WorldSettings::algorithm_needs):
+// build_world's disk check counts its temporary files, which the default algorithm's figure (none)
+// does not; a dry run with just less free disk than the build needs is refused, naming the size.
+TEST(WorldStreamPower, BuildChecksCountARegisteredAlgorithmsNeeds) {
+  TempDir d;
+  const Recipe r = parse_recipe(eroded_doc(1025, true, false, 40));
+  auto settings = [&](bool needs) {
+    WorldSettings s;
+    s.recipe = r;
+    s.tile = 257;
+    s.out_dir = (d.path / "w").string();
+    s.dry_run = true;
+    s.algorithms["stream_power"] = world_stream_power(513, 256, 64, 4);
+    if (needs) s.algorithm_needs["stream_power"] = world_stream_power_needs(513, 256, 64, 4);
+    return s;
+  };
+  const WorldReport plain = build_world(settings(false));
+  const WorldReport counted = build_world(settings(true));
+  const std::uint64_t files = world_stream_power_scratch_bytes(1025, 1025, 513, 4, 40, 256, 64);
+  EXPECT_GE(counted.estimated_bytes, plain.estimated_bytes + files / 2) << plain.estimated_bytes << " " << counted.estimated_bytes;
+  WorldSettings tight = settings(true);
+  tight.disk_free_bytes = counted.estimated_bytes - 1;
+  try {
+    build_world(tight);
+    ADD_FAILURE() << "a build with too little disk for its scratch files ran";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.path(), "world.size") << e.what();
+  }
+  WorldSettings loose = settings(false);
+  loose.disk_free_bytes = counted.estimated_bytes - 1;
+  EXPECT_NO_THROW(build_world(loose));  // without the needs, the files are not counted
+  // Memory: the needs' figure is the memory check's when it is the largest.
+  WorldSettings mem = settings(true);
+  mem.algorithm_needs["stream_power"] = [](const RecipeStage&, const WorldGrid&) { return WorldAlgorithmNeeds{std::uint64_t(1) << 40, 0}; };
+  try {
+    build_world(mem);
+    ADD_FAILURE() << "a build whose world algorithm needs 1 TiB ran";
+  } catch (const Error& e) {
+    EXPECT_NE(std::string(e.path()).find("stages["), std::string::npos) << e.what();
+  }
 }
 
 TEST(WorldStreamPower, RefusesBadBlocks) {

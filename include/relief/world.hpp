@@ -277,10 +277,18 @@ struct WorldGuarantee {
 WorldGuarantee world_guarantee(const StageDef& stage);
 // The disk the library's world algorithm of `stage` uses besides the tile stores while it runs, in
 // WorldStageIO::scratch_dir, for an nx × nz world (hydraulic: the world's heights, 4 bytes per
-// sample; stream_power: 0, as the default algorithm does not refine (a refining one needs 8 bytes per
-// sample, world_stream_power_scratch_bytes, which this does not see); 0 for the others).
-// build_world's disk check adds it to the stores that coexist then.
+// sample; stream_power: 0, as the default algorithm does not refine (a refining one needs its
+// world_stream_power_scratch_bytes, which this does not see: WorldSettings::algorithm_needs);
+// 0 for the others). build_world's disk check adds it to the stores that coexist then.
 std::uint64_t world_scratch_bytes(const StageDef& stage, std::int64_t nx, std::int64_t nz);
+// What a caller's world algorithm (WorldSettings::algorithms) needs besides the tiles while its
+// phase runs, for build_world's checks: memory (added to one tile's, as the library's algorithms'
+// figures are) and disk in WorldStageIO::scratch_dir (added to the stores that coexist then).
+struct WorldAlgorithmNeeds {
+  std::uint64_t memory_bytes = 0, scratch_bytes = 0;
+};
+// The needs of a stage's algorithm on a world grid (the stage's resolved params: stage.stage->params()).
+using WorldAlgorithmNeedsFn = std::function<WorldAlgorithmNeeds(const RecipeStage& stage, const WorldGrid& grid)>;
 
 struct WorldSettings {
   Recipe recipe;  // parsed and validated; world.size is replaced by nx × nz
@@ -305,6 +313,11 @@ struct WorldSettings {
   // World algorithms by stage name: a global stage named here runs as a phase of its own over the
   // stored world instead of being refused (see "Phases" at the top of this file).
   std::map<std::string, WorldStageAlgorithm> algorithms;
+  // Their needs by stage name, for the disk and memory checks (e.g. world_stream_power_needs for a
+  // refining world_stream_power). A stage not named here is checked with the library's figures for
+  // its name (world_scratch_bytes; world_stream_power_memory_bytes and world_hydraulic_memory_bytes
+  // with the defaults), which need not be those of the caller's algorithm.
+  std::map<std::string, WorldAlgorithmNeedsFn> algorithm_needs;
   // Called after each tile is written, with its (X, Z) (tests kill or cancel builds part way); from
   // several threads at once when tiles are built concurrently.
   std::function<void(std::int64_t X, std::int64_t Z)> after_tile;

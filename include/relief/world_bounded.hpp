@@ -94,9 +94,12 @@
 //     alike), rounded to whole cells (so that the solver reads A^m from its table). With the whole
 //     map's levels and inflow a window is the whole map's inside, bit for bit
 //     (tests/test_erosion.cpp); each sweep carries the fine solution a block further along the rivers
-//     (levels upstream, areas downstream). Memory: the ring's levels and inflow of every block for
-//     every step, twice (floats: 2 × 2 × steps × ring samples, about 120 MB for a 4097² world of 100
-//     steps in blocks of 1024).
+//     (levels upstream, areas downstream). The records a sweep passes to the next (per block and
+//     step its neighbours' weighted ring levels, seen and solved, and the drainage area crossing
+//     their rings) are written to a temporary file as each block is solved and read back by each
+//     block in the next sweep (two files: one written, one read), summed in block order as they were
+//     in memory before session 17 (the same bytes); the coarse inflow's lists too. Memory: one
+//     block's records, not the world's.
 //   * The last sweep's results are blended by a partition of unity of world position: along each axis
 //     a block's weight is 1 on its core, falling by a smoothstep across ± halo/2 of each inner core
 //     end where the neighbour's rises (the product of the two axes' weights in 2-D), summed in block
@@ -114,7 +117,8 @@
 //   the input that a ring cut was drained across the ring by the window's own first fill and never
 //   came back (src/stream_power_detail.hpp: given the whole map's filled input, ring levels and
 //   inflow a window is exact, lakes included). Not guaranteed: the sweeps need not converge to the
-//   whole map; more sweeps and larger halos have helped in every case measured. The whole map's
+//   whole map; larger halos have helped in every case measured, more sweeps not always (4097²,
+//   halo 64: 4 sweeps 0.666 %, 6 sweeps 0.995 %). The whole map's
 //   stage ends ε-filled, so the world drains: the blend, clamped to [0, 1], is filled across tiles as
 //   the world's `fill` stage fills (fill_depressions_tiled, relief/world.hpp: the whole world's
 //   fill_depressions, ε = 0, bit for bit).
@@ -123,19 +127,23 @@
 //   position and clamped to [0, 1], as before the refinement (a later `fill` stage removes the
 //   sub-coarse-cell pits left by the fine detail).
 //   Memory: the coarse grid (≤ kStreamPowerCoarseMax² samples, times the stage's own scratch), its
-//   snapshots (kStreamPowerSnapshots + 1 floats per coarse sample), the sweeps' ring records, one
-//   block's window with the stage's scratch, one tile. Time: sweeps × the stage at full resolution
-//   on the windows (each (block + 2·halo)², so about (1 + 2·halo/block)² × the world's area).
+//   snapshots (kStreamPowerSnapshots + 1 floats per coarse sample), one block's window with the
+//   stage's scratch and its records, one tile; the records' index (a few hundred bytes per block).
+//   Time: sweeps × the stage at full resolution on the windows (each (block + 2·halo)², so about
+//   (1 + 2·halo/block)² × the world's area).
 //   Measured (this 2-core machine, loaded by other work, 2 threads): the eroded-mountains stages up
 //   to stream power (100 steps) at 4097² in tiles of 1025, coarse 2049², blocks 1024, halo 64, 4
 //   sweeps: the stream power phase 182 s and 235 s (two runs; 212 s and 234 s of CPU), peak
-//   memory of the build 566 MB (world_stream_power_memory_bytes estimates 585 MB for the phase); the
-//   coarse solve alone (sweeps = 0: the phase before the refinement, with its two passes over the
-//   tiles) is the stage on 2049², 4.6 s: the refinement costs 40-50× that time. Disk: two temporary
-//   files of 4 bytes per world sample (the filled input, the blended output) in io.scratch_dir
-//   (world_stream_power_scratch_bytes gives them; build_world's disk and memory checks take the
-//   default algorithms' figures, so a build that registers a refining world_stream_power in
-//   WorldSettings::algorithms is not checked for them).
+//   memory of the build 566 MB with the records in memory (session 16); with them on disk (session
+//   17, nice −5, load 2.5-5): 160 s (228 s of CPU), peak 378 MB; halo 96: 214 s and 237 s (249 s
+//   and 253 s of CPU), peak 364-367 MB; halo 64 with 6 sweeps: 354 s, peak 385 MB. The coarse solve alone
+//   (sweeps = 0: the phase before the refinement, with its two passes over the tiles) is the stage
+//   on 2049², 4.6 s: the refinement costs 35-50× that time. Disk, in io.scratch_dir: two temporary
+//   files of 4 bytes per world sample (the filled input, the blended output), the coarse inflow's
+//   lists, and with more than one sweep the two ring record files (world_stream_power_scratch_bytes
+//   gives them all). build_world's disk and memory checks take the default algorithms' figures
+//   unless WorldSettings::algorithm_needs names the stage: register world_stream_power_needs (the
+//   same arguments) beside a refining world_stream_power.
 #include <cstdint>
 #include <vector>
 
@@ -151,25 +159,35 @@ constexpr int kStreamPowerSnapshots = 8;     // stream power's refinement: coars
 // the coarse change alone at every size measured (RMS within 2 halos of the seams, share of the
 // relief, eroded-mountains): 513² 0.263 % against 2.09 %, 1025² 0.427 % against 2.02 %, 4097² (the
 // other defaults) 0.659 % against 2.365 %; 2 sweeps gave 4.20 % at 4097², worse than none. Still 0 by
-// default: the sweeps' ring records are held in memory for every block and step (2 × 2 × steps × ring
-// floats per block: 118 MB at 4097² and 100 steps, 1.9 GB at 16385², growing with the world's area,
-// where a world build's memory must be bounded by the tile), and the refinement takes 40-50× the
-// coarse solve's time (see above). Keeping the records in a temporary file would lift the first.
+// default: the refinement takes 35-50× the coarse solve's time (see above). Session 17, the stages
+// up to stream power at 4097² (tiles 1025, RMS within 128 samples of the seams): halo 64, 4 sweeps
+// 0.666 %; halo 96, 4 sweeps 0.413 % (0.387 % within 2 halos), the goal of 0.5 % met; halo 64, 6
+// sweeps 0.995 %: more sweeps are not always better. Its memory no longer
+// grows with the world (session 17: the sweeps' ring records, 118 MB at 4097² and 1.9 GB at 16385²
+// in memory before, with the inflow lists on top, are in temporary files; tests/
+// test_world_memory.cpp).
 constexpr int kStreamPowerSweeps = 0;
 
 // The memory world_stream_power(coarse_max, block, halo, sweeps) holds besides the tiles on an
 // nx × nz world for a stage of `steps` steps: the coarse solve (its solver's arrays and fill, about
 // 40 bytes per coarse sample), its snapshots and the inflow pass (4 · (snapshots + 1) + 20 bytes per
-// coarse sample), and when it refines (s > 1, sweeps > 0) the sweeps' ring records (2 sweeps' seen
-// and solved levels, floats, per step and ring sample) and one block's window with the solver's arrays
-// (about 48 bytes per sample). An estimate for build_world's memory figure, not a bound.
+// coarse sample), and when it refines (s > 1, sweeps > 0) one block's window with the solver's arrays
+// (about 48 bytes per sample), its coarse inflow and, with more than one sweep, its ring records (what
+// it gives its neighbours and what it reads: per step, a few tens of bytes per ring sample), and the
+// records' index (a few hundred bytes per block). The records of the other blocks are on disk (below):
+// the figure does not grow with the world beyond the coarse grid's cap and the index. An estimate
+// for build_world's memory figure, not a bound.
 std::uint64_t world_stream_power_memory_bytes(std::int64_t nx, std::int64_t nz, int steps, int coarse_max = kStreamPowerCoarseMax,
                                               int block = kStreamPowerBlock, int halo = kStreamPowerHalo,
                                               int sweeps = kStreamPowerSweeps);
-// The disk it uses in WorldStageIO::scratch_dir while it runs: when it refines, two files of 4 bytes
-// per world sample (the filled input, the blend); else nothing.
+// The disk it uses in WorldStageIO::scratch_dir while it runs, when it refines: two files of 4
+// bytes per world sample (the filled input, the blend), the coarse inflow's lists, and with more
+// than one sweep two files of ring records (one written by a sweep, the other read: per block and
+// step about 24 bytes per ring sample it gives a neighbour; about 2 × 123 MB for a 4097² world of 100
+// steps in blocks of 1024 grown by 64, 16 times that at 16385²); else nothing. An upper estimate.
 std::uint64_t world_stream_power_scratch_bytes(std::int64_t nx, std::int64_t nz, int coarse_max = kStreamPowerCoarseMax,
-                                               int sweeps = kStreamPowerSweeps);
+                                               int sweeps = kStreamPowerSweeps, int steps = 100, int block = kStreamPowerBlock,
+                                               int halo = kStreamPowerHalo);
 
 constexpr int kHydraulicGroupBlocks = 16;  // hydraulic: at least this many blocks per group side
 // The salt of the hydraulic stage's seed (Context::stage_seed; stage_erosion.cpp's apply_hydraulic
@@ -202,6 +220,11 @@ std::uint64_t world_hydraulic_memory_bytes(const Frame& world, std::int64_t tile
 // Error("sweeps", …) below 0 (0: no refinement, the coarse change alone).
 WorldStageAlgorithm world_stream_power(int coarse_max = kStreamPowerCoarseMax, int block = kStreamPowerBlock,
                                        int halo = kStreamPowerHalo, int sweeps = kStreamPowerSweeps);
+// Its needs for build_world's checks (WorldSettings::algorithm_needs["stream_power"], beside
+// algorithms["stream_power"] = world_stream_power(the same arguments)): world_stream_power_memory_bytes
+// and world_stream_power_scratch_bytes with the stage's steps and these arguments.
+WorldAlgorithmNeedsFn world_stream_power_needs(int coarse_max = kStreamPowerCoarseMax, int block = kStreamPowerBlock,
+                                               int halo = kStreamPowerHalo, int sweeps = kStreamPowerSweeps);
 
 // Seam error of a tiled build against a whole-map build of the same world.
 struct SeamMetrics {
