@@ -456,6 +456,32 @@ TEST(WorldStreamPower, BuildChecksCountARegisteredAlgorithmsNeeds) {
   }
 }
 
+// The refinement's temporary files (the world's heights, the coarse inflow, the ring records) are
+// made in WorldStageIO::scratch_dir: where none can be made the stage's error names the folder, and
+// no tile is stored.
+TEST(WorldStreamPower, TemporaryFilesThatCannotBeMadeNameTheFolder) {
+  const Recipe r = parse_recipe(eroded_doc(257, true, false, 5));
+  int index = -1;
+  for (std::size_t i = 0; i < r.stages.size(); ++i)
+    if (r.stages[i].def->name == "stream_power") index = int(i);
+  ASSERT_GE(index, 0);
+  WorldStageIO io;
+  io.grid = world_grid(257, 257, 65);
+  io.world = world_frame(r, 257, 257);
+  io.scratch_dir = "/nonexistent-relief-scratch/x";
+  int stored = 0;
+  io.load = [](std::int64_t, std::int64_t) -> WorldTile { throw std::runtime_error("no tile should be read"); };
+  io.store = [&](std::int64_t, std::int64_t, WorldTile) { ++stored; };
+  try {
+    world_stream_power(65, 64, 16, 4)(io, r.stages[std::size_t(index)], index);
+    ADD_FAILURE() << "the refinement ran without its temporary files";
+  } catch (const Error& e) {
+    EXPECT_EQ(e.path(), "stream_power");
+    EXPECT_NE(std::string(e.what()).find("/nonexistent-relief-scratch/x"), std::string::npos) << e.what();
+  }
+  EXPECT_EQ(stored, 0);
+}
+
 TEST(WorldStreamPower, RefusesBadBlocks) {
   auto field = [](auto make) {
     try {
