@@ -135,8 +135,9 @@
 //   to stream power (100 steps) at 4097² in tiles of 1025, coarse 2049², blocks 1024, halo 64, 4
 //   sweeps: the stream power phase 182 s and 235 s (two runs; 212 s and 234 s of CPU), peak
 //   memory of the build 566 MB with the records in memory (session 16); with them on disk (session
-//   17, nice −5, load 2.5-5): 160 s (228 s of CPU), peak 378 MB; halo 96: 214 s and 237 s (249 s
-//   and 253 s of CPU), peak 364-367 MB; halo 64 with 6 sweeps: 354 s, peak 385 MB. The coarse solve alone
+//   17, nice −5, load 1-5): median of 3 runs 160 s (138-289 s; 229 s of CPU, 228-238 s), peak
+//   361-378 MB; halo 96: 214 s and 237 s (249 s and 253 s of CPU), peak 364-367 MB; halo 64 with 6
+//   sweeps: 354 s, peak 385 MB. The coarse solve alone
 //   (sweeps = 0: the phase before the refinement, with its two passes over the tiles) is the stage
 //   on 2049², 4.6 s: the refinement costs 35-50× that time. Disk, in io.scratch_dir: two temporary
 //   files of 4 bytes per world sample (the filled input, the blended output), the coarse inflow's
