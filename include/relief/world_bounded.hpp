@@ -86,8 +86,8 @@
 //     step, and the drainage area of coarse cells outside the window that drain into it (their coarse
 //     area in fine cells, s² per coarse cell, from the snapshots' receivers, linear in time) enters at
 //     the window's sample nearest to where it crosses the ring.
-//   * Sweeps (an overlapping Schwarz iteration; `sweeps`, default kStreamPowerSweeps = 0: the
-//     refinement is opt-in, see there): the first holds
+//   * Sweeps (an overlapping Schwarz iteration; `sweeps`, default kStreamPowerSweeps = 4; 0 turns
+//     the refinement off, see there): the first holds
 //     each window's ring at the coarse levels and gives it the coarse inflow, as above; each later
 //     sweep holds it, step by step, at the blend (weights below) of the previous sweep's blocks there
 //     and gives it their drainage area crossing it (their receivers and areas on the ring, weighted
@@ -154,20 +154,21 @@ namespace relief {
 
 constexpr int kStreamPowerCoarseMax = 2049;  // stream power's coarse grid: at most this many samples per axis
 constexpr int kStreamPowerBlock = 1024;      // stream power's refinement: world block side, in samples
-constexpr int kStreamPowerHalo = 64;         // stream power's refinement: samples each block's window adds
+constexpr int kStreamPowerHalo = 96;         // stream power's refinement: samples each block's window adds (64 before session 17)
 constexpr int kStreamPowerSnapshots = 8;     // stream power's refinement: coarse snapshots after the start
 // Stream power's refinement: passes over the blocks (0: none, the coarse change alone). 4 sweeps beat
 // the coarse change alone at every size measured (RMS within 2 halos of the seams, share of the
 // relief, eroded-mountains): 513² 0.263 % against 2.09 %, 1025² 0.427 % against 2.02 %, 4097² (the
-// other defaults) 0.659 % against 2.365 %; 2 sweeps gave 4.20 % at 4097², worse than none. Still 0 by
-// default: the refinement takes 35-50× the coarse solve's time (see above). Session 17, the stages
+// other defaults) 0.659 % against 2.365 %; 2 sweeps gave 4.20 % at 4097², worse than none. The
+// default since session 17 (4 sweeps, halo 96), once its memory stopped growing with the world; the
+// price is time: the refinement takes 35-50× the coarse solve's (see above). Session 17, the stages
 // up to stream power at 4097² (tiles 1025, RMS within 128 samples of the seams): halo 64, 4 sweeps
 // 0.666 %; halo 96, 4 sweeps 0.413 % (0.387 % within 2 halos), the goal of 0.5 % met; halo 64, 6
 // sweeps 0.995 %: more sweeps are not always better. Its memory no longer
 // grows with the world (session 17: the sweeps' ring records, 118 MB at 4097² and 1.9 GB at 16385²
 // in memory before, with the inflow lists on top, are in temporary files; tests/
 // test_world_memory.cpp).
-constexpr int kStreamPowerSweeps = 0;
+constexpr int kStreamPowerSweeps = 4;
 
 // The memory world_stream_power(coarse_max, block, halo, sweeps) holds besides the tiles on an
 // nx × nz world for a stage of `steps` steps: the coarse solve (its solver's arrays and fill, about
