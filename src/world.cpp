@@ -624,7 +624,7 @@ WorldReport build_world(WorldSettings s) {
           throw Error("stages[" + std::to_string(need_stage) + "]",
                       "the world algorithm of stage '" + need_what + "' needs about " + human_bytes(rep.tile_memory_bytes) + " on a " +
                           std::to_string(grid.nx) + "x" + std::to_string(grid.nz) + " world in tiles of " + std::to_string(grid.tile) +
-                          (need_what == "hydraulic" ? " (its groups of blocks: a droplet's reach in cells sets their size)" : " (its coarse solve)") +
+                          (need_what == "hydraulic" ? " (its groups of blocks: a droplet's reach in cells sets their size)" : " (its coarse solve and one refined block with its records)") +
                           ", but the limit here is " + human_bytes(budget) +
                           (need_what == "hydraulic" ? "; choose fewer threads, a coarser world or shorter droplet paths (lifetime, step_m)"
                                                     : "; choose a smaller world or fewer steps"));
