@@ -998,6 +998,8 @@ int main(int argc, char** argv) {
   ints.add(stu, "--max-preview", ss.max_preview, 2, 8193, "Largest preview size accepted (samples per axis)");
   ints.add(stu, "--max-export", ss.max_export, kMinSize, kMaxSize, "Largest export size accepted (samples per axis)");
   ints.add(stu, "--cache-mib", ss.cache_mib, 16, 1 << 20, "Memory for cached stage outputs, MiB");
+  ints.add(stu, "--cache-idle", ss.cache_idle_s, 0, 86400,
+           "Seconds without a running request after which spare layer buffers are freed (0 = never)");
   ints.add(stu, "--threads,-j", ss.threads, 0, 1024, "Generation threads (0 = all cores)", false);
   ints.add(stu, "--max-stages", ss.max_stages, 1, 100000, "Most stages a recipe may have (more: a 400 naming `stages`)");
   ints.add(stu, "--time-budget", ss.time_budget_s, 1, 86400,

@@ -375,7 +375,18 @@ std::string content_type_of(const std::string& file) {
 
 class Studio {
  public:
-  explicit Studio(const StudioSettings& s) : s_(s), cache_(s.cache_mib << 20), runs_(2), admission_(work_budget_bytes(s)) {}
+  explicit Studio(const StudioSettings& s) : s_(s), cache_(s.cache_mib << 20), runs_(2), admission_(work_budget_bytes(s)) {
+    set_buffer_cache_limit(std::min(buffer_cache_limit(), s.cache_mib << 20));
+    if (s.cache_idle_s > 0) janitor_ = std::thread([this] { free_idle_buffers(); });
+  }
+  ~Studio() {
+    {
+      std::lock_guard lk(janitor_m_);
+      janitor_stop_ = true;
+    }
+    janitor_cv_.notify_all();
+    if (janitor_.joinable()) janitor_.join();
+  }
 
   void routes(httplib::Server& svr);
   // Cancels every request running or waiting and refuses new work (SIGINT/SIGTERM).
@@ -421,6 +432,28 @@ class Studio {
   void api_upload(const httplib::Request& req, httplib::Response& res);
   void api_save(const httplib::Request& req, httplib::Response& res);
 
+  // Frees the buffer cache once no request has run for s_.cache_idle_s seconds (a check a second).
+  void free_idle_buffers() {
+    // Started before run_studio's SignalStop blocks the stop signals in every thread it creates: block
+    // them here too, or SIGTERM could land on this thread and end the process by its default action.
+    sigset_t set;
+    sigemptyset(&set);
+    for (int sig : {SIGINT, SIGTERM, SIGUSR1}) sigaddset(&set, sig);
+    pthread_sigmask(SIG_BLOCK, &set, nullptr);
+    std::unique_lock lk(janitor_m_);
+    while (!janitor_cv_.wait_for(lk, std::chrono::seconds(1), [this] { return janitor_stop_; })) {
+      const std::int64_t idle_ms = std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now().time_since_epoch()).count() -
+                                   last_active_ms_.load();
+      if (admission_.state().first == 0 && idle_ms >= std::int64_t(s_.cache_idle_s) * 1000 && cached_buffer_count() > 0) {
+        release_cached_buffers();
+        ++buffer_releases_;
+      }
+    }
+  }
+  void touch() {
+    last_active_ms_ = std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now().time_since_epoch()).count();
+  }
+
   StudioSettings s_;
   StageCache cache_;
   std::counting_semaphore<64> runs_;  // generations computing at once (bounds CPU)
@@ -428,6 +461,12 @@ class Studio {
   std::atomic<bool> stopping_{false};
   std::atomic<std::uint64_t> stopped_[5] = {};  // per StopReason
   std::atomic<std::uint64_t> refused_busy_{0};
+  std::atomic<std::int64_t> last_active_ms_{0};   // when a request last started or ended (Clock, ms)
+  std::atomic<std::uint64_t> buffer_releases_{0};  // times the idle janitor freed the buffer cache
+  std::mutex janitor_m_;
+  std::condition_variable janitor_cv_;
+  bool janitor_stop_ = false;
+  std::thread janitor_;  // last: started once every member above exists
   std::mutex sessions_m_;
   std::unordered_map<std::string, std::shared_ptr<Session>> sessions_;
   std::mutex uploads_m_;  // every session's uploads
@@ -495,11 +534,15 @@ void Studio::with_run(const httplib::Request& req, std::uint64_t estimate, const
                          human_bytes(estimate) + "; try again shortly",
                      2};
   }
+  touch();
   struct Admitted {
-    Admission& a;
+    Studio& st;
     std::uint64_t bytes;
-    ~Admitted() { a.release(bytes); }
-  } admitted{admission_, estimate};
+    ~Admitted() {
+      st.touch();
+      st.admission_.release(bytes);
+    }
+  } admitted{*this, estimate};
   while (!runs_.try_acquire_for(std::chrono::milliseconds(20)))
     if (ctl.cancelled()) stopped();
   struct Release {
@@ -531,7 +574,9 @@ json Studio::stats() {
                       {"max_upload_pixels", s_.max_upload_pixels}, {"max_session_upload_bytes", s_.max_session_upload_bytes},
                       {"max_upload_total_bytes", s_.max_upload_total_bytes}}},
           {"cancelled", c},
-          {"refused", {{"memory", refused_busy_.load()}}}};
+          {"refused", {{"memory", refused_busy_.load()}}},
+          {"buffer_cache", {{"bytes", cached_buffer_bytes()}, {"limit", buffer_cache_limit()}, {"idle_s", s_.cache_idle_s},
+                            {"releases", buffer_releases_.load()}}}};
 }
 
 void Studio::api_generate(const httplib::Request& req, httplib::Response& res) {
@@ -763,11 +808,15 @@ void Studio::api_upload(const httplib::Request& req, httplib::Response& res) {
     ++refused_busy_;
     throw LimitError{"memory", "the studio is busy: try the upload again shortly", 2};
   }
+  touch();
   struct Admitted {
-    Admission& a;
+    Studio& st;
     std::uint64_t bytes;
-    ~Admitted() { a.release(bytes); }
-  } admitted{admission_, estimate};
+    ~Admitted() {
+      st.touch();
+      st.admission_.release(bytes);
+    }
+  } admitted{*this, estimate};
   Upload u;
   try {
     u.raster = std::make_shared<const Raster>(decode_raster(bytes, name, *format, "body"));

@@ -72,6 +72,10 @@ struct StudioSettings {
   int max_export = 2049;           // samples per axis accepted by export
   std::size_t max_body = 1u << 20; // request body limit in bytes
   std::size_t cache_mib = 512;     // stage-output cache budget
+  // The process-wide buffer cache (relief/terrain.hpp: the large buffers of dropped layers, kept for
+  // the next run) is held to the stage cache's budget here, and freed once no request has run for
+  // this many seconds (0: never), so that an idle studio holds its stage cache, not spare buffers too.
+  int cache_idle_s = 30;
   int threads = 0;                 // generation threads (0 = all cores)
   int max_stages = 64;             // stages per recipe (the presets have at most 10)
   int time_budget_s = 120;         // seconds a generate, steps or export request may run

@@ -627,3 +627,33 @@ test('volume: its requests run beside the same client\'s generate requests (thei
   assert.equal(gen.status, 200, await gen.clone().text());
   assert.ok(volumeCounts(parseGlb(Buffer.from(await vol.arrayBuffer()))).triangles > 0);
 });
+
+test('an idle studio frees its spare layer buffers (--cache-idle), held to the stage cache\'s budget', async () => {
+  const own = await startStudio(['--threads', '2', '--cache-mib', '16', '--cache-idle', '2']);
+  try {
+    const stats = async () => (await (await fetch(own.url + '/api/stats')).json()).buffer_cache;
+    const doc = await (await fetch(`${own.url}/api/presets/island`)).json();
+    doc.world.size = 1025;  // layers of 4.2 MB: above the buffer cache's 4 MiB floor
+    for (const seed of [1, 2]) {
+      doc.seed = seed;
+      const res = await fetch(own.url + '/api/generate', {
+        method: 'POST', headers: { 'Content-Type': 'application/json' }, body: JSON.stringify({ recipe: doc, layers: ['height'] }),
+      });
+      assert.equal(res.status, 200, await res.clone().text());
+      await res.arrayBuffer();
+    }
+    const busy = await stats();
+    assert.equal(busy.limit, 16 * 1024 * 1024);
+    assert.equal(busy.idle_s, 2);
+    assert.ok(busy.bytes > 0 && busy.bytes <= busy.limit, JSON.stringify(busy));
+    let idle = busy;
+    for (let k = 0; k < 100 && !(idle.bytes === 0 && idle.releases >= 1); ++k) {
+      await new Promise((r) => setTimeout(r, 100));
+      idle = await stats();
+    }
+    assert.equal(idle.bytes, 0, JSON.stringify(idle));
+    assert.ok(idle.releases >= 1, JSON.stringify(idle));
+  } finally {
+    assert.equal(await own.stop(), 0, own.stderr());
+  }
+});
