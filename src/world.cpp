@@ -557,6 +557,8 @@ WorldReport build_world(WorldSettings s) {
         const RecipeStage& st = r.stages[phases[k].first];
         const auto needs = s.algorithm_needs.find(st.def->name);  // the caller's figures, when given
         if (needs != s.algorithm_needs.end() && needs->second) return needs->second(st, grid).scratch_bytes;
+        // The default stream power's files grow with the stage's steps and are none for a masked stage.
+        if (st.def->name == "stream_power") return world_stream_power_needs()(st, grid).scratch_bytes;
         return world_scratch_bytes(*st.def, grid.nx, grid.nz);
       };
       std::uint64_t stores = store_estimate(phase_layers[0]) + scratch(0);
@@ -608,8 +610,8 @@ WorldReport build_world(WorldSettings s) {
         const auto needs = s.algorithm_needs.find(st.def->name);  // the caller's figures, when given
         if (needs != s.algorithm_needs.end() && needs->second && s.algorithms.count(st.def->name))
           phase = needs->second(st, grid).memory_bytes;
-        else if (st.def->name == "stream_power")
-          phase = world_stream_power_memory_bytes(grid.nx, grid.nz, st.stage->params().value("steps", 1));
+        else if (st.def->name == "stream_power")  // the default algorithm's figures (a masked stage does not refine)
+          phase = world_stream_power_needs()(st, grid).memory_bytes;
         else if (st.def->name == "hydraulic")
           phase = world_hydraulic_memory_bytes(frame, grid.tile, st.stage->params(), threads);
         else

@@ -584,7 +584,7 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
         float cells;
       };
       // The lists go to a temporary file as they are made, block after block for each snapshot
-      // (memory: the coarse grid's receivers and one list; the index, 12 bytes per block and
+      // (memory: the coarse grid's receivers and one list; the index, 16 bytes per block and
       // snapshot). A block's list holds its entries in the order of the coarse cells d: its own
       // scan covers every d whose receiver can be inside its window (a D8 neighbour of d, so d
       // within one coarse cell of the coarse cells inside).
@@ -725,7 +725,7 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
       // segments its neighbours wrote for it and sums them in block order, as the blocks' shares
       // were summed in memory before (the same float sums, bit for bit). Memory: one block's
       // segments and one block's History; the index (a segment's offset per block and neighbour
-      // slot, 72 bytes per block).
+      // slot, 72 bytes per block and file, two files).
       std::unique_ptr<TempFile> records[2];
       std::vector<std::array<std::uint64_t, 9>> offsets[2];
       if (sweeps > 1)

@@ -537,3 +537,30 @@ TEST(SeamMetrics, RefusesMismatchedSizesAndSeesAStep) {
   EXPECT_GT(m.rms_fraction, 0.0);
   EXPECT_EQ(seam_metrics(whole, whole, g, 1, f).rms_all, 0.0);
 }
+
+// The default stream power refines above 2049² samples: its temporary files grow with the stage's
+// steps (the sweeps' ring records, per step), and a masked stage, which is not refined, has none.
+// The disk check counts them from the recipe's own stage (dry runs of a 2305² world: seconds each,
+// which is why this test is here, in a file labelled slow).
+TEST(StreamPowerWorld, TheDiskEstimateCountsItsStepsAndMask) {
+  relief::test::TempDir d("world-sp-disk");
+  auto estimate = [&](int steps, const std::string& mask) {
+    json doc = load_preset("eroded-mountains");
+    for (auto& st : doc["stages"])
+      if (st["stage"] == "stream_power") {
+        st["steps"] = steps;
+        if (!mask.empty()) st["mask"] = mask;
+      }
+    if (!mask.empty()) doc["stages"].insert(doc["stages"].begin() + 1, json{{"stage", "mask"}, {"layer", mask}});
+    WorldSettings s;
+    s.recipe = parse_recipe(doc);
+    s.nx = s.nz = 2305;
+    s.tile = 257;
+    s.out_dir = (d / "w");
+    s.dry_run = true;
+    return build_world(s).estimated_bytes;
+  };
+  const std::uint64_t few = estimate(50, ""), many = estimate(500, ""), masked = estimate(500, "m");
+  EXPECT_GT(many, few + (std::uint64_t(100) << 20)) << few << " " << many;  // ring records: about 0.4 MB per step at 2305²
+  EXPECT_LT(masked + (std::uint64_t(100) << 20), many) << masked << " " << many;
+}

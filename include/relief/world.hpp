@@ -248,7 +248,9 @@ struct WorldStageIO {
   // round), flow (its passes over every tile take fixed spans; its Strahler/carving rounds split
   // their span as fill's rounds do), volcano and features (a step per tile they store, in order),
   // hydraulic (a step per tile read, per group of blocks of each of its 16 passes, per tile written),
-  // stream power (its gathering pass [0, 0.3), coarse solve to 0.4, writing pass [0.4, 1]).
+  // stream power (refining: its gathering pass [0, 0.1), coarse solve to 0.2, the sweeps' blocks to
+  // 0.9, the fill across tiles to 0.97, writing pass [0.97, 1]; not refining: gathering [0, 0.3),
+  // coarse solve to 0.4, writing pass [0.4, 1]).
   std::function<void(double fraction)> progress;
   // Distributed builds: the ranks that run the phase's tile solves with this one (src/world_farm.hpp;
   // the fill algorithm uses it). Null outside build_world; one rank without MPI.
@@ -277,8 +279,8 @@ struct WorldGuarantee {
 WorldGuarantee world_guarantee(const StageDef& stage);
 // The disk the library's world algorithm of `stage` uses besides the tile stores while it runs, in
 // WorldStageIO::scratch_dir, for an nx × nz world (hydraulic: the world's heights, 4 bytes per
-// sample; stream_power: 0, as the default algorithm does not refine (a refining one needs its
-// world_stream_power_scratch_bytes, which this does not see: WorldSettings::algorithm_needs);
+// sample; stream_power: the default algorithm's files at 100 steps, world_stream_power_scratch_bytes
+// (build_world's check takes the stage's own steps and mask through world_stream_power_needs);
 // 0 for the others). build_world's disk check adds it to the stores that coexist then.
 std::uint64_t world_scratch_bytes(const StageDef& stage, std::int64_t nx, std::int64_t nz);
 // What a caller's world algorithm (WorldSettings::algorithms) needs besides the tiles while its
