@@ -19,6 +19,7 @@
 #include "relief/hydrology.hpp"
 #include "relief/pipeline.hpp"
 #include "relief/world.hpp"
+#include "relief/world_bounded.hpp"
 #include "support.hpp"
 #include "world_internal.hpp"
 #include "world_support.hpp"
@@ -152,6 +153,41 @@ TEST(WorldExact, BytesDoNotDependOnTheThreadCount) {
   EXPECT_EQ(ra.tiles_at_once, 1);
   EXPECT_EQ(rb.tiles_at_once, 2);  // tile-parallel
   expect_same_store(a.path / "w", b.path / "w");
+}
+
+// Stream power's refinement (relief/world_bounded.hpp) on a world small enough for the sanitizer
+// pass (the refinement's own tests are in the slow test_world_bounded): a 257² world with a coarse
+// grid of 65², blocks of 64 grown by 16, 3 sweeps (so the ring records go through both temporary
+// files), 5 steps. Its store does not depend on the tile size or the thread count, and it drains.
+TEST(WorldBounded, SmallStreamPowerRefinementIsTheSameForAnyTileAndThreadCount) {
+  json doc = preset_doc("eroded-mountains");
+  json stages = json::array();
+  for (const json& st : doc["stages"]) {
+    stages.push_back(st);
+    if (st["stage"] == "stream_power") {
+      stages.back()["steps"] = 5;
+      break;
+    }
+  }
+  doc["stages"] = stages;
+  const Recipe r = recipe_of(doc);
+  auto build = [&](int tile, int threads, const fs::path& dir) {
+    WorldSettings s = settings(r, 257, 257, tile, dir.string(), threads);
+    s.algorithms["stream_power"] = world_stream_power(65, 64, 16, 3);
+    return build_world(s);
+  };
+  TempDir a("world-sp-a"), b("world-sp-b");
+  build(65, 2, a / "w");
+  build(129, 1, b / "w");
+  const Terrain t = read_world_window(a / "w", 0, 0, 257, 257);
+  expect_same_layers(t, read_world_window(b / "w", 0, 0, 257, 257));
+  EXPECT_TRUE(hydro::already_drains<float>(t.get("height").data.data(), 257, 257, float(t.frame.sea_level)));
+  // Against the coarse change alone (sweeps 0), the refinement changes the heights.
+  TempDir c("world-sp-c");
+  WorldSettings s = settings(r, 257, 257, 65, c / "w", 2);
+  s.algorithms["stream_power"] = world_stream_power(65, 64, 16, 0);
+  build_world(s);
+  EXPECT_NE(read_world_window(c / "w", 0, 0, 257, 257).get("height").data, t.get("height").data);
 }
 
 // ---- the store -----------------------------------------------------------------------------------
