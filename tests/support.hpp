@@ -189,4 +189,22 @@ inline Recipe preset_recipe(const std::string& name, int size, std::uint64_t see
   return parse_recipe(doc);
 }
 
+// A suite whose tests share files made once, by Derived::prepare() (public, static), called by the
+// first test that runs rather than from SetUpTestSuite: GoogleTest turns a failure in
+// SetUpTestSuite into a skip of every test of the suite, which CTest counts as skipped, not failed.
+// Here the first test fails with it, and the others fail at once.
+template <class Derived>
+class SharedFilesTest : public ::testing::Test {
+ protected:
+  static inline bool prepared_ = false, prepare_failed_ = false;
+  void SetUp() override {
+    if (!prepared_) {
+      prepared_ = prepare_failed_ = true;  // stays true if prepare() throws
+      Derived::prepare();
+      prepare_failed_ = HasFailure();
+    }
+    ASSERT_FALSE(prepare_failed_) << "the suite's shared files could not be made: see the first test's failure";
+  }
+};
+
 }  // namespace relief::test

@@ -41,23 +41,13 @@ using relief::test::slurp;
 constexpr int kSize = 65, kChunk = 32;
 
 // Writes every mesh and map variant once for all tests of this file.
-class Clients : public ::testing::Test {
+class Clients : public relief::test::SharedFilesTest<Clients> {
  protected:
   static inline fs::path dir;
   static inline Terrain terrain;
   static inline std::size_t prop_vertices = 0, prop_triangles = 0;
 
-  // The shared files are made by the first test that runs, not in SetUpTestSuite: GoogleTest turns a
-  // failure there into a skip of every test of the suite, which CTest counts as skipped, not failed.
-  static inline bool prepared_ = false, prepare_failed_ = false;
-  void SetUp() override {
-    if (!prepared_) {
-      prepared_ = prepare_failed_ = true;
-      prepare();
-      prepare_failed_ = HasFailure();
-    }
-    ASSERT_FALSE(prepare_failed_) << "the suite's shared files could not be made: see the first test's failure";
-  }
+ public:
   static void prepare() {
     dir = fs::temp_directory_path() / ("relief_clients_" + std::to_string(::getpid()));
     fs::remove_all(dir);

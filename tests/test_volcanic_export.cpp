@@ -32,21 +32,11 @@ long assimp_count(const std::string& out, const char* label) {
   return -1;
 }
 
-class VolcanicExport : public ::testing::Test {
+class VolcanicExport : public relief::test::SharedFilesTest<VolcanicExport> {
  protected:
   static fs::path dir;
   static json props;
-  // The shared files are made by the first test that runs, not in SetUpTestSuite: GoogleTest turns a
-  // failure there into a skip of every test of the suite, which CTest counts as skipped, not failed.
-  static inline bool prepared_ = false, prepare_failed_ = false;
-  void SetUp() override {
-    if (!prepared_) {
-      prepared_ = prepare_failed_ = true;
-      prepare();
-      prepare_failed_ = HasFailure();
-    }
-    ASSERT_FALSE(prepare_failed_) << "the suite's shared files could not be made: see the first test's failure";
-  }
+ public:
   static void prepare() {
     dir = fs::temp_directory_path() / ("relief-volcanic-" + std::to_string(::getpid()));
     fs::remove_all(dir);

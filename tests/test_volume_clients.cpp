@@ -24,22 +24,12 @@ using relief::test::slurp;
 
 namespace {
 
-class VolumeClients : public ::testing::Test {
+class VolumeClients : public relief::test::SharedFilesTest<VolumeClients> {
  protected:
   static inline fs::path dir;
   static inline long triangles = 0, chunks = 0;
 
-  // The shared files are made by the first test that runs, not in SetUpTestSuite: GoogleTest turns a
-  // failure there into a skip of every test of the suite, which CTest counts as skipped, not failed.
-  static inline bool prepared_ = false, prepare_failed_ = false;
-  void SetUp() override {
-    if (!prepared_) {
-      prepared_ = prepare_failed_ = true;
-      prepare();
-      prepare_failed_ = HasFailure();
-    }
-    ASSERT_FALSE(prepare_failed_) << "the suite's shared files could not be made: see the first test's failure";
-  }
+ public:
   static void prepare() {
     dir = fs::temp_directory_path() / ("relief_volume_clients_" + std::to_string(::getpid()));
     fs::remove_all(dir);
