@@ -930,8 +930,9 @@ TEST(Cellular, CellsDoNotRepeatTheirPointReflectionAboutTheLatticeOrigin) {
 // every 8th sample: columns X − 1 and X tie (four ways on the tied rows). 20 samples (the per-sample
 // kernel), 400 (the rows kernel) and blocks of rows (Noise::rows), every forced target, every return,
 // bit for bit against the reference; the reference against the definition (CellValue: its first
-// owner); the ties checked to happen (F2 − F1 = −1 exactly: d2 = d1). A rows kernel whose last equal
-// distance wins fails here (checked on AVX2 and AVX3).
+// owner); the ties checked to happen (F2 − F1 = −1 exactly: d2 = d1). A kernel whose last equal
+// distance wins fails here (checked: the rows kernel on AVX2 and AVX3, the per-sample kernel on
+// every target; the dense grids above pass with either).
 TEST(Cellular, TiesAreOwnedByTheFirstInBlockOrderOnEveryTarget) {
   const std::uint64_t seed = 7;
   double ox, oz;
