@@ -362,7 +362,10 @@ inline float simplex_cell(const SRow& r, const SCol& c, float sc) {
 // 32-bit labels). Per octave, u = x·fₓ + offₓ and v = z·f_z + off_z are split in double as gaxis:
 // X = ⌊u⌋ modulo 2³² (wrapped into [0, P) with a period; neighbours X ± 1 modulo 2³², or modulo P),
 // fx = float(u − ⌊u⌋) ∈ [0, 1] (1.0f just below an integer), the same for v → (Z, fy).
-//   Hash of cell (X′, Z′): s = X′·Pₓ ⊕ (Z′·P_z ⊕ key32) (the z part hoisted per row), the point's
+//   Hash of cell (X′, Z′): s = X′·Pₓ + (Z′·P_z ⊕ key32) modulo 2³² (the z part hoisted per row; a sum,
+//   not Gradient's ⊕: with ⊕, s(−X′, −Z′) = s(X′, Z′) whenever X′ and Z′ have as many trailing zero
+//   bits, since −a = a ⊕ (ones above a's lowest set bit), and a third of the cells copied their
+//   point reflection about the lattice origin; issue 17), the point's
 //   h = cell_mix32(s), the cell value's c = cell_mix32(s ⊕ kCellCvKey) (noise_simd.hpp).
 //   Feature point, one per cell: ox = J·(float(h >> 16)·2⁻¹⁶ − ½), oy = J·(float(h & 0xFFFF)·2⁻¹⁶
 //   − ½) (J = float(jitter); only the product rounds), seen from the sample's cell at offsets
@@ -417,7 +420,7 @@ inline float cellular_cell(const CRow& r, const CCol& c, float J, CellularReturn
   std::uint32_t s1 = 0;
   for (int b = 0; b < 3; ++b) {
     for (int a = 0; a < 3; ++a) {
-      const std::uint32_t s = c.xp[a] ^ r.zp[b];
+      const std::uint32_t s = c.xp[a] + r.zp[b];
       const std::uint32_t h = detail::cell_mix32(s);
       const float px = (float(a - 1) + 0.5f) + coff_x(h, J);
       const float py = (float(b - 1) + 0.5f) + coff_y(h, J);

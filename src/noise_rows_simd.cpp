@@ -788,7 +788,7 @@ void CellBuild(const NoiseOctave& o, float J, const std::uint32_t (&zl)[3], Cell
     const std::int64_t c = s.base + e;
     const std::uint32_t xp = std::uint32_t(o.period_x ? WrapI(c, o.period_x) : c) * kGradPx;
     for (int b = 0; b < 3; ++b) {
-      const std::uint32_t sh = xp ^ zp[b];
+      const std::uint32_t sh = xp + zp[b];  // noise.cpp's pre-hash (a sum)
       const std::uint32_t h = cell_mix32(sh);
       const float ox = J * (float(h >> 16) * kCell2m16 - 0.5f), oy = J * (float(h & 0xFFFFu) * kCell2m16 - 0.5f);
       for (int a = 0; a < 3; ++a) {
@@ -933,7 +933,11 @@ void CellularRows(const NoiseKernelArgs& a, const double* z, int nrows, int n, f
 // the window (more than about a cell per sample: up to 72 bytes of tables per cell otherwise, for
 // little gain over the per-sample kernel). Then the block's x-only terms (CellColumns).
 bool CellularPrepare(const NoiseKernelArgs& a, std::int64_t i0, double dx, int n, int L, CellOctaveState* st) {
-  const int np = (n + 31) / 32 * 32;
+  // The tables are indexed in int (entries up to R ≤ n + 67, offsets up to 9·R, codes 4·e0): rows of
+  // more than 2²⁶ samples (a 256 MB row; about 5 GB of tables) take the per-sample kernel instead of
+  // overflowing them, as does n + 31 near INT_MAX.
+  if (n > (1 << 26)) return false;
+  const int np = int((std::int64_t(n) + 31) / 32 * 32);
   std::size_t total = 0;
   for (int k = 0; k < a.count; ++k) {
     const NoiseOctave& o = a.octaves[k];

@@ -896,8 +896,8 @@ HWY_NOINLINE void RowSimplex(const NoiseKernelArgs& a, double z, std::int64_t i0
 // ---- Cellular (Worley, 3×3 search; float after the lattice split) -----------------------------------
 
 // noise.cpp's cellular_cell on 2·Lanes(double) samples: the lattice split of GAxis (x per sample; z
-// per row when hoisted), Gradient's 32-bit labels and pre-hash, cell_mix32, the feature points and
-// the fold in float, the same operations in the same order.
+// per row when hoisted), Gradient's 32-bit labels, the pre-hash X′·Pₓ + (Z′·P_z ⊕ key32), cell_mix32,
+// the feature points and the fold in float, the same operations in the same order.
 struct CellRowV {
   VU32 zp[3];  // Z′·P_z ⊕ key32 of lattice rows Z − 1, Z, Z + 1 (wrapped)
   VF fy;
@@ -948,7 +948,7 @@ HWY_INLINE VF CellEval(const NoiseOctave& o, const CellRowV& r, const VD (&u)[kH
   VF d1 = inf, d2 = inf;
   VU32 s1 = hn::Zero(du32);
   auto visit = [&](int a, int b) {
-    const VU32 s = hn::Xor(xp[a], r.zp[b]);
+    const VU32 s = hn::Add(xp[a], r.zp[b]);  // noise.cpp's pre-hash (a sum, modulo 2³²)
     const VU32 h = CellMix32(s);
     const VF hx = hn::ConvertTo(df, hn::BitCast(di32, hn::ShiftRight<16>(h)));
     const VF hy = hn::ConvertTo(df, hn::BitCast(di32, hn::And(h, lo16)));

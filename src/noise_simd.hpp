@@ -79,11 +79,12 @@ inline float ridged_scale(double amp) { return float(std::sqrt(amp)); }
 // (ridged: by ridge_scale·2⁻²³, exact) after the blend.
 constexpr float kValueScale = 0x1p-23f;
 
-// Cellular (noise.cpp, "Cellular basis"): Gradient's lattice split and pre-hash
-// s = X·Pₓ ⊕ Z·P_z ⊕ key32, finished by cell_mix32 (lowbias32's second half after Gradient's
-// multiply: two multiplies, two xor-shifts; a bijection of the 32-bit words). The feature point's
-// offsets are its top and low 16 bits, ·2⁻¹⁶ − ½, ·jitter; the cell value is
-// cell_mix32(s ⊕ kCellCvKey)'s top 24 bits as a signed integer ·2⁻²³, Value's lattice value.
+// Cellular (noise.cpp, "Cellular basis"): Gradient's lattice split; the pre-hash
+// s = X·Pₓ + (Z·P_z ⊕ key32) modulo 2³² (a sum, not Gradient's ⊕: issue 17), finished by cell_mix32
+// (lowbias32's second half after Gradient's multiply: two multiplies, two xor-shifts; a bijection of
+// the 32-bit words). The feature point's offsets are its top and low 16 bits, ·2⁻¹⁶ − ½, ·jitter;
+// the cell value is cell_mix32(s ⊕ kCellCvKey)'s top 24 bits as a signed integer ·2⁻²³, Value's
+// lattice value.
 constexpr std::uint32_t kCellM = 0x7FEB352Du;
 constexpr std::uint32_t kCellCvKey = 0x5BD1E995u;
 constexpr float kCell2m16 = 1.0f / 65536.0f;            // 2⁻¹⁶

@@ -186,8 +186,9 @@ TEST(SimdTargets, SimplexAndPerlinDenseGridsBitIdenticalToScalarReference) {
 // Cellular F1 visits the 3×3 neighbourhood own cell first and skips neighbours that cannot come
 // closer (a bound on the feature points' position, per jitter, shrunk by 2⁻¹⁸ for float rounding);
 // the rows kernel culls each cell's candidates by float bounds (noise_rows_simd.cpp, CellLists).
-// Dense grids for every return at several jitters, including 0 (every point at its cell's centre:
-// equal distances everywhere) and with a period, must still give the reference's bits.
+// Dense grids for every return at several jitters, including 0 (every point at its cell's centre),
+// and with a period, must still give the reference's bits. (No distances tie here: the random
+// per-octave offsets never put fx or fy on 0, ½ or 1; CellularTies below makes them tie.)
 TEST(SimdTargets, CellularDenseGridsBitIdenticalToScalarReference) {
   for (const auto& t : detail::noise_simd_targets()) {
     ForceTarget f(t.bits);
@@ -724,10 +725,12 @@ TEST(Simplex, MatchesItsDefinitionEvaluatedIndependently) {
 // ---- Cellular: the definition, and the hash's independence ------------------------------------------
 
 // The definition (noise.cpp, "Cellular basis"), evaluated independently in double: the cell
-// labels ⌊u⌋ + a modulo 2³², lowbias32's second half after Gradient's multiply, the feature point
-// X + ½ + J·(hi16·2⁻¹⁶ − ½) (likewise z with the low 16 bits), the two smallest distances over the
-// 3×3 block, against Noise::at: equal to float precision near the origin and a billion metres out
-// (the float offsets are relative to the cell; the position's size stays in the double split).
+// labels ⌊u⌋ + a modulo 2³², the pre-hash s = X·Pₓ + (Z·P_z ⊕ key32) modulo 2³², lowbias32's
+// second half after Gradient's multiply, the feature point X + ½ + J·(hi16·2⁻¹⁶ − ½) (likewise z
+// with the low 16 bits), the two smallest distances over the 3×3 block (the owner the first with the
+// smallest, b outer, a inner; CellValue the top 24 bits of mix32(s_owner ⊕ 0x5BD1E995) ·2⁻²³),
+// against Noise::at: equal to float precision near the origin and a billion metres out (the float
+// offsets are relative to the cell; the position's size stays in the double split).
 // Octave 0's offsets and key are those of make_octave (noise.cpp).
 std::uint32_t mix32_by_definition(std::uint32_t t) {
   t *= 0x27D4EB2Fu;
@@ -746,16 +749,18 @@ double cellular_by_definition(std::uint64_t seed, double f, double jitter, Cellu
   const double fx = u - fu, fy = v - fv;  // in the sample's cell
   const std::int64_t i = std::int64_t(fu), j = std::int64_t(fv);
   double d1 = HUGE_VAL, d2 = HUGE_VAL;
+  std::uint32_t s1 = 0;
   for (int b = -1; b <= 1; ++b)
     for (int a = -1; a <= 1; ++a) {
-      const std::uint32_t h = mix32_by_definition((std::uint32_t(i + a) * 0x9E3779B1u) ^
-                                                  (std::uint32_t(j + b) * 0x85EBCA6Bu) ^ key32);
+      const std::uint32_t s = std::uint32_t(i + a) * 0x9E3779B1u + ((std::uint32_t(j + b) * 0x85EBCA6Bu) ^ key32);
+      const std::uint32_t h = mix32_by_definition(s);
       const double px = a + 0.5 + jitter * (double(h >> 16) / 65536.0 - 0.5);
       const double py = b + 0.5 + jitter * (double(h & 0xFFFFu) / 65536.0 - 0.5);
       const double d = (px - fx) * (px - fx) + (py - fy) * (py - fy);
       if (d < d1) {
         d2 = d1;
         d1 = d;
+        s1 = s;
       } else if (d < d2) {
         d2 = d;
       }
@@ -763,11 +768,13 @@ double cellular_by_definition(std::uint64_t seed, double f, double jitter, Cellu
   switch (ret) {
     case CellularReturn::F1: return 2.0 * std::min(std::sqrt(d1), 1.0) - 1.0;
     case CellularReturn::F2: return 2.0 * std::min(std::sqrt(d2) / 1.5, 1.0) - 1.0;
-    default: return 2.0 * std::min(std::sqrt(d2) - std::sqrt(d1), 1.0) - 1.0;
+    case CellularReturn::F2MinusF1: return 2.0 * std::min(std::sqrt(d2) - std::sqrt(d1), 1.0) - 1.0;
+    case CellularReturn::CellValue: break;
   }
+  return double(std::int32_t(mix32_by_definition(s1 ^ 0x5BD1E995u)) >> 8) * 0x1p-23;
 }
 TEST(Cellular, MatchesItsDefinitionEvaluatedIndependently) {
-  for (CellularReturn ret : {CellularReturn::F1, CellularReturn::F2, CellularReturn::F2MinusF1})
+  for (CellularReturn ret : kReturns)
     for (double jitter : {1.0, 0.7})
       for (double far : {0.0, 1e9, -3.7e8}) {
         const std::uint64_t seed = 43;
@@ -807,12 +814,12 @@ TEST(Cellular, HashOffsetsUniformAndUncorrelated) {
   std::vector<double> v[7];  // ox, oy, cell value, right ox, right oy, upper ox, upper oy
   for (auto& w : v) w.reserve(count);
   auto point = [&](std::uint32_t X, std::uint32_t Z, double& px, double& py) {
-    const std::uint32_t h = detail::cell_mix32((X * detail::kGradPx) ^ (Z * detail::kGradPz) ^ key32);
+    const std::uint32_t h = detail::cell_mix32(X * detail::kGradPx + ((Z * detail::kGradPz) ^ key32));
     px = double(h >> 16) * detail::kCell2m16 - 0.5;
     py = double(h & 0xFFFFu) * detail::kCell2m16 - 0.5;
   };
   auto hash = [&](std::uint32_t X, std::uint32_t Z) {
-    return detail::cell_mix32((X * detail::kGradPx) ^ (Z * detail::kGradPz) ^ key32);
+    return detail::cell_mix32(X * detail::kGradPx + ((Z * detail::kGradPz) ^ key32));
   };
   int same_right[32] = {}, same_up[32] = {};
   for (int i = 0; i < count; ++i) {
@@ -827,7 +834,7 @@ TEST(Cellular, HashOffsetsUniformAndUncorrelated) {
     point(X, Z, ox, oy);
     point(X + 1u, Z, rx, ry);
     point(X, Z + 1u, ux, uy);
-    const std::uint32_t s = (X * detail::kGradPx) ^ (Z * detail::kGradPz) ^ key32;
+    const std::uint32_t s = X * detail::kGradPx + ((Z * detail::kGradPz) ^ key32);
     const double cv = double(std::int32_t(detail::cell_mix32(s ^ detail::kCellCvKey)) >> 8) * 0x1p-23;
     hx[std::size_t((ox + 0.5) * bins)] += 1.0 / count;
     hy[std::size_t((oy + 0.5) * bins)] += 1.0 / count;
@@ -868,6 +875,123 @@ TEST(Cellular, HashOffsetsUniformAndUncorrelated) {
               ks(hx, uni), ks(hy, uni), worst, bit_worst);
   EXPECT_LT(ks(hx, uni), 0.01);
   EXPECT_LT(ks(hy, uni), 0.01);
+}
+
+// Octave 0's lattice offsets (make_octave in noise.cpp; cellular_by_definition above).
+void octave0_offsets(std::uint64_t seed, double& ox, double& oz) {
+  constexpr std::uint64_t kTagOffset = 0x6f6666736574ull;
+  ox = 256.0 * unit_double(hash64(seed, kTagOffset, 0));
+  oz = 256.0 * unit_double(hash64(seed, kTagOffset, 1));
+}
+
+// Issue 17: with Gradient's pre-hash X·Pₓ ⊕ Z·P_z ⊕ key, s(−X, −Z) = s(X, Z) whenever X and Z have
+// as many trailing zero bits (−a = a ⊕ the ones above a's lowest set bit, and Pₓ, P_z are odd), so
+// a third of the cells around the lattice origin copied their point reflection (offsets and value).
+// The cell values of octave 0's 256² cells X, Z ∈ [−128, 128) through Noise::at (frequency 1,
+// jitter 0, each cell sampled at its centre: the own point at distance 0 owns it): the values
+// repeated (cells minus distinct values) are about N²/2²⁵ = 128 for a random 24-bit value (the ⊕
+// form: about 11,000), and no cell equals its reflection (random: 3·10⁻³ expected; ⊕: about 11,000).
+TEST(Cellular, CellsDoNotRepeatTheirPointReflectionAboutTheLatticeOrigin) {
+  for (std::uint64_t seed : {43ull, 2024ull}) {
+    NoiseSettings s = single(NoiseBasis::Cellular, seed, 1.0);
+    s.cellular = CellularReturn::CellValue;
+    s.jitter = 0.0;
+    const Noise n(s);
+    double ox, oz;
+    octave0_offsets(seed, ox, oz);
+    constexpr int kHalf = 128, kSide = 2 * kHalf;
+    std::vector<float> v(std::size_t(kSide) * kSide);
+    for (int Z = -kHalf; Z < kHalf; ++Z)
+      for (int X = -kHalf; X < kHalf; ++X)
+        v[std::size_t(Z + kHalf) * kSide + std::size_t(X + kHalf)] = n.at(X + 0.5 - ox, Z + 0.5 - oz);
+    int reflected = 0;
+    for (int Z = -kHalf + 1; Z < kHalf; ++Z)
+      for (int X = -kHalf + 1; X < kHalf; ++X)
+        if ((X != 0 || Z != 0) && v[std::size_t(Z + kHalf) * kSide + std::size_t(X + kHalf)] ==
+                                      v[std::size_t(-Z + kHalf) * kSide + std::size_t(-X + kHalf)])
+          ++reflected;
+    std::vector<float> sorted = v;
+    std::sort(sorted.begin(), sorted.end());
+    const int repeats = int(sorted.size()) - int(std::unique(sorted.begin(), sorted.end()) - sorted.begin());
+    std::printf("cellular seed %llu: %d of %d cell values repeated (random 24-bit values: about 128), %d cells "
+                "equal to their point reflection (counted from both sides)\n",
+                static_cast<unsigned long long>(seed), repeats, kSide * kSide, reflected);
+    EXPECT_LE(repeats, 256) << seed;
+    EXPECT_LE(reflected, 2) << seed;
+    EXPECT_GT(sorted.back() - sorted.front(), 1.9f) << seed;  // values spread over [−1, 1)
+  }
+}
+
+// Ties (noise.hpp: equal distances are owned by the first of the 3×3 block, offsets b outer along z,
+// a inner along x). Frequency 1, jitter 0: every feature point at its cell's centre. The row
+// z = ⌈off_z⌉ − off_z puts v on an integer (fy = 0): rows Z − 1 and Z tie for every sample. Just
+// below 2⁴⁹ cells (i0 = 2⁵² − 4096, dx = ⅛) u = x + off_x is rounded to a multiple of 1/16, x is one
+// of ⅛, so fx = k/8 + (off_x rounded to 1/16 modulo ⅛): for this seed that residue is 0 and fx = 0
+// every 8th sample: columns X − 1 and X tie (four ways on the tied rows). 20 samples (the per-sample
+// kernel), 400 (the rows kernel) and blocks of rows (Noise::rows), every forced target, every return,
+// bit for bit against the reference; the reference against the definition (CellValue: its first
+// owner); the ties checked to happen (F2 − F1 = −1 exactly: d2 = d1). A kernel whose last equal
+// distance wins fails here (checked: the rows kernel on AVX2 and AVX3, the per-sample kernel on
+// every target; the dense grids above pass with either).
+TEST(Cellular, TiesAreOwnedByTheFirstInBlockOrderOnEveryTarget) {
+  const std::uint64_t seed = 7;
+  double ox, oz;
+  octave0_offsets(seed, ox, oz);
+  const double zt = std::ceil(oz) - oz;  // exact; zt + oz = ⌈oz⌉ exactly
+  ASSERT_EQ(zt + oz, std::ceil(oz));
+  struct W {
+    std::int64_t i0;
+    double dx;
+    std::vector<double> z;
+    int min_ties;  // samples with d2 = d1 expected per row of 20 (0: not checked)
+  };
+  const std::int64_t far = (std::int64_t(1) << 52) - 4096;  // the rows kernel takes i0 + n < 2⁵²
+  const W windows[] = {{-37, 0.37, {zt, zt + 1.0, zt - 3.0}, 20},
+                       {far, 0.125, {zt, zt + 2.0}, 20},
+                       {far, 0.125, {0.3, zt + 0.5, -7.77}, 2}};
+  for (const auto& t : detail::noise_simd_targets()) {
+    ForceTarget f(t.bits);
+    for (CellularReturn ret : kReturns) {
+      NoiseSettings s = single(NoiseBasis::Cellular, seed, 1.0);
+      s.cellular = ret;
+      s.jitter = 0.0;
+      const Noise n(s);
+      for (const W& w : windows)
+        for (int len : {20, 400}) {
+          const int rows = int(w.z.size());
+          std::vector<float> block(std::size_t(len) * std::size_t(rows), -5.0f);
+          n.rows(w.z.data(), rows, w.i0, w.dx, len, block.data(), len);
+          for (int r = 0; r < rows; ++r) {
+            const double z = w.z[std::size_t(r)];
+            std::vector<float> got(std::size_t(len), -6.0f), ref(std::size_t(len), -7.0f);
+            n.row(z, w.i0, w.dx, len, got.data());
+            n.row_reference(z, w.i0, w.dx, len, ref.data());
+            const std::string what = t.name + " return " + std::to_string(int(ret)) + " i0 " +
+                                     std::to_string(w.i0) + " n " + std::to_string(len) + " z " + std::to_string(z);
+            int bad = 0, ties = 0, def_bad = 0;
+            for (int i = 0; i < len; ++i) {
+              const float* b = block.data() + std::size_t(r) * std::size_t(len);
+              if (std::memcmp(&got[std::size_t(i)], &ref[std::size_t(i)], 4) != 0 ||
+                  std::memcmp(b + i, &ref[std::size_t(i)], 4) != 0) {
+                if (bad++ == 0)
+                  ADD_FAILURE() << what << " sample " << i << ": row " << got[std::size_t(i)] << " rows " << b[i]
+                                << " reference " << ref[std::size_t(i)];
+              }
+              const double x = double(w.i0 + i) * w.dx;
+              const double def = cellular_by_definition(seed, 1.0, 0.0, ret, x, z);
+              if (!(std::fabs(double(ref[std::size_t(i)]) - def) <= 2e-5) && def_bad++ == 0)
+                ADD_FAILURE() << what << " sample " << i << ": reference " << ref[std::size_t(i)] << " definition " << def;
+              if (ret == CellularReturn::F2MinusF1 && ref[std::size_t(i)] == -1.0f) ++ties;
+            }
+            EXPECT_EQ(bad, 0) << what;
+            EXPECT_EQ(def_bad, 0) << what;
+            if (ret == CellularReturn::F2MinusF1 && w.min_ties > 0) {
+              EXPECT_GE(ties, w.min_ties * len / 20) << what;  // the distances really tie
+            }
+          }
+        }
+    }
+  }
 }
 
 }  // namespace

@@ -128,10 +128,13 @@ class NoiseColumns {
 //             top 24 bits of hash32((X·Pₓ) ⊕ (Z·P_z ⊕ keyₖ)) as a signed integer times 2⁻²³.
 //   Cellular  Worley on Gradient's lattice (the same split in double, float after it, the same
 //             period support): one feature point per cell at its centre + jitter·(U − ½, V − ½),
-//             U and V the top and low 16 bits of h = mix32((X·Pₓ) ⊕ (Z·P_z ⊕ keyₖ)) times 2⁻¹⁶
-//             (mix32: Gradient's multiply, then lowbias32's xor-shift, multiply, xor-shift), the
-//             distances in float over the 3×3 block; F1, F2 the two smallest. F1 is exact after
-//             clamping to 1 cell. F2, F2−F1 and (only where F1 ≥ 1 cell) CellValue can differ
+//             U and V the top and low 16 bits of h = mix32(s) times 2⁻¹⁶, s = X·Pₓ + (Z·P_z ⊕ keyₖ)
+//             modulo 2³² (a sum: Value's ⊕ made a third of the cells repeat their point
+//             reflection about the lattice origin; mix32: Gradient's multiply, then lowbias32's
+//             xor-shift, multiply, xor-shift), the distances in float over the 3×3 block; F1, F2
+//             the two smallest; the owner (whose CellValue is returned) is, on equal distances,
+//             the first of the block in row-major order (offset b = −1, 0, 1 outer along z,
+//             a = −1, 0, 1 inner along x). F1 is exact after clamping to 1 cell. F2, F2−F1 and (only where F1 ≥ 1 cell) CellValue can differ
 //             from an exhaustive search in the rare cases where the point they need lies outside
 //             the 3×3 block. CellValue: the top 24 bits of mix32(s ⊕ 0x5BD1E995) (s the owning
 //             cell's pre-hash) as a signed integer times 2⁻²³. Continuous to float rounding:
