@@ -11,7 +11,6 @@
 
 #include "relief/terrain.hpp"
 
-
 #if defined(__unix__)
 #include <pthread.h>
 #include <unistd.h>
@@ -116,17 +115,17 @@ struct Cache {
 // moment (a layer freed or made on a TBB worker, a Python thread), the child's first large layer
 // would wait for it forever (Python's multiprocessing forks by default on Linux). The handlers take
 // the lock around the fork, so the child starts with it free.
-Cache* g_cache = nullptr;
-void lock_for_fork() { g_cache->mutex.lock(); }
-void unlock_after_fork() { g_cache->mutex.unlock(); }
+Cache& cache();
+void lock_for_fork() { cache().mutex.lock(); }
+void unlock_after_fork() { cache().mutex.unlock(); }
 
 Cache& cache() {
   static Cache* c = [] {
-    g_cache = new Cache();
+    Cache* made = new Cache();
 #if defined(__unix__)
-    pthread_atfork(lock_for_fork, unlock_after_fork, unlock_after_fork);
+    pthread_atfork(lock_for_fork, unlock_after_fork, unlock_after_fork);  // run at a later fork(), when cache() is set
 #endif
-    return g_cache;
+    return made;
   }();
   return *c;
 }

@@ -442,17 +442,27 @@ class Studio {
     pthread_sigmask(SIG_BLOCK, &set, nullptr);
     std::unique_lock lk(janitor_m_);
     while (!janitor_cv_.wait_for(lk, std::chrono::seconds(1), [this] { return janitor_stop_; })) {
-      const std::int64_t idle_ms = std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now().time_since_epoch()).count() -
-                                   last_active_ms_.load();
+      const std::int64_t idle_ms = now_ms() - last_active_ms_.load();
       if (admission_.state().first == 0 && idle_ms >= std::int64_t(s_.cache_idle_s) * 1000 && cached_buffer_count() > 0) {
         release_cached_buffers();
         ++buffer_releases_;
       }
     }
   }
-  void touch() {
-    last_active_ms_ = std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now().time_since_epoch()).count();
-  }
+  static std::int64_t now_ms() { return std::chrono::duration_cast<std::chrono::milliseconds>(Clock::now().time_since_epoch()).count(); }
+  // A request admitted by memory estimate (Admission::try_admit succeeded): released, and the
+  // studio's last activity noted (for free_idle_buffers), when it ends.
+  struct Admitted {
+    Studio& st;
+    std::uint64_t bytes;
+    Admitted(Studio& s, std::uint64_t b) : st(s), bytes(b) { st.last_active_ms_ = now_ms(); }
+    ~Admitted() {
+      st.last_active_ms_ = now_ms();
+      st.admission_.release(bytes);
+    }
+    Admitted(const Admitted&) = delete;
+    Admitted& operator=(const Admitted&) = delete;
+  };
 
   StudioSettings s_;
   StageCache cache_;
@@ -534,15 +544,7 @@ void Studio::with_run(const httplib::Request& req, std::uint64_t estimate, const
                          human_bytes(estimate) + "; try again shortly",
                      2};
   }
-  touch();
-  struct Admitted {
-    Studio& st;
-    std::uint64_t bytes;
-    ~Admitted() {
-      st.touch();
-      st.admission_.release(bytes);
-    }
-  } admitted{*this, estimate};
+  Admitted admitted(*this, estimate);
   while (!runs_.try_acquire_for(std::chrono::milliseconds(20)))
     if (ctl.cancelled()) stopped();
   struct Release {
@@ -808,15 +810,7 @@ void Studio::api_upload(const httplib::Request& req, httplib::Response& res) {
     ++refused_busy_;
     throw LimitError{"memory", "the studio is busy: try the upload again shortly", 2};
   }
-  touch();
-  struct Admitted {
-    Studio& st;
-    std::uint64_t bytes;
-    ~Admitted() {
-      st.touch();
-      st.admission_.release(bytes);
-    }
-  } admitted{*this, estimate};
+  Admitted admitted(*this, estimate);
   Upload u;
   try {
     u.raster = std::make_shared<const Raster>(decode_raster(bytes, name, *format, "body"));
