@@ -687,6 +687,27 @@ Noise::Noise(const NoiseSettings& s) : s_(s) {
   state_ = std::move(st);
 }
 
+// The float references' fractal fold (simplex, cellular; the vector kernels' FoldF): one octave's
+// value `v` of amplitude `a` added to `acc` (ridged: `v` is the octave's value times its ridge scale
+// `sc`, and the term is (sc − |v|)²), and the sum's end, normalised by `inv` and clamped to ±1.
+static inline float fold_octave(float acc, Fractal f, float a, float sc, float v) {
+  switch (f) {
+    case Fractal::None:
+    case Fractal::Fbm: return acc + a * v;
+    case Fractal::Ridged: {
+      const float r = sc - std::fabs(v);
+      return acc + r * r;
+    }
+    case Fractal::Billow: return acc + a * (2.0f * std::fabs(v) - 1.0f);
+  }
+  return acc;
+}
+static inline float finish_octaves(float acc, float inv, bool ridged) {
+  float v = ridged ? acc * (2.0f * inv) - 1.0f : acc * inv;
+  v = v > -1.0f ? v : -1.0f;
+  return v < 1.0f ? v : 1.0f;
+}
+
 // The Simplex basis (simplex_cell) with the fractals and warp of run_gradient, in float.
 template <class St, class XAt>
 void run_simplex_reference(const NoiseSettings& s, const St& st, double z_m, XAt x_at, int n, float* out) {
@@ -706,21 +727,9 @@ void run_simplex_reference(const NoiseSettings& s, const St& st, double z_m, XAt
     float acc = 0.0f;
     for (const detail::NoiseOctave& o : st.octaves) {
       const float sc = o.ridge_scale, a = float(o.amp);
-      const float v = at(o, x, z, ridged ? scale * sc : scale);
-      switch (s.fractal) {
-        case Fractal::None:
-        case Fractal::Fbm: acc = acc + a * v; break;
-        case Fractal::Ridged: {
-          const float r = sc - std::fabs(v);
-          acc = acc + r * r;
-          break;
-        }
-        case Fractal::Billow: acc = acc + a * (2.0f * std::fabs(v) - 1.0f); break;
-      }
+      acc = fold_octave(acc, s.fractal, a, sc, at(o, x, z, ridged ? scale * sc : scale));
     }
-    float v = ridged ? acc * (2.0f * inv) - 1.0f : acc * inv;
-    v = v > -1.0f ? v : -1.0f;
-    out[i] = v < 1.0f ? v : 1.0f;
+    out[i] = finish_octaves(acc, inv, ridged);
   }
 }
 
@@ -752,20 +761,9 @@ void run_cellular_reference(const NoiseSettings& s, const St& st, double z_m, XA
       const detail::NoiseOctave& o = st.octaves[k];
       const float sc = o.ridge_scale, a = float(o.amp);
       const float nb = cellular_cell(warp ? crow(o, lat_v(o, z)) : rows[k], ccol(o, lat_u(o, x)), J, ret);
-      switch (s.fractal) {
-        case Fractal::None:
-        case Fractal::Fbm: acc = acc + a * nb; break;
-        case Fractal::Ridged: {
-          const float r = sc - std::fabs(sc * nb);
-          acc = acc + r * r;
-          break;
-        }
-        case Fractal::Billow: acc = acc + a * (2.0f * std::fabs(nb) - 1.0f); break;
-      }
+      acc = fold_octave(acc, s.fractal, a, sc, ridged ? sc * nb : nb);
     }
-    float v = ridged ? acc * (2.0f * inv) - 1.0f : acc * inv;
-    v = v > -1.0f ? v : -1.0f;
-    out[i] = v < 1.0f ? v : 1.0f;
+    out[i] = finish_octaves(acc, inv, ridged);
   }
 }
 
