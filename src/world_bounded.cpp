@@ -19,7 +19,9 @@
 #include <cstring>
 #include <filesystem>
 #include <memory>
+#include <stdexcept>
 #include <string>
+#include <string_view>
 #include <system_error>
 #include <utility>
 
@@ -388,6 +390,245 @@ RecordFigures record_figures(std::int64_t nx, std::int64_t nz, int block, int ha
 }
 }  // namespace
 
+namespace {
+// Stream power's refinement as farm tasks (src/world_farm.hpp): a block of a sweep is a pure function
+// of the bytes rank 0 sends (its window of the filled input, its ring's coarse change, the records
+// its neighbours gave it in the previous sweep or the coarse inflow, and the targets it gives its
+// neighbours), so any rank solves it, and rank 0 merges the results in block order: the records
+// file and the blend get the same bytes for any rank count.
+struct SpInflow {
+  std::uint32_t cell;  // in the block's window
+  float cells;
+};
+static_assert(sizeof(SpInflow) == 8, "an inflow entry is written as 8 bytes");
+
+// The window's border samples (row-major order).
+std::vector<std::uint32_t> window_ring(int wnx, int wnz) {
+  std::vector<std::uint32_t> r;
+  r.reserve(2 * std::size_t(wnx + wnz));
+  for (int j = 0; j < wnz; ++j)
+    for (int i = 0; i < wnx; ++i)
+      if (hydro::on_border(i, j, wnx, wnz)) r.push_back(std::uint32_t(j * wnx + i));
+  return r;
+}
+
+// A block's window in world samples.
+struct SpBox {
+  std::int64_t x0 = 0, z0 = 0;
+  int wnx = 0, wnz = 0;
+  bool inside(std::int64_t x, std::int64_t z) const { return x > x0 && x < x0 + wnx - 1 && z > z0 && z < z0 + wnz - 1; }
+  // Made when needed: a block's and its neighbours' at a time, never the world's.
+  std::vector<std::uint32_t> ring() const { return window_ring(wnx, wnz); }
+};
+
+// The coarse solve's snapshots: snapshot k (0..K) after step_of[k] of `steps` steps.
+std::vector<int> snapshot_steps(int steps, int K) {
+  std::vector<int> step_of;
+  for (int k = 0; k <= K; ++k) step_of.push_back(int((std::int64_t(k) * steps + K / 2) / K));
+  return step_of;
+}
+// Time: the snapshots around `done` steps, and the share of the later one.
+void snapshot_at(const std::vector<int>& step_of, int done, int& k, double& a) {
+  const int K = int(step_of.size()) - 1;
+  k = 0;
+  while (k + 1 < K && step_of[std::size_t(k) + 1] <= done) ++k;
+  a = std::clamp(double(done - step_of[std::size_t(k)]) / double(step_of[std::size_t(k) + 1] - step_of[std::size_t(k)]), 0.0, 1.0);
+}
+
+// Raw bytes of a task or a result (the ranks share one architecture, src/world_farm.hpp).
+struct SpPut {
+  std::string s;
+  template <class T>
+  void one(T v) {
+    s.append(reinterpret_cast<const char*>(&v), sizeof(T));
+  }
+  template <class T>
+  void many(const T* p, std::size_t n) {
+    if (n > 0) s.append(reinterpret_cast<const char*>(p), n * sizeof(T));
+  }
+};
+struct SpGet {
+  std::string_view s;
+  std::size_t at = 0;
+  const char* what;
+  [[noreturn]] void bad() const { throw std::runtime_error(std::string("world transport: a malformed stream power ") + what); }
+  template <class T>
+  T one() {
+    T v;
+    many(&v, 1);
+    return v;
+  }
+  template <class T>
+  void many(T* p, std::size_t n) {
+    if (n > (s.size() - at) / sizeof(T)) bad();
+    if (n > 0) std::memcpy(static_cast<void*>(p), s.data() + at, n * sizeof(T));
+    at += n * sizeof(T);
+  }
+  template <class T>
+  std::vector<T> vec(std::size_t n) {
+    if (n > (s.size() - at) / sizeof(T)) bad();
+    std::vector<T> v(n);
+    many(v.data(), n);
+    return v;
+  }
+  void end() const {
+    if (at != s.size()) bad();
+  }
+};
+
+// The task of one block in one sweep (rank 0 writes it, any rank's kernel reads it):
+//   i64 x0, z0; i32 wnx, wnz, K, steps; u8 prev (a sweep after the first), last; u32 outs;
+//   the window's heights (wnx · wnz floats, the filled input);
+//   the ring's coarse change at snapshots 1..K (K · R doubles; R = the ring's samples);
+//   prev: the levels held on the ring, seen then solved (2 · steps · R floats), the weight that
+//     reached each ring sample (R floats), the inflow per step (steps u32 counts, then the entries);
+//   else: the coarse inflow per snapshot (K + 1 u32 counts, then the entries);
+//   per neighbour it gives to (not in the last sweep; in neighbour order): its window (i64 x0, z0;
+//     i32 wnx, wnz), u32 n, then n targets (u32 sample in this window, f64 weight).
+// The result: not in the last sweep, per neighbour a u64 length and its segment of the ring records
+// (the weighted levels seen then solved, steps · n doubles each; steps u32 inflow counts; the entries);
+// in the last sweep, the solved window (wnx · wnz floats).
+constexpr int kSpMaxSide = 65535;  // a window's side at most (cells are 32-bit indices)
+
+detail::FarmKernel stream_power_kernel(const Frame& W, const erosion::StreamPowerSettings& sp) {
+  return [W, sp](std::int64_t, std::string_view bytes) {
+    SpGet in{bytes, 0, "task"};
+    const std::int64_t x0 = in.one<std::int64_t>(), z0 = in.one<std::int64_t>();
+    const int wnx = in.one<std::int32_t>(), wnz = in.one<std::int32_t>(), K = in.one<std::int32_t>(), steps = in.one<std::int32_t>();
+    const bool prev = in.one<std::uint8_t>() != 0, last = in.one<std::uint8_t>() != 0;
+    const std::uint32_t nouts = in.one<std::uint32_t>();
+    // A window of the world (its side within kSpMaxSide).
+    auto window_ok = [&](std::int64_t x, std::int64_t z, int nx, int nz) {
+      return nx >= 3 && nz >= 3 && nx <= kSpMaxSide && nz <= kSpMaxSide && x >= 0 && z >= 0 && x <= std::int64_t(W.nx) - nx &&
+             z <= std::int64_t(W.nz) - nz;
+    };
+    if (!window_ok(x0, z0, wnx, wnz) || K < 1 || steps < K || steps != sp.steps || nouts > 8) in.bad();
+    const std::size_t n = std::size_t(wnx) * std::size_t(wnz), S = std::size_t(steps);
+    std::vector<float> h = in.vec<float>(n);
+    const std::vector<std::uint32_t> ring = window_ring(wnx, wnz);
+    const std::size_t R = ring.size();
+    std::vector<std::vector<double>> change(std::size_t(K) + 1, std::vector<double>(R, 0.0));
+    for (int k = 1; k <= K; ++k) in.many(change[std::size_t(k)].data(), R);
+    std::vector<float> seen, solved, weight;
+    std::vector<std::vector<SpInflow>> inflow(prev ? S : std::size_t(K) + 1);
+    if (prev) {
+      seen = in.vec<float>(S * R);
+      solved = in.vec<float>(S * R);
+      weight = in.vec<float>(R);
+    }
+    {
+      const std::vector<std::uint32_t> counts = in.vec<std::uint32_t>(inflow.size());
+      for (std::size_t i = 0; i < inflow.size(); ++i) {
+        inflow[i] = in.vec<SpInflow>(counts[i]);
+        for (const SpInflow& f : inflow[i])
+          if (f.cell >= n) in.bad();
+      }
+    }
+    struct Out {
+      SpBox box;
+      std::vector<std::uint32_t> local;
+      std::vector<double> w, levels;
+      std::vector<std::vector<SpInflow>> inflow;
+    };
+    std::vector<Out> outs(last ? 0 : nouts);
+    if (last && nouts != 0) in.bad();
+    for (Out& o : outs) {
+      o.box.x0 = in.one<std::int64_t>(), o.box.z0 = in.one<std::int64_t>();
+      o.box.wnx = in.one<std::int32_t>(), o.box.wnz = in.one<std::int32_t>();
+      const std::uint32_t m = in.one<std::uint32_t>();  // at most the neighbour's ring
+      if (!window_ok(o.box.x0, o.box.z0, o.box.wnx, o.box.wnz) || m > 2 * std::uint32_t(o.box.wnx + o.box.wnz)) in.bad();
+      o.local.resize(m), o.w.resize(m);
+      for (std::uint32_t i = 0; i < m; ++i) {
+        o.local[i] = in.one<std::uint32_t>(), o.w[i] = in.one<double>();
+        if (o.local[i] >= n) in.bad();
+      }
+      o.levels.assign(2 * S * m, 0.0);
+      o.inflow.resize(S);
+    }
+    in.end();
+    const std::vector<int> step_of = snapshot_steps(steps, K);
+    std::vector<double> start(R);
+    erosion::detail::StreamPowerWindow win;
+    // The ring: held at the previous sweep's blend where its blocks' weight reached it (every ring
+    // sample off the world's edge), else at its start level plus the coarse change.
+    win.ring = [&](int step, bool after_step, double* hw) {
+      if (step == 0 && !after_step)
+        for (std::size_t q = 0; q < R; ++q) start[q] = hw[ring[q]];
+      int k = 0;
+      double a = 0;
+      snapshot_at(step_of, step + (after_step ? 1 : 0), k, a);
+      const float* held = prev ? (after_step ? solved : seen).data() + std::size_t(step) * R : nullptr;
+      for (std::size_t q = 0; q < R; ++q)
+        hw[ring[q]] = held && weight[q] > 0.5f ? double(held[q])
+                                               : start[q] + (1 - a) * change[std::size_t(k)][q] + a * change[std::size_t(k) + 1][q];
+    };
+    // Inflow in whole cells (rounded once per sample and step): the solver then reads A^m from its
+    // table instead of calling std::pow for every cell downstream.
+    win.inflow = [&](int step, double* extra) {
+      if (prev) {
+        for (const SpInflow& f : inflow[std::size_t(step)]) extra[f.cell] += double(f.cells);
+      } else {
+        int k = 0;
+        double a = 0;
+        snapshot_at(step_of, step, k, a);
+        for (const SpInflow& f : inflow[std::size_t(k)]) extra[f.cell] += (1 - a) * double(f.cells);
+        for (const SpInflow& f : inflow[std::size_t(k) + 1]) extra[f.cell] += a * double(f.cells);
+      }
+      for (std::size_t c = 0; c < n; ++c) extra[c] = std::nearbyint(extra[c]);
+    };
+    // What this block gives its neighbours: their targets' weighted levels (seen, then solved) and
+    // the drainage area crossing into their insides.
+    if (!last) {
+      auto record = [&](bool solved_levels) {
+        return [&, solved_levels](int step, const double* hw) {
+          for (Out& o : outs) {
+            const std::size_t m = o.local.size();
+            double* dst = o.levels.data() + (solved_levels ? S * m : 0) + std::size_t(step) * m;
+            for (std::size_t i = 0; i < m; ++i) dst[i] = o.w[i] * hw[o.local[i]];
+          }
+        };
+      };
+      win.seen = record(false);
+      win.solved = record(true);
+      win.routed = [&](int step, const std::uint8_t* dir, const double* area) {
+        for (Out& o : outs)
+          for (std::size_t i = 0; i < o.local.size(); ++i) {
+            const std::uint32_t c = o.local[i];
+            const std::uint8_t d = dir[c];
+            if (d == hydro::kNoReceiver) continue;
+            const std::int64_t x = x0 + std::int64_t(c % std::uint32_t(wnx)) + hydro::kDi[d];
+            const std::int64_t z = z0 + std::int64_t(c / std::uint32_t(wnx)) + hydro::kDj[d];
+            if (!o.box.inside(x, z)) continue;
+            o.inflow[std::size_t(step)].push_back(
+                {std::uint32_t((z - o.box.z0) * o.box.wnx + (x - o.box.x0)), float(o.w[i] * area[c])});
+          }
+      };
+    }
+    erosion::detail::stream_power_window(h.data(), W.window(x0, z0, wnx, wnz), sp, win);
+    SpPut res;
+    if (last) {
+      res.many(h.data(), n);
+      return std::move(res.s);
+    }
+    for (const Out& o : outs) {
+      std::size_t entries = 0;
+      for (const auto& v : o.inflow) entries += v.size();
+      res.one(std::uint64_t(o.levels.size() * sizeof(double) + S * sizeof(std::uint32_t) + entries * sizeof(SpInflow)));
+      res.many(o.levels.data(), o.levels.size());
+      for (const auto& v : o.inflow) res.one(std::uint32_t(v.size()));
+      for (const auto& v : o.inflow) res.many(v.data(), v.size());
+    }
+    return std::move(res.s);
+  };
+}
+}  // namespace
+
+namespace detail {
+FarmKernel stream_power_farm_kernel(const WorldStageIO& io, const RecipeStage& st) {
+  return stream_power_kernel(io.world, erosion::detail::stream_power_settings(st.stage->params()));
+}
+}  // namespace detail
+
 std::uint64_t world_stream_power_scratch_bytes(std::int64_t nx, std::int64_t nz, int coarse_max, int sweeps, int steps, int block,
                                                int halo) {
   if (nx < 1 || nz < 1 || sweeps <= 0 || coarse_step(nx, nz, coarse_max) == 1) return 0;
@@ -423,8 +664,11 @@ std::uint64_t world_stream_power_memory_bytes(std::int64_t nx, std::int64_t nz, 
   // file offsets and a list span per snapshot, per block.
   const std::uint64_t coarse = cnx * cnz * (4 * snapshots + 4);
   const std::uint64_t solve = cnx * cnz * (40 + 20);
-  std::uint64_t blocks = f.window * 128 + snapshots * f.ring * 8;
-  if (sweeps > 1) blocks += S * (f.targets * (16 + 8) + f.ring * (8 + 8) + f.ring / 4 * 16);
+  // The block travels as a farm task (src/world_farm.hpp): its window's heights in the task and the
+  // kernel's copy, the solved window in the result (12 bytes per sample), and the records it reads
+  // once more in the kernel.
+  std::uint64_t blocks = f.window * (128 + 12) + snapshots * f.ring * 8;
+  if (sweeps > 1) blocks += S * (f.targets * (16 + 8) + f.ring * (8 + 8 + 8) + f.ring / 4 * 16);
   return coarse + std::max(solve, blocks) + f.blocks * (2 * 9 * 8 + snapshots * 16);
 }
 
@@ -448,6 +692,9 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
   if (block < 2 * halo)
     throw Error("block", "expected at least 2 × halo = " + std::to_string(2 * halo) + " samples, got " + std::to_string(block));
   if (sweeps < 0) throw Error("sweeps", "expected 0 (the coarse change alone) or more sweeps, got " + std::to_string(sweeps));
+  if (std::int64_t(block) + 2 * std::int64_t(halo) + 1 > kSpMaxSide)
+    throw Error("block", "expected a window (block + 2 × halo + 1 samples) of at most " + std::to_string(kSpMaxSide) + " samples, got " +
+                             std::to_string(std::int64_t(block) + 2 * std::int64_t(halo) + 1));
   return [coarse_max, block, halo, sweeps](const WorldStageIO& io, const RecipeStage& st, int index) {
     const WorldGrid& g = io.grid;
     const Frame& W = io.world;
@@ -530,7 +777,7 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
     if (!refine) {
       st.stage->apply(t, ctx);
     } else {
-      for (int k = 0; k <= K; ++k) step_of.push_back(int((std::int64_t(k) * steps + K / 2) / K));
+      step_of = snapshot_steps(steps, K);
       snap.resize(std::size_t(K) + 1);
       erosion::detail::StreamPowerWindow record;
       record.seen = [&](int step, const double* h) {
@@ -579,16 +826,12 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
       // levels, filled as the solver fills them); a coarse cell outside a window's inside (or on its
       // ring) whose receiver is inside brings its area, in fine cells (s² per coarse cell), to the
       // window's inside sample nearest to it. Per block and snapshot, a short list.
-      struct Inflow {
-        std::uint32_t cell;  // in the block's window
-        float cells;
-      };
+      using Inflow = SpInflow;
       // The lists go to a temporary file as they are made, block after block for each snapshot
       // (memory: the coarse grid's receivers and one list; the index, 16 bytes per block and
       // snapshot). A block's list holds its entries in the order of the coarse cells d: its own
       // scan covers every d whose receiver can be inside its window (a D8 neighbour of d, so d
       // within one coarse cell of the coarse cells inside).
-      static_assert(sizeof(Inflow) == 8, "an inflow entry is written as 8 bytes");
       TempFile coarse_inflow(io.scratch_dir, "stream_power", "the refinement's coarse inflow");
       struct Span {
         std::uint64_t at = 0;
@@ -641,12 +884,6 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
         }
         return lists;
       };
-      // Time: the snapshots around `done` steps, and the share of the later one.
-      auto when = [&](int done, int& k, double& a) {
-        k = 0;
-        while (k + 1 < K && step_of[std::size_t(k) + 1] <= done) ++k;
-        a = std::clamp(double(done - step_of[std::size_t(k)]) / double(step_of[std::size_t(k) + 1] - step_of[std::size_t(k)]), 0.0, 1.0);
-      };
       const double blocks_end = 0.9;
       // Sweeps (an overlapping Schwarz iteration): the first holds each window's ring at the coarse
       // levels and gives it the coarse inflow; each later one holds it, step by step, at the blend
@@ -656,21 +893,7 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
       // weighted alike). With exact levels and inflow a window is exact
       // (StreamPower.WindowGivenTheWholeMapsRingAndInflowReproducesItsInside); each sweep carries the
       // fine solution one block further along the rivers (levels upstream, area downstream).
-      struct Box {
-        std::int64_t x0 = 0, z0 = 0;
-        int wnx = 0, wnz = 0;
-        bool inside(std::int64_t x, std::int64_t z) const { return x > x0 && x < x0 + wnx - 1 && z > z0 && z < z0 + wnz - 1; }
-        // The window's border samples (row-major order), made when needed: a block's and its
-        // neighbours' at a time, never the world's.
-        std::vector<std::uint32_t> ring() const {
-          std::vector<std::uint32_t> r;
-          r.reserve(2 * std::size_t(wnx + wnz));
-          for (int j = 0; j < wnz; ++j)
-            for (int i = 0; i < wnx; ++i)
-              if (hydro::on_border(i, j, wnx, wnz)) r.push_back(std::uint32_t(j * wnx + i));
-          return r;
-        }
-      };
+      using Box = SpBox;
       std::vector<Box> boxes(static_cast<std::size_t>(blocks));
       for (std::int64_t bz = 0; bz < az.count; ++bz)
         for (std::int64_t bx = 0; bx < ax.count; ++bx) {
@@ -780,127 +1003,98 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
         }
         return hs;
       };
+      // The blocks of each sweep are farm tasks (src/world_farm.hpp; stream_power_kernel above): on
+      // this rank, one at a time (the solver uses the rank's threads; so the memory is one block's),
+      // or on other ranks in a distributed build; merged in block order, so the record files and the
+      // blend are the same bytes for any rank count.
+      std::unique_ptr<detail::WorldTransport> alone;  // no farm (outside build_world): this process's
+      std::unique_ptr<detail::TileFarm> own;
+      detail::TileFarm* farm = io.farm;
+      if (!farm) {
+        alone = detail::in_process_transport();
+        own = std::make_unique<detail::TileFarm>(*alone);
+        farm = own.get();
+      }
+      const detail::FarmKernel kernel = stream_power_kernel(W, sp);
+      std::vector<std::int64_t> ids(static_cast<std::size_t>(blocks));
+      for (std::int64_t b = 0; b < blocks; ++b) ids[std::size_t(b)] = b;
       const double work = double(blocks) * double(sweeps);
       for (int sweep = 0; sweep < sweeps; ++sweep) {
         const bool last = sweep + 1 == sweeps;
         const int from = (sweep + 1) % 2, to = sweep % 2;  // the files read and written by this sweep
         std::uint64_t written = 0;
-        for (std::int64_t bz = 0; bz < az.count; ++bz)
-          for (std::int64_t bx = 0; bx < ax.count; ++bx) {
-            check_cancelled(io);
-            const std::size_t id = std::size_t(bz * ax.count + bx);
-            const Box& box = boxes[id];
-            const std::int64_t x0 = box.x0, z0 = box.z0;
-            const int wnx = box.wnx, wnz = box.wnz;
-            const std::vector<std::uint32_t> ring = box.ring();
+        auto task = [&](std::int64_t b) {
+          check_cancelled(io);
+          const std::size_t id = std::size_t(b);
+          const Box& box = boxes[id];
+          const std::int64_t x0 = box.x0, z0 = box.z0;
+          const int wnx = box.wnx, wnz = box.wnz;
+          const std::vector<std::uint32_t> ring = box.ring();
+          const std::vector<std::pair<std::size_t, int>> ns = last ? std::vector<std::pair<std::size_t, int>>() : neighbours(id);
+          SpPut t;
+          t.one(x0), t.one(z0);
+          t.one(std::int32_t(wnx)), t.one(std::int32_t(wnz)), t.one(std::int32_t(K)), t.one(std::int32_t(steps));
+          t.one(std::uint8_t(sweep > 0)), t.one(std::uint8_t(last)), t.one(std::uint32_t(ns.size()));
+          {
             std::vector<float> h(std::size_t(wnx) * std::size_t(wnz));
             input->read(x0, z0, wnx, wnz, h.data());
-            // The ring: its start levels (the solver's, taken at its first call) and the coarse change
-            // at each snapshot (the first sweep, and the world's edge in every sweep).
-            std::vector<std::vector<double>> change(std::size_t(K) + 1, std::vector<double>(ring.size()));
-            for (int k = 1; k <= K; ++k)
-              for (std::size_t q = 0; q < ring.size(); ++q)
-                change[std::size_t(k)][q] = coarse_change(k, x0 + ring[q] % std::uint32_t(wnx), z0 + ring[q] / std::uint32_t(wnx));
-            std::vector<double> start(ring.size());
-            History history;
-            if (sweep > 0) history = read_history(id, ring, from);
-            const History* prev = sweep > 0 ? &history : nullptr;
-            erosion::detail::StreamPowerWindow win;
-            win.ring = [&](int step, bool after_step, double* hw) {
-              if (step == 0 && !after_step)
-                for (std::size_t q = 0; q < ring.size(); ++q) start[q] = hw[ring[q]];
-              int k = 0;
-              double a = 0;
-              when(step + (after_step ? 1 : 0), k, a);
-              const float* held = prev ? (after_step ? prev->solved : prev->seen).data() + std::size_t(step) * ring.size() : nullptr;
-              for (std::size_t q = 0; q < ring.size(); ++q)
-                hw[ring[q]] = held && prev->weight[q] > 0.5f
-                                  ? double(held[q])
-                                  : start[q] + (1 - a) * change[std::size_t(k)][q] + a * change[std::size_t(k) + 1][q];
-            };
-            const std::vector<std::vector<Inflow>> in = sweep == 0 ? coarse_inflow_of(id) : std::vector<std::vector<Inflow>>();
-            // Inflow in whole cells (rounded once per sample and step): the solver then reads A^m from
-            // its table instead of calling std::pow for every cell downstream (the time did not change
-            // measurably on a 4097² world: the solver's walk dominates).
-            win.inflow = [&](int step, double* extra) {
-              if (prev) {
-                for (const Inflow& f : prev->inflow[std::size_t(step)]) extra[f.cell] += double(f.cells);
-              } else {
-                int k = 0;
-                double a = 0;
-                when(step, k, a);
-                for (const Inflow& f : in[std::size_t(k)]) extra[f.cell] += (1 - a) * double(f.cells);
-                for (const Inflow& f : in[std::size_t(k) + 1]) extra[f.cell] += a * double(f.cells);
-              }
-              for (std::size_t c = 0; c < std::size_t(wnx) * std::size_t(wnz); ++c) extra[c] = std::nearbyint(extra[c]);
-            };
-            // What this block gives its neighbours (not in the last sweep): per neighbour, its
-            // targets, their weighted levels (seen, then solved: 2 × steps × targets) and inflow.
-            struct Out {
-              std::size_t k = 0;
-              int slot = 0;
-              std::vector<Target> ts;
-              std::vector<double> levels;
-              std::vector<std::vector<Inflow>> inflow;
-            };
-            std::vector<Out> outs;
-            if (!last) {
-              for (const auto& [k, slot] : neighbours(id)) {
-                Out o;
-                o.k = k, o.slot = slot;
-                o.ts = targets_of(id, k, boxes[k].ring());
-                o.levels.assign(2 * S * o.ts.size(), 0.0);
-                o.inflow.resize(S);
-                outs.push_back(std::move(o));
-              }
-              auto record = [&](bool solved_levels) {
-                return [&, solved_levels](int step, const double* hw) {
-                  for (Out& o : outs) {
-                    double* dst = o.levels.data() + (solved_levels ? S * o.ts.size() : 0) + std::size_t(step) * o.ts.size();
-                    for (std::size_t i = 0; i < o.ts.size(); ++i) dst[i] = o.ts[i].w * hw[o.ts[i].local];
-                  }
-                };
-              };
-              win.seen = record(false);
-              win.solved = record(true);
-              win.routed = [&](int step, const std::uint8_t* dir, const double* area) {
-                for (Out& o : outs) {
-                  const Box& ob = boxes[o.k];
-                  for (const Target& t : o.ts) {
-                    const std::uint8_t d = dir[t.local];
-                    if (d == hydro::kNoReceiver) continue;
-                    const std::int64_t x = x0 + std::int64_t(t.local % std::uint32_t(wnx)) + hydro::kDi[d];
-                    const std::int64_t z = z0 + std::int64_t(t.local / std::uint32_t(wnx)) + hydro::kDj[d];
-                    if (!ob.inside(x, z)) continue;
-                    o.inflow[std::size_t(step)].push_back(
-                        {std::uint32_t((z - ob.z0) * ob.wnx + (x - ob.x0)), float(t.w * area[t.local])});
-                  }
-                }
-              };
+            t.many(h.data(), h.size());
+          }
+          // The ring's coarse change at each snapshot (the first sweep, and the world's edge in every sweep).
+          std::vector<double> change(ring.size());
+          for (int k = 1; k <= K; ++k) {
+            for (std::size_t q = 0; q < ring.size(); ++q)
+              change[q] = coarse_change(k, x0 + ring[q] % std::uint32_t(wnx), z0 + ring[q] / std::uint32_t(wnx));
+            t.many(change.data(), change.size());
+          }
+          std::vector<std::vector<Inflow>> lists;
+          if (sweep > 0) {
+            const History hs = read_history(id, ring, from);
+            t.many(hs.seen.data(), hs.seen.size());
+            t.many(hs.solved.data(), hs.solved.size());
+            t.many(hs.weight.data(), hs.weight.size());
+            lists = hs.inflow;
+          } else {
+            lists = coarse_inflow_of(id);
+          }
+          for (const auto& l : lists) t.one(std::uint32_t(l.size()));
+          for (const auto& l : lists) t.many(l.data(), l.size());
+          for (const auto& [k, slot] : ns) {
+            const Box& o = boxes[k];
+            t.one(o.x0), t.one(o.z0), t.one(std::int32_t(o.wnx)), t.one(std::int32_t(o.wnz));
+            const std::vector<Target> ts = targets_of(id, k, o.ring());
+            t.one(std::uint32_t(ts.size()));
+            for (const Target& x : ts) t.one(x.local), t.one(x.w);
+          }
+          return std::move(t.s);
+        };
+        auto merge = [&](std::int64_t b, std::string out) {
+          const std::size_t id = std::size_t(b);
+          const Box& box = boxes[id];
+          const std::int64_t x0 = box.x0, z0 = box.z0;
+          const int wnx = box.wnx, wnz = box.wnz;
+          SpGet r{out, 0, "result"};
+          if (!last) {
+            // This block's segments, appended to the sweep's file.
+            for (const auto& [k, slot] : neighbours(id)) {
+              const std::uint64_t len = r.one<std::uint64_t>();
+              if (len > out.size() - r.at) r.bad();
+              offsets[to][id][std::size_t(slot)] = written;
+              if (len > 0) records[to]->io(true, written, out.data() + r.at, std::size_t(len));
+              written += len;
+              r.at += std::size_t(len);
             }
-            erosion::detail::stream_power_window(h.data(), W.window(x0, z0, wnx, wnz), sp, win);
-            if (io.progress) io.progress(solve_end + (blocks_end - solve_end) * double(sweep * blocks + std::int64_t(id) + 1) / work);
-            if (!last) {
-              // This block's segments, appended to the sweep's file.
-              for (Out& o : outs) {
-                offsets[to][id][std::size_t(o.slot)] = written;
-                records[to]->io(true, written, o.levels.data(), o.levels.size() * sizeof(double));
-                written += o.levels.size() * sizeof(double);
-                std::vector<std::uint32_t> counts(S);
-                std::vector<Inflow> entries;
-                for (std::size_t step = 0; step < S; ++step) {
-                  counts[step] = std::uint32_t(o.inflow[step].size());
-                  entries.insert(entries.end(), o.inflow[step].begin(), o.inflow[step].end());
-                }
-                records[to]->io(true, written, counts.data(), S * sizeof(std::uint32_t));
-                written += S * sizeof(std::uint32_t);
-                if (!entries.empty()) records[to]->io(true, written, entries.data(), entries.size() * sizeof(Inflow));
-                written += entries.size() * sizeof(Inflow);
-              }
-              continue;
-            }
+            r.end();
+          } else {
             // This block's share, added to the output in block order (the same order for every tiling).
-            const std::int64_t kx = bx, kz = bz;
+            // The solved window, read in place (wnx · wnz floats).
+            if (out.size() != 4 * std::size_t(wnx) * std::size_t(wnz)) r.bad();
+            auto solved = [&](std::size_t c) {
+              float v;
+              std::memcpy(&v, out.data() + 4 * c, 4);
+              return v;
+            };
+            const std::int64_t kx = b % ax.count, kz = b / ax.count;
             std::int64_t ux0 = x0, ux1 = x0 + wnx - 1, uz0 = z0, uz1 = z0 + wnz - 1;
             while (ux0 < ux1 && ax.weight(kx, ux0) == 0) ++ux0;
             while (ux1 > ux0 && ax.weight(kx, ux1) == 0) --ux1;
@@ -913,7 +1107,7 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
               const double wz = az.weight(kz, uz0 + j);
               for (int i = 0; i < unx; ++i) {
                 const double w = wz * ax.weight(kx, ux0 + i);
-                const float v = h[std::size_t(uz0 + j - z0) * std::size_t(wnx) + std::size_t(ux0 + i - x0)];
+                const float v = solved(std::size_t(uz0 + j - z0) * std::size_t(wnx) + std::size_t(ux0 + i - x0));
                 float& o = sum[std::size_t(j) * std::size_t(unx) + std::size_t(i)];
                 if (w == 1.0)
                   o = v;
@@ -923,6 +1117,9 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
             }
             output->write(ux0, uz0, unx, unz, sum.data());
           }
+          if (io.progress) io.progress(solve_end + (blocks_end - solve_end) * double(sweep * blocks + b + 1) / work);
+        };
+        farm->run("stream-power", ids, task, kernel, merge, 1);
       }
       // The whole map's stage ends ε-filled (it drains); so does the world: the blend, clamped to
       // [0, 1] as the stage clamps, filled across tiles as the world's fill stage fills (exact: the

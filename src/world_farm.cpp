@@ -95,6 +95,11 @@ struct TileFarm::Batch {
   const FarmKernel& local;
   const std::function<void(std::int64_t, std::string)>& merge;
   std::size_t lanes = 1;  // this rank's
+  int cap = 0;            // at most this many tasks at once at any rank (0: a rank's lanes)
+  // Whether rank r (> 0) may take another task now (under m_).
+  bool takes(const std::vector<int>& credit, const std::vector<int>& outstanding, std::size_t r) const {
+    return credit[r] > 0 && (cap == 0 || outstanding[r] < cap);
+  }
   std::size_t next = 0, merged = 0;
   std::vector<std::optional<std::string>> results;
   std::vector<std::exception_ptr> errors;
@@ -107,7 +112,10 @@ struct TileFarm::Batch {
 // Results wait for their turn to merge within a window of twice the lanes of every rank (under m_).
 std::size_t TileFarm::window(const Batch& b) const {
   std::size_t lanes = b.lanes;
-  for (std::size_t r = 1; r < credit_.size(); ++r) lanes += std::size_t(std::max(0, credit_[r]) + outstanding_[r]);
+  for (std::size_t r = 1; r < credit_.size(); ++r) {
+    const int n = std::max(0, credit_[r]) + outstanding_[r];
+    lanes += std::size_t(b.cap > 0 ? std::min(n, b.cap) : n);
+  }
   return 2 * lanes;
 }
 
@@ -136,10 +144,11 @@ std::vector<std::int64_t> TileFarm::tasks_by_rank() const {
 
 void TileFarm::run(const std::string& kernel, const std::vector<std::int64_t>& items,
                    const std::function<std::string(std::int64_t)>& input, const FarmKernel& local,
-                   const std::function<void(std::int64_t, std::string)>& merge) {
+                   const std::function<void(std::int64_t, std::string)>& merge, int local_lanes) {
   if (items.empty()) return;
   Batch b{kernel, items, input, local, merge};
   b.lanes = std::size_t(std::max(1, tbb::this_task_arena::max_concurrency()));
+  if (local_lanes > 0) b.lanes = std::min(b.lanes, std::size_t(local_lanes)), b.cap = local_lanes;
   b.results.resize(items.size());
   b.errors.resize(items.size());
   b.ready.assign(items.size(), 0);
@@ -159,7 +168,7 @@ void TileFarm::run(const std::string& kernel, const std::vector<std::int64_t>& i
   // every rank shares the work whatever the size of a task (the merges' order does not change).
   auto others_free = [&] {
     for (std::size_t r = 1; r < credit_.size(); ++r)
-      if (credit_[r] > 0) return true;
+      if (b.takes(credit_, outstanding_, r)) return true;
     return false;
   };
   auto merge_ready = [&] {  // under m_
@@ -264,7 +273,7 @@ void TileFarm::server() {
         // Hand out tasks to ranks with free lanes, in order, within the window.
         for (std::size_t rk = 1; batch_ && rk < credit_.size(); ++rk) {
           Batch& b = *batch_;
-          while (credit_[rk] > 0 && !b.failure && b.next < b.items.size() && b.next < b.merged + window(b)) {
+          while (b.takes(credit_, outstanding_, rk) && !b.failure && b.next < b.items.size() && b.next < b.merged + window(b)) {
             const std::size_t p = b.next++;
             std::string task = "T";
             put_i64(task, std::int64_t(p));
@@ -430,6 +439,7 @@ FarmKernel make_farm_kernel(const std::string& name, const WorldStageIO& io, con
   if (name == "hydraulic") return hydraulic_farm_kernel(io, stage);
   if (name == "flow") return flow_farm_kernel(io, stage);
   if (name == "flow-fill") return flow_fill_farm_kernel(io, stage);
+  if (name == "stream-power") return stream_power_farm_kernel(io, stage);
   throw std::runtime_error("world transport: no farm kernel named " + name);
 }
 

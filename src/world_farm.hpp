@@ -56,9 +56,11 @@ class TileFarm {
   // or on another rank (the kernel named `kernel` there), and merge(k, result) in the order of
   // `items`, one at a time, on one of this rank's threads. input() is called under the same lock as
   // merge(), so it may read what merges write. The first failure in order (a kernel's or a merge's)
-  // is rethrown once every task handed out has come back; no task starts after it.
+  // is rethrown once every task handed out has come back; no task starts after it. `local_lanes` > 0
+  // caps the tasks every rank runs at once (a kernel that uses the rank's threads itself and whose
+  // memory is large: stream power's blocks, one at a time per rank); 0: one per thread of a rank.
   void run(const std::string& kernel, const std::vector<std::int64_t>& items, const std::function<std::string(std::int64_t)>& input,
-           const FarmKernel& local, const std::function<void(std::int64_t, std::string)>& merge);
+           const FarmKernel& local, const std::function<void(std::int64_t, std::string)>& merge, int local_lanes = 0);
   // Tasks each rank ran (index: rank), over every run().
   std::vector<std::int64_t> tasks_by_rank() const;
   // Ends the phase for the other ranks (their serve() returns). Called by the destructor too.
@@ -85,13 +87,14 @@ class TileFarm {
 };
 
 // The kernel `name` of a distributed world algorithm, made from the stage and a rank's own io (the
-// library's: "fill", src/world_fill.cpp; "hydraulic", src/world_bounded.cpp; "flow" and "flow-fill",
-// src/world_flow.cpp). Throws for an unknown name.
+// library's: "fill", src/world_fill.cpp; "hydraulic" and "stream-power", src/world_bounded.cpp; "flow"
+// and "flow-fill", src/world_flow.cpp). Throws for an unknown name.
 FarmKernel make_farm_kernel(const std::string& name, const WorldStageIO& io, const RecipeStage& stage);
 FarmKernel fill_farm_kernel(const WorldStageIO& io, const RecipeStage& stage);       // "fill" (src/world_fill.cpp)
 FarmKernel hydraulic_farm_kernel(const WorldStageIO& io, const RecipeStage& stage);  // "hydraulic" (src/world_bounded.cpp)
 FarmKernel flow_farm_kernel(const WorldStageIO& io, const RecipeStage& stage);       // "flow" (src/world_flow.cpp)
 FarmKernel flow_fill_farm_kernel(const WorldStageIO& io, const RecipeStage& stage);  // "flow-fill" (src/world_flow.cpp)
+FarmKernel stream_power_farm_kernel(const WorldStageIO& io, const RecipeStage& stage);  // "stream-power" (src/world_bounded.cpp)
 // A fill solve that stores nothing (src/world_fill.cpp): task t's input is the levels known for tile t's
 // window perimeter (row-major floats), its result the filled tile's window perimeter; `load` gives the
 // tile's heights. "flow-fill" is this kernel with the flow stage's sea level and epsilon.

@@ -497,6 +497,9 @@ TEST(WorldStreamPower, RefusesBadBlocks) {
   EXPECT_EQ(field([] { return world_stream_power(257, 128, 32, -1); }), "sweeps");
   EXPECT_NO_THROW(world_stream_power(257, 128, 32, 0));
   EXPECT_NO_THROW(world_stream_power(257, 128, 64));
+  // A block's window (block + 2 × halo + 1 samples a side) holds at most 65535 samples a side.
+  EXPECT_EQ(field([] { return world_stream_power(257, 65535 - 2 * 64, 64); }), "block");
+  EXPECT_NO_THROW(world_stream_power(257, 65534 - 2 * 64, 64));
 }
 
 // The eroded-mountains chain up to flow: stream power (exact at this size: the coarse grid is the

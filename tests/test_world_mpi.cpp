@@ -18,6 +18,7 @@
 #include <thread>
 
 #include "relief/world.hpp"
+#include "relief/world_bounded.hpp"
 #include "support.hpp"
 #include "world_support.hpp"
 
@@ -103,6 +104,22 @@ relief::json fill_doc(bool after) {
   return doc;
 }
 
+// eroded-mountains up to its stream power stage, of 5 steps.
+relief::json stream_power_doc() {
+  relief::json doc = relief::load_preset("eroded-mountains");
+  relief::json stages = relief::json::array();
+  for (const relief::json& st : doc["stages"]) {
+    stages.push_back(st);
+    if (st["stage"] == "stream_power") {
+      stages.back()["steps"] = 5;
+      break;
+    }
+  }
+  doc["stages"] = stages;
+  doc["seed"] = 5;
+  return doc;
+}
+
 // A world algorithm standing in for `fill` in WorldMpiPhases: each tile's heights raised by
 // 0.001·(X + 2·Z + 1), a change that is easy to get wrong (tile order, lost stores) and cheap.
 relief::WorldStageAlgorithm raise_tiles() {
@@ -125,15 +142,25 @@ TEST(WorldMpiRank, BuildsThePhasedWorldNamedByTheEnvironment) {
   const char* out = std::getenv("RELIEF_TEST_MPI_OUT");
   if (!out || !*out) GTEST_SKIP() << "run by WorldMpi.PhasesWithAWorldAlgorithmAreTheSameOnOneTwoAndFourRanks";
   const char* after = std::getenv("RELIEF_TEST_MPI_AFTER");
-  relief::json doc = fill_doc(after && *after == '1');
-  doc["seed"] = 3;
+  const char* stage = std::getenv("RELIEF_TEST_MPI_STAGE");
   relief::WorldSettings s;
-  s.recipe = relief::parse_recipe(doc);
-  s.nx = s.nz = 129;
-  s.tile = 33;
   s.threads = 1;
   s.out_dir = out;
-  s.algorithms["fill"] = raise_tiles();
+  if (stage && std::string(stage) == "stream_power") {
+    // eroded-mountains up to its stream power (5 steps), refined: coarse 65², blocks of 64 grown by
+    // 16, 3 sweeps (the blocks of each sweep are farm tasks, src/world_bounded.cpp).
+    s.recipe = relief::parse_recipe(stream_power_doc());
+    s.nx = s.nz = 257;
+    s.tile = 65;
+    s.algorithms["stream_power"] = relief::world_stream_power(65, 64, 16, 3);
+  } else {
+    relief::json doc = fill_doc(after && *after == '1');
+    doc["seed"] = 3;
+    s.recipe = relief::parse_recipe(doc);
+    s.nx = s.nz = 129;
+    s.tile = 33;
+    s.algorithms["fill"] = raise_tiles();
+  }
   if (std::getenv("OMPI_COMM_WORLD_SIZE")) s.mpi_module = module_path();
   const relief::WorldReport rep = relief::build_world(s);
   EXPECT_EQ(rep.ranks, std::getenv("OMPI_COMM_WORLD_SIZE") ? std::atoi(std::getenv("OMPI_COMM_WORLD_SIZE")) : 1);
@@ -339,6 +366,38 @@ TEST(WorldMpi, HydraulicPassesSpreadOverTwoRanksGiveTheSameBytes) {
   ASSERT_EQ(by_rank.size(), 2u);
   EXPECT_GE(sum, 16);  // 16 passes, several groups each (smaller groups with more ranks)
   EXPECT_GT(by_rank[1], 0);
+}
+
+// Stream power's refinement (relief/world_bounded.hpp): the blocks of every sweep are farm tasks
+// (rank 0 sends a block's window, ring levels and records; the rank that solves it sends back what it
+// gives its neighbours, or its solved window in the last sweep), merged in block order: the store is
+// the bytes of a build in one process, and the other ranks solve some of the blocks.
+TEST(WorldMpi, StreamPowerBlocksSpreadOverTwoAndThreeRanksGiveTheSameBytes) {
+  REQUIRE_MPI();
+  TempDir d("world-mpi-stream-power");
+  const std::string self = (fs::path(RELIEF_BINARY).parent_path() / "tests" / "test_world_mpi").string();
+  const std::string filter = " --gtest_filter=WorldMpiRank.BuildsThePhasedWorldNamedByTheEnvironment --gtest_brief=1";
+  const std::string ref = d / "ref";
+  const Shell one = relief::test::sh("RELIEF_TEST_MPI_STAGE=stream_power RELIEF_TEST_MPI_OUT=" + ref + " " + self + filter);
+  ASSERT_EQ(one.code, 0) << one.out;
+  std::int64_t solves = 0;
+  ASSERT_EQ(global_solves(ref, solves).size(), 1u);
+  EXPECT_EQ(solves, 16 * 3);  // 4 × 4 blocks, 3 sweeps, all in this process
+  for (int ranks : {2, 3}) {
+    SCOPED_TRACE(std::to_string(ranks) + " ranks");
+    const std::string out = d / ("p" + std::to_string(ranks));
+    const Shell r = relief::test::sh(kMpiEnv + "mpirun --oversubscribe --allow-run-as-root -n " + std::to_string(ranks) +
+                                     " -x RELIEF_TEST_MPI_STAGE=stream_power -x RELIEF_TEST_MPI_OUT=" + out + " " + self + filter);
+    ASSERT_EQ(r.code, 0) << r.out;
+    expect_same_store(ref, out);
+    std::int64_t sum = 0;
+    const std::vector<std::int64_t> by_rank = global_solves(out, sum);
+    ASSERT_EQ(by_rank.size(), std::size_t(ranks));
+    EXPECT_EQ(sum, 16 * 3);
+    std::int64_t others = 0;
+    for (std::size_t k = 1; k < by_rank.size(); ++k) others += by_rank[k];
+    EXPECT_GT(others, 0);
+  }
 }
 
 // A store left unfinished (tiles missing, the manifest still "building") by a build without MPI

@@ -104,8 +104,13 @@
 //     a block's weight is 1 on its core, falling by a smoothstep across ± halo/2 of each inner core
 //     end where the neighbour's rises (the product of the two axes' weights in 2-D), summed in block
 //     order into a temporary file of the world's heights. So tiles agree on shared samples, and the
-//     bytes do not depend on the tile size, the thread count or the ranks (the blocks run on the
-//     build's process, one after another, each on its threads).
+//     bytes do not depend on the tile size, the thread count or the ranks. The blocks of each sweep
+//     are tasks of the build's tile farm (src/world_farm.hpp, kernel "stream-power"; since session
+//     18): rank 0 sends a block's window of the filled input, its ring's coarse change and the
+//     records its neighbours gave it (or the coarse inflow), any rank solves it on its threads, one
+//     block at a time per rank, and rank 0 merges the results (the records it gives, or its solved
+//     window) in block order: in one process the blocks run one after another as before, and a
+//     distributed build spreads them over the ranks with the same bytes (tests/test_world_mpi.cpp).
 //   What it guarantees: the stage's valleys and ranges at full resolution, their drainage crossing
 //   the blocks' seams; against one whole-map run, measured (tests/test_world_bounded.cpp, 513², coarse
 //   257², blocks of 128): 0.263 % of the relief (RMS within 2 halos of the seams) with halo 48 and 4
