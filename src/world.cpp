@@ -488,6 +488,14 @@ WorldReport build_world(WorldSettings s) {
       drop.push_back(dropped);
     }
 
+    // What a global stage's world algorithm needs besides the tiles: the caller's figures when given
+    // (WorldSettings::algorithm_needs), else the library's for its name.
+    auto algorithm_needs = [&](const RecipeStage& st) {
+      const auto it = s.algorithm_needs.find(st.def->name);
+      if (it != s.algorithm_needs.end() && it->second) return it->second(st, grid);
+      return default_world_algorithm_needs(st, grid, frame, threads);
+    };
+
     // 4. Disk: each layer's coded bytes per sample, measured (see "Disk and memory" in
     // relief/world.hpp), against the free space (plus the tiles there). With phases, the largest
     // two consecutive phase stores: phase K's tiles are removed once phase K+1 is complete.
@@ -553,13 +561,7 @@ WorldReport build_world(WorldSettings s) {
       };
       // What a world algorithm keeps on disk besides the stores while its phase runs.
       auto scratch = [&](std::size_t k) -> std::uint64_t {
-        if (!phases[k].global) return 0;
-        const RecipeStage& st = r.stages[phases[k].first];
-        const auto needs = s.algorithm_needs.find(st.def->name);  // the caller's figures, when given
-        if (needs != s.algorithm_needs.end() && needs->second) return needs->second(st, grid).scratch_bytes;
-        // The default stream power's files grow with the stage's steps and are none for a masked stage.
-        if (st.def->name == "stream_power") return world_stream_power_needs()(st, grid).scratch_bytes;
-        return world_scratch_bytes(*st.def, grid.nx, grid.nz);
+        return phases[k].global ? algorithm_needs(r.stages[phases[k].first]).scratch_bytes : 0;
       };
       std::uint64_t stores = store_estimate(phase_layers[0]) + scratch(0);
       for (std::size_t k = 0; k + 1 < phases.size(); ++k)
@@ -606,16 +608,8 @@ WorldReport build_world(WorldSettings s) {
       std::size_t need_stage = 0;
       for (std::size_t i = 0; i < r.stages.size(); ++i) {
         const RecipeStage& st = r.stages[i];
-        std::uint64_t phase = 0;
-        const auto needs = s.algorithm_needs.find(st.def->name);  // the caller's figures, when given
-        if (needs != s.algorithm_needs.end() && needs->second && s.algorithms.count(st.def->name))
-          phase = needs->second(st, grid).memory_bytes;
-        else if (st.def->name == "stream_power")  // the default algorithm's figures (a masked stage does not refine)
-          phase = world_stream_power_needs()(st, grid).memory_bytes;
-        else if (st.def->name == "hydraulic")
-          phase = world_hydraulic_memory_bytes(frame, grid.tile, st.stage->params(), threads);
-        else
-          continue;
+        std::uint64_t phase = algorithm_needs(st).memory_bytes;
+        if (phase == 0) continue;
         phase += per_tile + overview + std::uint64_t(grid.count()) * 16;
         if (phase > rep.tile_memory_bytes) rep.tile_memory_bytes = phase, need_what = st.def->name, need_stage = i;
       }

@@ -61,11 +61,15 @@ std::map<std::string, WorldStageAlgorithm> default_world_algorithms() {
   return m;
 }
 
-std::uint64_t world_scratch_bytes(const StageDef& d, std::int64_t nx, std::int64_t nz) {
-  // world_hydraulic's file of the world's heights between its passes; world_stream_power's two files
-  // when it refines (relief/world_bounded.hpp).
-  if (d.name == "stream_power") return world_stream_power_scratch_bytes(nx, nz);
-  return d.name == "hydraulic" ? 4 * std::uint64_t(std::max<std::int64_t>(0, nx)) * std::uint64_t(std::max<std::int64_t>(0, nz)) : 0;
+WorldAlgorithmNeeds default_world_algorithm_needs(const RecipeStage& st, const WorldGrid& g, const Frame& world, int threads) {
+  WorldAlgorithmNeeds n;
+  if (st.def->name == "stream_power") return world_stream_power_needs()(st, g);
+  if (st.def->name == "hydraulic") {
+    // Its groups in flight; its file of the world's heights between its passes (relief/world_bounded.hpp).
+    n.memory_bytes = world_hydraulic_memory_bytes(world, g.tile, st.stage->params(), threads);
+    n.scratch_bytes = 4 * std::uint64_t(std::max<std::int64_t>(0, g.nx)) * std::uint64_t(std::max<std::int64_t>(0, g.nz));
+  }
+  return n;
 }
 
 WorldGuarantee world_guarantee(const StageDef& d) {

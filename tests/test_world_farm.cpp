@@ -10,9 +10,11 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <cstring>
 #include <deque>
 #include <limits>
 #include <map>
+#include <memory>
 #include <mutex>
 #include <set>
 #include <thread>
@@ -614,4 +616,101 @@ TEST(FlowFarm, ADamagedResultFromAnotherRankIsAnErrorNeverACrash) {
               taken, undamaged);
   EXPECT_GT(errors + taken, 80) << "too few trials damaged a result";
   EXPECT_GT(errors, 0);
+}
+
+// A farm run capped at one task per rank (TileFarm::run's local_lanes, as stream power's blocks are:
+// a kernel that uses a rank's threads itself): no rank, rank 0 included, ever runs two at once, and
+// the other ranks still get work; the merges stay in order.
+TEST(TileFarm, ALaneCapKeepsEveryRankToThatManyTasksAtOnce) {
+  struct Count {
+    std::atomic<int> now{0}, most{0};
+  };
+  std::mutex m;
+  std::vector<std::shared_ptr<Count>> counts;  // one per kernel made (one per rank)
+  auto counted = [&]() -> FarmKernel {
+    auto c = std::make_shared<Count>();
+    {
+      std::lock_guard<std::mutex> lock(m);
+      counts.push_back(c);
+    }
+    const FarmKernel inner = square_kernel(300);
+    return [c, inner](std::int64_t k, std::string_view in) {
+      const int n = ++c->now;
+      int most = c->most.load();
+      while (n > most && !c->most.compare_exchange_weak(most, n)) {
+      }
+      std::string r = inner(k, in);
+      --c->now;
+      return r;
+    };
+  };
+  const std::vector<std::int64_t> items = iota_items(80);
+  std::vector<std::int64_t> merged, by_rank;
+  const std::exception_ptr e = with_ranks(
+      3, [&](const std::string&) { return counted(); },
+      [&](TileFarm& farm) {
+        farm.run(
+            "square", items, [](std::int64_t k) { return std::to_string(k); }, counted(),
+            [&](std::int64_t k, std::string) { merged.push_back(k); }, 1);
+        by_rank = farm.tasks_by_rank();
+      });
+  ASSERT_FALSE(e);
+  EXPECT_EQ(merged, items);
+  ASSERT_EQ(counts.size(), 3u);  // rank 0's local kernel and one per other rank
+  for (const auto& c : counts) EXPECT_EQ(c->most.load(), 1);
+  ASSERT_EQ(by_rank.size(), 3u);
+  EXPECT_GT(by_rank[1] + by_rank[2], 0);
+}
+
+// Stream power's block kernel (world_stream_power's refinement, src/world_bounded.cpp, "stream-power")
+// on hand-made tasks: a block of 9 × 8 samples in a 33² world, 2 steps, the first sweep's coarse
+// inflow. The same task gives the same bytes; the last sweep's result is the solved window, the
+// ring's change shows in it; a sweep that gives a neighbour its records returns one segment whose
+// length says its size; every shorter prefix of a task, a trailing byte, a window outside the world
+// and a neighbour's window outside it are refused with an exception, never a read beyond the end.
+TEST(StreamPowerFarm, ABlockTaskSolvesItsWindowAndMalformedTasksAreRefused) {
+  relief::json doc = relief::load_preset("eroded-mountains");
+  doc["stages"] = relief::json::array({relief::json{{"stage", "stream_power"}, {"steps", 2}}});
+  const relief::Recipe r = relief::parse_recipe(doc);
+  relief::WorldStageIO io;
+  io.grid = relief::world_grid(33, 33, 33);
+  io.world = relief::world_frame(r, 33, 33);
+  const FarmKernel kernel = relief::detail::make_farm_kernel("stream-power", io, r.stages[0]);
+  const int wnx = 9, wnz = 8, K = 2, steps = 2, R = 2 * wnx + 2 * (wnz - 2);
+  auto task = [&](std::int64_t x0, std::int64_t z0, bool last, double change, std::int64_t nx0 = 12) {
+    std::string t;
+    auto put = [&](const auto& v) { t.append(reinterpret_cast<const char*>(&v), sizeof(v)); };
+    put(x0), put(z0), put(std::int32_t(wnx)), put(std::int32_t(wnz)), put(std::int32_t(K)), put(std::int32_t(steps));
+    put(std::uint8_t(0)), put(std::uint8_t(last)), put(std::uint32_t(last ? 0 : 1));
+    for (int j = 0; j < wnz; ++j)
+      for (int i = 0; i < wnx; ++i) put(0.40f + 0.02f * float(i) + 0.01f * float(j));
+    for (int k = 1; k <= K; ++k)
+      for (int q = 0; q < R; ++q) put(change * k);
+    put(std::uint32_t(1)), put(std::uint32_t(0)), put(std::uint32_t(0));     // coarse inflow: one entry at snapshot 0
+    put(std::uint32_t(4 * wnx + 4)), put(2.0f);                              // at sample (4, 4), 2 cells
+    if (!last) {
+      put(nx0), put(z0), put(std::int32_t(wnx)), put(std::int32_t(wnz));  // the neighbour's window
+      put(std::uint32_t(2));                                               // two targets
+      put(std::uint32_t(4 * wnx + 7)), put(0.5), put(std::uint32_t(5 * wnx + 7)), put(1.0);
+    }
+    return t;
+  };
+  const std::string last = task(4, 6, true, 0.0);
+  const std::string solved = kernel(0, last);
+  ASSERT_EQ(solved.size(), std::size_t(4 * wnx * wnz));
+  EXPECT_EQ(kernel(0, last), solved);
+  EXPECT_NE(kernel(0, task(4, 6, true, 1e-3)), solved);  // the ring follows the coarse change
+  const std::string give = task(4, 6, false, 0.0);
+  const std::string records = kernel(0, give);
+  ASSERT_GE(records.size(), 8u);
+  std::uint64_t len = 0;
+  std::memcpy(&len, records.data(), 8);
+  EXPECT_EQ(len, records.size() - 8);
+  EXPECT_GE(len, std::uint64_t(2 * steps * 2 * 8 + steps * 4));  // levels seen and solved of 2 targets, counts
+  for (const std::string* m : {&last, &give})
+    for (std::size_t n = 0; n < m->size(); ++n) ASSERT_ANY_THROW(kernel(0, m->substr(0, n))) << n << " of " << m->size() << " bytes";
+  EXPECT_ANY_THROW(kernel(0, last + "x"));
+  EXPECT_ANY_THROW(kernel(0, task(30, 6, true, 0.0)));          // beyond the world's edge
+  EXPECT_ANY_THROW(kernel(0, task(-1, 6, true, 0.0)));
+  EXPECT_ANY_THROW(kernel(0, task(4, 6, false, 0.0, 40)));      // the neighbour's window outside it
 }

@@ -283,7 +283,7 @@ TEST(WorldDryRun, TheCliPrintsTheEstimatesAndBuildsNothing) {
   EXPECT_EQ(relief::test::relief_cli("world island --size 1025 --tile 200 --dry-run -o " + (d / "w")).code, 2);
 }
 
-// The disk check counts what a world algorithm keeps besides the stores (world_scratch_bytes):
+// The disk check counts what a world algorithm keeps besides the stores (default_world_algorithm_needs):
 // hydraulic's file of the world's heights, 4 bytes per sample, in the phase's folder.
 TEST(WorldDisk, HydraulicsTemporaryHeightsAreCounted) {
   json doc = preset_doc("island");
@@ -304,6 +304,13 @@ TEST(WorldDisk, HydraulicsTemporaryHeightsAreCounted) {
   };
   const std::uint64_t a = dry(without), b = dry(with);
   EXPECT_GE(b, a + 4u * 257u * 257u);
-  EXPECT_EQ(world_scratch_bytes(*recipe_of(with, 3).stages[1].def, 257, 257), 4u * 257u * 257u);
-  EXPECT_EQ(world_scratch_bytes(*recipe_of(with, 3).stages[0].def, 257, 257), 0u);
+  const relief::Recipe r = recipe_of(with, 3);
+  WorldGrid g;
+  g.nx = g.nz = 257, g.tile = 65, g.tiles_x = g.tiles_z = 4;
+  Frame f;
+  f.nx = f.nz = 257;
+  EXPECT_EQ(default_world_algorithm_needs(r.stages[1], g, f, 1).scratch_bytes, 4u * 257u * 257u);
+  EXPECT_GT(default_world_algorithm_needs(r.stages[1], g, f, 1).memory_bytes, 0u);
+  EXPECT_EQ(default_world_algorithm_needs(r.stages[0], g, f, 1).scratch_bytes, 0u);
+  EXPECT_EQ(default_world_algorithm_needs(r.stages[0], g, f, 1).memory_bytes, 0u);
 }

@@ -6,7 +6,8 @@
 //     redistribute, fill, flow, color, hillshade): the whole build, and per stage class (pointwise,
 //     neighbourhood, exact global) the samples per second per core, whole map against tiled;
 //   * the same river world built by `mpirun -n 1` and `-n 2` (`relief world` as a subprocess, one
-//     thread per rank), when mpirun is on the PATH: wall times and their ratio.
+//     thread per rank), when mpirun is on the PATH: wall times and their ratio; and so a 2113²
+//     world of river-island up to its stream power (the refinement's blocks spread over the ranks).
 // Opt-in large case: RELIEF_BENCH_WORLD_SIZE=N (e.g. 32769) runs only a river world of N² samples
 // (noise, island, redistribute, fill, flow; tiles of RELIEF_BENCH_WORLD_TILE, default 1025) into a
 // folder under RELIEF_BENCH_WORLD_DIR (default: the temp folder), printing the build's own disk
@@ -47,6 +48,21 @@ json river_world_doc(int n, bool colour = true) {
   }
   doc["stages"] = stages;
   doc["name"] = "river-world";
+  return doc;
+}
+
+// river-island up to its stream power stage (noise, island, redistribute, stream_power): at more than
+// 2049 samples a side stream power's world algorithm refines its coarse solve on world blocks
+// (relief/world_bounded.hpp), whose solves are farm tasks spread over the ranks.
+json stream_power_world_doc(int n) {
+  json doc = preset_doc("river-island", n);
+  json stages = json::array();
+  for (const json& st : doc["stages"]) {
+    stages.push_back(st);
+    if (st.value("stage", "") == "stream_power") break;
+  }
+  doc["stages"] = stages;
+  doc["name"] = "stream-power-world";
   return doc;
 }
 
@@ -121,9 +137,10 @@ void bench_world_rivers(const BenchSettings& s, json& entries, int n, const std:
   std::filesystem::remove_all(dir);
 }
 
-// `mpirun -n 1` against `-n 2` (one thread per rank) on the river world: `relief world` as a
-// subprocess (this executable), wall time per build, tiles each rank built, and the ratio.
-void bench_world_mpi(const BenchSettings& s, json& entries, int n, const std::filesystem::path& dir) {
+// `mpirun -n 1` against `-n 2` (one thread per rank) on a world (`what`: "rivers", the river world;
+// "stream power", stream_power_world_doc): `relief world` as a subprocess (this executable), wall
+// time per build, tiles each rank built, the farm's tasks per rank, and the ratio.
+void bench_world_mpi(const BenchSettings& s, json& entries, int n, const std::filesystem::path& dir, const std::string& what = "rivers") {
   namespace fs = std::filesystem;
   if (std::system("command -v mpirun >/dev/null 2>&1") != 0) {
     std::printf("world mpi: skipped (mpirun is not on the PATH)\n");
@@ -136,8 +153,9 @@ void bench_world_mpi(const BenchSettings& s, json& entries, int n, const std::fi
     return;
   }
   fs::create_directories(dir, ec);
-  const fs::path recipe = dir / "river-world.json";
-  std::ofstream(recipe) << river_world_doc(n).dump(2);
+  const bool sp = what == "stream power";
+  const fs::path recipe = dir / (sp ? "stream-power-world.json" : "river-world.json");
+  std::ofstream(recipe) << (sp ? stream_power_world_doc(n) : river_world_doc(n)).dump(2);
   const int tile = n >= 2049 ? 257 : 129;
   double ms[2] = {0, 0};
   for (int ranks : {1, 2}) {
@@ -161,7 +179,7 @@ void bench_world_mpi(const BenchSettings& s, json& entries, int n, const std::fi
       return;
     }
     ms[ranks - 1] = t.median;
-    json e = timing_entry("world rivers mpi -n " + std::to_string(ranks), n, n, 1, t);
+    json e = timing_entry("world " + what + " mpi -n " + std::to_string(ranks), n, n, 1, t);
     e["ranks"] = ranks;
     e["tile"] = tile;
     std::ifstream rf(out / "report.json");
@@ -173,9 +191,9 @@ void bench_world_mpi(const BenchSettings& s, json& entries, int n, const std::fi
     if (ranks == 2) e["ratio_to_1_rank"] = ms[1] / ms[0];
     print_row(e);
     if (ranks == 2)
-      std::printf("  2 ranks take %.2fx the time of 1 (local phases and the tile solves of fill and flow spread over the ranks); "
-                  "global solves by rank %s\n",
-                  ms[1] / ms[0], e.value("global_solves_by_rank", json::array()).dump().c_str());
+      std::printf("  2 ranks take %.2fx the time of 1 (local phases and the %s spread over the ranks); global solves by rank %s\n",
+                  ms[1] / ms[0], sp ? "refinement's blocks of stream power" : "tile solves of fill and flow",
+                  e.value("global_solves_by_rank", json::array()).dump().c_str());
     entries.push_back(e);
   }
 }
@@ -332,6 +350,8 @@ void bench_world(const BenchSettings& s, json& entries) {
   std::filesystem::remove_all(dir);
   bench_world_rivers(s, entries, n, dir);
   bench_world_mpi(s, entries, std::min(n, 2049), dir);
+  // Stream power's refinement at 2113² (coarse 1057², 3 × 3 blocks of 1024 grown by 96, 4 sweeps).
+  bench_world_mpi(s, entries, 2113, dir, "stream power");
   std::filesystem::remove_all(dir);
 }
 

@@ -256,7 +256,7 @@ struct WorldStageIO {
   // the fill algorithm uses it). Null outside build_world; one rank without MPI.
   detail::TileFarm* farm = nullptr;
   // A folder on the store's file system for the algorithm's temporary files (the phase's folder;
-  // the disk check counts world_scratch_bytes for it). Empty outside build_world: the system's
+  // the disk check counts the algorithm's scratch_bytes for it). Empty outside build_world: the system's
   // temporary folder.
   std::string scratch_dir;
 };
@@ -277,20 +277,22 @@ struct WorldGuarantee {
   std::string guarantee, how;
 };
 WorldGuarantee world_guarantee(const StageDef& stage);
-// The disk the library's world algorithm of `stage` uses besides the tile stores while it runs, in
-// WorldStageIO::scratch_dir, for an nx × nz world (hydraulic: the world's heights, 4 bytes per
-// sample; stream_power: the default algorithm's files at 100 steps, world_stream_power_scratch_bytes
-// (build_world's check takes the stage's own steps and mask through world_stream_power_needs);
-// 0 for the others). build_world's disk check adds it to the stores that coexist then.
-std::uint64_t world_scratch_bytes(const StageDef& stage, std::int64_t nx, std::int64_t nz);
-// What a caller's world algorithm (WorldSettings::algorithms) needs besides the tiles while its
-// phase runs, for build_world's checks: memory (added to one tile's, as the library's algorithms'
-// figures are) and disk in WorldStageIO::scratch_dir (added to the stores that coexist then).
+// What a world algorithm needs besides the tiles while its phase runs, for build_world's checks:
+// memory (added to one tile's) and disk in WorldStageIO::scratch_dir (added to the stores that
+// coexist then).
 struct WorldAlgorithmNeeds {
   std::uint64_t memory_bytes = 0, scratch_bytes = 0;
 };
 // The needs of a stage's algorithm on a world grid (the stage's resolved params: stage.stage->params()).
 using WorldAlgorithmNeedsFn = std::function<WorldAlgorithmNeeds(const RecipeStage& stage, const WorldGrid& grid)>;
+// The needs of the library's world algorithm of `stage` (default_world_algorithms()) on `grid`, a
+// world of frame `world` built with `threads` threads per rank: hydraulic its groups of blocks in
+// flight (world_hydraulic_memory_bytes) and the world's heights on disk (4 bytes per sample);
+// stream_power its coarse solve and one refined block with its records, and its temporary files
+// (world_stream_power_needs with the defaults: the stage's own steps; a masked stage does not
+// refine); nothing for the others. build_world's checks use it for every stage that
+// WorldSettings::algorithm_needs does not name.
+WorldAlgorithmNeeds default_world_algorithm_needs(const RecipeStage& stage, const WorldGrid& grid, const Frame& world, int threads);
 
 struct WorldSettings {
   Recipe recipe;  // parsed and validated; world.size is replaced by nx × nz
@@ -316,9 +318,9 @@ struct WorldSettings {
   // stored world instead of being refused (see "Phases" at the top of this file).
   std::map<std::string, WorldStageAlgorithm> algorithms;
   // Their needs by stage name, for the disk and memory checks (e.g. world_stream_power_needs for a
-  // refining world_stream_power). A stage not named here is checked with the library's figures for
-  // its name (world_scratch_bytes; world_stream_power_memory_bytes and world_hydraulic_memory_bytes
-  // with the defaults), which need not be those of the caller's algorithm.
+  // refining world_stream_power), used by both checks whenever given. A stage not named here is
+  // checked with the library's figures for its name (default_world_algorithm_needs), which need not
+  // be those of the caller's algorithm.
   std::map<std::string, WorldAlgorithmNeedsFn> algorithm_needs;
   // Called after each tile is written, with its (X, Z) (tests kill or cancel builds part way); from
   // several threads at once when tiles are built concurrently.

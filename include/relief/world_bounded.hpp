@@ -20,7 +20,7 @@
 // (clipped to the world), running only that group's blocks of the pass
 // (erosion::hydraulic_erosion_part): every pass gives, group by group, the whole map's pass bit for
 // bit, and so does the result. Between passes the world's heights live in a temporary file (4 bytes
-// per world sample, world_scratch_bytes) in io.scratch_dir (build_world: the phase's folder, on the
+// per world sample, default_world_algorithm_needs) in io.scratch_dir (build_world: the phase's folder, on the
 // store's file system; when empty, the temporary folder: std::filesystem::temp_directory_path(),
 // $TMPDIR, else /tmp). The file has no name (O_TMPFILE, else mkstemp and unlinked at once), so it
 // disappears when the process ends, even when killed: it is filled from the input tiles, updated
