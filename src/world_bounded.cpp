@@ -640,7 +640,8 @@ std::uint64_t world_stream_power_scratch_bytes(std::int64_t nx, std::int64_t nz,
   // bytes; measured on 31 % of the targets and steps on a 1025² world, counted on half) and a count
   // per segment (a block and a neighbour: 4 bytes).
   std::uint64_t bytes = 2 * 4 * std::uint64_t(nx) * std::uint64_t(nz) + f.blocks * K * f.ring * 8;
-  if (sweeps > 1) bytes += 2 * S * (f.all_targets * (16 + 4) + f.segments * 4);
+  // Two sweeps use one file (the second reads what the first wrote and writes none); more use two.
+  if (sweeps > 1) bytes += std::uint64_t(std::min(sweeps - 1, 2)) * S * (f.all_targets * (16 + 4) + f.segments * 4);
   return bytes;
 }
 
@@ -951,11 +952,10 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
       // slot, 72 bytes per block and file, two files).
       std::unique_ptr<TempFile> records[2];
       std::vector<std::array<std::uint64_t, 9>> offsets[2];
-      if (sweeps > 1)
-        for (int f = 0; f < 2; ++f) {
-          records[f] = std::make_unique<TempFile>(io.scratch_dir, "stream_power", "the refinement's ring records");
-          offsets[f].assign(std::size_t(blocks), std::array<std::uint64_t, 9>{});
-        }
+      for (int f = 0; f < std::min(sweeps - 1, 2); ++f) {  // two sweeps need one file
+        records[f] = std::make_unique<TempFile>(io.scratch_dir, "stream_power", "the refinement's ring records");
+        offsets[f].assign(std::size_t(blocks), std::array<std::uint64_t, 9>{});
+      }
       const std::size_t S = std::size_t(steps);
       auto read_history = [&](std::size_t k, const std::vector<std::uint32_t>& kring, int from) {
         History hs;

@@ -188,6 +188,18 @@ TEST(WorldBounded, SmallStreamPowerRefinementIsTheSameForAnyTileAndThreadCount) 
   s.algorithms["stream_power"] = world_stream_power(65, 64, 16, 0);
   build_world(s);
   EXPECT_NE(read_world_window(c / "w", 0, 0, 257, 257).get("height").data, t.get("height").data);
+  // Two sweeps (one file of ring records, written by the first and read by the second) against one
+  // (no records): the second sweep changes the heights, and the world still drains.
+  auto sweeps = [&](int n, const fs::path& dir) {
+    WorldSettings w = settings(r, 257, 257, 65, dir.string(), 2);
+    w.algorithms["stream_power"] = world_stream_power(65, 64, 16, n);
+    build_world(w);
+    return read_world_window(dir, 0, 0, 257, 257).get("height").data;
+  };
+  TempDir e("world-sp-e");
+  const std::vector<float> one = sweeps(1, e / "one"), two = sweeps(2, e / "two");
+  EXPECT_NE(one, two);
+  EXPECT_TRUE(hydro::already_drains<float>(two.data(), 257, 257, float(t.frame.sea_level)));
 }
 
 // ---- the store -----------------------------------------------------------------------------------

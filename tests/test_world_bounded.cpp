@@ -404,6 +404,9 @@ TEST(WorldStreamPower, EstimatesCountTheRefinementsFilesAndMemory) {
   EXPECT_LT(four - one, 2 * 100 * 58284ull * 24);
   EXPECT_EQ(world_stream_power_scratch_bytes(1025, 1025, 513, 4, 40, 256, 64) - world_stream_power_scratch_bytes(1025, 1025, 513, 1, 40, 256, 64),
             2ull * 40 * (22272 * 20 + 84 * 4));
+  // Two sweeps write one file of records (the second sweep reads it and writes none).
+  EXPECT_EQ(world_stream_power_scratch_bytes(1025, 1025, 513, 2, 40, 256, 64) - world_stream_power_scratch_bytes(1025, 1025, 513, 1, 40, 256, 64),
+            1ull * 40 * (22272 * 20 + 84 * 4));
   const std::uint64_t refined = world_stream_power_memory_bytes(4097, 4097, 100, kStreamPowerCoarseMax, kStreamPowerBlock, kStreamPowerHalo, 4);
   const std::uint64_t alone = world_stream_power_memory_bytes(4097, 4097, 100, kStreamPowerCoarseMax, kStreamPowerBlock, kStreamPowerHalo, 0);
   EXPECT_GT(refined, 380'000'000u);

@@ -146,7 +146,7 @@
 //   (sweeps = 0: the phase before the refinement, with its two passes over the tiles) is the stage
 //   on 2049², 4.6 s: the refinement costs 35-50× that time. Disk, in io.scratch_dir: two temporary
 //   files of 4 bytes per world sample (the filled input, the blended output), the coarse inflow's
-//   lists, and with more than one sweep the two ring record files (world_stream_power_scratch_bytes
+//   lists, and with more than one sweep the ring record files (two; one for 2 sweeps: world_stream_power_scratch_bytes
 //   gives them all). build_world's disk and memory checks take the default algorithms' figures
 //   unless WorldSettings::algorithm_needs names the stage: register world_stream_power_needs (the
 //   same arguments) beside a refining world_stream_power.
@@ -189,8 +189,8 @@ std::uint64_t world_stream_power_memory_bytes(std::int64_t nx, std::int64_t nz, 
                                               int sweeps = kStreamPowerSweeps);
 // The disk it uses in WorldStageIO::scratch_dir while it runs, when it refines: two files of 4
 // bytes per world sample (the filled input, the blend), the coarse inflow's lists, and with more
-// than one sweep two files of ring records (one written by a sweep, the other read: per block and
-// step about 24 bytes per ring sample it gives a neighbour; about 2 × 123 MB for a 4097² world of 100
+// than one sweep two files of ring records (one written by a sweep, the other read; one file with
+// 2 sweeps: per block and step about 24 bytes per ring sample it gives a neighbour; about 2 × 123 MB for a 4097² world of 100
 // steps in blocks of 1024 grown by 64, 16 times that at 16385²); else nothing. An upper estimate.
 std::uint64_t world_stream_power_scratch_bytes(std::int64_t nx, std::int64_t nz, int coarse_max = kStreamPowerCoarseMax,
                                                int sweeps = kStreamPowerSweeps, int steps = 100, int block = kStreamPowerBlock,
