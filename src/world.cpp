@@ -606,7 +606,9 @@ WorldReport build_world(WorldSettings s) {
       // counts, and a refusal names what needs the memory.
       std::string need_what;  // empty: the tiles
       std::size_t need_stage = 0;
-      for (std::size_t i = 0; i < r.stages.size(); ++i) {
+      for (const Phase& ph : phases) {
+        if (!ph.global) continue;  // the stages a world algorithm runs
+        const std::size_t i = ph.first;
         const RecipeStage& st = r.stages[i];
         std::uint64_t phase = algorithm_needs(st).memory_bytes;
         if (phase == 0) continue;
@@ -620,10 +622,13 @@ WorldReport build_world(WorldSettings s) {
           throw Error("stages[" + std::to_string(need_stage) + "]",
                       "the world algorithm of stage '" + need_what + "' needs about " + human_bytes(rep.tile_memory_bytes) + " on a " +
                           std::to_string(grid.nx) + "x" + std::to_string(grid.nz) + " world in tiles of " + std::to_string(grid.tile) +
-                          (need_what == "hydraulic" ? " (its groups of blocks: a droplet's reach in cells sets their size)" : " (its coarse solve and one refined block with its records)") +
+                          (need_what == "hydraulic"      ? " (its groups of blocks: a droplet's reach in cells sets their size)"
+                           : need_what == "stream_power" ? " (its coarse solve and one refined block with its records)"
+                                                         : "") +
                           ", but the limit here is " + human_bytes(budget) +
-                          (need_what == "hydraulic" ? "; choose fewer threads, a coarser world or shorter droplet paths (lifetime, step_m)"
-                                                    : "; choose a smaller world or fewer steps"));
+                          (need_what == "hydraulic"      ? "; choose fewer threads, a coarser world or shorter droplet paths (lifetime, step_m)"
+                           : need_what == "stream_power" ? "; choose a smaller world or fewer steps"
+                                                         : "; choose a smaller world"));
         throw Error(s.tile_path, "tiles of " + std::to_string(grid.tile) + " samples (" + std::to_string(at_once) +
                                      " at once) need about " + human_bytes(rep.tile_memory_bytes) + ", but the limit here is " +
                                      human_bytes(budget) + "; choose a smaller tile or fewer threads");

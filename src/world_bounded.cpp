@@ -949,7 +949,7 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
       // segments its neighbours wrote for it and sums them in block order, as the blocks' shares
       // were summed in memory before (the same float sums, bit for bit). Memory: one block's
       // segments and one block's History; the index (a segment's offset per block and neighbour
-      // slot, 72 bytes per block and file, two files).
+      // slot, 72 bytes per block and file, two files; one with 2 sweeps).
       std::unique_ptr<TempFile> records[2];
       std::vector<std::array<std::uint64_t, 9>> offsets[2];
       for (int f = 0; f < std::min(sweeps - 1, 2); ++f) {  // two sweeps need one file

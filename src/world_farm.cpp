@@ -391,45 +391,47 @@ void TileFarm::serve(WorldTransport& t, int lanes, const std::function<FarmKerne
       cv.notify_all();
     }
   });
+  // The lanes are threads of their own that enter the rank's arena only to run a kernel: a lane
+  // waiting for a task holds none of the arena's threads, so a kernel that runs alone (stream power's
+  // blocks, one at a time per rank) has all of them for its own parallel work.
   tbb::task_arena arena(lanes);
-  arena.execute([&] {
-    tbb::parallel_for(
-        0, lanes,
-        [&](int) {
-          for (;;) {
-            Task task;
-            {
-              std::unique_lock<std::mutex> lock(m);
-              cv.wait(lock, [&] { return ended || !tasks.empty(); });
-              if (tasks.empty()) return;
-              task = std::move(tasks.front());
-              tasks.pop_front();
-            }
-            std::string res = "R";
-            put_i64(res, task.p);
-            try {
-              FarmKernel kernel;
-              {
-                std::lock_guard<std::mutex> lock(km);
-                auto it = kernels.find(task.kernel);
-                if (it == kernels.end()) it = kernels.emplace(task.kernel, make(task.kernel)).first;
-                kernel = it->second;
-              }
-              std::string out;  // isolated, as on rank 0: no other lane runs inside the kernel's waits
-              tbb::this_task_arena::isolate([&] { out = kernel(task.k, task.input); });
-              res.push_back(char(1));
-              res += out;
-            } catch (...) {
-              res.resize(9);
-              res.push_back(char(0));
-              res += encode_failure(std::current_exception());
-            }
-            std::lock_guard<std::mutex> lock(m);
-            results.push_back(std::move(res));
-          }
-        },
-        tbb::simple_partitioner());
-  });
+  auto lane = [&] {
+    for (;;) {
+      Task task;
+      {
+        std::unique_lock<std::mutex> lock(m);
+        cv.wait(lock, [&] { return ended || !tasks.empty(); });
+        if (tasks.empty()) return;
+        task = std::move(tasks.front());
+        tasks.pop_front();
+      }
+      std::string res = "R";
+      put_i64(res, task.p);
+      try {
+        FarmKernel kernel;
+        {
+          std::lock_guard<std::mutex> lock(km);
+          auto it = kernels.find(task.kernel);
+          if (it == kernels.end()) it = kernels.emplace(task.kernel, make(task.kernel)).first;
+          kernel = it->second;
+        }
+        std::string out;  // isolated, as on rank 0: no other lane's work runs inside the kernel's waits
+        arena.execute([&] { tbb::this_task_arena::isolate([&] { out = kernel(task.k, task.input); }); });
+        res.push_back(char(1));
+        res += out;
+      } catch (...) {
+        res.resize(9);
+        res.push_back(char(0));
+        res += encode_failure(std::current_exception());
+      }
+      std::lock_guard<std::mutex> lock(m);
+      results.push_back(std::move(res));
+    }
+  };
+  std::vector<std::thread> lanes_run;
+  for (int l = 1; l < lanes; ++l) lanes_run.emplace_back(lane);
+  lane();  // this thread is a lane too
+  for (std::thread& l : lanes_run) l.join();
   comm.join();
   if (comm_error) std::rethrow_exception(comm_error);
 }

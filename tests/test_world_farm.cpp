@@ -5,6 +5,9 @@
 // malformed one is an Error, never a read beyond its end. (The farm over Open MPI, with the fill and
 // flow algorithms: tests/test_world_mpi.cpp.)
 #include <gtest/gtest.h>
+#include <tbb/global_control.h>
+#include <tbb/parallel_for.h>
+#include <tbb/partitioner.h>
 #include <tbb/task_arena.h>
 
 #include <atomic>
@@ -713,4 +716,46 @@ TEST(StreamPowerFarm, ABlockTaskSolvesItsWindowAndMalformedTasksAreRefused) {
   EXPECT_ANY_THROW(kernel(0, task(30, 6, true, 0.0)));          // beyond the world's edge
   EXPECT_ANY_THROW(kernel(0, task(-1, 6, true, 0.0)));
   EXPECT_ANY_THROW(kernel(0, task(4, 6, false, 0.0, 40)));      // the neighbour's window outside it
+}
+
+// A kernel that runs alone on another rank (a capped run: stream power's blocks) has that rank's
+// threads for its own parallel work: the lanes waiting for a task hold none of them. The kernel's
+// two parallel halves must meet (each waits up to 3 s for the other): with the rank's second thread
+// held by an idle lane (as before session 18), they never did.
+TEST(TileFarm, AKernelAloneOnAnotherRankHasTheRanksThreads) {
+  tbb::global_control enough(tbb::global_control::max_allowed_parallelism, 8);  // workers for every rank's arena
+  const FarmKernel meet = [](std::int64_t, std::string_view) {
+    std::atomic<int> arrived{0};
+    std::atomic<bool> met{true};
+    tbb::parallel_for(
+        0, 2,
+        [&](int) {
+          ++arrived;
+          const auto until = std::chrono::steady_clock::now() + std::chrono::seconds(3);
+          while (arrived.load() < 2)
+            if (std::chrono::steady_clock::now() > until) {
+              met = false;
+              break;
+            } else {
+              std::this_thread::yield();
+            }
+        },
+        tbb::simple_partitioner());
+    return std::string(met ? "met" : "alone");
+  };
+  std::vector<std::string> results;
+  std::vector<std::int64_t> by_rank;
+  const std::exception_ptr e = with_ranks(
+      2, [&](const std::string&) { return meet; },
+      [&](TileFarm& farm) {
+        farm.run(
+            "meet", iota_items(6), [](std::int64_t) { return std::string(); }, meet,
+            [&](std::int64_t, std::string r) { results.push_back(r); }, 1);
+        by_rank = farm.tasks_by_rank();
+      });
+  ASSERT_FALSE(e);
+  ASSERT_EQ(results.size(), 6u);
+  for (const std::string& r : results) EXPECT_EQ(r, "met");
+  ASSERT_EQ(by_rank.size(), 2u);
+  EXPECT_GT(by_rank[1], 0);
 }

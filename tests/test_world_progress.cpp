@@ -17,6 +17,7 @@
 
 #include "relief/error.hpp"
 #include "relief/world.hpp"
+#include "relief/world_bounded.hpp"
 #include "support.hpp"
 #include "world_support.hpp"
 
@@ -305,12 +306,11 @@ TEST(WorldDisk, HydraulicsTemporaryHeightsAreCounted) {
   const std::uint64_t a = dry(without), b = dry(with);
   EXPECT_GE(b, a + 4u * 257u * 257u);
   const relief::Recipe r = recipe_of(with, 3);
-  WorldGrid g;
-  g.nx = g.nz = 257, g.tile = 65, g.tiles_x = g.tiles_z = 4;
-  Frame f;
-  f.nx = f.nz = 257;
+  const WorldGrid g = world_grid(257, 257, 65);
+  const Frame f = world_frame(r, 257, 257);
   EXPECT_EQ(default_world_algorithm_needs(r.stages[1], g, f, 1).scratch_bytes, 4u * 257u * 257u);
-  EXPECT_GT(default_world_algorithm_needs(r.stages[1], g, f, 1).memory_bytes, 0u);
+  EXPECT_EQ(default_world_algorithm_needs(r.stages[1], g, f, 2).memory_bytes, world_hydraulic_memory_bytes(f, 65, r.stages[1].stage->params(), 2));
+  EXPECT_GT(default_world_algorithm_needs(r.stages[1], g, f, 2).memory_bytes, default_world_algorithm_needs(r.stages[1], g, f, 1).memory_bytes);
   EXPECT_EQ(default_world_algorithm_needs(r.stages[0], g, f, 1).scratch_bytes, 0u);
   EXPECT_EQ(default_world_algorithm_needs(r.stages[0], g, f, 1).memory_bytes, 0u);
 }

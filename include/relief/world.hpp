@@ -290,8 +290,8 @@ using WorldAlgorithmNeedsFn = std::function<WorldAlgorithmNeeds(const RecipeStag
 // flight (world_hydraulic_memory_bytes) and the world's heights on disk (4 bytes per sample);
 // stream_power its coarse solve and one refined block with its records, and its temporary files
 // (world_stream_power_needs with the defaults: the stage's own steps; a masked stage does not
-// refine); nothing for the others. build_world's checks use it for every stage that
-// WorldSettings::algorithm_needs does not name.
+// refine); nothing for the others. build_world's checks use it for every stage run by a world
+// algorithm that WorldSettings::algorithm_needs does not name.
 WorldAlgorithmNeeds default_world_algorithm_needs(const RecipeStage& stage, const WorldGrid& grid, const Frame& world, int threads);
 
 struct WorldSettings {
@@ -318,9 +318,9 @@ struct WorldSettings {
   // stored world instead of being refused (see "Phases" at the top of this file).
   std::map<std::string, WorldStageAlgorithm> algorithms;
   // Their needs by stage name, for the disk and memory checks (e.g. world_stream_power_needs for a
-  // refining world_stream_power), used by both checks whenever given. A stage not named here is
-  // checked with the library's figures for its name (default_world_algorithm_needs), which need not
-  // be those of the caller's algorithm.
+  // refining world_stream_power), used by both checks for the stages a world algorithm runs. A stage
+  // not named here is checked with the library's figures for its name (default_world_algorithm_needs),
+  // which need not be those of the caller's algorithm.
   std::map<std::string, WorldAlgorithmNeedsFn> algorithm_needs;
   // Called after each tile is written, with its (X, Z) (tests kill or cancel builds part way); from
   // several threads at once when tiles are built concurrently.
