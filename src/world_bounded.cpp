@@ -256,14 +256,7 @@ WorldStageAlgorithm world_hydraulic(std::uint64_t seed, int group_blocks) {
     // The 16 passes in order; in each, the groups of G × G blocks, each on its blocks' cells grown
     // by the reach (and one sample), clipped to the world: farm tasks (src/world_farm.hpp), run on
     // this rank's threads or on other ranks (a distributed build), merged in group order.
-    std::unique_ptr<detail::WorldTransport> alone;  // no farm (outside build_world): this process's
-    std::unique_ptr<detail::TileFarm> own;
-    detail::TileFarm* farm = io.farm;
-    if (!farm) {
-      alone = detail::in_process_transport();
-      own = std::make_unique<detail::TileFarm>(*alone);
-      farm = own.get();
-    }
+    const detail::FarmOf farm(io.farm);
     const detail::FarmKernel kernel = hydraulic_kernel(W, s);
     for (int pass = 0; pass < 16; ++pass) {
       auto job_of = [&](std::int64_t q) {
@@ -1007,14 +1000,7 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
       // this rank, one at a time (the solver uses the rank's threads; so the memory is one block's),
       // or on other ranks in a distributed build; merged in block order, so the record files and the
       // blend are the same bytes for any rank count.
-      std::unique_ptr<detail::WorldTransport> alone;  // no farm (outside build_world): this process's
-      std::unique_ptr<detail::TileFarm> own;
-      detail::TileFarm* farm = io.farm;
-      if (!farm) {
-        alone = detail::in_process_transport();
-        own = std::make_unique<detail::TileFarm>(*alone);
-        farm = own.get();
-      }
+      const detail::FarmOf farm(io.farm);
       const detail::FarmKernel kernel = stream_power_kernel(W, sp);
       std::vector<std::int64_t> ids(static_cast<std::size_t>(blocks));
       for (std::int64_t b = 0; b < blocks; ++b) ids[std::size_t(b)] = b;

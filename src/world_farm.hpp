@@ -28,6 +28,7 @@
 #include <cstdint>
 #include <exception>
 #include <functional>
+#include <memory>
 #include <mutex>
 #include <string>
 #include <string_view>
@@ -84,6 +85,25 @@ class TileFarm {
   bool ending_ = false;
   std::exception_ptr server_error_;
   std::thread server_;
+};
+
+// The farm a world algorithm's tasks run on: the build's (WorldStageIO::farm), or, outside
+// build_world (null), one of this process alone.
+class FarmOf {
+ public:
+  explicit FarmOf(TileFarm* given) : farm_(given) {
+    if (!farm_) {
+      alone_ = in_process_transport();
+      own_ = std::make_unique<TileFarm>(*alone_);
+      farm_ = own_.get();
+    }
+  }
+  TileFarm* operator->() const { return farm_; }
+
+ private:
+  std::unique_ptr<WorldTransport> alone_;  // declared first: destroyed after the farm it serves
+  std::unique_ptr<TileFarm> own_;
+  TileFarm* farm_;
 };
 
 // The kernel `name` of a distributed world algorithm, made from the stage and a rank's own io (the
