@@ -67,8 +67,9 @@ class TileFarm {
   // Ends the phase for the other ranks (their serve() returns). Called by the destructor too.
   void end();
 
-  // A rank > 0, during a global phase: runs the tasks rank 0 sends on `lanes` threads (a task arena
-  // of its own), with kernels from `make(name)` (each made once), until rank 0 ends the phase.
+  // A rank > 0, during a global phase: runs the tasks rank 0 sends on `lanes` threads, each entering
+  // a task arena of `lanes` threads only to run a kernel (so a kernel running alone has them all), with
+  // kernels from `make(name)` (each made once), until rank 0 ends the phase.
   static void serve(WorldTransport& t, int lanes, const std::function<FarmKernel(const std::string& name)>& make);
 
  private:
