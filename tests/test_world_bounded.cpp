@@ -575,13 +575,15 @@ TEST(StreamPowerWorld, TheDiskEstimateCountsItsStepsAndMask) {
 //   RELIEF_SP_FIGURES="4097 1025 1024 96 4 100" tests/test_world_bounded
 //     --gtest_also_run_disabled_tests --gtest_filter='*DISABLED_Figures*'
 // (world size, tile, block, halo, sweeps, steps; those are the defaults; a seventh number 1: stream
-// power alone, without the stages after it) for eroded-mountains up to stream power, thermal and
+// power alone, without the stages after it; an eighth: the coarse grid's largest side, default
+// kStreamPowerCoarseMax) for eroded-mountains up to stream power, thermal and
 // fill: the seam metrics within 128 samples and within 2 halos of a seam against one whole-map run,
 // and the phase's report.
 TEST(StreamPowerWorld, DISABLED_Figures) {
-  int size = 4097, tile = 1025, block = kStreamPowerBlock, halo = kStreamPowerHalo, sweeps = kStreamPowerSweeps, steps = 100, alone = 0;
+  int size = 4097, tile = 1025, block = kStreamPowerBlock, halo = kStreamPowerHalo, sweeps = kStreamPowerSweeps, steps = 100, alone = 0,
+      coarse = kStreamPowerCoarseMax;
   if (const char* e = std::getenv("RELIEF_SP_FIGURES"))
-    std::sscanf(e, "%d %d %d %d %d %d %d", &size, &tile, &block, &halo, &sweeps, &steps, &alone);
+    std::sscanf(e, "%d %d %d %d %d %d %d %d", &size, &tile, &block, &halo, &sweeps, &steps, &alone, &coarse);
   json doc = eroded_doc(size, true, false, steps);
   if (alone == 1) {
     json stages = json::array();
@@ -592,11 +594,12 @@ TEST(StreamPowerWorld, DISABLED_Figures) {
     doc["stages"] = stages;
   }
   TempDir d;
-  const Built b = build_both(doc, tile, (d.path / "w").string(), kStreamPowerCoarseMax, 0, 2, block, halo, nullptr, sweeps);
+  const Built b = build_both(doc, tile, (d.path / "w").string(), coarse, 0, 2, block, halo, nullptr, sweeps);
   for (const int band : {128, 2 * halo}) {
     const SeamMetrics m = seam_metrics(b.tiled, b.whole, b.grid, band, b.world);
     const std::string what = "stream_power blocks " + std::to_string(block) + " halo " + std::to_string(halo) + " sweeps " +
-                             std::to_string(sweeps) + " steps " + std::to_string(steps) + (alone == 1 ? " alone" : " + thermal + fill");
+                             std::to_string(sweeps) + " steps " + std::to_string(steps) + " coarse " + std::to_string(coarse) +
+                             (alone == 1 ? " alone" : " + thermal + fill");
     print(what.c_str(), size, tile, band, m);
   }
   EXPECT_TRUE(hydro::already_drains<float>(b.tiled.data(), int(b.grid.nx), int(b.grid.nz), float(b.world.sea_level)));
