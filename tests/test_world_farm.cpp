@@ -680,21 +680,38 @@ TEST(StreamPowerFarm, ABlockTaskSolvesItsWindowAndMalformedTasksAreRefused) {
   io.world = relief::world_frame(r, 33, 33);
   const FarmKernel kernel = relief::detail::make_farm_kernel("stream-power", io, r.stages[0]);
   const int wnx = 9, wnz = 8, K = 2, steps = 2, R = 2 * wnx + 2 * (wnz - 2);
-  auto task = [&](std::int64_t x0, std::int64_t z0, bool last, double change, std::int64_t nx0 = 12) {
+  // A task as world_stream_power writes it: `prev` a later sweep (the ring held at `held` where the
+  // neighbours' weight reached it, their inflow per step) instead of the first (coarse inflow).
+  struct Opt {
+    bool prev = false;
+    float held = 0.5f;
+    int steps = 2, nouts = -1;  // -1: none in the last sweep, one otherwise
+    std::uint32_t target = 4 * 9 + 7;
+  };
+  auto task = [&](std::int64_t x0, std::int64_t z0, bool last, double change, std::int64_t nx0 = 12, Opt o = Opt()) {
     std::string t;
     auto put = [&](const auto& v) { t.append(reinterpret_cast<const char*>(&v), sizeof(v)); };
-    put(x0), put(z0), put(std::int32_t(wnx)), put(std::int32_t(wnz)), put(std::int32_t(K)), put(std::int32_t(steps));
-    put(std::uint8_t(0)), put(std::uint8_t(last)), put(std::uint32_t(last ? 0 : 1));
+    const std::uint32_t nouts = o.nouts >= 0 ? std::uint32_t(o.nouts) : (last ? 0u : 1u);
+    put(x0), put(z0), put(std::int32_t(wnx)), put(std::int32_t(wnz)), put(std::int32_t(K)), put(std::int32_t(o.steps));
+    put(std::uint8_t(o.prev)), put(std::uint8_t(last)), put(nouts);
     for (int j = 0; j < wnz; ++j)
       for (int i = 0; i < wnx; ++i) put(0.40f + 0.02f * float(i) + 0.01f * float(j));
     for (int k = 1; k <= K; ++k)
       for (int q = 0; q < R; ++q) put(change * k);
-    put(std::uint32_t(1)), put(std::uint32_t(0)), put(std::uint32_t(0));     // coarse inflow: one entry at snapshot 0
-    put(std::uint32_t(4 * wnx + 4)), put(2.0f);                              // at sample (4, 4), 2 cells
-    if (!last) {
+    if (o.prev) {
+      for (int half = 0; half < 2; ++half)  // levels seen, then solved, per step and ring sample
+        for (int q = 0; q < o.steps * R; ++q) put(o.held);
+      for (int q = 0; q < R; ++q) put(1.0f);  // the neighbours' weight reached every ring sample
+      put(std::uint32_t(1));
+      for (int k = 1; k < o.steps; ++k) put(std::uint32_t(0));  // inflow: one entry at step 0
+    } else {
+      put(std::uint32_t(1)), put(std::uint32_t(0)), put(std::uint32_t(0));  // coarse inflow: one entry at snapshot 0
+    }
+    put(std::uint32_t(4 * wnx + 4)), put(2.0f);  // at sample (4, 4), 2 cells
+    for (std::uint32_t n = 0; n < nouts; ++n) {
       put(nx0), put(z0), put(std::int32_t(wnx)), put(std::int32_t(wnz));  // the neighbour's window
       put(std::uint32_t(2));                                               // two targets
-      put(std::uint32_t(4 * wnx + 7)), put(0.5), put(std::uint32_t(5 * wnx + 7)), put(1.0);
+      put(o.target), put(0.5), put(std::uint32_t(5 * wnx + 7)), put(1.0);
     }
     return t;
   };
@@ -716,6 +733,31 @@ TEST(StreamPowerFarm, ABlockTaskSolvesItsWindowAndMalformedTasksAreRefused) {
   EXPECT_ANY_THROW(kernel(0, task(30, 6, true, 0.0)));          // beyond the world's edge
   EXPECT_ANY_THROW(kernel(0, task(-1, 6, true, 0.0)));
   EXPECT_ANY_THROW(kernel(0, task(4, 6, false, 0.0, 40)));      // the neighbour's window outside it
+  // A later sweep: the ring is held at the neighbours' levels (weight 1), whatever the coarse change.
+  Opt later;
+  later.prev = true;
+  const std::string held = kernel(0, task(4, 6, true, 0.0, 12, later));
+  ASSERT_EQ(held.size(), solved.size());
+  EXPECT_EQ(kernel(0, task(4, 6, true, 1e-3, 12, later)), held);
+  later.held = 0.45f;
+  EXPECT_NE(kernel(0, task(4, 6, true, 0.0, 12, later)), held);
+  later.held = 0.5f;
+  const std::string later_give = task(4, 6, false, 0.0, 12, later);
+  EXPECT_GE(kernel(0, later_give).size(), 8u);
+  for (std::size_t n = 0; n < later_give.size(); n += 7) ASSERT_ANY_THROW(kernel(0, later_give.substr(0, n))) << n;
+  // Refused: steps other than the stage's, more than 8 neighbours, neighbours in the last sweep, a
+  // target outside the window.
+  Opt bad;
+  bad.steps = 3;
+  EXPECT_ANY_THROW(kernel(0, task(4, 6, true, 0.0, 12, bad)));
+  bad = Opt();
+  bad.nouts = 9;
+  EXPECT_ANY_THROW(kernel(0, task(4, 6, false, 0.0, 12, bad)));
+  bad.nouts = 1;
+  EXPECT_ANY_THROW(kernel(0, task(4, 6, true, 0.0, 12, bad)));
+  bad = Opt();
+  bad.target = std::uint32_t(wnx * wnz);
+  EXPECT_ANY_THROW(kernel(0, task(4, 6, false, 0.0, 12, bad)));
 }
 
 // A kernel that runs alone on another rank (a capped run: stream power's blocks) has that rank's
