@@ -476,11 +476,12 @@ struct SpGet {
 //   prev: the levels held on the ring, seen then solved (2 · steps · R floats), the weight that
 //     reached each ring sample (R floats), the inflow per step (steps u32 counts, then the entries);
 //   else: the coarse inflow per snapshot (K + 1 u32 counts, then the entries);
-//   per neighbour it gives to (not in the last sweep; in neighbour order): its window (i64 x0, z0;
-//     i32 wnx, wnz), u32 n, then n targets (u32 sample in this window, f64 weight).
-// The result: not in the last sweep, per neighbour a u64 length and its segment of the ring records
-// (the weighted levels seen then solved, steps · n doubles each; steps u32 inflow counts; the entries);
-// in the last sweep, the solved window (wnx · wnz floats).
+//   per neighbour it gives to (every one before the last sweep; in the last, those whose turn comes
+//   later; in neighbour order): its window (i64 x0, z0; i32 wnx, wnz), u32 n, then n targets (u32
+//   sample in this window, f64 weight).
+// The result: per neighbour it gives to, a u64 length and its segment of the ring records (the
+// weighted levels seen then solved, steps · n doubles each; steps u32 inflow counts; the entries);
+// then, in the last sweep, the solved window (wnx · wnz floats).
 constexpr int kSpMaxSide = 65535;  // a window's side at most (cells are 32-bit indices)
 
 detail::FarmKernel stream_power_kernel(const Frame& W, const erosion::StreamPowerSettings& sp) {
@@ -523,8 +524,7 @@ detail::FarmKernel stream_power_kernel(const Frame& W, const erosion::StreamPowe
       std::vector<double> w, levels;
       std::vector<std::vector<SpInflow>> inflow;
     };
-    std::vector<Out> outs(last ? 0 : nouts);
-    if (last && nouts != 0) in.bad();
+    std::vector<Out> outs(nouts);
     for (Out& o : outs) {
       o.box.x0 = in.one<std::int64_t>(), o.box.z0 = in.one<std::int64_t>();
       o.box.wnx = in.one<std::int32_t>(), o.box.wnz = in.one<std::int32_t>();
@@ -571,7 +571,7 @@ detail::FarmKernel stream_power_kernel(const Frame& W, const erosion::StreamPowe
     };
     // What this block gives its neighbours: their targets' weighted levels (seen, then solved) and
     // the drainage area crossing into their insides.
-    if (!last) {
+    if (!outs.empty()) {
       auto record = [&](bool solved_levels) {
         return [&, solved_levels](int step, const double* hw) {
           for (Out& o : outs) {
@@ -599,10 +599,6 @@ detail::FarmKernel stream_power_kernel(const Frame& W, const erosion::StreamPowe
     }
     erosion::detail::stream_power_window(h.data(), W.window(x0, z0, wnx, wnz), sp, win);
     SpPut res;
-    if (last) {
-      res.many(h.data(), n);
-      return std::move(res.s);
-    }
     for (const Out& o : outs) {
       std::size_t entries = 0;
       for (const auto& v : o.inflow) entries += v.size();
@@ -611,6 +607,7 @@ detail::FarmKernel stream_power_kernel(const Frame& W, const erosion::StreamPowe
       for (const auto& v : o.inflow) res.one(std::uint32_t(v.size()));
       for (const auto& v : o.inflow) res.many(v.data(), v.size());
     }
+    if (last) res.many(h.data(), n);
     return std::move(res.s);
   };
 }
@@ -633,8 +630,8 @@ std::uint64_t world_stream_power_scratch_bytes(std::int64_t nx, std::int64_t nz,
   // bytes; measured on 31 % of the targets and steps on a 1025² world, counted on half) and a count
   // per segment (a block and a neighbour: 4 bytes).
   std::uint64_t bytes = 2 * 4 * std::uint64_t(nx) * std::uint64_t(nz) + f.blocks * K * f.ring * 8;
-  // Two sweeps use one file (the second reads what the first wrote and writes none); more use two.
-  if (sweeps > 1) bytes += std::uint64_t(std::min(sweeps - 1, 2)) * S * (f.all_targets * (16 + 4) + f.segments * 4);
+  // Two files from two sweeps on (the last sweep's turns give their later neighbours records too).
+  if (sweeps > 1) bytes += 2 * S * (f.all_targets * (16 + 4) + f.segments * 4);
   return bytes;
 }
 
@@ -881,12 +878,21 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
       const double blocks_end = 0.9;
       // Sweeps (an overlapping Schwarz iteration): the first holds each window's ring at the coarse
       // levels and gives it the coarse inflow; each later one holds it, step by step, at the blend
-      // of the previous sweep's blocks there (the weights of world position sum to 1 on every ring
+      // of its neighbours' latest solves there (the weights of world position sum to 1 on every ring
       // sample that is not on the world's edge, where the ring is the world's border, at base level)
       // and gives it their drainage area entering across it (the blocks' receivers and areas there,
       // weighted alike). With exact levels and inflow a window is exact
-      // (StreamPower.WindowGivenTheWholeMapsRingAndInflowReproducesItsInside); each sweep carries the
-      // fine solution one block further along the rivers (levels upstream, area downstream).
+      // (StreamPower.WindowGivenTheWholeMapsRingAndInflowReproducesItsInside).
+      // The later sweeps are multiplicative (Gauss-Seidel): a block reads what its neighbours gave in
+      // this sweep if their turn came before its own, else what they gave in the previous one. The
+      // turns alternate between the blocks' row order (odd sweeps) and its reverse (even sweeps), so
+      // one sweep carries the fine solution across the whole world along every river running down
+      // the rows or along them one way (area downstream, levels upstream), and the next along the
+      // others. (A Jacobi sweep carried it one block further; at 8193² in blocks of 1024 a river
+      // crosses 8 blocks, which 4 such sweeps did not reach.) The row order runs as waves
+      // bx + 2·bz: a block's four neighbours before it in the rows (W, NW, N, NE) are in earlier
+      // waves, the other four in later ones, so the blocks of a wave are no neighbours of each other
+      // and run at once, on any rank count, reading the same records.
       using Box = SpBox;
       std::vector<Box> boxes(static_cast<std::size_t>(blocks));
       for (std::int64_t bz = 0; bz < az.count; ++bz)
@@ -916,6 +922,12 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
         }
         return ts;
       };
+      // Turns: sweep 0 (Jacobi) has none; odd sweeps run the waves up, even ones down.
+      auto wave_of = [&](std::size_t b) { return std::int64_t(b) % ax.count + 2 * (std::int64_t(b) / ax.count); };
+      auto turn_before = [&](int sweep, std::size_t j, std::size_t k) {
+        if (sweep == 0) return false;
+        return sweep % 2 == 1 ? wave_of(j) < wave_of(k) : wave_of(j) > wave_of(k);
+      };
       // The neighbours of block j (k ≠ j), in block order, and their slot (0..8) around j.
       auto neighbours = [&](std::size_t j) {
         std::vector<std::pair<std::size_t, int>> ns;
@@ -942,15 +954,26 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
       // segments its neighbours wrote for it and sums them in block order, as the blocks' shares
       // were summed in memory before (the same float sums, bit for bit). Memory: one block's
       // segments and one block's History; the index (a segment's offset per block and neighbour
-      // slot, 72 bytes per block and file, two files; one with 2 sweeps).
+      // slot, 72 bytes per block and file, two files).
       std::unique_ptr<TempFile> records[2];
       std::vector<std::array<std::uint64_t, 9>> offsets[2];
-      for (int f = 0; f < std::min(sweeps - 1, 2); ++f) {  // two sweeps need one file
+      for (int f = 0; f < (sweeps > 1 ? 2 : 0); ++f) {
         records[f] = std::make_unique<TempFile>(io.scratch_dir, "stream_power", "the refinement's ring records");
         offsets[f].assign(std::size_t(blocks), std::array<std::uint64_t, 9>{});
       }
+      // The file holding each block's latest records (sweep s writes file s % 2, so a sweep reads
+      // the previous one's records, never overwritten while it runs, and its own earlier turns').
+      std::vector<int> latest(static_cast<std::size_t>(blocks), -1);
+      // The neighbours block j gives records to in a sweep: every one before the last sweep; in the
+      // last, those whose turn comes after j's.
+      auto gives = [&](int sweep, std::size_t j) {
+        std::vector<std::pair<std::size_t, int>> ns = neighbours(j);
+        if (sweep + 1 == sweeps)
+          ns.erase(std::remove_if(ns.begin(), ns.end(), [&](const auto& n) { return !turn_before(sweep, j, n.first); }), ns.end());
+        return ns;
+      };
       const std::size_t S = std::size_t(steps);
-      auto read_history = [&](std::size_t k, const std::vector<std::uint32_t>& kring, int from) {
+      auto read_history = [&](std::size_t k, const std::vector<std::uint32_t>& kring) {
         History hs;
         const std::size_t R = kring.size();
         hs.seen.assign(S * R, 0.0f);
@@ -968,7 +991,9 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
           int slot = -1;
           for (const auto& [kk, s2] : neighbours(j))
             if (kk == k) slot = s2;
-          std::uint64_t at = offsets[from][j][std::size_t(slot)];
+          const int from = latest[j];
+          if (from < 0) throw std::logic_error("world_stream_power: a block's records read before it gave them");
+          std::uint64_t at = offsets[std::size_t(from)][j][std::size_t(slot)];
           const std::size_t n = ts.size();
           levels.resize(2 * S * n);
           records[from]->io(false, at, levels.data(), levels.size() * sizeof(double));
@@ -1005,9 +1030,10 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
       std::vector<std::int64_t> ids(static_cast<std::size_t>(blocks));
       for (std::int64_t b = 0; b < blocks; ++b) ids[std::size_t(b)] = b;
       const double work = double(blocks) * double(sweeps);
+      std::int64_t done = 0;
       for (int sweep = 0; sweep < sweeps; ++sweep) {
         const bool last = sweep + 1 == sweeps;
-        const int from = (sweep + 1) % 2, to = sweep % 2;  // the files read and written by this sweep
+        const int to = sweep % 2;  // the file this sweep writes
         std::uint64_t written = 0;
         auto task = [&](std::int64_t b) {
           check_cancelled(io);
@@ -1016,7 +1042,7 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
           const std::int64_t x0 = box.x0, z0 = box.z0;
           const int wnx = box.wnx, wnz = box.wnz;
           const std::vector<std::uint32_t> ring = box.ring();
-          const std::vector<std::pair<std::size_t, int>> ns = last ? std::vector<std::pair<std::size_t, int>>() : neighbours(id);
+          const std::vector<std::pair<std::size_t, int>> ns = gives(sweep, id);
           SpPut t;
           t.one(x0), t.one(z0);
           t.one(std::int32_t(wnx)), t.one(std::int32_t(wnz)), t.one(std::int32_t(K)), t.one(std::int32_t(steps));
@@ -1035,7 +1061,7 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
           }
           std::vector<std::vector<Inflow>> lists;
           if (sweep > 0) {
-            const History hs = read_history(id, ring, from);
+            const History hs = read_history(id, ring);
             t.many(hs.seen.data(), hs.seen.size());
             t.many(hs.solved.data(), hs.solved.size());
             t.many(hs.weight.data(), hs.weight.size());
@@ -1060,24 +1086,27 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
           const std::int64_t x0 = box.x0, z0 = box.z0;
           const int wnx = box.wnx, wnz = box.wnz;
           SpGet r{out, 0, "result"};
+          // This block's segments, appended to the sweep's file.
+          const std::vector<std::pair<std::size_t, int>> ns = gives(sweep, id);
+          for (const auto& [k, slot] : ns) {
+            const std::uint64_t len = r.one<std::uint64_t>();
+            if (len > out.size() - r.at) r.bad();
+            offsets[to][id][std::size_t(slot)] = written;
+            if (len > 0) records[to]->io(true, written, out.data() + r.at, std::size_t(len));
+            written += len;
+            r.at += std::size_t(len);
+          }
+          if (!ns.empty()) latest[id] = to;
           if (!last) {
-            // This block's segments, appended to the sweep's file.
-            for (const auto& [k, slot] : neighbours(id)) {
-              const std::uint64_t len = r.one<std::uint64_t>();
-              if (len > out.size() - r.at) r.bad();
-              offsets[to][id][std::size_t(slot)] = written;
-              if (len > 0) records[to]->io(true, written, out.data() + r.at, std::size_t(len));
-              written += len;
-              r.at += std::size_t(len);
-            }
             r.end();
           } else {
-            // This block's share, added to the output in block order (the same order for every tiling).
+            // This block's share, added to the output in its turn (the same order for every tiling).
             // The solved window, read in place (wnx · wnz floats).
-            if (out.size() != 4 * std::size_t(wnx) * std::size_t(wnz)) r.bad();
+            const std::size_t at = r.at;
+            if (out.size() - at != 4 * std::size_t(wnx) * std::size_t(wnz)) r.bad();
             auto solved = [&](std::size_t c) {
               float v;
-              std::memcpy(&v, out.data() + 4 * c, 4);
+              std::memcpy(&v, out.data() + at + 4 * c, 4);
               return v;
             };
             const std::int64_t kx = b % ax.count, kz = b / ax.count;
@@ -1103,9 +1132,20 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
             }
             output->write(ux0, uz0, unx, unz, sum.data());
           }
-          if (io.progress) io.progress(solve_end + (blocks_end - solve_end) * double(sweep * blocks + b + 1) / work);
+          if (io.progress) io.progress(solve_end + (blocks_end - solve_end) * double(++done) / work);
         };
-        farm->run("stream-power", ids, task, kernel, merge, 1);
+        if (sweep == 0) {
+          farm->run("stream-power", ids, task, kernel, merge, 1);
+          continue;
+        }
+        const std::int64_t waves = (ax.count - 1) + 2 * (az.count - 1) + 1;
+        for (std::int64_t i = 0; i < waves; ++i) {
+          const std::int64_t w = sweep % 2 == 1 ? i : waves - 1 - i;
+          std::vector<std::int64_t> wave;
+          for (std::int64_t bz = 0; bz < az.count && 2 * bz <= w; ++bz)
+            if (w - 2 * bz < ax.count) wave.push_back(bz * ax.count + (w - 2 * bz));
+          if (!wave.empty()) farm->run("stream-power", wave, task, kernel, merge, 1);
+        }
       }
       // The whole map's stage ends ε-filled (it drains); so does the world: the blend, clamped to
       // [0, 1] as the stage clamps, filled across tiles as the world's fill stage fills (exact: the

@@ -188,8 +188,9 @@ TEST(WorldBounded, SmallStreamPowerRefinementIsTheSameForAnyTileAndThreadCount) 
   s.algorithms["stream_power"] = world_stream_power(65, 64, 16, 0);
   build_world(s);
   EXPECT_NE(read_world_window(c / "w", 0, 0, 257, 257).get("height").data, t.get("height").data);
-  // Two sweeps (one file of ring records, written by the first and read by the second) against one
-  // (no records): the second sweep changes the heights, and the world still drains.
+  // Two sweeps (the second one's turns read the first one's records and their earlier neighbours'
+  // of their own sweep) against one (no records): the second sweep changes the heights, and the
+  // world still drains.
   auto sweeps = [&](int n, const fs::path& dir) {
     WorldSettings w = settings(r, 257, 257, 65, dir.string(), 2);
     w.algorithms["stream_power"] = world_stream_power(65, 64, 16, n);

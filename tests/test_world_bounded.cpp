@@ -325,8 +325,9 @@ TEST(WorldStreamPower, RefinedCoarsePassKeepsSeamsContinuous) {
     const Built b = build_both(doc, tile, (d.path / "w").string(), 257, 0, 2, block, halo, &whole, 4);
     const SeamMetrics m = seam_metrics(b.tiled, b.whole, b.grid, band, b.world);
     print("stream_power coarse 257² refined (blocks 128, halo 48, 4 sweeps) + thermal + fill", 513, tile, band, m);
-    // Measured: RMS within 2 halos of the seams 0.263 % of the relief for tiles of 129 (0.324 % for
-    // tiles of 257; 0.26 % over the whole world, max |diff| 0.024); the coarse change alone gave 2.09 %
+    // Measured: RMS within 2 halos of the seams 0.265 % of the relief for tiles of 129 (0.328 % for
+    // tiles of 257; 0.26 % over the whole world, max |diff| 0.032; the Jacobi sweeps before session 19:
+    // 0.263 % and 0.324 %); the coarse change alone gave 2.09 %
     // within this band (below). Before the blocks started from the world's filled input (the stage's
     // start): 0.287 %. Measured with other halos (blocks 128, tiles of 129, band 2 halos; sweeps 1, 2,
     // 4): halo 32: 1.90, 0.97, 0.39 %; halo 48: 1.44, 0.35, 0.26 %; halo 64: 1.14, 0.29, 0.21 % (halo
@@ -340,13 +341,15 @@ TEST(WorldStreamPower, RefinedCoarsePassKeepsSeamsContinuous) {
       EXPECT_TRUE(b.tiled == first) << "tiles of 129 and " << tile << " differ";
   }
   {
-    // Halo 32: rings that cut lakes of the input. Measured 0.389 % (band 64); 3.3 % when the blocks
-    // started from the raw input (their own first fill drained those lakes across the ring).
+    // Halo 32: rings that cut lakes of the input. Measured 0.464 % (band 64) with the multiplicative
+    // sweeps (session 19; 6 sweeps 0.422 %, 8 sweeps 0.388 %), 0.389 % with the Jacobi sweeps before
+    // them (a river here crosses at most 4 blocks, which 4 Jacobi sweeps reached too); 3.3 % when the
+    // blocks started from the raw input (their own first fill drained those lakes across the ring).
     TempDir d;
     const Built b = build_both(doc, 129, (d.path / "w").string(), 257, 0, 2, block, 32, &whole, 4);
     const SeamMetrics m = seam_metrics(b.tiled, b.whole, b.grid, 64, b.world);
     print("stream_power coarse 257² refined (blocks 128, halo 32, 4 sweeps) + thermal + fill", 513, 129, 64, m);
-    EXPECT_LE(m.rms_fraction, 0.0042);
+    EXPECT_LE(m.rms_fraction, 0.0050);
   }
   // The same band without the refinement (sweeps = 0: the coarse change alone): measured 2.09 %
   // (RMS over the world 1.41 %, max |diff| 0.166), 7× the refined figure.
@@ -404,9 +407,10 @@ TEST(WorldStreamPower, EstimatesCountTheRefinementsFilesAndMemory) {
   EXPECT_LT(four - one, 2 * 100 * 58284ull * 24);
   EXPECT_EQ(world_stream_power_scratch_bytes(1025, 1025, 513, 4, 40, 256, 64) - world_stream_power_scratch_bytes(1025, 1025, 513, 1, 40, 256, 64),
             2ull * 40 * (22272 * 20 + 84 * 4));
-  // Two sweeps write one file of records (the second sweep reads it and writes none).
+  // Two sweeps write two files of records too (the second sweep's turns give their later neighbours
+  // theirs; counted in full).
   EXPECT_EQ(world_stream_power_scratch_bytes(1025, 1025, 513, 2, 40, 256, 64) - world_stream_power_scratch_bytes(1025, 1025, 513, 1, 40, 256, 64),
-            1ull * 40 * (22272 * 20 + 84 * 4));
+            2ull * 40 * (22272 * 20 + 84 * 4));
   const std::uint64_t refined = world_stream_power_memory_bytes(4097, 4097, 100, kStreamPowerCoarseMax, kStreamPowerBlock, kStreamPowerHalo, 4);
   const std::uint64_t alone = world_stream_power_memory_bytes(4097, 4097, 100, kStreamPowerCoarseMax, kStreamPowerBlock, kStreamPowerHalo, 0);
   EXPECT_GT(refined, 380'000'000u);

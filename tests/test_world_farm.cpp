@@ -669,7 +669,7 @@ TEST(TileFarm, ALaneCapKeepsEveryRankToThatManyTasksAtOnce) {
 // on hand-made tasks: a block of 9 × 8 samples in a 33² world, 2 steps, the first sweep's coarse
 // inflow. The same task gives the same bytes; the last sweep's result is the solved window, the
 // ring's change shows in it; a sweep that gives a neighbour its records returns one segment whose
-// length says its size; every shorter prefix of a task, a trailing byte, a window outside the world
+// length says its size (in the last sweep, before the window); every shorter prefix of a task, a trailing byte, a window outside the world
 // and a neighbour's window outside it are refused with an exception, never a read beyond the end.
 TEST(StreamPowerFarm, ABlockTaskSolvesItsWindowAndMalformedTasksAreRefused) {
   relief::json doc = relief::load_preset("eroded-mountains");
@@ -745,16 +745,21 @@ TEST(StreamPowerFarm, ABlockTaskSolvesItsWindowAndMalformedTasksAreRefused) {
   const std::string later_give = task(4, 6, false, 0.0, 12, later);
   EXPECT_GE(kernel(0, later_give).size(), 8u);
   for (std::size_t n = 0; n < later_give.size(); n += 7) ASSERT_ANY_THROW(kernel(0, later_give.substr(0, n))) << n;
-  // Refused: steps other than the stage's, more than 8 neighbours, neighbours in the last sweep, a
-  // target outside the window.
+  // The last sweep gives the neighbours whose turn comes later their records too: the same segment
+  // as an earlier sweep's, then the solved window.
+  Opt both;
+  both.nouts = 1;
+  const std::string both_out = kernel(0, task(4, 6, true, 0.0, 12, both));
+  ASSERT_EQ(both_out.size(), records.size() + solved.size());
+  EXPECT_EQ(both_out.substr(0, records.size()), records);
+  EXPECT_EQ(both_out.substr(records.size()), solved);
+  // Refused: steps other than the stage's, more than 8 neighbours, a target outside the window.
   Opt bad;
   bad.steps = 3;
   EXPECT_ANY_THROW(kernel(0, task(4, 6, true, 0.0, 12, bad)));
   bad = Opt();
   bad.nouts = 9;
   EXPECT_ANY_THROW(kernel(0, task(4, 6, false, 0.0, 12, bad)));
-  bad.nouts = 1;
-  EXPECT_ANY_THROW(kernel(0, task(4, 6, true, 0.0, 12, bad)));
   bad = Opt();
   bad.target = std::uint32_t(wnx * wnz);
   EXPECT_ANY_THROW(kernel(0, task(4, 6, false, 0.0, 12, bad)));

@@ -86,30 +86,39 @@
 //     step, and the drainage area of coarse cells outside the window that drain into it (their coarse
 //     area in fine cells, s² per coarse cell, from the snapshots' receivers, linear in time) enters at
 //     the window's sample nearest to where it crosses the ring.
-//   * Sweeps (an overlapping Schwarz iteration; `sweeps`, default kStreamPowerSweeps = 4; 0 turns
-//     the refinement off, see there): the first holds
+//   * Sweeps (an overlapping Schwarz iteration; `sweeps`, default kStreamPowerSweeps = 6 since
+//     session 19, 4 before; 0 turns the refinement off, see there): the first holds
 //     each window's ring at the coarse levels and gives it the coarse inflow, as above; each later
-//     sweep holds it, step by step, at the blend (weights below) of the previous sweep's blocks there
-//     and gives it their drainage area crossing it (their receivers and areas on the ring, weighted
-//     alike), rounded to whole cells (so that the solver reads A^m from its table). With the whole
-//     map's levels and inflow a window is the whole map's inside, bit for bit
-//     (tests/test_erosion.cpp); each sweep carries the fine solution a block further along the rivers
-//     (levels upstream, areas downstream). The records a sweep passes to the next (per block and
-//     step its neighbours' weighted ring levels, seen and solved, and the drainage area crossing
-//     their rings) are written to a temporary file as each block is solved and read back by each
-//     block in the next sweep (two files: one written, one read), summed in block order as they were
-//     in memory before session 17 (the same bytes); the coarse inflow's lists too. Memory: one
+//     sweep holds it, step by step, at the blend (weights below) of its neighbours' latest solves
+//     there and gives it their drainage area crossing it (their receivers and areas on the ring,
+//     weighted alike), rounded to whole cells (so that the solver reads A^m from its table). With the
+//     whole map's levels and inflow a window is the whole map's inside, bit for bit
+//     (tests/test_erosion.cpp). The later sweeps are multiplicative (Gauss-Seidel, since session 19):
+//     blocks take turns, in the blocks' row order in odd sweeps and in its reverse in even ones, and
+//     a block reads what a neighbour gave in this sweep if the neighbour's turn came first, else
+//     what it gave in the previous sweep. So one sweep carries the fine solution along a whole river
+//     that runs the way of its turns (areas downstream, levels upstream), where a Jacobi sweep (every
+//     block from the previous sweep, before session 19) carried it one block further: 4 such sweeps
+//     reached a river crossing 4 blocks but not one crossing 8 (8193² in blocks of 1024). The turns
+//     run as waves bx + 2·bz: a block's neighbours before it in the row order (W, NW, N, NE) are in
+//     earlier waves, the others in later ones, so a wave's blocks are no neighbours of each other
+//     and run at once (a distributed build spreads each wave over the ranks: fewer blocks at once
+//     than a Jacobi sweep's, about count_x / 2). The records a sweep passes on (per block and step
+//     its neighbours' weighted ring levels, seen and solved, and the drainage area crossing their
+//     rings) are written to a temporary file as each block is solved (sweep s writes file s mod 2,
+//     so the previous sweep's records are never overwritten while they are read) and read back by
+//     each neighbour in its turn, summed in block order; the coarse inflow's lists too. Memory: one
 //     block's records, not the world's.
 //   * The last sweep's results are blended by a partition of unity of world position: along each axis
 //     a block's weight is 1 on its core, falling by a smoothstep across ± halo/2 of each inner core
 //     end where the neighbour's rises (the product of the two axes' weights in 2-D), summed in block
 //     order into a temporary file of the world's heights. So tiles agree on shared samples, and the
-//     bytes do not depend on the tile size, the thread count or the ranks. The blocks of each sweep
+//     bytes do not depend on the tile size, the thread count or the ranks. The blocks of each wave
 //     are tasks of the build's tile farm (src/world_farm.hpp, kernel "stream-power"; since session
 //     18): rank 0 sends a block's window of the filled input, its ring's coarse change and the
 //     records its neighbours gave it (or the coarse inflow), any rank solves it on its threads, one
 //     block at a time per rank, and rank 0 merges the results (the records it gives, or its solved
-//     window) in block order: in one process the blocks run one after another as before, and a
+//     window) in their turns' order: in one process the blocks run one after another as before, and a
 //     distributed build spreads them over the ranks with the same bytes (tests/test_world_mpi.cpp).
 //   What it guarantees: the stage's valleys and ranges at full resolution, their drainage crossing
 //   the blocks' seams; against one whole-map run, measured (tests/test_world_bounded.cpp, 513², coarse
@@ -122,7 +131,10 @@
 //   2.2 % over the whole world, the goal of 0.5 % missed, and 2.40 % with a coarse grid of 4097² (every
 //   2nd sample, as at 4097²): not the coarse grid but the 8 blocks a river crosses against 4 sweeps,
 //   each carrying the fine solution one block further (4097² in blocks of 512, 8 across: 1.91 %
-//   against 0.40 % in blocks of 1024). Before
+//   against 0.40 % in blocks of 1024). With the multiplicative sweeps (session 19; tiles 1025, with
+//   thermal and fill): 4097² in blocks of 512: 4 sweeps 0.904 %, 6 sweeps 0.414 %, 8 sweeps 0.375 %
+//   within 128 samples of a seam (0.68 % over the world at 6 and 8); 4097² with the defaults (blocks
+//   1024, 6 sweeps): 0.348 %, 0.28 % over the world. Before
 //   the blocks started from the filled input, halo 32 gave 3.3 % and that 1025² world 3.45 %: a lake of
 //   the input that a ring cut was drained across the ring by the window's own first fill and never
 //   came back (src/stream_power_detail.hpp: given the whole map's filled input, ring levels and
@@ -151,7 +163,7 @@
 //   (sweeps = 0: the phase before the refinement, with its two passes over the tiles) is the stage
 //   on 2049², 4.6 s: the refinement costs 35-50× that time. Disk, in io.scratch_dir: two temporary
 //   files of 4 bytes per world sample (the filled input, the blended output), the coarse inflow's
-//   lists, and with more than one sweep the ring record files (two; one for 2 sweeps: world_stream_power_scratch_bytes
+//   lists, and with more than one sweep the ring record files (two: world_stream_power_scratch_bytes
 //   gives them all). build_world's disk and memory checks take the default algorithms' figures
 //   unless WorldSettings::algorithm_needs names the stage: register world_stream_power_needs (the
 //   same arguments) beside a refining world_stream_power.
@@ -174,11 +186,13 @@ constexpr int kStreamPowerSnapshots = 8;     // stream power's refinement: coars
 // price is time: the refinement takes 35-50× the coarse solve's (see above). Session 17, the stages
 // up to stream power at 4097² (tiles 1025, RMS within 128 samples of the seams): halo 64, 4 sweeps
 // 0.666 %; halo 96, 4 sweeps 0.413 % (0.387 % within 2 halos), the goal of 0.5 % met; halo 64, 6
-// sweeps 0.995 %: more sweeps are not always better. Its memory no longer
+// sweeps 0.995 %: more Jacobi sweeps were not always better. Session 19, multiplicative sweeps
+// (above), halo 96: 6 sweeps 0.348 % at 4097², and in blocks of 512 (8 across, as 8193² in blocks
+// of 1024) 4 sweeps 0.904 %, 6 sweeps 0.414 %, 8 sweeps 0.375 %: hence 6. Its memory no longer
 // grows with the world (session 17: the sweeps' ring records, 118 MB at 4097² and 1.9 GB at 16385²
 // in memory before, with the inflow lists on top, are in temporary files; tests/
 // test_world_memory.cpp).
-constexpr int kStreamPowerSweeps = 4;
+constexpr int kStreamPowerSweeps = 6;
 
 // The memory world_stream_power(coarse_max, block, halo, sweeps) holds besides the tiles on an
 // nx × nz world for a stage of `steps` steps: the coarse solve (its solver's arrays and fill, about
