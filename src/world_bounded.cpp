@@ -386,9 +386,9 @@ RecordFigures record_figures(std::int64_t nx, std::int64_t nz, int block, int ha
 namespace {
 // Stream power's refinement as farm tasks (src/world_farm.hpp): a block of a sweep is a pure function
 // of the bytes rank 0 sends (its window of the filled input, its ring's coarse change, the records
-// its neighbours gave it in the previous sweep or the coarse inflow, and the targets it gives its
-// neighbours), so any rank solves it, and rank 0 merges the results in block order: the records
-// file and the blend get the same bytes for any rank count.
+// its neighbours gave it last (in this sweep or the previous one) or the coarse inflow, and the
+// targets it gives its neighbours), so any rank solves it, and rank 0 merges the results in the
+// blocks' turns: the record files and the blend get the same bytes for any rank count.
 struct SpInflow {
   std::uint32_t cell;  // in the block's window
   float cells;
@@ -542,8 +542,8 @@ detail::FarmKernel stream_power_kernel(const Frame& W, const erosion::StreamPowe
     const std::vector<int> step_of = snapshot_steps(steps, K);
     std::vector<double> start(R);
     erosion::detail::StreamPowerWindow win;
-    // The ring: held at the previous sweep's blend where its blocks' weight reached it (every ring
-    // sample off the world's edge), else at its start level plus the coarse change.
+    // The ring: held at the blend of the neighbours' latest solves where their weight reached it
+    // (every ring sample off the world's edge), else at its start level plus the coarse change.
     win.ring = [&](int step, bool after_step, double* hw) {
       if (step == 0 && !after_step)
         for (std::size_t q = 0; q < R; ++q) start[q] = hw[ring[q]];
@@ -630,8 +630,10 @@ std::uint64_t world_stream_power_scratch_bytes(std::int64_t nx, std::int64_t nz,
   // bytes; measured on 31 % of the targets and steps on a 1025² world, counted on half) and a count
   // per segment (a block and a neighbour: 4 bytes).
   std::uint64_t bytes = 2 * 4 * std::uint64_t(nx) * std::uint64_t(nz) + f.blocks * K * f.ring * 8;
-  // Two files from two sweeps on (the last sweep's turns give their later neighbours records too).
-  if (sweeps > 1) bytes += 2 * S * (f.all_targets * (16 + 4) + f.segments * 4);
+  // Two files from two sweeps on; a sweep gives records only to the neighbours whose turn comes
+  // after the giver's, half of the pairs (the row order's or its reverse's): both files together
+  // hold about every pair's records once.
+  if (sweeps > 1) bytes += S * (f.all_targets * (16 + 4) + f.segments * 4);
   return bytes;
 }
 
@@ -903,7 +905,7 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
         }
       // What block j gives to block k's ring (k a neighbour of j, k ≠ j): the ring samples q of k
       // inside j's window where j's weight w is positive, in ring order, with the sample in j's
-      // window. Geometry only: the writer (j) and the reader (k, next sweep) make the same list.
+      // window. Geometry only: the writer (j) and the reader (k, in a later turn) make the same list.
       struct Target {
         std::uint32_t q, local;
         double w;
@@ -939,20 +941,20 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
           }
         return ns;
       };
-      // A block's levels and inflow for the next sweep, as block k reads them: per step, the ring's
+      // A block's levels and inflow from its neighbours, as block k reads them: per step, the ring's
       // levels seen and solved (steps × ring samples), how much weight reached each ring sample, and
       // the inflow.
       struct History {
         std::vector<float> seen, solved, weight;
         std::vector<std::vector<Inflow>> inflow;
       };
-      // The records between sweeps live in two temporary files (a sweep reads the one the previous
-      // sweep wrote and writes the other), not in memory: block j, once solved, writes what it gives
-      // each neighbour k (a segment: for its targets, in their order, the weighted levels w · h
-      // seen, then solved, as doubles, steps × targets each; then the inflow entries' count per step
-      // (uint32) and the entries, step after step), and block k, in the next sweep, reads the
-      // segments its neighbours wrote for it and sums them in block order, as the blocks' shares
-      // were summed in memory before (the same float sums, bit for bit). Memory: one block's
+      // The records between turns live in two temporary files (sweep s writes file s mod 2; see
+      // `latest` below), not in memory: block j, once solved, writes what it gives each neighbour k
+      // whose turn comes after its own (a segment: for its targets, in their order, the weighted
+      // levels w · h seen, then solved, as doubles, steps × targets each; then the inflow entries'
+      // count per step (uint32) and the entries, step after step), and block k, in its turn, reads
+      // the segments its neighbours wrote for it last and sums them in block order, as the blocks'
+      // shares were summed in memory before session 17. Memory: one block's
       // segments and one block's History; the index (a segment's offset per block and neighbour
       // slot, 72 bytes per block and file, two files).
       std::unique_ptr<TempFile> records[2];
@@ -964,12 +966,17 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
       // The file holding each block's latest records (sweep s writes file s % 2, so a sweep reads
       // the previous one's records, never overwritten while it runs, and its own earlier turns').
       std::vector<int> latest(static_cast<std::size_t>(blocks), -1);
-      // The neighbours block j gives records to in a sweep: every one before the last sweep; in the
-      // last, those whose turn comes after j's.
+      // The neighbours block j gives records to in a sweep: those whose turn comes after j's. Only
+      // they read them: in this sweep, and in the next one, whose order is the reverse, before j's
+      // turn comes again (a neighbour whose turn came before j's reads j's records of this sweep
+      // nowhere: the next sweep gives it newer ones first). Sweep 0 gives as if in the reverse
+      // order: sweep 1 runs the row order, and a block reads sweep 0's records of the neighbours
+      // whose turn comes after its own there. With one sweep, none.
       auto gives = [&](int sweep, std::size_t j) {
-        std::vector<std::pair<std::size_t, int>> ns = neighbours(j);
-        if (sweep + 1 == sweeps)
-          ns.erase(std::remove_if(ns.begin(), ns.end(), [&](const auto& n) { return !turn_before(sweep, j, n.first); }), ns.end());
+        std::vector<std::pair<std::size_t, int>> ns;
+        if (sweeps < 2) return ns;
+        for (const auto& n : neighbours(j))
+          if (turn_before(sweep == 0 ? 2 : sweep, j, n.first)) ns.push_back(n);
         return ns;
       };
       const std::size_t S = std::size_t(steps);
@@ -1023,8 +1030,9 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
       };
       // The blocks of each sweep are farm tasks (src/world_farm.hpp; stream_power_kernel above): on
       // this rank, one at a time (the solver uses the rank's threads; so the memory is one block's),
-      // or on other ranks in a distributed build; merged in block order, so the record files and the
-      // blend are the same bytes for any rank count.
+      // or on other ranks in a distributed build; a sweep after the first runs wave after wave, each
+      // wave's blocks at once, merged in the order of `items`, so the record files and the blend are
+      // the same bytes for any rank count.
       const detail::FarmOf farm(io.farm);
       const detail::FarmKernel kernel = stream_power_kernel(W, sp);
       std::vector<std::int64_t> ids(static_cast<std::size_t>(blocks));

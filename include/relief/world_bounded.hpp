@@ -103,16 +103,20 @@
 //     run as waves bx + 2·bz: a block's neighbours before it in the row order (W, NW, N, NE) are in
 //     earlier waves, the others in later ones, so a wave's blocks are no neighbours of each other
 //     and run at once (a distributed build spreads each wave over the ranks: fewer blocks at once
-//     than a Jacobi sweep's, about count_x / 2). The records a sweep passes on (per block and step
-//     its neighbours' weighted ring levels, seen and solved, and the drainage area crossing their
-//     rings) are written to a temporary file as each block is solved (sweep s writes file s mod 2,
+//     than a Jacobi sweep's: at most min(count_z, ⌈count_x / 2⌉), so a world one block tall or at most
+//     two blocks wide runs one block at a time after the first sweep; 2 at 4097² by default). The
+//     records a sweep passes on (per block and step its neighbours' weighted ring levels, seen and
+//     solved, and the drainage area crossing their rings; only to the neighbours whose turn comes
+//     after the giver's, the only ones that read them) are written to a temporary file as each block is solved (sweep s writes file s mod 2,
 //     so the previous sweep's records are never overwritten while they are read) and read back by
 //     each neighbour in its turn, summed in block order; the coarse inflow's lists too. Memory: one
 //     block's records, not the world's.
 //   * The last sweep's results are blended by a partition of unity of world position: along each axis
 //     a block's weight is 1 on its core, falling by a smoothstep across ± halo/2 of each inner core
-//     end where the neighbour's rises (the product of the two axes' weights in 2-D), summed in block
-//     order into a temporary file of the world's heights. So tiles agree on shared samples, and the
+//     end where the neighbour's rises (the product of the two axes' weights in 2-D), summed in the
+//     last sweep's turns (block order where blocks overlap when the last sweep runs the row order,
+//     as with the default 6 sweeps; its reverse after an odd number) into a temporary file of the
+//     world's heights. So tiles agree on shared samples, and the
 //     bytes do not depend on the tile size, the thread count or the ranks. The blocks of each wave
 //     are tasks of the build's tile farm (src/world_farm.hpp, kernel "stream-power"; since session
 //     18): rank 0 sends a block's window of the filled input, its ring's coarse change and the
@@ -122,8 +126,11 @@
 //     distributed build spreads them over the ranks with the same bytes (tests/test_world_mpi.cpp).
 //   What it guarantees: the stage's valleys and ranges at full resolution, their drainage crossing
 //   the blocks' seams; against one whole-map run, measured (tests/test_world_bounded.cpp, 513², coarse
-//   257², blocks of 128): 0.263 % of the relief (RMS within 2 halos of the seams) with halo 48 and 4
-//   sweeps, 0.389 % with halo 32, against 2.09 % for the coarse change alone (in the same band); 1025²
+//   257², blocks of 128; the figures up to session 18 are of Jacobi sweeps): 0.263 % of the relief
+//   (RMS within 2 halos of the seams) with halo 48 and 4 sweeps, 0.389 % with halo 32, against 2.09 %
+//   for the coarse change alone (in the same band; 4 multiplicative sweeps, session 19: 0.265 % and
+//   0.464 %, 6 sweeps 0.422 % and 8 sweeps 0.388 % with halo 32: where a river crosses at most 4
+//   blocks, 4 Jacobi sweeps reached it too, and the multiplicative ones are no better); 1025²
 //   (100 steps, coarse 513², blocks 256, halo 64, tiles 257, 4 sweeps): 0.427 % against 2.02 %; 4097²
 //   (100 steps, coarse 2049², blocks 1024 and halo 64 as by default, 4 sweeps; tiles 1025): 0.659 %
 //   against 2.365 % (2 sweeps: 4.20 %, worse than the coarse change alone); 8193² (session 18, the
@@ -139,8 +146,9 @@
 //   the input that a ring cut was drained across the ring by the window's own first fill and never
 //   came back (src/stream_power_detail.hpp: given the whole map's filled input, ring levels and
 //   inflow a window is exact, lakes included). Not guaranteed: the sweeps need not converge to the
-//   whole map; larger halos have helped in every case measured, more sweeps not always (4097²,
-//   halo 64: 4 sweeps 0.666 %, 6 sweeps 0.995 %). The whole map's
+//   whole map; larger halos have helped in every case measured, more Jacobi sweeps not always
+//   (4097², halo 64: 4 sweeps 0.666 %, 6 sweeps 0.995 %), more multiplicative sweeps in every case
+//   measured (above). The whole map's
 //   stage ends ε-filled, so the world drains: the blend, clamped to [0, 1], is filled across tiles as
 //   the world's `fill` stage fills (fill_depressions_tiled, relief/world.hpp: the whole world's
 //   fill_depressions, ε = 0, bit for bit).
@@ -208,9 +216,10 @@ std::uint64_t world_stream_power_memory_bytes(std::int64_t nx, std::int64_t nz, 
                                               int sweeps = kStreamPowerSweeps);
 // The disk it uses in WorldStageIO::scratch_dir while it runs, when it refines: two files of 4
 // bytes per world sample (the filled input, the blend), the coarse inflow's lists, and with more
-// than one sweep two files of ring records (one written by a sweep, the other read; one file with
-// 2 sweeps: per block and step about 24 bytes per ring sample it gives a neighbour; about 2 × 123 MB for a 4097² world of 100
-// steps in blocks of 1024 grown by 64, 16 times that at 16385²); else nothing. An upper estimate.
+// than one sweep two files of ring records (sweep s writes file s mod 2, each holding the records a
+// sweep gives the neighbours whose turn comes after the giver's, half the pairs: per block and step
+// about 24 bytes per ring sample it gives; together about 123 MB for a 4097² world of 100 steps in
+// blocks of 1024 grown by 64, 16 times that at 16385²); else nothing. An upper estimate.
 std::uint64_t world_stream_power_scratch_bytes(std::int64_t nx, std::int64_t nz, int coarse_max = kStreamPowerCoarseMax,
                                                int sweeps = kStreamPowerSweeps, int steps = 100, int block = kStreamPowerBlock,
                                                int halo = kStreamPowerHalo);
