@@ -387,6 +387,31 @@ TEST(WorldStreamPower, RefinedWorldDrainsAsTheStageDoes) {
   EXPECT_TRUE(one.tiled == b.tiled);
 }
 
+// Rivers that cross 8 blocks (1025², coarse 513², blocks of 128 grown by 48, 100 steps, tiles 257):
+// the multiplicative sweeps (session 19) carry the fine solution along a whole river each, so the
+// default 6 sweeps bring the world near the whole map there too, where 2 sweeps leave it far off.
+// Measured: RMS within 2 halos of the seams 0.325 % of the relief with 6 sweeps, 0.388 % with 4,
+// 1.851 % with 2. (The Jacobi sweeps before them carried it one block per sweep: 4 of them gave
+// 1.91 % on 4097² in blocks of 512, 8 across, and 2.42 % on 8193² in blocks of 1024.)
+TEST(WorldStreamPower, SweepsReachRiversThatCrossManyBlocks) {
+  const json doc = eroded_doc(1025, true, false, 100);
+  const std::vector<float> whole = run(parse_recipe(doc)).terrain.get("height").data;
+  const int block = 128, halo = 48, band = 2 * halo;
+  auto rms = [&](int sweeps) {
+    TempDir d;
+    const Built b = build_both(doc, 257, (d.path / "w").string(), 513, 0, 2, block, halo, &whole, sweeps);
+    const SeamMetrics m = seam_metrics(b.tiled, b.whole, b.grid, band, b.world);
+    print(("stream_power coarse 513² refined (blocks 128, halo 48, " + std::to_string(sweeps) + " sweeps) + thermal + fill").c_str(),
+          1025, 257, band, m);
+    EXPECT_TRUE(hydro::already_drains<float>(b.tiled.data(), int(b.grid.nx), int(b.grid.nz), float(b.world.sea_level)));
+    return m.rms_fraction;
+  };
+  const double six = rms(kStreamPowerSweeps), two = rms(2);
+  EXPECT_EQ(kStreamPowerSweeps, 6);
+  EXPECT_LE(six, 0.0040);
+  EXPECT_GE(two, 0.0120);  // what the sweeps bring here is real
+}
+
 // The disk and memory figures of the refinement (4 sweeps, the other defaults), as the free functions
 // give them: on disk two temporary files of 4 bytes per sample, the coarse inflow's lists and two
 // files of ring records, each holding half the pairs of neighbours (those whose turn comes after the
