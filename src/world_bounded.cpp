@@ -341,6 +341,8 @@ struct BlockAxis {
     const double x = double(u + r) / double(2 * r);
     return x * x * (3 - 2 * x);
   }
+  // The block whose core holds sample i (a shared core end: the lower block).
+  std::int64_t owner(std::int64_t i) const { return i <= 0 ? 0 : std::min(count - 1, (i - 1) / B); }
   double weight(std::int64_t k, std::int64_t i) const {
     const double up = k == 0 ? 1.0 : ramp(i - k * B);
     const double down = k == count - 1 ? 1.0 : 1.0 - ramp(i - (k + 1) * B);
@@ -361,9 +363,11 @@ std::int64_t coarse_step(std::int64_t nx, std::int64_t nz, int coarse_max) {
 namespace {
 // The refinement's record figures for blocks of `block` grown by `halo` on an nx × nz world (the
 // files' and one block's, by the code above): per block, the window and its ring (4 · window side
-// samples), and the targets a block gives its neighbours: about block + halo on each edge
-// neighbour's ring and 3 · halo on each diagonal one's (so at most 4 · block + 16 · halo per block;
-// all blocks' sum within 1.5 % over the count on 1025² and 4097² worlds, blocks 256 and 1024, halo 64).
+// samples), and the targets a block gives its neighbours: the ring samples in its core, at most
+// block + 1 on each edge neighbour's ring and 2 · halo + 1 on each diagonal one's (so at most
+// 4 · block + 8 · halo + 8 per block; all blocks' sum within 0.6 % over the count on 1025², 4097²
+// and 8193² worlds, blocks 128 to 1024, halos 48 to 96). (Before session 20 every block whose
+// blend weight reached a ring sample gave it: block + halo and 3 · halo.)
 struct RecordFigures {
   std::uint64_t blocks = 0, ring = 0, window = 0, targets = 0, all_targets = 0, segments = 0;
 };
@@ -375,9 +379,9 @@ RecordFigures record_figures(std::int64_t nx, std::int64_t nz, int block, int ha
   f.blocks = cx * cz;
   f.window = wn * wn;
   f.ring = 4 * wn;
-  f.targets = 4 * B + 16 * h;
+  f.targets = 4 * B + 8 * h + 8;
   const std::uint64_t edges = 2 * (cx - 1) * cz + 2 * cx * (cz - 1), diagonals = 4 * (cx - 1) * (cz - 1);  // ordered pairs
-  f.all_targets = edges * (B + h) + diagonals * 3 * h;
+  f.all_targets = edges * (B + 1) + diagonals * (2 * h + 1);
   f.segments = edges + diagonals;
   return f;
 }
@@ -473,7 +477,7 @@ struct SpGet {
 //   i64 x0, z0; i32 wnx, wnz, K, steps; u8 prev (a sweep after the first), last; u32 outs;
 //   the window's heights (wnx · wnz floats, the filled input);
 //   the ring's coarse change at snapshots 1..K (K · R doubles; R = the ring's samples);
-//   prev: the levels held on the ring, seen then solved (2 · steps · R floats), the weight that
+//   prev: the levels held on the ring, seen then solved (2 · steps · R doubles), the weight that
 //     reached each ring sample (R floats), the inflow per step (steps u32 counts, then the entries);
 //   else: the coarse inflow per snapshot (K + 1 u32 counts, then the entries);
 //   per neighbour it gives to (every one before the last sweep; in the last, those whose turn comes
@@ -503,11 +507,12 @@ detail::FarmKernel stream_power_kernel(const Frame& W, const erosion::StreamPowe
     const std::size_t R = ring.size();
     std::vector<std::vector<double>> change(std::size_t(K) + 1, std::vector<double>(R, 0.0));
     for (int k = 1; k <= K; ++k) in.many(change[std::size_t(k)].data(), R);
-    std::vector<float> seen, solved, weight;
+    std::vector<double> seen, solved;
+    std::vector<float> weight;
     std::vector<std::vector<SpInflow>> inflow(prev ? S : std::size_t(K) + 1);
     if (prev) {
-      seen = in.vec<float>(S * R);
-      solved = in.vec<float>(S * R);
+      seen = in.vec<double>(S * R);
+      solved = in.vec<double>(S * R);
       weight = in.vec<float>(R);
     }
     {
@@ -542,7 +547,7 @@ detail::FarmKernel stream_power_kernel(const Frame& W, const erosion::StreamPowe
     const std::vector<int> step_of = snapshot_steps(steps, K);
     std::vector<double> start(R);
     erosion::detail::StreamPowerWindow win;
-    // The ring: held at the blend of the neighbours' latest solves where their weight reached it
+    // The ring: held at its owner's latest solve where the neighbours' weight reached it
     // (every ring sample off the world's edge), else at its start level plus the coarse change.
     win.ring = [&](int step, bool after_step, double* hw) {
       if (step == 0 && !after_step)
@@ -550,9 +555,9 @@ detail::FarmKernel stream_power_kernel(const Frame& W, const erosion::StreamPowe
       int k = 0;
       double a = 0;
       snapshot_at(step_of, step + (after_step ? 1 : 0), k, a);
-      const float* held = prev ? (after_step ? solved : seen).data() + std::size_t(step) * R : nullptr;
+      const double* held = prev ? (after_step ? solved : seen).data() + std::size_t(step) * R : nullptr;
       for (std::size_t q = 0; q < R; ++q)
-        hw[ring[q]] = held && weight[q] > 0.5f ? double(held[q])
+        hw[ring[q]] = held && weight[q] > 0.5f ? held[q]
                                                : start[q] + (1 - a) * change[std::size_t(k)][q] + a * change[std::size_t(k) + 1][q];
     };
     // Inflow in whole cells (rounded once per sample and step): the solver then reads A^m from its
@@ -653,7 +658,8 @@ std::uint64_t world_stream_power_memory_bytes(std::int64_t nx, std::int64_t nz, 
   // per-thread buffers growing with the largest drainage basin met), its coarse inflow lists (at
   // most a ring per snapshot), and with more than one sweep its records: what it gives its
   // neighbours (levels seen and solved as doubles, at most an inflow entry per target and step),
-  // what it reads (levels as floats, inflow) and one neighbour's segment being read. The index: 2 · 9
+  // what it reads (levels as doubles since session 20, inflow; once more in the kernel) and one
+  // neighbour's segment being read. The index: 2 · 9
   // file offsets and a list span per snapshot, per block.
   const std::uint64_t coarse = cnx * cnz * (4 * snapshots + 4);
   const std::uint64_t solve = cnx * cnz * (40 + 20);
@@ -661,7 +667,7 @@ std::uint64_t world_stream_power_memory_bytes(std::int64_t nx, std::int64_t nz, 
   // kernel's copy, the solved window in the result (12 bytes per sample), and the records it reads
   // once more in the kernel.
   std::uint64_t blocks = f.window * (128 + 12) + snapshots * f.ring * 8;
-  if (sweeps > 1) blocks += S * (f.targets * (16 + 8) + f.ring * (8 + 8 + 8) + f.ring / 4 * 16);
+  if (sweeps > 1) blocks += S * (f.targets * (16 + 8) + f.ring * (16 + 8 + 16) + f.ring / 4 * 16);
   return coarse + std::max(solve, blocks) + f.blocks * (2 * 9 * 8 + snapshots * 16);
 }
 
@@ -879,11 +885,13 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
       };
       const double blocks_end = 0.9;
       // Sweeps (an overlapping Schwarz iteration): the first holds each window's ring at the coarse
-      // levels and gives it the coarse inflow; each later one holds it, step by step, at the blend
-      // of its neighbours' latest solves there (the weights of world position sum to 1 on every ring
-      // sample that is not on the world's edge, where the ring is the world's border, at base level)
-      // and gives it their drainage area entering across it (the blocks' receivers and areas there,
-      // weighted alike). With exact levels and inflow a window is exact
+      // levels and gives it the coarse inflow; each later one holds it, step by step, at the latest
+      // solve of the neighbour whose core holds the ring sample (every ring sample that is not on the
+      // world's edge, where the ring is the world's border, at base level; targets_of below) and
+      // gives it the drainage area entering across it (that neighbour's receivers and areas there).
+      // The levels travel as doubles, the solver's own (floats until session 20: 1025² in blocks of
+      // 128, halo 48, 6 sweeps, stream power alone: 0.368 % near the seams, 0.291 % as doubles). With
+      // exact levels and inflow a window is exact
       // (StreamPower.WindowGivenTheWholeMapsRingAndInflowReproducesItsInside).
       // The later sweeps are multiplicative (Gauss-Seidel): a block reads what its neighbours gave in
       // this sweep if their turn came before its own, else what they gave in the previous one. The
@@ -904,8 +912,14 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
           b.wnx = int(ax.hi(bx) - b.x0 + 1), b.wnz = int(az.hi(bz) - b.z0 + 1);
         }
       // What block j gives to block k's ring (k a neighbour of j, k ≠ j): the ring samples q of k
-      // inside j's window where j's weight w is positive, in ring order, with the sample in j's
-      // window. Geometry only: the writer (j) and the reader (k, in a later turn) make the same list.
+      // that lie in j's core (BlockAxis::owner: a shared core end belongs to the lower block), in ring
+      // order, with the sample in j's window and weight w = 1. Geometry only: the writer (j) and the
+      // reader (k, in a later turn) make the same list. Each ring sample off the world's edge has one
+      // giver, its owner, where it lies at least `halo` samples inside the giver's window: until
+      // session 20 the givers' weights of world position (the blend's) were used, so a ring sample
+      // near a core end was a blend of two neighbours' levels and areas, one of them as little as
+      // halo/2 from its own ring, and their routes could disagree (1025² in blocks of 128, halo 48, 6
+      // sweeps, stream power alone: 0.291 % of the relief near the seams, 0.182 % with one owner).
       struct Target {
         std::uint32_t q, local;
         double w;
@@ -918,9 +932,8 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
         for (std::size_t q = 0; q < kring.size(); ++q) {
           const std::int64_t x = o.x0 + kring[q] % std::uint32_t(o.wnx), z = o.z0 + kring[q] / std::uint32_t(o.wnx);
           if (!b.inside(x, z)) continue;
-          const double w = ax.weight(bx, x) * az.weight(bz, z);
-          if (w <= 0) continue;
-          ts.push_back({std::uint32_t(q), std::uint32_t((z - b.z0) * b.wnx + (x - b.x0)), w});
+          if (ax.owner(x) != bx || az.owner(z) != bz) continue;
+          ts.push_back({std::uint32_t(q), std::uint32_t((z - b.z0) * b.wnx + (x - b.x0)), 1.0});
         }
         return ts;
       };
@@ -945,7 +958,8 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
       // levels seen and solved (steps × ring samples), how much weight reached each ring sample, and
       // the inflow.
       struct History {
-        std::vector<float> seen, solved, weight;
+        std::vector<double> seen, solved;
+        std::vector<float> weight;
         std::vector<std::vector<Inflow>> inflow;
       };
       // The records between turns live in two temporary files (sweep s writes file s mod 2; see
@@ -983,8 +997,8 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
       auto read_history = [&](std::size_t k, const std::vector<std::uint32_t>& kring) {
         History hs;
         const std::size_t R = kring.size();
-        hs.seen.assign(S * R, 0.0f);
-        hs.solved.assign(S * R, 0.0f);
+        hs.seen.assign(S * R, 0.0);
+        hs.solved.assign(S * R, 0.0);
         hs.weight.assign(R, 0.0f);
         hs.inflow.resize(S);
         std::vector<double> levels;
@@ -1006,13 +1020,10 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
           records[from]->io(false, at, levels.data(), levels.size() * sizeof(double));
           at += levels.size() * sizeof(double);
           for (int half = 0; half < 2; ++half) {
-            std::vector<float>& v = half == 0 ? hs.seen : hs.solved;
+            std::vector<double>& v = half == 0 ? hs.seen : hs.solved;
             const double* src = levels.data() + std::size_t(half) * S * n;
             for (std::size_t step = 0; step < S; ++step)
-              for (std::size_t i = 0; i < n; ++i) {
-                float& x = v[step * R + ts[i].q];
-                x = float(double(x) + src[step * n + i]);
-              }
+              for (std::size_t i = 0; i < n; ++i) v[step * R + ts[i].q] += src[step * n + i];
           }
           records[from]->io(false, at, counts.data(), S * sizeof(std::uint32_t));
           at += S * sizeof(std::uint32_t);

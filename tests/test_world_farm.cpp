@@ -684,7 +684,7 @@ TEST(StreamPowerFarm, ABlockTaskSolvesItsWindowAndMalformedTasksAreRefused) {
   // neighbours' weight reached it, their inflow per step) instead of the first (coarse inflow).
   struct Opt {
     bool prev = false;
-    float held = 0.5f;
+    double held = 0.5;  // the ring levels travel as doubles (since session 20)
     int steps = 2, nouts = -1;  // -1: none in the last sweep, one otherwise
     std::uint32_t target = 4 * 9 + 7;
   };
@@ -739,9 +739,9 @@ TEST(StreamPowerFarm, ABlockTaskSolvesItsWindowAndMalformedTasksAreRefused) {
   const std::string held = kernel(0, task(4, 6, true, 0.0, 12, later));
   ASSERT_EQ(held.size(), solved.size());
   EXPECT_EQ(kernel(0, task(4, 6, true, 1e-3, 12, later)), held);
-  later.held = 0.45f;
+  later.held = 0.45;
   EXPECT_NE(kernel(0, task(4, 6, true, 0.0, 12, later)), held);
-  later.held = 0.5f;
+  later.held = 0.5;
   const std::string later_give = task(4, 6, false, 0.0, 12, later);
   EXPECT_GE(kernel(0, later_give).size(), 8u);
   for (std::size_t n = 0; n < later_give.size(); n += 7) ASSERT_ANY_THROW(kernel(0, later_give.substr(0, n))) << n;
