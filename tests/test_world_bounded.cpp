@@ -4,9 +4,13 @@
 // (lines starting "seam:") go into the project's notes.
 #include <gtest/gtest.h>
 
+#include <signal.h>
+#include <sys/resource.h>
+
 #include <cmath>
 #include <cstdio>
 #include <cstdlib>
+#include <cstring>
 #include <filesystem>
 #include <tuple>
 
@@ -454,6 +458,54 @@ TEST(WorldStreamPower, EstimatesCountTheRefinementsFilesAndMemory) {
 // A caller's refining world_stream_power with its needs registered (WorldSettings::algorithm_needs):
 // build_world's disk check counts its temporary files, which the default algorithm's figure (none)
 // does not; a dry run with just less free disk than the build needs is refused, naming the size.
+// The refinement's ring records go through temporary files in the store's scratch folder: a write
+// that fails there (here a file size limit, EFBIG, which the filled input's and the blend's files of
+// 257² floats stay under and the records' first file does not) stops the build with an error naming
+// the file, the folder and the system's reason, and the same build run again without the limit
+// finishes with the bytes of a build that never failed.
+TEST(WorldStreamPower, ARingRecordWriteFailureNamesItsFileAndTheBuildFinishesWhenRunAgain) {
+  const Recipe r = parse_recipe(eroded_doc(257, true, false, 10));
+  auto settings = [&](const std::string& dir) {
+    WorldSettings s;
+    s.recipe = r;
+    s.tile = 65;
+    s.out_dir = dir;
+    s.threads = 2;
+    s.algorithms["stream_power"] = world_stream_power(65, 64, 16, 4);
+    s.algorithm_needs["stream_power"] = world_stream_power_needs(65, 64, 16, 4);
+    return s;
+  };
+  // The first record file's size (a sweep gives half the pairs of neighbours their levels, seen
+  // and solved, as doubles): well above the filled input's 257² floats.
+  ASSERT_GT(world_stream_power_scratch_bytes(257, 257, 65, 4, 10, 64, 16) - world_stream_power_scratch_bytes(257, 257, 65, 1, 10, 64, 16),
+            2 * 330'000u);
+  TempDir clean, failed;
+  build_world(settings(clean.path.string()));
+  rlimit old{};
+  ASSERT_EQ(::getrlimit(RLIMIT_FSIZE, &old), 0);
+  auto old_handler = ::signal(SIGXFSZ, SIG_IGN);
+  rlimit small = old;
+  small.rlim_cur = 300'000;
+  ASSERT_EQ(::setrlimit(RLIMIT_FSIZE, &small), 0);
+  std::string what;
+  try {
+    build_world(settings(failed.path.string()));
+  } catch (const Error& e) {
+    what = e.what();
+    std::printf("%s\n", what.c_str());
+  }
+  ::setrlimit(RLIMIT_FSIZE, &old);
+  ::signal(SIGXFSZ, old_handler);
+  EXPECT_NE(what.find("could not write the temporary file of the refinement's ring records in " + failed.path.string()),
+            std::string::npos)
+      << what;
+  EXPECT_NE(what.find(std::strerror(EFBIG)), std::string::npos) << what;
+  build_world(settings(failed.path.string()));
+  const std::vector<float> again = read_world_window(failed.path.string(), 0, 0, 257, 257).get("height").data;
+  ASSERT_EQ(again.size(), std::size_t(257 * 257));
+  EXPECT_TRUE(again == read_world_window(clean.path.string(), 0, 0, 257, 257).get("height").data);
+}
+
 TEST(WorldStreamPower, BuildChecksCountARegisteredAlgorithmsNeeds) {
   TempDir d;
   const Recipe r = parse_recipe(eroded_doc(1025, true, false, 40));
