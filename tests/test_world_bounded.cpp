@@ -683,7 +683,7 @@ TEST(StreamPowerWorld, DISABLED_Figures) {
   const Built b = build_both(doc, tile, (d.path / "w").string(), coarse, 0, 2, block, halo, nullptr, sweeps);
   // RELIEF_SP_DUMP=PATH: the tiled world's heights to PATH and the whole map's to PATH.whole (raw floats,
   // row-major), for comparing runs.
-  if (const char* dump = std::getenv("RELIEF_SP_DUMP")) {
+  if (const char* dump = std::getenv("RELIEF_SP_DUMP"); dump && *dump) {
     std::FILE* out = std::fopen(dump, "wb");
     ASSERT_NE(out, nullptr);
     EXPECT_EQ(std::fwrite(b.tiled.data(), sizeof(float), b.tiled.size(), out), b.tiled.size());

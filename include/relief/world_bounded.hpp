@@ -89,9 +89,15 @@
 //   * Sweeps (an overlapping Schwarz iteration; `sweeps`, default kStreamPowerSweeps = 6 since
 //     session 19, 4 before; 0 turns the refinement off, see there): the first holds
 //     each window's ring at the coarse levels and gives it the coarse inflow, as above; each later
-//     sweep holds it, step by step, at the blend (weights below) of its neighbours' latest solves
-//     there and gives it their drainage area crossing it (their receivers and areas on the ring,
-//     weighted alike), rounded to whole cells (so that the solver reads A^m from its table). With the
+//     sweep holds it, step by step, at the latest solve of the neighbour whose core holds the ring
+//     sample (its owner: a shared core end belongs to the lower block), as doubles, and gives it the
+//     drainage area crossing it (the owner's receivers and areas on the ring), rounded to whole cells
+//     (so that the solver reads A^m from its table). Until session 20 the ring was held at the blend
+//     (weights below) of every neighbour whose weight reached the sample, passed as floats: near a
+//     core end it mixed a neighbour's levels and routes from as little as halo/2 inside that
+//     neighbour's window, and the floats cut the solver's doubles (1025² in blocks of 128, halo 48, 6
+//     sweeps, stream power alone: 0.368 % near the seams; 0.291 % as doubles; 0.182 % from the
+//     owners). With the
 //     whole map's levels and inflow a window is the whole map's inside, bit for bit
 //     (tests/test_erosion.cpp). The later sweeps are multiplicative (Gauss-Seidel, since session 19):
 //     blocks take turns, in the blocks' row order in odd sweeps and in its reverse in even ones, and
@@ -142,14 +148,27 @@
 //   thermal and fill): 4097² in blocks of 512: 4 sweeps 0.904 %, 6 sweeps 0.414 %, 8 sweeps 0.375 %
 //   within 128 samples of a seam (0.68 % over the world at 6 and 8); 4097² with the defaults (blocks
 //   1024, 6 sweeps): 0.348 %, 0.28 % over the world; 8193² with the defaults 0.816 % (0.74 % over
-//   the world), the goal of 0.5 % missed, in blocks of 2048 0.655 % (0.59 %). Before
+//   the world), the goal of 0.5 % missed, in blocks of 2048 0.655 % (0.59 %). With each ring sample
+//   from its owner as doubles (session 20; tiles 1025, with thermal and fill): 4097² with the
+//   defaults 0.274 % (0.225 % over the world), 8193² 0.760 % (0.65 %), the goal still missed there:
+//   94 % of the squared difference sits in a few whole hillsides raised by 0.03–0.06, some ending at a
+//   block's seam (README). Before
 //   the blocks started from the filled input, halo 32 gave 3.3 % and that 1025² world 3.45 %: a lake of
 //   the input that a ring cut was drained across the ring by the window's own first fill and never
 //   came back (src/stream_power_detail.hpp: given the whole map's filled input, ring levels and
 //   inflow a window is exact, lakes included). Not guaranteed: the sweeps need not converge to the
 //   whole map; larger halos have helped in every case measured, more Jacobi sweeps not always
-//   (4097², halo 64: 4 sweeps 0.666 %, 6 sweeps 0.995 %), more multiplicative sweeps in every case
-//   measured (above). The whole map's
+//   (4097², halo 64: 4 sweeps 0.666 %, 6 sweeps 0.995 %), more multiplicative sweeps up to 6 (above)
+//   but not beyond: the iteration does not settle. On 1025² in blocks of 128 (halo 48, stream power
+//   alone, session 20, ring levels as doubles but blended) sweeps 11, 12 and 13 gave 0.290, 0.267 and
+//   0.254 % near the seams while each sweep still moved the world by about as much (RMS 1.2e-3 and
+//   0.9e-3 of heights, 18 % of the samples by more than 1e-4; a relief of 0.67). With one owner per
+//   ring sample (the default) 6 sweeps gave 0.182 % and 12 sweeps 0.222 %, and the error of 6 sweeps
+//   is spread over the blocks, not held at their seams (RMS 1.2e-3 within 32 samples of a block seam,
+//   0.8e-3 beyond), carried by few samples (0.3 % of them differ by more than 1e-2 and hold 44 % of the
+//   squared error): routes that flip between sweeps. (Blended, with 25 steps instead of 100: 6 and 12
+//   sweeps gave 0.169 and 0.177 %.)
+//   The whole map's
 //   stage ends ε-filled, so the world drains: the blend, clamped to [0, 1], is filled across tiles as
 //   the world's `fill` stage fills (fill_depressions_tiled, relief/world.hpp: the whole world's
 //   fill_depressions, ε = 0, bit for bit).
