@@ -365,7 +365,7 @@ namespace {
 // files' and one block's, by the code above): per block, the window and its ring (4 · window side
 // samples), and the targets a block gives its neighbours: the ring samples in its core, at most
 // block + 1 on each edge neighbour's ring and 2 · halo + 1 on each diagonal one's (so at most
-// 4 · block + 8 · halo + 8 per block; all blocks' sum within 0.6 % over the count on 1025², 4097²
+// 4 · block + 8 · halo + 8 per block; all blocks' sum within 1 % over the count on 1025², 4097²
 // and 8193² worlds, blocks 128 to 1024, halos 48 to 96). (Before session 20 every block whose
 // blend weight reached a ring sample gave it: block + halo and 3 · halo.)
 struct RecordFigures {
@@ -915,7 +915,8 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
       // that lie in j's core (BlockAxis::owner: a shared core end belongs to the lower block), in ring
       // order, with the sample in j's window and weight w = 1. Geometry only: the writer (j) and the
       // reader (k, in a later turn) make the same list. Each ring sample off the world's edge has one
-      // giver, its owner, where it lies at least `halo` samples inside the giver's window: until
+      // giver, its owner, where it lies at least `halo` samples inside the giver's window (or at the
+      // world's edge, its border): until
       // session 20 the givers' weights of world position (the blend's) were used, so a ring sample
       // near a core end was a blend of two neighbours' levels and areas, one of them as little as
       // halo/2 from its own ring, and their routes could disagree (1025² in blocks of 128, halo 48, 6

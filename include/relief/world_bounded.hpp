@@ -238,7 +238,7 @@ std::uint64_t world_stream_power_memory_bytes(std::int64_t nx, std::int64_t nz, 
 // bytes per world sample (the filled input, the blend), the coarse inflow's lists, and with more
 // than one sweep two files of ring records (sweep s writes file s mod 2, each holding the records a
 // sweep gives the neighbours whose turn comes after the giver's, half the pairs: per block and step
-// about 24 bytes per ring sample it gives; together about 123 MB for a 4097² world of 100 steps in
+// about 24 bytes per ring sample it gives; together about 108 MB (123 MB before session 20) for a 4097² world of 100 steps in
 // blocks of 1024 grown by 64, 16 times that at 16385²); else nothing. An upper estimate.
 std::uint64_t world_stream_power_scratch_bytes(std::int64_t nx, std::int64_t nz, int coarse_max = kStreamPowerCoarseMax,
                                                int sweeps = kStreamPowerSweeps, int steps = 100, int block = kStreamPowerBlock,
