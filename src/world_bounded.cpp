@@ -477,14 +477,15 @@ struct SpGet {
 //   i64 x0, z0; i32 wnx, wnz, K, steps; u8 prev (a sweep after the first), last; u32 outs;
 //   the window's heights (wnx · wnz floats, the filled input);
 //   the ring's coarse change at snapshots 1..K (K · R doubles; R = the ring's samples);
-//   prev: the levels held on the ring, seen then solved (2 · steps · R doubles), the weight that
-//     reached each ring sample (R floats), the inflow per step (steps u32 counts, then the entries);
+//   prev: the levels held on the ring, seen then solved (2 · steps · R doubles), whether a neighbour
+//     owns each ring sample (R bytes, 1 or 0: a sample on the world's edge has none), the inflow per
+//     step (steps u32 counts, then the entries);
 //   else: the coarse inflow per snapshot (K + 1 u32 counts, then the entries);
 //   per neighbour it gives to (every one before the last sweep; in the last, those whose turn comes
 //   later; in neighbour order): its window (i64 x0, z0; i32 wnx, wnz), u32 n, then n targets (u32
-//   sample in this window, f64 weight).
+//   sample in this window).
 // The result: per neighbour it gives to, a u64 length and its segment of the ring records (the
-// weighted levels seen then solved, steps · n doubles each; steps u32 inflow counts; the entries);
+// levels seen then solved, steps · n doubles each; steps u32 inflow counts; the entries);
 // then, in the last sweep, the solved window (wnx · wnz floats).
 constexpr int kSpMaxSide = 65535;  // a window's side at most (cells are 32-bit indices)
 
@@ -508,12 +509,14 @@ detail::FarmKernel stream_power_kernel(const Frame& W, const erosion::StreamPowe
     std::vector<std::vector<double>> change(std::size_t(K) + 1, std::vector<double>(R, 0.0));
     for (int k = 1; k <= K; ++k) in.many(change[std::size_t(k)].data(), R);
     std::vector<double> seen, solved;
-    std::vector<float> weight;
+    std::vector<std::uint8_t> owned;
     std::vector<std::vector<SpInflow>> inflow(prev ? S : std::size_t(K) + 1);
     if (prev) {
       seen = in.vec<double>(S * R);
       solved = in.vec<double>(S * R);
-      weight = in.vec<float>(R);
+      owned = in.vec<std::uint8_t>(R);
+      for (const std::uint8_t o : owned)
+        if (o > 1) in.bad();
     }
     {
       const std::vector<std::uint32_t> counts = in.vec<std::uint32_t>(inflow.size());
@@ -526,7 +529,7 @@ detail::FarmKernel stream_power_kernel(const Frame& W, const erosion::StreamPowe
     struct Out {
       SpBox box;
       std::vector<std::uint32_t> local;
-      std::vector<double> w, levels;
+      std::vector<double> levels;
       std::vector<std::vector<SpInflow>> inflow;
     };
     std::vector<Out> outs(nouts);
@@ -535,11 +538,9 @@ detail::FarmKernel stream_power_kernel(const Frame& W, const erosion::StreamPowe
       o.box.wnx = in.one<std::int32_t>(), o.box.wnz = in.one<std::int32_t>();
       const std::uint32_t m = in.one<std::uint32_t>();  // at most the neighbour's ring
       if (!window_ok(o.box.x0, o.box.z0, o.box.wnx, o.box.wnz) || m > 2 * std::uint32_t(o.box.wnx + o.box.wnz)) in.bad();
-      o.local.resize(m), o.w.resize(m);
-      for (std::uint32_t i = 0; i < m; ++i) {
-        o.local[i] = in.one<std::uint32_t>(), o.w[i] = in.one<double>();
-        if (o.local[i] >= n) in.bad();
-      }
+      o.local = in.vec<std::uint32_t>(m);
+      for (const std::uint32_t c : o.local)
+        if (c >= n) in.bad();
       o.levels.assign(2 * S * m, 0.0);
       o.inflow.resize(S);
     }
@@ -547,8 +548,8 @@ detail::FarmKernel stream_power_kernel(const Frame& W, const erosion::StreamPowe
     const std::vector<int> step_of = snapshot_steps(steps, K);
     std::vector<double> start(R);
     erosion::detail::StreamPowerWindow win;
-    // The ring: held at its owner's latest solve where the neighbours' weight reached it
-    // (every ring sample off the world's edge), else at its start level plus the coarse change.
+    // The ring: held at its owner's latest solve where a neighbour owns it (every ring sample off
+    // the world's edge), else at its start level plus the coarse change.
     win.ring = [&](int step, bool after_step, double* hw) {
       if (step == 0 && !after_step)
         for (std::size_t q = 0; q < R; ++q) start[q] = hw[ring[q]];
@@ -557,8 +558,8 @@ detail::FarmKernel stream_power_kernel(const Frame& W, const erosion::StreamPowe
       snapshot_at(step_of, step + (after_step ? 1 : 0), k, a);
       const double* held = prev ? (after_step ? solved : seen).data() + std::size_t(step) * R : nullptr;
       for (std::size_t q = 0; q < R; ++q)
-        hw[ring[q]] = held && weight[q] > 0.5f ? held[q]
-                                               : start[q] + (1 - a) * change[std::size_t(k)][q] + a * change[std::size_t(k) + 1][q];
+        hw[ring[q]] = held && owned[q] != 0 ? held[q]
+                                            : start[q] + (1 - a) * change[std::size_t(k)][q] + a * change[std::size_t(k) + 1][q];
     };
     // Inflow in whole cells (rounded once per sample and step): the solver then reads A^m from its
     // table instead of calling std::pow for every cell downstream.
@@ -574,15 +575,15 @@ detail::FarmKernel stream_power_kernel(const Frame& W, const erosion::StreamPowe
       }
       for (std::size_t c = 0; c < n; ++c) extra[c] = std::nearbyint(extra[c]);
     };
-    // What this block gives its neighbours: their targets' weighted levels (seen, then solved) and
-    // the drainage area crossing into their insides.
+    // What this block gives its neighbours: their targets' levels (seen, then solved) and the
+    // drainage area crossing into their insides.
     if (!outs.empty()) {
       auto record = [&](bool solved_levels) {
         return [&, solved_levels](int step, const double* hw) {
           for (Out& o : outs) {
             const std::size_t m = o.local.size();
             double* dst = o.levels.data() + (solved_levels ? S * m : 0) + std::size_t(step) * m;
-            for (std::size_t i = 0; i < m; ++i) dst[i] = o.w[i] * hw[o.local[i]];
+            for (std::size_t i = 0; i < m; ++i) dst[i] = hw[o.local[i]];
           }
         };
       };
@@ -598,7 +599,7 @@ detail::FarmKernel stream_power_kernel(const Frame& W, const erosion::StreamPowe
             const std::int64_t z = z0 + std::int64_t(c / std::uint32_t(wnx)) + hydro::kDj[d];
             if (!o.box.inside(x, z)) continue;
             o.inflow[std::size_t(step)].push_back(
-                {std::uint32_t((z - o.box.z0) * o.box.wnx + (x - o.box.x0)), float(o.w[i] * area[c])});
+                {std::uint32_t((z - o.box.z0) * o.box.wnx + (x - o.box.x0)), float(area[c])});
           }
       };
     }
@@ -913,7 +914,7 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
         }
       // What block j gives to block k's ring (k a neighbour of j, k ≠ j): the ring samples q of k
       // that lie in j's core (BlockAxis::owner: a shared core end belongs to the lower block), in ring
-      // order, with the sample in j's window and weight w = 1. Geometry only: the writer (j) and the
+      // order, with the sample in j's window. Geometry only: the writer (j) and the
       // reader (k, in a later turn) make the same list. Each ring sample off the world's edge has one
       // giver, its owner, where it lies at least `halo` samples inside the giver's window (or at the
       // world's edge, its border): until
@@ -923,7 +924,6 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
       // sweeps, stream power alone: 0.291 % of the relief near the seams, 0.182 % with one owner).
       struct Target {
         std::uint32_t q, local;
-        double w;
       };
       auto targets_of = [&](std::size_t j, std::size_t k, const std::vector<std::uint32_t>& kring) {
         std::vector<Target> ts;
@@ -934,7 +934,7 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
           const std::int64_t x = o.x0 + kring[q] % std::uint32_t(o.wnx), z = o.z0 + kring[q] / std::uint32_t(o.wnx);
           if (!b.inside(x, z)) continue;
           if (ax.owner(x) != bx || az.owner(z) != bz) continue;
-          ts.push_back({std::uint32_t(q), std::uint32_t((z - b.z0) * b.wnx + (x - b.x0)), 1.0});
+          ts.push_back({std::uint32_t(q), std::uint32_t((z - b.z0) * b.wnx + (x - b.x0))});
         }
         return ts;
       };
@@ -956,20 +956,20 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
         return ns;
       };
       // A block's levels and inflow from its neighbours, as block k reads them: per step, the ring's
-      // levels seen and solved (steps × ring samples), how much weight reached each ring sample, and
+      // levels seen and solved (steps × ring samples), whether a neighbour owns each ring sample, and
       // the inflow.
       struct History {
         std::vector<double> seen, solved;
-        std::vector<float> weight;
+        std::vector<std::uint8_t> owned;
         std::vector<std::vector<Inflow>> inflow;
       };
       // The records between turns live in two temporary files (sweep s writes file s mod 2; see
       // `latest` below), not in memory: block j, once solved, writes what it gives each neighbour k
-      // whose turn comes after its own (a segment: for its targets, in their order, the weighted
-      // levels w · h seen, then solved, as doubles, steps × targets each; then the inflow entries'
-      // count per step (uint32) and the entries, step after step), and block k, in its turn, reads
-      // the segments its neighbours wrote for it last and sums them in block order, as the blocks'
-      // shares were summed in memory before session 17. Memory: one block's
+      // whose turn comes after its own (a segment: for its targets, in their order, the levels seen,
+      // then solved, as doubles, steps × targets each; then the inflow entries' count per step
+      // (uint32) and the entries, step after step), and block k, in its turn, reads the segments its
+      // neighbours wrote for it last, in block order: each ring sample's levels from its one owner,
+      // the inflow entries of all of them, appended. Memory: one block's
       // segments and one block's History; the index (a segment's offset per block and neighbour
       // slot, 72 bytes per block and file, two files).
       std::unique_ptr<TempFile> records[2];
@@ -1000,7 +1000,7 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
         const std::size_t R = kring.size();
         hs.seen.assign(S * R, 0.0);
         hs.solved.assign(S * R, 0.0);
-        hs.weight.assign(R, 0.0f);
+        hs.owned.assign(R, 0);
         hs.inflow.resize(S);
         std::vector<double> levels;
         std::vector<std::uint32_t> counts(S);
@@ -1008,7 +1008,10 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
         for (const auto& nj : neighbours(k)) {
           const std::size_t j = nj.first;
           const std::vector<Target> ts = targets_of(j, k, kring);
-          for (const Target& t : ts) hs.weight[t.q] += float(t.w);
+          for (const Target& t : ts) {
+            if (hs.owned[t.q] != 0) throw std::logic_error("world_stream_power: a ring sample with two owners");
+            hs.owned[t.q] = 1;
+          }
           // j's slot around k is the mirror of k's slot around j.
           int slot = -1;
           for (const auto& [kk, s2] : neighbours(j))
@@ -1024,7 +1027,7 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
             std::vector<double>& v = half == 0 ? hs.seen : hs.solved;
             const double* src = levels.data() + std::size_t(half) * S * n;
             for (std::size_t step = 0; step < S; ++step)
-              for (std::size_t i = 0; i < n; ++i) v[step * R + ts[i].q] += src[step * n + i];
+              for (std::size_t i = 0; i < n; ++i) v[step * R + ts[i].q] = src[step * n + i];
           }
           records[from]->io(false, at, counts.data(), S * sizeof(std::uint32_t));
           at += S * sizeof(std::uint32_t);
@@ -1084,7 +1087,7 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
             const History hs = read_history(id, ring);
             t.many(hs.seen.data(), hs.seen.size());
             t.many(hs.solved.data(), hs.solved.size());
-            t.many(hs.weight.data(), hs.weight.size());
+            t.many(hs.owned.data(), hs.owned.size());
             lists = hs.inflow;
           } else {
             lists = coarse_inflow_of(id);
@@ -1096,7 +1099,7 @@ WorldStageAlgorithm world_stream_power(int coarse_max, int block, int halo, int 
             t.one(o.x0), t.one(o.z0), t.one(std::int32_t(o.wnx)), t.one(std::int32_t(o.wnz));
             const std::vector<Target> ts = targets_of(id, k, o.ring());
             t.one(std::uint32_t(ts.size()));
-            for (const Target& x : ts) t.one(x.local), t.one(x.w);
+            for (const Target& x : ts) t.one(x.local);
           }
           return std::move(t.s);
         };

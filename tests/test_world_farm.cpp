@@ -680,13 +680,14 @@ TEST(StreamPowerFarm, ABlockTaskSolvesItsWindowAndMalformedTasksAreRefused) {
   io.world = relief::world_frame(r, 33, 33);
   const FarmKernel kernel = relief::detail::make_farm_kernel("stream-power", io, r.stages[0]);
   const int wnx = 9, wnz = 8, K = 2, steps = 2, R = 2 * wnx + 2 * (wnz - 2);
-  // A task as world_stream_power writes it: `prev` a later sweep (the ring held at `held` where the
-  // neighbours' weight reached it, their inflow per step) instead of the first (coarse inflow).
+  // A task as world_stream_power writes it: `prev` a later sweep (the ring held at `held` where a
+  // neighbour owns it, their inflow per step) instead of the first (coarse inflow).
   struct Opt {
     bool prev = false;
     double held = 0.5;  // the ring levels travel as doubles (since session 20)
     int steps = 2, nouts = -1;  // -1: none in the last sweep, one otherwise
     std::uint32_t target = 4 * 9 + 7;
+    std::uint8_t owned = 1;
   };
   auto task = [&](std::int64_t x0, std::int64_t z0, bool last, double change, std::int64_t nx0 = 12, Opt o = Opt()) {
     std::string t;
@@ -701,7 +702,7 @@ TEST(StreamPowerFarm, ABlockTaskSolvesItsWindowAndMalformedTasksAreRefused) {
     if (o.prev) {
       for (int half = 0; half < 2; ++half)  // levels seen, then solved, per step and ring sample
         for (int q = 0; q < o.steps * R; ++q) put(o.held);
-      for (int q = 0; q < R; ++q) put(1.0f);  // the neighbours' weight reached every ring sample
+      for (int q = 0; q < R; ++q) put(std::uint8_t(o.owned));  // a neighbour owns every ring sample (or none)
       put(std::uint32_t(1));
       for (int k = 1; k < o.steps; ++k) put(std::uint32_t(0));  // inflow: one entry at step 0
     } else {
@@ -711,7 +712,7 @@ TEST(StreamPowerFarm, ABlockTaskSolvesItsWindowAndMalformedTasksAreRefused) {
     for (std::uint32_t n = 0; n < nouts; ++n) {
       put(nx0), put(z0), put(std::int32_t(wnx)), put(std::int32_t(wnz));  // the neighbour's window
       put(std::uint32_t(2));                                               // two targets
-      put(o.target), put(0.5), put(std::uint32_t(5 * wnx + 7)), put(1.0);
+      put(o.target), put(std::uint32_t(5 * wnx + 7));
     }
     return t;
   };
@@ -733,7 +734,8 @@ TEST(StreamPowerFarm, ABlockTaskSolvesItsWindowAndMalformedTasksAreRefused) {
   EXPECT_ANY_THROW(kernel(0, task(30, 6, true, 0.0)));          // beyond the world's edge
   EXPECT_ANY_THROW(kernel(0, task(-1, 6, true, 0.0)));
   EXPECT_ANY_THROW(kernel(0, task(4, 6, false, 0.0, 40)));      // the neighbour's window outside it
-  // A later sweep: the ring is held at the neighbours' levels (weight 1), whatever the coarse change.
+  // A later sweep: the ring is held at its owners' levels, whatever the coarse change; a ring that no
+  // neighbour owns (the world's edge) follows the coarse change.
   Opt later;
   later.prev = true;
   const std::string held = kernel(0, task(4, 6, true, 0.0, 12, later));
@@ -742,6 +744,12 @@ TEST(StreamPowerFarm, ABlockTaskSolvesItsWindowAndMalformedTasksAreRefused) {
   later.held = 0.45;
   EXPECT_NE(kernel(0, task(4, 6, true, 0.0, 12, later)), held);
   later.held = 0.5;
+  Opt edge = later;
+  edge.owned = 0;
+  EXPECT_EQ(kernel(0, task(4, 6, true, 0.0, 12, edge)), solved);  // as the first sweep with no change
+  EXPECT_NE(kernel(0, task(4, 6, true, 1e-3, 12, edge)), kernel(0, task(4, 6, true, 0.0, 12, edge)));
+  edge.owned = 2;  // an owner flag is 0 or 1
+  EXPECT_ANY_THROW(kernel(0, task(4, 6, true, 0.0, 12, edge)));
   const std::string later_give = task(4, 6, false, 0.0, 12, later);
   EXPECT_GE(kernel(0, later_give).size(), 8u);
   for (std::size_t n = 0; n < later_give.size(); n += 7) ASSERT_ANY_THROW(kernel(0, later_give.substr(0, n))) << n;
