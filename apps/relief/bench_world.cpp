@@ -350,7 +350,7 @@ void bench_world(const BenchSettings& s, json& entries) {
   std::filesystem::remove_all(dir);
   bench_world_rivers(s, entries, n, dir);
   bench_world_mpi(s, entries, std::min(n, 2049), dir);
-  // Stream power's refinement at 2113² (coarse 1057², 3 × 3 blocks of 1024 grown by 96, 6 sweeps).
+  // Stream power's refinement at 2113² (coarse 1057², 3 × 3 blocks of 1024 grown by 192, 6 sweeps).
   bench_world_mpi(s, entries, 2113, dir, "stream power");
   std::filesystem::remove_all(dir);
 }

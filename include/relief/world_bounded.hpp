@@ -152,7 +152,8 @@
 //   from its owner as doubles (session 20; tiles 1025, with thermal and fill): 4097² with the
 //   defaults 0.274 % (0.225 % over the world), 8193² 0.760 % (0.65 %), the goal still missed there:
 //   94 % of the squared difference sits in a few whole hillsides raised by 0.03–0.06, some ending at a
-//   block's seam (README). Before
+//   block's seam (README). With a halo of 192 (session 21, the default since): 8193² 0.310 % (0.32 %
+//   over the world), 4097² 0.143 % (0.17 % over the world; see kStreamPowerHalo). Before
 //   the blocks started from the filled input, halo 32 gave 3.3 % and that 1025² world 3.45 %: a lake of
 //   the input that a ring cut was drained across the ring by the window's own first fill and never
 //   came back (src/stream_power_detail.hpp: given the whole map's filled input, ring levels and
@@ -204,7 +205,19 @@ namespace relief {
 
 constexpr int kStreamPowerCoarseMax = 2049;  // stream power's coarse grid: at most this many samples per axis
 constexpr int kStreamPowerBlock = 1024;      // stream power's refinement: world block side, in samples
-constexpr int kStreamPowerHalo = 96;         // stream power's refinement: samples each block's window adds (64 before session 17)
+// Stream power's refinement: samples each block's window adds (96 before session 21, 64 before 17).
+// Session 21 (eroded-mountains, tiles 1025, RMS within 128 samples of a seam as a share of the relief):
+// 8193² with the other defaults 0.310 % (0.760 % with 96), the goal of 0.5 % met there, 4097² 0.143 %
+// (0.274 %); 4097² in blocks
+// of 512 and coarse 1025² (8193²'s geometry at half the size), stream power alone: halo 48 0.749 %,
+// halo 96 0.288 %. What the halo buys: a ring level is its owner's solve at least a halo inside the
+// owner's window, and at fine cells stream power's max-slope clamp holds most hillsides, whose heights
+// then follow D8 paths hundreds of samples long to the nearest channel; a narrow halo let a block's
+// ring levels and inflow settle on other channels than the whole map's (in the worst blocks at halo 48,
+// ring levels off by up to 280 m after the last step; the whole map's ring levels alone, or its
+// inflow alone, fixed some blocks and not others). Time: windows of (1024 + 384)² instead of
+// (1024 + 192)², 34 % more samples.
+constexpr int kStreamPowerHalo = 192;
 constexpr int kStreamPowerSnapshots = 8;     // stream power's refinement: coarse snapshots after the start
 // Stream power's refinement: passes over the blocks (0: none, the coarse change alone). 4 sweeps beat
 // the coarse change alone at every size measured (RMS within 2 halos of the seams, share of the
@@ -239,7 +252,8 @@ std::uint64_t world_stream_power_memory_bytes(std::int64_t nx, std::int64_t nz, 
 // than one sweep two files of ring records (sweep s writes file s mod 2, each holding the records a
 // sweep gives the neighbours whose turn comes after the giver's, half the pairs: per block and step
 // about 24 bytes per ring sample it gives; together about 108 MB (123 MB before session 20) for a 4097² world of 100 steps in
-// blocks of 1024 grown by 64, 16 times that at 16385²); else nothing. An upper estimate.
+// blocks of 1024 grown by 64 (about 126 MB grown by 192, the default), 16 times that at 16385²); else
+// nothing. An upper estimate.
 std::uint64_t world_stream_power_scratch_bytes(std::int64_t nx, std::int64_t nz, int coarse_max = kStreamPowerCoarseMax,
                                                int sweeps = kStreamPowerSweeps, int steps = 100, int block = kStreamPowerBlock,
                                                int halo = kStreamPowerHalo);
