@@ -366,7 +366,7 @@ namespace {
 // samples), and the targets a block gives its neighbours: the ring samples in its core, at most
 // block + 1 on each edge neighbour's ring and 2 · halo + 1 on each diagonal one's (so at most
 // 4 · block + 8 · halo + 8 per block; all blocks' sum within 1 % over the count on 1025², 4097²
-// and 8193² worlds, blocks 128 to 1024, halos 48 to 96). (Before session 20 every block whose
+// and 8193² worlds, blocks 128 to 1024, halos 48 to 192). (Before session 20 every block whose
 // blend weight reached a ring sample gave it: block + halo and 3 · halo.)
 struct RecordFigures {
   std::uint64_t blocks = 0, ring = 0, window = 0, targets = 0, all_targets = 0, segments = 0;

@@ -138,7 +138,7 @@
 //   0.464 %, 6 sweeps 0.422 % and 8 sweeps 0.388 % with halo 32: where a river crosses at most 4
 //   blocks, 4 Jacobi sweeps reached it too, and the multiplicative ones are no better); 1025²
 //   (100 steps, coarse 513², blocks 256, halo 64, tiles 257, 4 sweeps): 0.427 % against 2.02 %; 4097²
-//   (100 steps, coarse 2049², blocks 1024 and halo 64 as by default, 4 sweeps; tiles 1025): 0.659 %
+//   (100 steps, coarse 2049², blocks 1024 and halo 64, the default then, 4 sweeps; tiles 1025): 0.659 %
 //   against 2.365 % (2 sweeps: 4.20 %, worse than the coarse change alone); 8193² (session 18, the
 //   defaults, with thermal and fill after it, tiles 1025): 2.42 % within 128 samples of a seam and
 //   2.2 % over the whole world, the goal of 0.5 % missed, and 2.40 % with a coarse grid of 4097² (every
