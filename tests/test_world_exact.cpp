@@ -5,6 +5,8 @@
 // features, props naming biomes).
 #include <gtest/gtest.h>
 
+#include <cmath>
+
 #include "relief/world.hpp"
 #include "support.hpp"
 #include "world_support.hpp"
@@ -33,6 +35,45 @@ TEST(WorldExactAtScale, RiverWorld2049InTilesOf257_513_1025EqualsTheWholeMap) {
     const json m = read_world_manifest(d / "w");
     for (const json& st : m["stages"]) EXPECT_EQ(st.value("world", ""), "exact") << st.dump();
     // The world's rivers and lakes: whole polylines and lakes, the bytes of the whole map's files.
+    for (const char* f : {"rivers.json", "lakes.json"})
+      EXPECT_TRUE(relief::test::slurp(d.path / "w" / f) == relief::test::slurp(g.path / f)) << f << " differs from the whole map's";
+  }
+}
+
+// The same river world with lakes: no fill stage, so flow keeps its deep, large depressions as lakes
+// (at their spill level) and fills the rest; lakes cross tiles of 257 (the test above fills every
+// depression first and so has no lake).
+TEST(WorldExactAtScale, RiverWorldWithLakes2049InTilesOf257_513_1025EqualsTheWholeMap) {
+  json doc = river_world_doc();
+  json stages = json::array();
+  for (json st : doc["stages"]) {
+    if (st["stage"] == "fill") continue;
+    if (st["stage"] == "flow") st["depressions"] = "lakes", st["lake_min_depth_m"] = 0.5, st["lake_min_area_m2"] = 2000.0;
+    stages.push_back(st);
+  }
+  doc["stages"] = stages;
+  const Recipe r = recipe_of(doc, 5);
+  const int n = 2049;
+  const Terrain whole = whole_map(r, n, n);
+  ASSERT_GE(whole.lakes.size(), 5u);
+  ASSERT_GT(whole.rivers.size(), 10u);
+  // Lakes that cross a seam of the tiles of 257 (sample positions i · cell, seams every 256).
+  int crossing = 0;
+  const double seam_m = 256 * whole.frame.cell_m();
+  for (const Lake& l : whole.lakes)
+    if (std::floor(l.x0_m / seam_m) != std::floor(l.x1_m / seam_m) || std::floor(l.z0_m / seam_m) != std::floor(l.z1_m / seam_m))
+      ++crossing;
+  EXPECT_GE(crossing, 1) << whole.lakes.size() << " lakes";
+  TempDir g("world-exact-lakes-generate");
+  relief::test::write_text(g.path / "recipe.json", doc.dump());
+  const auto gen = relief::test::relief_cli("generate " + (g / "recipe.json") + " --size " + std::to_string(n) + " --seed 5 -q -f rivers,lakes -o " + g.path.string());
+  ASSERT_EQ(gen.code, 0) << gen.out;
+  ASSERT_GT(relief::test::slurp(g.path / "lakes.json").size(), 1000u);
+  for (int tile : {257, 513, 1025}) {
+    SCOPED_TRACE("tile " + std::to_string(tile));
+    TempDir d("world-exact-lakes-" + std::to_string(tile));
+    build_world(settings(r, n, n, tile, d / "w"));
+    expect_same_layers(whole, read_world_window(d / "w", 0, 0, n, n));
     for (const char* f : {"rivers.json", "lakes.json"})
       EXPECT_TRUE(relief::test::slurp(d.path / "w" / f) == relief::test::slurp(g.path / f)) << f << " differs from the whole map's";
   }
