@@ -2,19 +2,17 @@
 //   - `relief world --engine E --split KxM` writes the same files, byte for byte, as `relief
 //     generate --engine E --split KxM` at the same size, for Unity, Unreal and Godot (EXR and r16),
 //     with world tiles that do not line up with the engine tiles (clipped edge tiles included);
-//   - the tiles, read back by Debian's Python (numpy, Pillow) or OpenEXR — not by our encoders —
+//   - the tiles, read back by Debian's Python (numpy, Pillow) or, for EXR, three.js's EXRLoader (a
+//     JavaScript decoder, apart from the OpenEXR library that writes them) — not by our encoders —
 //     share their borders (Unity, Godot) or abut (Unreal) and reassemble the world's heights;
 //   - the LOD pyramid: level 0 is the store, level k is level k−1 at every other sample (checked by
 //     Python from the PNGs), tile sizes and counts as documented;
 //   - bad input (an engine tiling that does not fit the world) exits 2 naming the flag, before any
 //     tile is built.
-#include <ImfChannelList.h>
-#include <ImfFrameBuffer.h>
-#include <ImfHeader.h>
-#include <ImfInputFile.h>
 
 #include <cstring>
 #include <filesystem>
+#include <map>
 #include <set>
 
 #include "relief/recipe.hpp"
@@ -119,17 +117,32 @@ long assemble(const fs::path& dir, const std::string& sidecar) {
   return r.code == 0 ? std::stol(r.out) : -1;
 }
 
-std::vector<float> read_exr(const fs::path& p, int& w, int& h) {
-  Imf::InputFile in(p.c_str());
-  const auto dw = in.header().dataWindow();
-  w = dw.max.x - dw.min.x + 1;
-  h = dw.max.y - dw.min.y + 1;
-  std::vector<float> px(std::size_t(w) * h);
-  Imf::FrameBuffer fb;
-  fb.insert("Y", Imf::Slice(Imf::FLOAT, reinterpret_cast<char*>(px.data()), sizeof(float), sizeof(float) * w));
-  in.setFrameBuffer(fb);
-  in.readPixels(dw.min.y, dw.max.y);
-  return px;
+// Every EXR tile of a folder, decoded by three.js's EXRLoader under node (tests/clients/exr_read.mjs):
+// file name → (width, height, values from the top row).
+struct Exr {
+  int w = 0, h = 0;
+  std::vector<float> px;
+};
+std::map<std::string, Exr> read_exr_js(const fs::path& dir, const std::vector<std::string>& files) {
+  const fs::path three = fs::path(RELIEF_SOURCE_DIR) / "web" / "node_modules" / "three";
+  EXPECT_TRUE(fs::exists(three / "examples" / "jsm" / "loaders" / "EXRLoader.js")) << "run scripts/setup.sh (npm ci in web/)";
+  std::string cmd = "node '" + (fs::path(RELIEF_SOURCE_DIR) / "tests" / "clients" / "exr_read.mjs").string() + "' '" + three.string() + "'";
+  for (const std::string& f : files) cmd += " '" + (dir / f).string() + "'";
+  const auto r = relief::test::sh(cmd);
+  EXPECT_EQ(r.code, 0) << r.out.substr(0, 2000);
+  std::map<std::string, Exr> out;
+  std::size_t at = 0;
+  while (r.code == 0 && at < r.out.size()) {
+    const std::size_t end = r.out.find('\n', at);
+    const json j = json::parse(r.out.substr(at, end == std::string::npos ? std::string::npos : end - at));
+    at = end == std::string::npos ? r.out.size() : end + 1;
+    EXPECT_EQ(j["channels"], json::array({"Y"}));
+    Exr e;
+    e.w = j["width"], e.h = j["height"];
+    for (const json& v : j["values"]) e.px.push_back(float(v.get<double>()));
+    out[fs::path(j["file"].get<std::string>()).filename().string()] = std::move(e);
+  }
+  return out;
 }
 
 class WorldEngineSets : public ::testing::TestWithParam<Case> {};
@@ -158,11 +171,15 @@ TEST_P(WorldEngineSets, EqualGenerateSplitByteForByteAndJoin) {
   if (c.engine == "godot" && c.format != "r16") {
     // EXR in metres: every tile's samples are the world's y_m, borders shared.
     const int t = s["samples_per_tile"];
+    std::vector<std::string> files;
+    for (const json& tile : s["tiles"]) files.push_back(tile["file"]);
+    const std::map<std::string, Exr> exr = read_exr_js(eng, files);
+    ASSERT_EQ(exr.size(), files.size());
     for (const json& tile : s["tiles"]) {
-      int w = 0, hh = 0;
-      const std::vector<float> px = read_exr(eng / tile["file"].get<std::string>(), w, hh);
-      ASSERT_EQ(w, t);
-      ASSERT_EQ(hh, t);
+      const Exr& e = exr.at(tile["file"].get<std::string>());
+      const std::vector<float>& px = e.px;
+      ASSERT_EQ(e.w, t);
+      ASSERT_EQ(e.h, t);
       const int x0 = tile["x"].get<int>() * (t - 1), z0 = tile["y"].get<int>() * (t - 1);
       for (int j = 0; j < t; ++j)
         for (int i = 0; i < t; ++i)
