@@ -15,12 +15,15 @@
 #include <tbb/info.h>
 #include <tbb/parallel_for.h>
 #include <tbb/task_arena.h>
+#include <unistd.h>
 #include <zlib.h>
 
 #include <algorithm>
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
+#include <cstdio>
 #include <cstring>
 #include <filesystem>
 #include <functional>
@@ -29,6 +32,7 @@
 #include <optional>
 #include <regex>
 #include <set>
+#include <thread>
 
 #include "relief/encode_image.hpp"
 #include "relief/error.hpp"
@@ -267,6 +271,60 @@ json agree(detail::WorldTransport& tr, const std::function<json()>& on_root) {
 
 // agree() after every rank's own part: `local` (this rank's failure, or null) reaches rank 0 first;
 // rank 0 throws the first failure (its own, else the lowest rank's) for everyone, else runs on_root.
+// This process's resident memory while each phase of a build runs (report.json: the phases' peaks).
+// The process's high-water mark cannot be split by phase, so a thread reads the resident size
+// (/proc/self/statm) every 10 ms, and at every phase change, and keeps each phase's largest.
+class PhaseMemory {
+ public:
+  explicit PhaseMemory(std::size_t phases) : peak_(phases, 0) {
+    thread_ = std::thread([this] {
+      std::unique_lock<std::mutex> l(m_);
+      while (!done_) {
+        note();
+        cv_.wait_for(l, std::chrono::milliseconds(10));
+      }
+    });
+  }
+  ~PhaseMemory() { stop(); }
+  PhaseMemory(const PhaseMemory&) = delete;
+  PhaseMemory& operator=(const PhaseMemory&) = delete;
+  void enter(std::size_t phase) {
+    std::lock_guard<std::mutex> l(m_);
+    note();
+    phase_ = phase;
+    note();
+  }
+  void stop() {
+    {
+      std::lock_guard<std::mutex> l(m_);
+      if (done_) return;
+      note();
+      done_ = true;
+    }
+    cv_.notify_all();
+    thread_.join();
+  }
+  std::uint64_t peak(std::size_t phase) const { return peak_.at(phase); }
+
+ private:
+  void note() {  // under m_
+    if (phase_ >= peak_.size()) return;
+    unsigned long long size = 0, resident = 0;
+    std::FILE* f = std::fopen("/proc/self/statm", "r");
+    if (!f) return;
+    const int got = std::fscanf(f, "%llu %llu", &size, &resident);
+    std::fclose(f);
+    if (got == 2) peak_[phase_] = std::max<std::uint64_t>(peak_[phase_], std::uint64_t(resident) * page_);
+  }
+  const std::uint64_t page_ = std::uint64_t(::sysconf(_SC_PAGESIZE));
+  std::vector<std::uint64_t> peak_;
+  std::size_t phase_ = std::size_t(-1);  // none yet
+  bool done_ = false;
+  std::mutex m_;
+  std::condition_variable cv_;
+  std::thread thread_;
+};
+
 json agree_all(detail::WorldTransport& tr, std::exception_ptr local, const std::function<json()>& on_root) {
   if (tr.size() == 1) {
     if (local) std::rethrow_exception(local);
@@ -1030,8 +1088,11 @@ WorldReport build_world(WorldSettings s) {
   };
   std::int64_t built_here = 0;  // tiles this rank built
   bool final_done_in_memory = false;
+  PhaseMemory phase_memory(phases.size());
+  std::vector<bool> phase_skipped(phases.size(), false);
   for (std::size_t pk = 0; pk < phases.size(); ++pk) {
     const Phase& ph = phases[pk];
+    phase_memory.enter(pk);
     const bool last = pk + 1 == phases.size();
     // Rank 0 decides whether the phase is done already (resumed) and prepares its folder; then
     // every rank opens the folder (removing temporary files that killed runs left there, before
@@ -1047,6 +1108,7 @@ WorldReport build_world(WorldSettings s) {
       return {{"skip", false}};
     });
     if (begun.at("skip").get<bool>()) {
+      phase_skipped[pk] = true;
       std::lock_guard<std::mutex> lock(m);
       if (!ph.global) {
         done += grid.count();
@@ -1387,6 +1449,7 @@ WorldReport build_world(WorldSettings s) {
           });
     });
   }
+  phase_memory.stop();
   rep.tiles_built = built;
   rep.tiles_skipped = skipped;
   for (std::size_t i = 0; i < r.stages.size(); ++i)
@@ -1435,12 +1498,28 @@ WorldReport build_world(WorldSettings s) {
   } catch (const Error& e) {
     throw Error(s.out_path, e.message());
   }
-  rep.peak_memory_bytes = std::max(peak_rss_bytes(), peak_memory);  // the largest of any rank
+  // The largest of any rank; the high-water mark the kernel reports may lag this process's resident
+  // size as sampled per phase.
+  rep.peak_memory_bytes = std::max(peak_rss_bytes(), peak_memory);
+  for (std::size_t pk = 0; pk < phases.size(); ++pk) rep.peak_memory_bytes = std::max(rep.peak_memory_bytes, phase_memory.peak(pk));
   rep.total_ms = ms_since(t_start);
+  // Per stage: its time and its phase; per phase: its stages and rank 0's resident peak while it ran
+  // (a resumed build's skipped phases: none).
+  std::vector<std::size_t> phase_of(r.stages.size(), 0);
+  json phase_list = json::array();
+  for (std::size_t pk = 0; pk < phases.size(); ++pk) {
+    json names = json::array();
+    for (std::size_t i = phases[pk].first; i < phases[pk].end; ++i) phase_of[i] = pk, names.push_back(r.stages[i].def->name);
+    json e = {{"stages", names}, {"global", phases[pk].global}, {"skipped", bool(phase_skipped[pk])}};
+    if (!phase_skipped[pk]) e["peak_memory_bytes"] = phase_memory.peak(pk);
+    phase_list.push_back(e);
+  }
   json st = json::array();
-  for (auto& t : rep.timings) {
-    json e = {{"stage", t.name}, {"label", t.label}, {"ms", t.ms}};
+  for (std::size_t i = 0; i < rep.timings.size(); ++i) {
+    const auto& t = rep.timings[i];
+    json e = {{"stage", t.name}, {"label", t.label}, {"ms", t.ms}, {"phase", phase_of[i]}};
     if (t.fused) e["fused"] = true;
+    if (!phase_skipped[phase_of[i]]) e["phase_peak_memory_bytes"] = phase_memory.peak(phase_of[i]);
     st.push_back(e);
   }
   const json report_doc = {
@@ -1454,11 +1533,13 @@ WorldReport build_world(WorldSettings s) {
         {"ranks", tr.size()},
         {"transport", tr.description()},
         {"stages", st},
+        {"phases", phase_list},
         {"total_ms", rep.total_ms},
         {"peak_memory_bytes", rep.peak_memory_bytes},
         {"estimated_memory_bytes", rep.tile_memory_bytes}}},
       {"store_bytes", rep.store_bytes},
-      {"estimated_store_bytes", rep.estimated_bytes}};
+      {"estimated_store_bytes", rep.estimated_store_bytes},  // the finished store's part, comparable with store_bytes
+      {"estimated_disk_bytes", rep.estimated_bytes}};         // all the build needs at most (stores that coexist, scratch)
   write_or_throw(dir / "report.json", report_doc.dump(2) + "\n", s.out_path);
   // The tiles array is written as text, one tile at a time, in the layout dump(1) gives: a world of
   // many tiles would otherwise hold a JSON node per number (hundreds of bytes per tile).

@@ -46,6 +46,30 @@ json thermal_doc() {
   return doc;
 }
 
+// report.json's phases: the recipe's stages in order, a global stage alone in its phase; each phase
+// built has a resident peak, at most the process's; each stage names its phase and that peak.
+void expect_phase_report(const json& report, const Recipe& r) {
+  const json& phases = report.at("performance").at("phases");
+  const json& stages = report.at("performance").at("stages");
+  const std::uint64_t peak = report["performance"]["peak_memory_bytes"];
+  std::size_t i = 0;
+  for (std::size_t k = 0; k < phases.size(); ++k) {
+    const json& p = phases[k];
+    if (p["global"].get<bool>()) EXPECT_EQ(p["stages"].size(), 1u);
+    for (const json& name : p["stages"]) {
+      ASSERT_LT(i, r.stages.size());
+      EXPECT_EQ(name, r.stages[i].def->name);
+      EXPECT_EQ(stages[i]["phase"], k);
+      if (!p["skipped"].get<bool>()) EXPECT_EQ(stages[i]["phase_peak_memory_bytes"], p["peak_memory_bytes"]);
+      ++i;
+    }
+    if (p["skipped"].get<bool>()) continue;
+    EXPECT_GT(p["peak_memory_bytes"].get<std::uint64_t>(), 0u);
+    EXPECT_LE(p["peak_memory_bytes"].get<std::uint64_t>(), peak);
+  }
+  EXPECT_EQ(i, r.stages.size());
+}
+
 std::size_t count_tiles(const fs::path& dir) {
   std::error_code ec;
   std::size_t n = 0;
@@ -205,6 +229,27 @@ TEST(WorldBounded, SmallStreamPowerRefinementIsTheSameForAnyTileAndThreadCount) 
 
 // ---- the store -----------------------------------------------------------------------------------
 
+// A world with global phases (noise, island, redistribute | fill | flow | color, hillshade):
+// report.json lists the four phases with their resident peaks; run again, the finished phases are
+// skipped and have none.
+TEST(WorldStore, ReportListsThePhasesAndTheirMemory) {
+  TempDir d("world-report-phases");
+  const Recipe r = recipe_of(relief::test::world::river_world_doc(), 3);
+  build_world(relief::test::world::settings(r, 257, 257, 65, d / "w"));
+  const json first = json::parse(relief::test::slurp(d.path / "w" / "report.json"));
+  const json& phases = first["performance"]["phases"];
+  ASSERT_EQ(phases.size(), 4u) << phases.dump();
+  EXPECT_EQ(phases[1]["stages"], json::array({"fill"}));
+  EXPECT_EQ(phases[2]["stages"], json::array({"flow"}));
+  for (const json& p : phases) EXPECT_FALSE(p["skipped"].get<bool>());
+  expect_phase_report(first, r);
+  build_world(relief::test::world::settings(r, 257, 257, 65, d / "w"));
+  const json again = json::parse(relief::test::slurp(d.path / "w" / "report.json"));
+  EXPECT_TRUE(again["performance"]["phases"][1]["skipped"].get<bool>());
+  EXPECT_FALSE(again["performance"]["phases"][1].contains("peak_memory_bytes"));
+  expect_phase_report(again, r);
+}
+
 TEST(WorldStore, ManifestDescribesTheWorldAndTheTilesVerify) {
   const Recipe r = recipe_of(preset_doc("island"));
   TempDir d("world-store");
@@ -233,6 +278,9 @@ TEST(WorldStore, ManifestDescribesTheWorldAndTheTilesVerify) {
   const json report = json::parse(relief::test::slurp(d.path / "w" / "report.json"));
   EXPECT_EQ(report["tiles"]["built"], 8);
   EXPECT_EQ(report["performance"]["stages"].size(), r.stages.size());
+  expect_phase_report(report, r);
+  EXPECT_EQ(report["estimated_store_bytes"], rep.estimated_store_bytes);
+  EXPECT_EQ(report["estimated_disk_bytes"], rep.estimated_bytes);
   // overview.png: a PNG of the world's size (under 2048 px, so one pixel per sample).
   const auto png = relief::test::decode_png(relief::test::slurp(d.path / "w" / "overview.png"));
   EXPECT_EQ(png.width(), 257);
