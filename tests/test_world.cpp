@@ -870,10 +870,43 @@ TEST(WorldGuarantees, FromTheStagesLocalityAndTheLibrarysWorldAlgorithms) {
   EXPECT_NE(of("tilemap").how.find("whole map"), std::string::npos) << of("tilemap").how;
   // Every stage the library registers a world algorithm for says so.
   for (const auto& [name, algo] : default_world_algorithms()) EXPECT_NE(of(name.c_str()).guarantee, "none") << name;
+  EXPECT_EQ(of("hydraulic").guarantee, "exact");
+  EXPECT_EQ(of("stream_power").guarantee, "bounded");
+  EXPECT_NE(of("stream_power").how.find("grid of at most 2049"), std::string::npos) << of("stream_power").how;
   // The CLI prints it.
   const auto out = relief::test::relief_cli("explain fill");
   ASSERT_EQ(out.code, 0) << out.out;
   EXPECT_NE(out.out.find("world builds: exact"), std::string::npos) << out.out;
+  const auto sp = relief::test::relief_cli("explain stream_power");
+  ASSERT_EQ(sp.code, 0) << sp.out;
+  EXPECT_NE(sp.out.find("world builds: bounded"), std::string::npos) << sp.out;
+}
+
+// world.json says the same as `relief explain`: stream power bounded, the rest exact.
+TEST(WorldGuarantees, TheManifestSaysWhatEachStageGuarantees) {
+  json doc = preset_doc("eroded-mountains");
+  json stages = json::array();
+  for (const json& st : doc["stages"]) {
+    json c = st;
+    if (c["stage"] == "stream_power") c["steps"] = 5;
+    if (c["stage"] == "hydraulic") c["droplets_per_km2"] = 100;
+    stages.push_back(c);
+  }
+  doc["stages"] = stages;
+  const Recipe r = recipe_of(doc, 2);
+  TempDir d("world-guarantees");
+  build_world(settings(r, 129, 129, 65, d / "w"));
+  const json m = read_world_manifest(d / "w");
+  ASSERT_EQ(m["stages"].size(), r.stages.size());
+  int bounded = 0;
+  for (const json& st : m["stages"]) {
+    const std::string name = st["stage"];
+    EXPECT_EQ(st["world"], world_guarantee(*find_stage(name)).guarantee) << name;
+    EXPECT_EQ(st["world_how"], world_guarantee(*find_stage(name)).how) << name;
+    EXPECT_EQ(st["world"], name == "stream_power" ? "bounded" : "exact") << name;
+    bounded += st["world"] == "bounded";
+  }
+  EXPECT_EQ(bounded, 1);
 }
 
 // A recipe of the river-island kind whose every stage is exact (fill and flow by their world
