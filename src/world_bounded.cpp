@@ -1281,7 +1281,7 @@ SeamMetrics seam_metrics(const std::vector<float>& tiled, const std::vector<floa
   auto at_seam = [&](std::int64_t i, std::int64_t count) {
     return is_seam(i, count) || is_seam(i - 1, count) || is_seam(i + 1, count);
   };
-  std::vector<float> seam;
+  std::vector<float> seam, whole_seam;
   auto add = [&](std::size_t c, std::size_t stride, bool across) {
     const float j = jump_of(tiled, c, stride);
     if (!across) {
@@ -1289,8 +1289,9 @@ SeamMetrics seam_metrics(const std::vector<float>& tiled, const std::vector<floa
       return;
     }
     seam.push_back(j);
+    whole_seam.push_back(jump_of(whole, c, stride));
     m.seam_jump_max = std::max(m.seam_jump_max, double(j));
-    m.whole_seam_jump_max = std::max(m.whole_seam_jump_max, double(jump_of(whole, c, stride)));
+    m.whole_seam_jump_max = std::max(m.whole_seam_jump_max, double(whole_seam.back()));
   };
   for (std::int64_t iz = 0; iz < g.nz; ++iz)
     for (std::int64_t ix = 0; ix < g.nx; ++ix) {
@@ -1298,19 +1299,18 @@ SeamMetrics seam_metrics(const std::vector<float>& tiled, const std::vector<floa
       if (ix > 0 && ix < g.nx - 1) add(c, 1, at_seam(ix, g.nx));
       if (iz > 0 && iz < g.nz - 1) add(c, std::size_t(g.nx), at_seam(iz, g.nz));
     }
+  auto p999 = [](std::vector<float>& v) {
+    if (v.empty()) return 0.0;
+    const std::size_t k = std::size_t(0.999 * double(v.size() - 1));
+    std::nth_element(v.begin(), v.begin() + std::ptrdiff_t(k), v.end());
+    return double(v[k]);
+  };
   m.seam_jumps = std::int64_t(seam.size());
-  if (!seam.empty()) {
-    const std::size_t k = std::size_t(0.999 * double(seam.size() - 1));
-    std::nth_element(seam.begin(), seam.begin() + std::ptrdiff_t(k), seam.end());
-    m.seam_jump_p999 = seam[k];
-  }
+  m.seam_jump_p999 = p999(seam);
+  m.whole_seam_jump_p999 = p999(whole_seam);
   m.interior_jumps = std::int64_t(interior.size());
-  if (!interior.empty()) {
-    const std::size_t k = std::size_t(0.999 * double(interior.size() - 1));
-    std::nth_element(interior.begin(), interior.begin() + std::ptrdiff_t(k), interior.end());
-    m.interior_jump_p999 = interior[k];
-    m.interior_jump_max = *std::max_element(interior.begin(), interior.end());
-  }
+  m.interior_jump_p999 = p999(interior);
+  if (!interior.empty()) m.interior_jump_max = *std::max_element(interior.begin(), interior.end());
   return m;
 }
 
