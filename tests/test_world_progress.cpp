@@ -12,6 +12,7 @@
 #include <cstdlib>
 #include <filesystem>
 #include <map>
+#include <regex>
 #include <string>
 #include <vector>
 
@@ -147,27 +148,35 @@ TEST(WorldProgress, ACallbackChangesNoByteOfTheWorld) {
 TEST(WorldProgress, TheCliDrawsTheGlobalPhasesShareOnATerminal) {
   TempDir d("world-progress-cli");
   relief::test::write_text(d / "river.json", river_world_doc().dump());
-  const std::string recipe = d / "river.json", out = d / "w";
-  int fd = -1;
-  const pid_t pid = ::forkpty(&fd, nullptr, nullptr, nullptr);
-  ASSERT_GE(pid, 0);
-  if (pid == 0) {
-    ::execl(RELIEF_BINARY, RELIEF_BINARY, "world", recipe.c_str(), "--size", "257", "--tile", "65", "--seed", "3", "-j", "1", "-o",
-            out.c_str(), (char*)nullptr);
-    ::_exit(127);
-  }
-  std::string text;
-  char buf[4096];
-  for (;;) {
-    const ssize_t n = ::read(fd, buf, sizeof buf);
-    if (n > 0) text.append(buf, std::size_t(n));
-    else if (n < 0 && errno == EINTR) continue;
-    else break;  // EIO once the child has gone
-  }
-  ::close(fd);
-  int st = 0;
-  ::waitpid(pid, &st, 0);
-  ASSERT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 0) << text;
+  const std::string recipe = d / "river.json";
+  auto on_terminal = [&](const std::string& out, bool quiet) {
+    int fd = -1;
+    const pid_t pid = ::forkpty(&fd, nullptr, nullptr, nullptr);
+    EXPECT_GE(pid, 0);
+    if (pid == 0) {
+      if (quiet)
+        ::execl(RELIEF_BINARY, RELIEF_BINARY, "world", recipe.c_str(), "--size", "257", "--tile", "65", "--seed", "3", "-j", "1", "-q", "-o",
+                out.c_str(), (char*)nullptr);
+      else
+        ::execl(RELIEF_BINARY, RELIEF_BINARY, "world", recipe.c_str(), "--size", "257", "--tile", "65", "--seed", "3", "-j", "1", "-o",
+                out.c_str(), (char*)nullptr);
+      ::_exit(127);
+    }
+    std::string text;
+    char buf[4096];
+    for (;;) {
+      const ssize_t n = ::read(fd, buf, sizeof buf);
+      if (n > 0) text.append(buf, std::size_t(n));
+      else if (n < 0 && errno == EINTR) continue;
+      else break;  // EIO once the child has gone
+    }
+    ::close(fd);
+    int st = 0;
+    ::waitpid(pid, &st, 0);
+    EXPECT_TRUE(WIFEXITED(st) && WEXITSTATUS(st) == 0) << text;
+    return text;
+  };
+  const std::string text = on_terminal(d / "w", false);
   for (const char* stage : {"fill", "flow"}) {
     int lines = 0;
     bool middle = false;  // a share strictly between 0 and 100 %
@@ -179,6 +188,15 @@ TEST(WorldProgress, TheCliDrawsTheGlobalPhasesShareOnATerminal) {
     EXPECT_GE(lines, 3) << stage << "\n" << text;
     EXPECT_TRUE(middle) << stage << "\n" << text;
   }
+  // The line counts the tiles of the local phases (16 tiles, 2 local phases) and stages (7), and
+  // estimates the time left.
+  EXPECT_TRUE(std::regex_search(text, std::regex(R"(tiles \d+/32)"))) << text;
+  EXPECT_TRUE(std::regex_search(text, std::regex(R"(stage [1-7]/7 )"))) << text;
+  EXPECT_TRUE(std::regex_search(text, std::regex(R"(, \d+ s left)"))) << text;
+  // -q: no progress line, even on a terminal.
+  const std::string quiet = on_terminal(d / "q", true);
+  EXPECT_EQ(quiet.find("tiles "), std::string::npos) << quiet;
+  EXPECT_EQ(quiet.find("s left"), std::string::npos) << quiet;
 }
 
 // ---- the disk estimate --------------------------------------------------------------------------
