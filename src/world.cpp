@@ -32,6 +32,7 @@
 #include <optional>
 #include <regex>
 #include <set>
+#include <system_error>
 #include <thread>
 
 #include "relief/encode_image.hpp"
@@ -269,11 +270,10 @@ json agree(detail::WorldTransport& tr, const std::function<json()>& on_root) {
   return o.value("payload", json());
 }
 
-// agree() after every rank's own part: `local` (this rank's failure, or null) reaches rank 0 first;
-// rank 0 throws the first failure (its own, else the lowest rank's) for everyone, else runs on_root.
-// This process's resident memory while each phase of a build runs (report.json: the phases' peaks).
-// The process's high-water mark cannot be split by phase, so a thread reads the resident size
-// (/proc/self/statm) every 10 ms, and at every phase change, and keeps each phase's largest.
+// This process's resident memory while each phase of a build runs (report.json: the phases' peaks;
+// what earlier phases still hold counts too). The process's high-water mark cannot be split by
+// phase, so a thread reads the resident size (/proc/self/statm) every 10 ms, and at every phase
+// change, and keeps each phase's largest.
 class PhaseMemory {
  public:
   explicit PhaseMemory(std::size_t phases) : peak_(phases, 0) {
@@ -325,6 +325,8 @@ class PhaseMemory {
   std::thread thread_;
 };
 
+// agree() after every rank's own part: `local` (this rank's failure, or null) reaches rank 0 first;
+// rank 0 throws the first failure (its own, else the lowest rank's) for everyone, else runs on_root.
 json agree_all(detail::WorldTransport& tr, std::exception_ptr local, const std::function<json()>& on_root) {
   if (tr.size() == 1) {
     if (local) std::rethrow_exception(local);
@@ -1088,11 +1090,18 @@ WorldReport build_world(WorldSettings s) {
   };
   std::int64_t built_here = 0;  // tiles this rank built
   bool final_done_in_memory = false;
-  PhaseMemory phase_memory(phases.size());
+  // Rank 0's (the report is its); a sampler that cannot start leaves the phases without a figure.
+  std::optional<PhaseMemory> phase_memory;
+  if (root) {
+    try {
+      phase_memory.emplace(phases.size());
+    } catch (const std::system_error&) {
+    }
+  }
   std::vector<bool> phase_skipped(phases.size(), false);
   for (std::size_t pk = 0; pk < phases.size(); ++pk) {
     const Phase& ph = phases[pk];
-    phase_memory.enter(pk);
+    if (phase_memory) phase_memory->enter(pk);
     const bool last = pk + 1 == phases.size();
     // Rank 0 decides whether the phase is done already (resumed) and prepares its folder; then
     // every rank opens the folder (removing temporary files that killed runs left there, before
@@ -1449,7 +1458,7 @@ WorldReport build_world(WorldSettings s) {
           });
     });
   }
-  phase_memory.stop();
+  if (phase_memory) phase_memory->stop();
   rep.tiles_built = built;
   rep.tiles_skipped = skipped;
   for (std::size_t i = 0; i < r.stages.size(); ++i)
@@ -1501,7 +1510,8 @@ WorldReport build_world(WorldSettings s) {
   // The largest of any rank; the high-water mark the kernel reports may lag this process's resident
   // size as sampled per phase.
   rep.peak_memory_bytes = std::max(peak_rss_bytes(), peak_memory);
-  for (std::size_t pk = 0; pk < phases.size(); ++pk) rep.peak_memory_bytes = std::max(rep.peak_memory_bytes, phase_memory.peak(pk));
+  if (phase_memory)
+    for (std::size_t pk = 0; pk < phases.size(); ++pk) rep.peak_memory_bytes = std::max(rep.peak_memory_bytes, phase_memory->peak(pk));
   rep.total_ms = ms_since(t_start);
   // Per stage: its time and its phase; per phase: its stages and rank 0's resident peak while it ran
   // (a resumed build's skipped phases: none).
@@ -1511,7 +1521,7 @@ WorldReport build_world(WorldSettings s) {
     json names = json::array();
     for (std::size_t i = phases[pk].first; i < phases[pk].end; ++i) phase_of[i] = pk, names.push_back(r.stages[i].def->name);
     json e = {{"stages", names}, {"global", phases[pk].global}, {"skipped", bool(phase_skipped[pk])}};
-    if (!phase_skipped[pk]) e["peak_memory_bytes"] = phase_memory.peak(pk);
+    if (phase_memory && !phase_skipped[pk]) e["peak_memory_bytes"] = phase_memory->peak(pk);
     phase_list.push_back(e);
   }
   json st = json::array();
@@ -1519,7 +1529,7 @@ WorldReport build_world(WorldSettings s) {
     const auto& t = rep.timings[i];
     json e = {{"stage", t.name}, {"label", t.label}, {"ms", t.ms}, {"phase", phase_of[i]}};
     if (t.fused) e["fused"] = true;
-    if (!phase_skipped[phase_of[i]]) e["phase_peak_memory_bytes"] = phase_memory.peak(phase_of[i]);
+    if (phase_memory && !phase_skipped[phase_of[i]]) e["phase_peak_memory_bytes"] = phase_memory->peak(phase_of[i]);
     st.push_back(e);
   }
   const json report_doc = {

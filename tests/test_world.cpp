@@ -47,25 +47,27 @@ json thermal_doc() {
 }
 
 // report.json's phases: the recipe's stages in order, a global stage alone in its phase; each phase
-// built has a resident peak, at most the process's; each stage names its phase and that peak.
+// built has a resident peak; each stage names its phase and that peak.
 void expect_phase_report(const json& report, const Recipe& r) {
   const json& phases = report.at("performance").at("phases");
   const json& stages = report.at("performance").at("stages");
-  const std::uint64_t peak = report["performance"]["peak_memory_bytes"];
   std::size_t i = 0;
   for (std::size_t k = 0; k < phases.size(); ++k) {
     const json& p = phases[k];
-    if (p["global"].get<bool>()) EXPECT_EQ(p["stages"].size(), 1u);
+    if (p["global"].get<bool>()) {
+      EXPECT_EQ(p["stages"].size(), 1u);
+    }
     for (const json& name : p["stages"]) {
       ASSERT_LT(i, r.stages.size());
       EXPECT_EQ(name, r.stages[i].def->name);
       EXPECT_EQ(stages[i]["phase"], k);
-      if (!p["skipped"].get<bool>()) EXPECT_EQ(stages[i]["phase_peak_memory_bytes"], p["peak_memory_bytes"]);
+      if (!p["skipped"].get<bool>()) {
+        EXPECT_EQ(stages[i]["phase_peak_memory_bytes"], p["peak_memory_bytes"]);
+      }
       ++i;
     }
     if (p["skipped"].get<bool>()) continue;
     EXPECT_GT(p["peak_memory_bytes"].get<std::uint64_t>(), 0u);
-    EXPECT_LE(p["peak_memory_bytes"].get<std::uint64_t>(), peak);
   }
   EXPECT_EQ(i, r.stages.size());
 }

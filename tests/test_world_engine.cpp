@@ -134,8 +134,10 @@ std::map<std::string, Exr> read_exr_js(const fs::path& dir, const std::vector<st
   std::size_t at = 0;
   while (r.code == 0 && at < r.out.size()) {
     const std::size_t end = r.out.find('\n', at);
-    const json j = json::parse(r.out.substr(at, end == std::string::npos ? std::string::npos : end - at));
+    const std::string line = r.out.substr(at, end == std::string::npos ? std::string::npos : end - at);
     at = end == std::string::npos ? r.out.size() : end + 1;
+    if (line.empty() || line[0] != '{') continue;  // not the decoder's output (a warning of node's, say)
+    const json j = json::parse(line);
     EXPECT_EQ(j["channels"], json::array({"Y"}));
     Exr e;
     e.w = j["width"], e.h = j["height"];

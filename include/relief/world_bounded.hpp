@@ -313,14 +313,14 @@ struct SeamMetrics {
   // of the whole map, and the largest of thousands of jumps of the same distribution exceeds the
   // 99.9th percentile of all of them by chance; this is the reference for seam_jump_max.
   double whole_seam_jump_max = 0;
-  // The whole-map build's 99.9th percentile at the same places: the reference for seam_jump_p999. A
-  // seam line is a few hundred thousand jumps of one world; its percentile differs from the
-  // interior's even in the whole map (at 8193² in tiles of 1025, eroded-mountains: 3.90 m/m on the
+  // The whole-map build's 99.9th percentile at the same places: the reference for seam_jump_p999. The
+  // seams' jumps (344 106 at 8193² in tiles of 1025) are a sample of one world apart from the
+  // interior's; their percentile differs from the interior's even in the whole map (at 8193² in tiles of 1025, eroded-mountains: 3.90 m/m on the
   // seam lines against 3.55 inside the tiles), so the tiling's own effect is seam_jump_p999 against
   // this, as seam_jump_max against whole_seam_jump_max.
   double whole_seam_jump_p999 = 0;
   // 99.9th percentile of the jumps inside tiles. The goal, read literally, is seam_jump_max ≤
-  // this; the whole map itself misses that on any seam line of thousands of jumps (12.42 against 3.55
+  // this; the whole map itself misses that wherever the seams hold thousands of jumps (12.42 against 3.55
   // m/m at 8193²), so the goal is checked like with like: seam_jump_max ≤ whole_seam_jump_max and
   // seam_jump_p999 ≤ max(interior_jump_p999, whole_seam_jump_p999).
   double interior_jump_p999 = 0;
