@@ -1290,8 +1290,6 @@ SeamMetrics seam_metrics(const std::vector<float>& tiled, const std::vector<floa
     }
     seam.push_back(j);
     whole_seam.push_back(jump_of(whole, c, stride));
-    m.seam_jump_max = std::max(m.seam_jump_max, double(j));
-    m.whole_seam_jump_max = std::max(m.whole_seam_jump_max, double(whole_seam.back()));
   };
   for (std::int64_t iz = 0; iz < g.nz; ++iz)
     for (std::int64_t ix = 0; ix < g.nx; ++ix) {
@@ -1299,6 +1297,10 @@ SeamMetrics seam_metrics(const std::vector<float>& tiled, const std::vector<floa
       if (ix > 0 && ix < g.nx - 1) add(c, 1, at_seam(ix, g.nx));
       if (iz > 0 && iz < g.nz - 1) add(c, std::size_t(g.nx), at_seam(iz, g.nz));
     }
+  auto largest = [](const std::vector<float>& v) { return v.empty() ? 0.0 : double(*std::max_element(v.begin(), v.end())); };
+  m.seam_jump_max = largest(seam);
+  m.whole_seam_jump_max = largest(whole_seam);
+  m.interior_jump_max = largest(interior);
   auto p999 = [](std::vector<float>& v) {
     if (v.empty()) return 0.0;
     const std::size_t k = std::size_t(0.999 * double(v.size() - 1));
@@ -1310,7 +1312,6 @@ SeamMetrics seam_metrics(const std::vector<float>& tiled, const std::vector<floa
   m.whole_seam_jump_p999 = p999(whole_seam);
   m.interior_jumps = std::int64_t(interior.size());
   m.interior_jump_p999 = p999(interior);
-  if (!interior.empty()) m.interior_jump_max = *std::max_element(interior.begin(), interior.end());
   return m;
 }
 

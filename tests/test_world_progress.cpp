@@ -157,12 +157,10 @@ TEST(WorldProgress, TheCliDrawsTheGlobalPhasesShareOnATerminal) {
       return std::string();
     }
     if (pid == 0) {
-      if (quiet)
-        ::execl(RELIEF_BINARY, RELIEF_BINARY, "world", recipe.c_str(), "--size", "257", "--tile", "65", "--seed", "3", "-j", "1", "-q", "-o",
-                out.c_str(), (char*)nullptr);
-      else
-        ::execl(RELIEF_BINARY, RELIEF_BINARY, "world", recipe.c_str(), "--size", "257", "--tile", "65", "--seed", "3", "-j", "1", "-o",
-                out.c_str(), (char*)nullptr);
+      std::vector<const char*> argv = {RELIEF_BINARY, "world", recipe.c_str(), "--size", "257", "--tile", "65", "--seed", "3", "-j", "1"};
+      if (quiet) argv.push_back("-q");
+      argv.insert(argv.end(), {"-o", out.c_str(), nullptr});
+      ::execv(RELIEF_BINARY, const_cast<char* const*>(argv.data()));
       ::_exit(127);
     }
     std::string text;
